@@ -1,0 +1,188 @@
+"""Loop closures: each closure type is a fixed combination of a few geometric primitives.
+
+Every closure joins frame F1 (on body 1) and frame F2 (on body 2). The joint axes are the
+frames' z axes:
+
+=============  ====  =====================================================================
+type           rows  equations
+=============  ====  =====================================================================
+spherical        3   p1 = p2
+revolute         5   p1 = p2, x1.z2 = 0, y1.z2 = 0         (axis z, common to both frames)
+universal        4   p1 = p2, z1.z2 = 0                    (first axis z1, second axis z2)
+prismatic        5   x1.y2 = y1.z2 = z1.x2 = 0, x1.d = y1.d = 0   (slide along z1, d = p2 - p1)
+cylindrical      4   x1.z2 = y1.z2 = 0, x1.d = y1.d = 0
+weld             6   p1 = p2, x1.y2 = y1.z2 = z1.x2 = 0
+planar_point     2   E^T (p1 - p2) = 0, E spans the plane normal to n (world, default z)
+distance         1   |p1 - p2| = L
+=============  ====  =====================================================================
+
+The primitives are evaluated for all closures at once (vectorised over instances) from the
+frame kinematics of :mod:`pinclear.kinematics`; a closure never calls Pinocchio itself.
+Velocity-level rows are J v; acceleration level J a + bias, the bias being the value of the
+second time derivative at zero joint acceleration (from Pinocchio's dJ/dt, no finite differences).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+# (primitive, arguments, row labels)
+_POINT = ("point", (), ("x", "y", "z"))
+_ORIENT = [("dot", (0, 1), ("rz",)), ("dot", (1, 2), ("rx",)), ("dot", (2, 0), ("ry",))]
+CLOSURE_TYPES: dict[str, list] = {
+    "spherical": [_POINT],
+    "revolute": [_POINT, ("dot", (0, 2), ("ry",)), ("dot", (1, 2), ("rx",))],
+    "universal": [_POINT, ("dot", (2, 2), ("rn",))],
+    "prismatic": _ORIENT + [("perp", (0,), ("x",)), ("perp", (1,), ("y",))],
+    "cylindrical": [("dot", (0, 2), ("ry",)), ("dot", (1, 2), ("rx",)),
+                    ("perp", (0,), ("x",)), ("perp", (1,), ("y",))],
+    "weld": [_POINT] + _ORIENT,
+    "planar_point": [("plane", (), ("u", "v"))],
+    "distance": [("distance", (), ("d",))],
+}
+#: closure types Pinocchio's rigid constraints express exactly (pin.ContactType)
+PINOCCHIO_TYPES = {"spherical": "CONTACT_3D", "weld": "CONTACT_6D"}
+
+
+@dataclass
+class Closure:
+    """One loop closure (immutable description)."""
+
+    name: str
+    type: str
+    frame1: str
+    frame2: str
+    f1: int                      # frame ids in the Pinocchio model
+    f2: int
+    normal: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    length: float = 0.0
+
+    @property
+    def nrows(self) -> int:
+        return sum(len(p[2]) for p in CLOSURE_TYPES[self.type])
+
+    def row_names(self) -> list[str]:
+        return [f"{self.name}.{lab}" for p in CLOSURE_TYPES[self.type] for lab in p[2]]
+
+
+def plane_basis(n):
+    """Two orthonormal vectors spanning the plane normal to n."""
+    n = np.asarray(n, float) / np.linalg.norm(n)
+    a = np.eye(3)[np.argmin(np.abs(n))]
+    e1 = np.cross(n, a)
+    e1 /= np.linalg.norm(e1)
+    return np.stack([e1, np.cross(n, e1)])
+
+
+class CompiledClosures:
+    """All closure rows of a mechanism, grouped by primitive for vectorised evaluation.
+
+    ``frames`` lists the distinct frame ids the closures use; primitives index into it.
+    """
+
+    def __init__(self, closures: list[Closure]):
+        self.closures = closures
+        frames: list[int] = []
+
+        def slot(fid):
+            if fid not in frames:
+                frames.append(fid)
+            return frames.index(fid)
+
+        groups: dict[str, dict[str, list]] = {}
+        row = 0
+        for c in closures:
+            i1, i2 = slot(c.f1), slot(c.f2)
+            for prim, args, labels in CLOSURE_TYPES[c.type]:
+                g = groups.setdefault(prim, {"i1": [], "i2": [], "rows": [], "args": []})
+                g["i1"].append(i1)
+                g["i2"].append(i2)
+                g["rows"].append(list(range(row, row + len(labels))))
+                if prim == "plane":
+                    g["args"].append(plane_basis(c.normal))
+                elif prim == "distance":
+                    g["args"].append(c.length)
+                else:
+                    g["args"].append(args)
+                row += len(labels)
+        self.m = row
+        self.frames = np.array(frames, dtype=int)
+        self.row_names = [n for c in closures for n in c.row_names()]
+        self.groups = {}
+        for prim, g in groups.items():
+            d = {"i1": np.array(g["i1"]), "i2": np.array(g["i2"]), "rows": np.array(g["rows"])}
+            if prim == "plane":
+                d["E"] = np.array(g["args"])                  # (k, 2, 3)
+            elif prim == "distance":
+                d["L"] = np.array(g["args"], float)
+            elif prim in ("dot", "perp"):
+                a = np.array(g["args"])
+                d["a"] = a[:, 0]
+                if prim == "dot":
+                    d["b"] = a[:, 1]
+            self.groups[prim] = d
+
+    # --------------------------------------------------------------- evaluation
+    def evaluate(self, fk, phi, J, bias, dphi):
+        """Fill phi (m), J (m, nv), bias (m) and dphi = J v (m) from frame kinematics ``fk``."""
+        P, R, Jv, Jw, V, W, A, Al = fk.P, fk.R, fk.Jv, fk.Jw, fk.V, fk.W, fk.A, fk.Al
+        g = self.groups.get("point")
+        if g is not None:
+            i1, i2, r = g["i1"], g["i2"], g["rows"]
+            phi[r] = P[i1] - P[i2]
+            J[r] = Jv[i1] - Jv[i2]
+            dphi[r] = V[i1] - V[i2]
+            bias[r] = A[i1] - A[i2]
+        g = self.groups.get("plane")
+        if g is not None:
+            i1, i2, r, E = g["i1"], g["i2"], g["rows"], g["E"]
+            phi[r] = np.einsum("kij,kj->ki", E, P[i1] - P[i2])
+            J[r] = np.einsum("kij,kjn->kin", E, Jv[i1] - Jv[i2])
+            dphi[r] = np.einsum("kij,kj->ki", E, V[i1] - V[i2])
+            bias[r] = np.einsum("kij,kj->ki", E, A[i1] - A[i2])
+        g = self.groups.get("dot")
+        if g is not None:
+            # u fixed in body 1, w fixed in body 2:  d(u.w)/dt = (u x w).(w1 - w2)
+            i1, i2, r = g["i1"], g["i2"], g["rows"][:, 0]
+            k = np.arange(len(i1))
+            u = R[i1, :, g["a"]]
+            w = R[i2, :, g["b"]]
+            uxw = np.cross(u, w)
+            dw = W[i1] - W[i2]
+            phi[r] = np.einsum("ki,ki->k", u, w)
+            J[r] = np.einsum("ki,kin->kn", uxw, Jw[i1] - Jw[i2])
+            dphi[r] = np.einsum("ki,ki->k", uxw, dw)
+            du = np.cross(W[i1], u)
+            dwv = np.cross(W[i2], w)
+            duxw = np.cross(du, w) + np.cross(u, dwv)
+            bias[r] = np.einsum("ki,ki->k", uxw, Al[i1] - Al[i2]) + np.einsum("ki,ki->k", duxw, dw)
+            del k
+        g = self.groups.get("perp")
+        if g is not None:
+            # u fixed in body 1, d = p2 - p1:  d(u.d)/dt = u.(v2 - v1) + (u x d).w1
+            i1, i2, r = g["i1"], g["i2"], g["rows"][:, 0]
+            u = R[i1, :, g["a"]]
+            d = P[i2] - P[i1]
+            dd = V[i2] - V[i1]
+            uxd = np.cross(u, d)
+            w1 = W[i1]
+            phi[r] = np.einsum("ki,ki->k", u, d)
+            J[r] = np.einsum("ki,kin->kn", u, Jv[i2] - Jv[i1]) + np.einsum("ki,kin->kn", uxd, Jw[i1])
+            dphi[r] = np.einsum("ki,ki->k", u, dd) + np.einsum("ki,ki->k", uxd, w1)
+            du = np.cross(w1, u)
+            bias[r] = (np.einsum("ki,ki->k", u, A[i2] - A[i1]) + np.einsum("ki,ki->k", uxd, Al[i1])
+                       + np.einsum("ki,ki->k", du, dd)
+                       + np.einsum("ki,ki->k", np.cross(du, d) + np.cross(u, dd), w1))
+        g = self.groups.get("distance")
+        if g is not None:
+            i1, i2, r = g["i1"], g["i2"], g["rows"][:, 0]
+            d = P[i1] - P[i2]
+            dd = V[i1] - V[i2]
+            nd = np.linalg.norm(d, axis=1)
+            n = d / nd[:, None]
+            ndd = np.einsum("ki,ki->k", n, dd)
+            phi[r] = nd - g["L"]
+            J[r] = np.einsum("ki,kin->kn", n, Jv[i1] - Jv[i2])
+            dphi[r] = ndd
+            bias[r] = np.einsum("ki,ki->k", n, A[i1] - A[i2]) + (np.einsum("ki,ki->k", dd, dd) - ndd**2) / nd

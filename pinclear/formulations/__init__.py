@@ -1,0 +1,16 @@
+"""Forward-dynamics formulations, chosen by name (one file each, one interface)."""
+from ..errors import InputError
+from .base import Formulation
+from .lagrange import Lagrange
+from .pinocchio_cd import PinocchioCD
+from .projection import Projection
+from .proximal import Proximal
+
+METHODS = {cls.name: cls for cls in (Lagrange, Projection, PinocchioCD, Proximal)}
+
+
+def get(name: str):
+    try:
+        return METHODS[name]
+    except KeyError:
+        raise InputError(f"unknown method {name!r} (valid: {', '.join(METHODS)})") from None

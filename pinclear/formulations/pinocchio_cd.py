@@ -1,0 +1,107 @@
+"""Pinocchio's own constrained dynamics (pin.constraintDynamics, proximal solver) on the same
+tree. Closures must map onto Pinocchio's rigid constraints: spherical -> CONTACT_3D,
+weld -> CONTACT_6D. Drives are added on top by a Schur complement: the joint accelerations
+are affine in the drive forces, a = a0 + K lam_d, so lam_d solves E K lam_d = gamma_d - E a0."""
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .. import kinematics
+from ..closures import PINOCCHIO_TYPES
+from ..errors import InputError, RankLossError
+from .base import Formulation
+
+
+def rigid_constraints(mech, alpha=0.0, beta=0.0):
+    """pin.RigidConstraintModel list equivalent to the mechanism's closures (or InputError)."""
+    model = mech.model
+    bad = [c for c in mech.closures if c.type not in PINOCCHIO_TYPES]
+    if bad:
+        raise InputError(
+            f"method 'pinocchio' cannot express closure {bad[0].name!r} of type {bad[0].type!r}: "
+            f"Pinocchio's rigid constraints cover {', '.join(sorted(PINOCCHIO_TYPES))} only "
+            "(use lagrange, projection or proximal)")
+    models = []
+    for c in mech.closures:
+        F1, F2 = model.frames[c.f1], model.frames[c.f2]
+        cm = pin.RigidConstraintModel(getattr(pin.ContactType, PINOCCHIO_TYPES[c.type]), model,
+                                      F1.parentJoint, F1.placement, F2.parentJoint, F2.placement,
+                                      pin.LOCAL)
+        cm.name = c.name
+        if alpha or beta:
+            bp = pin.BaumgarteCorrectorParameters(cm.size() if hasattr(cm, "size") else cm.residualSize())
+            bp.Kp[:] = beta * beta
+            bp.Kd[:] = 2.0 * alpha
+            cm.setBaumgarteCorrectorParameters(bp)
+        models.append(cm)
+    return models
+
+
+class PinocchioCD(Formulation):
+    name = "pinocchio"
+    options = {"alpha": 5.0, "beta": 5.0, "mu": 1e-12, "accuracy": 1e-12, "max_iter": 50}
+
+    def __init__(self, mech, **options):
+        super().__init__(mech, **options)
+        self.cmodels = pin.StdVec_RigidConstraintModel()
+        for cm in rigid_constraints(mech, self.opts["alpha"], self.opts["beta"]):
+            self.cmodels.append(cm)
+        self.cdatas = pin.StdVec_RigidConstraintData()
+        for cm in self.cmodels:
+            self.cdatas.append(cm.createData())
+        self.data = mech.model.createData()
+        pin.initConstraintDynamics(mech.model, self.data, self.cmodels, self.cdatas)
+        self.prox = pin.ProximalSettings(self.opts["accuracy"], self.opts["mu"], self.opts["max_iter"])
+        self.nd = len(mech.drives)
+
+    def _cd(self, q, v, tau):
+        return pin.constraintDynamics(self.mech.model, self.data, q, v, tau, self.cmodels, self.cdatas, self.prox)
+
+    def accelerations(self, t, q, v, z):
+        mech, ws = self.mech, self.ws
+        ws.q_cur = q
+        ws.nfev += 1
+        tau = ws.tau
+        tau[:] = 0.0
+        if mech.forces:
+            kinematics.update(mech, ws, q, v)
+            for f, sl in zip(mech.forces, mech.z_slices):
+                f.add_force(mech, ws, t, q, v, z[sl], tau, ws.zdot[sl])
+        a0 = self._cd(q, v, tau).copy()
+        if self.prox.iter >= self.opts["max_iter"]:
+            self._not_converged(t)
+        mc = mech.compiled.m
+        if self.nd:
+            dr = mech.driverows
+            phi, dphi, ddf = dr.rows(t, q, v)
+            g = ddf - 2.0 * self.opts["alpha"] * dphi - self.opts["beta"] ** 2 * phi
+            K = np.empty((mech.nv, self.nd))
+            for k, iv in enumerate(dr.iv):
+                tau[iv] += 1.0
+                K[:, k] = self._cd(q, v, tau) - a0
+                tau[iv] -= 1.0
+            EK = K[dr.iv]
+            try:
+                lam_d = np.linalg.solve(EK, g - a0[dr.iv])
+            except np.linalg.LinAlgError:
+                lam_d = None
+            if lam_d is None or not np.all(np.isfinite(lam_d)) or np.linalg.cond(EK) > 1e12:
+                raise RankLossError(f"{mech.name}: drives lost rank at t = {t:.6g} s (the drive map "
+                                    f"E K has condition {np.linalg.cond(EK):.3g})", t=t)
+            ws.lam[mc:] = lam_d
+            tau[dr.iv] += lam_d
+            a = self._cd(q, v, tau).copy()
+        else:
+            a = a0
+        # pin stores the constraint forces in the constraint frames; report world-aligned rows
+        # only through the Lagrange formulations; here keep Pinocchio's raw values
+        lf = np.asarray(self.data.lambda_c).ravel() if hasattr(self.data, "lambda_c") else None
+        if lf is not None and len(lf) == mc:
+            ws.lam[:mc] = lf
+        return a
+
+    def _not_converged(self, t):
+        raise RankLossError(f"{self.mech.name}: Pinocchio's proximal solver did not converge at t = {t:.6g} s "
+                            f"in {self.opts['max_iter']} iterations (residual {self.prox.absolute_residual:.3g})",
+                            t=t)

@@ -1,0 +1,41 @@
+"""Exact acceleration-level constraints (no Baumgarte) plus projection of q and v back onto the
+constraint manifold after every accepted step: positions by Gauss-Newton on the manifold
+(pin.integrate), velocities by the mass-metric projection v <- v - M^-1 J^T S^-1 (J v + Phi_t)."""
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+from scipy.linalg import cho_solve
+
+from .. import kinematics
+from .lagrange import Lagrange
+
+
+class Projection(Lagrange):
+    name = "projection"
+    options = {"tol": 1e-12, "max_iter": 10, "drop_redundant": True}
+    supports_projection = True
+
+    def baumgarte(self):
+        return None
+
+    def project(self, t, q, v):
+        mech, ws = self.mech, self.ws
+        rows = self.rows
+        for _ in range(self.opts["max_iter"]):
+            ws.q_cur = q
+            kinematics.update_positions(mech, ws, q)
+            kinematics.constraint_rows(mech, ws, t, ws.zero_v)
+            phi = ws.phi[rows]
+            if np.linalg.norm(phi, np.inf) < self.opts["tol"]:
+                break
+            J = ws.J[rows]
+            q = pin.integrate(mech.model, q, -J.T @ np.linalg.solve(J @ J.T, phi))
+        ws.q_cur = q
+        kinematics.update(mech, ws, q, v)
+        kinematics.constraint_rows(mech, ws, t, v)
+        J = ws.J[rows]
+        c = self.mass_factor()
+        MiJt = cho_solve(c, J.T, check_finite=False)
+        v = v - MiJt @ np.linalg.solve(J @ MiJt, ws.dphi[rows])
+        return q, v

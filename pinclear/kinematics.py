@@ -1,0 +1,203 @@
+"""Closed-loop kinematics: frame kinematics for all closure frames at once, constraint rows,
+assembly on the configuration manifold, consistent velocities, mobility and redundancy.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .errors import AssemblyError
+
+
+class FrameKinematics:
+    """Positions, rotations, Jacobians, velocities and zero-acceleration biases of a fixed set of
+    frames, computed from Pinocchio's whole-tree Jacobian ``data.J`` and its time derivative
+    ``data.dJ`` (WORLD convention) without a Python loop over bodies.
+
+    For a frame on joint j, its WORLD Jacobian is ``data.J`` masked to the dofs supporting j. The
+    velocity of its origin p is v_o + w x p; the classical acceleration at zero ddq is
+    a_o + alpha x p + w x v_p with (a_o; alpha) = (masked dJ) v.
+    """
+
+    def __init__(self, model: pin.Model, frame_ids):
+        self.fids = [int(f) for f in frame_ids]
+        F, nv = len(self.fids), model.nv
+        self.mask = np.zeros((F, 1, nv))
+        for k, fid in enumerate(self.fids):
+            j = model.frames[int(fid)].parentJoint
+            while j > 0:
+                jm = model.joints[j]
+                self.mask[k, 0, jm.idx_v:jm.idx_v + jm.nv] = 1.0
+                j = model.parents[j]
+        self.H = np.zeros((F, 4, 4))
+        self.P, self.R = self.H[:, :3, 3], self.H[:, :3, :3]
+        self.static = not self.mask.any()
+
+    def update(self, data, v):
+        """``data`` must hold placements, data.J and data.dJ for the current (q, v)."""
+        oMf = data.oMf
+        for k, fid in enumerate(self.fids):
+            self.H[k] = oMf[fid].homogeneous
+        P = self.P
+        Jm = self.mask * data.J                       # (F, 6, nv)
+        dJm = self.mask * data.dJ
+        Jo, self.Jw = Jm[:, :3], Jm[:, 3:]
+        self.Jv = Jo + np.cross(self.Jw, P[:, :, None], axisa=1, axisb=1, axisc=1)
+        S = Jm @ v                                     # spatial velocities (v_o; w)
+        dS = dJm @ v                                   # spatial bias accelerations (a_o; alpha)
+        self.W = S[:, 3:]
+        self.V = S[:, :3] + np.cross(self.W, P)
+        self.Al = dS[:, 3:]
+        self.A = dS[:, :3] + np.cross(self.Al, P) + np.cross(self.W, self.V)
+        return self
+
+
+def update(mech, ws, q, v):
+    """One kinematic/dynamic pass at (q, v): the only place the right-hand side calls Pinocchio's
+    tree algorithms. Afterwards data.M (upper triangle), data.nle, data.oMf, data.J, data.dJ,
+    data.v and data.a (joint accelerations at zero ddq) are valid."""
+    model, data = mech.model, ws.data
+    pin.computeJointJacobiansTimeVariation(model, data, q, v)
+    pin.updateFramePlacements(model, data)
+    pin.crba(model, data, q)
+    pin.nonLinearEffects(model, data, q, v)
+    ws.fk.update(data, v)
+
+
+def update_positions(mech, ws, q):
+    """Position-level update for assembly: placements and Jacobians only."""
+    model, data = mech.model, ws.data
+    zero = ws.zero_v
+    pin.computeJointJacobiansTimeVariation(model, data, q, zero)
+    pin.updateFramePlacements(model, data)
+    ws.fk.update(data, zero)
+
+
+def constraint_rows(mech, ws, t, v, baumgarte=None):
+    """Fill ws.phi, ws.J, ws.gamma (closures then drives) after :func:`update`.
+
+    gamma is the right-hand side of J a = gamma; with ``baumgarte=(alpha, beta)`` it includes
+    -2 alpha dPhi - beta^2 Phi (the papers' stabilisation).
+    """
+    mc = mech.compiled
+    m = mc.m
+    phi, J, bias, dphi = ws.phi, ws.J, ws.bias, ws.dphi
+    mc.evaluate(ws.fk, phi[:m], J[:m], bias[:m], dphi[:m])
+    if mech.drives:
+        dr = mech.drive_rows(t, ws.q_cur, v)   # (phi, dphi, ddf)
+        phi[m:], dphi[m:], bias[m:] = dr[0], dr[1], -dr[2]
+    np.negative(bias, out=ws.gamma)
+    if baumgarte is not None:
+        alpha, beta = baumgarte
+        if alpha:
+            ws.gamma -= (2.0 * alpha) * dphi
+        if beta:
+            ws.gamma -= (beta * beta) * phi
+
+
+def closure_residual(mech, ws, q, t=0.0, with_drives=False):
+    """Residual vector Phi(q, t) of the closures (and drives)."""
+    ws.q_cur = q
+    update_positions(mech, ws, q)
+    constraint_rows(mech, ws, t, ws.zero_v)
+    return (ws.phi if with_drives else ws.phi[: mech.compiled.m]).copy()
+
+
+def jacobian(mech, ws, q, t=0.0, with_drives=False):
+    ws.q_cur = q
+    update_positions(mech, ws, q)
+    constraint_rows(mech, ws, t, ws.zero_v)
+    return (ws.J if with_drives else ws.J[: mech.compiled.m]).copy()
+
+
+def rank_analysis(J, names, tol=None):
+    """Rank of J and the names of rows that depend on earlier ones (QR with column pivoting on J^T)."""
+    from scipy.linalg import qr
+
+    m = J.shape[0]
+    if m == 0:
+        return 0, [], []
+    _, Rr, piv = qr(J.T, mode="economic", pivoting=True)
+    d = np.abs(np.diag(Rr))
+    if tol is None:
+        tol = max(J.shape) * np.finfo(float).eps * max(d[0], 1.0) * 1e3
+    rank = int(np.sum(d > tol))
+    independent = sorted(piv[:rank].tolist())
+    redundant = sorted(piv[rank:].tolist())
+    return rank, independent, [names[i] for i in redundant]
+
+
+def mobility(mech, q, ws=None):
+    """Degrees of freedom of the closed chain (closures only, drives excluded) at q.
+
+    Returns dict(mobility, rank, rows, redundant_rows (names), condition)."""
+    ws = ws or mech.workspace()
+    J = jacobian(mech, ws, q)
+    rank, indep, redundant = rank_analysis(J, mech.compiled.row_names)
+    sv = np.linalg.svd(J, compute_uv=False) if J.size else np.array([1.0])
+    cond = float(sv[0] / sv[rank - 1]) if rank else 1.0
+    return {"mobility": mech.model.nv - rank, "rank": rank, "rows": J.shape[0],
+            "redundant_rows": redundant, "independent": indep, "condition": cond}
+
+
+def assemble(mech, q_guess=None, t=0.0, tol=1e-12, max_iter=100, with_drives=True, ws=None):
+    """Solve Phi(q, t) = 0 from a guess, moving on the configuration manifold (pin.integrate).
+
+    Gauss-Newton with minimum-norm steps (lstsq), so redundant rows and extra freedoms are
+    handled; raises AssemblyError with the final residual when the loop cannot close."""
+    ws = ws or mech.workspace()
+    q = np.array(mech.q0 if q_guess is None else q_guess, float)
+    model = mech.model
+    last = np.inf
+    for it in range(max_iter):
+        ws.q_cur = q
+        update_positions(mech, ws, q)
+        constraint_rows(mech, ws, t, ws.zero_v)
+        m = mech.compiled.m + (len(mech.drives) if with_drives else 0)
+        phi, J = ws.phi[:m], ws.J[:m]
+        res = float(np.linalg.norm(phi, np.inf)) if m else 0.0
+        if res < tol:
+            return q
+        dq = np.linalg.lstsq(J, -phi, rcond=1e-10)[0]
+        # damp steps that would go far: Newton from a poor guess overshoots around loops
+        step = np.linalg.norm(dq, np.inf)
+        if step > 0.5:
+            dq *= 0.5 / step
+        q = pin.integrate(model, q, dq)
+        if it > 20 and res > 0.99 * last and res > 1e-6:
+            break
+        last = min(last, res)
+    ws.q_cur = q
+    update_positions(mech, ws, q)
+    constraint_rows(mech, ws, t, ws.zero_v)
+    m = mech.compiled.m + (len(mech.drives) if with_drives else 0)
+    res = float(np.linalg.norm(ws.phi[:m], np.inf)) if m else 0.0
+    if res < max(tol, 1e-10):
+        return q
+    worst = int(np.argmax(np.abs(ws.phi[:m])))
+    names = mech.row_names(with_drives)
+    raise AssemblyError(
+        f"{mech.name}: loop closures cannot be assembled from the given guess: residual "
+        f"{res:.3e} after {max_iter} iterations (worst row {names[worst]!r}); check the geometry "
+        "or give a better initial guess under 'initial: q:'", residual=res, q=q)
+
+
+def consistent_velocity(mech, q, v_guess=None, t=0.0, ws=None):
+    """Velocity closest to the guess (in the mass metric) that satisfies J v = -Phi_t."""
+    ws = ws or mech.workspace()
+    v0 = np.zeros(mech.model.nv) if v_guess is None else np.asarray(v_guess, float)
+    ws.q_cur = q
+    update_positions(mech, ws, q)
+    constraint_rows(mech, ws, t, ws.zero_v)
+    m = mech.compiled.m + len(mech.drives)
+    if m == 0:
+        return v0.copy()
+    J = ws.J[:m].copy()
+    target = -ws.dphi[:m]        # at v = 0 dphi = Phi_t (only drives depend on t)
+    M = pin.crba(mech.model, ws.data, q)
+    M = np.triu(M) + np.triu(M, 1).T
+    # min (v - v0)^T M (v - v0)  s.t. J v = target
+    K = np.block([[M, J.T], [J, np.zeros((m, m))]])
+    rhs = np.concatenate([M @ v0, target])
+    sol = np.linalg.lstsq(K, rhs, rcond=1e-12)[0]
+    return sol[: mech.model.nv]

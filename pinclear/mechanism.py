@@ -1,0 +1,153 @@
+"""Mechanism (immutable description) and Workspace (per-evaluation buffers), after Pinocchio's
+Model/Data split: many workspaces may serve one mechanism."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pinocchio as pin
+
+from .closures import Closure, CompiledClosures
+from .drives import Drive, DriveRows
+from .kinematics import FrameKinematics
+
+
+class Mechanism:
+    """A closed-loop mechanism: an open-chain Pinocchio tree plus closures, drives and forces.
+
+    Treat as immutable; use :meth:`replace` to derive variants (drives released, clearance on...).
+    """
+
+    def __init__(self, model: pin.Model, name: str, closures: list[Closure], drives: list[Drive],
+                 forces: list, q0=None, v0=None, path=None, platform_frame=None, platform_motion=None,
+                 options=None, parameters=None, sidecar=None, replaced_closures=None,
+                 visual_model=None, collision_model=None):
+        self.model = model
+        self.name = name
+        self.path = path
+        self.closures = list(closures)
+        self.drives = list(drives)
+        self.forces = list(forces)
+        self.q0 = pin.neutral(model) if q0 is None else np.asarray(q0, float)
+        self.v0 = np.zeros(model.nv) if v0 is None else np.asarray(v0, float)
+        self.platform_frame = platform_frame
+        self.platform_motion = platform_motion
+        self.options = dict(options or {})
+        self.parameters = list(parameters or [])
+        self.sidecar = sidecar or {}
+        self.replaced_closures = dict(replaced_closures or {})
+        self.visual_model = visual_model
+        self.collision_model = collision_model
+        self.compiled = CompiledClosures(self.closures)
+        self.driverows = DriveRows(self.drives, model.nv)
+        self.z_slices = []
+        n = 0
+        for f in self.forces:
+            self.z_slices.append(slice(n, n + f.nz))
+            n += f.nz
+        self.nz = n
+        self.euclidean = _is_euclidean(model)
+
+    # ------------------------------------------------------------------ queries
+    @property
+    def nq(self):
+        return self.model.nq
+
+    @property
+    def nv(self):
+        return self.model.nv
+
+    @property
+    def m_closures(self):
+        return self.compiled.m
+
+    @property
+    def m(self):
+        return self.compiled.m + len(self.drives)
+
+    def row_names(self, with_drives=True):
+        names = list(self.compiled.row_names)
+        if with_drives:
+            names += [d.name for d in self.drives]
+        return names
+
+    def frame_id(self, name: str) -> int:
+        if not self.model.existFrame(name):
+            from .errors import ModelFileError
+
+            raise ModelFileError(self.path or self.name, "frame", f"unknown frame {name!r}",
+                                 choices=[f.name for f in self.model.frames])
+        return self.model.getFrameId(name)
+
+    def drive_rows(self, t, q, v):
+        return self.driverows.rows(t, q, v)
+
+    @property
+    def conservative(self) -> bool:
+        return not self.drives and all(f.conservative for f in self.forces)
+
+    def workspace(self) -> "Workspace":
+        return Workspace(self)
+
+    def replace(self, **changes) -> "Mechanism":
+        """A new Mechanism with some fields changed (closures, drives, forces, q0, ...)."""
+        fields = dict(model=self.model, name=self.name, closures=self.closures, drives=self.drives,
+                      forces=self.forces, q0=self.q0, v0=self.v0, path=self.path,
+                      platform_frame=self.platform_frame, platform_motion=self.platform_motion,
+                      options=self.options, parameters=self.parameters, sidecar=self.sidecar,
+                      replaced_closures=self.replaced_closures, visual_model=self.visual_model,
+                      collision_model=self.collision_model)
+        fields.update(changes)
+        return Mechanism(**fields)
+
+    def copy_model(self) -> pin.Model:
+        return copy.deepcopy(self.model)
+
+    def describe(self) -> dict:
+        return {
+            "name": self.name, "path": str(self.path) if self.path else None, "nq": self.nq, "nv": self.nv,
+            "closures": [{"name": c.name, "type": c.type, "frame1": c.frame1, "frame2": c.frame2,
+                          "rows": c.nrows} for c in self.closures],
+            "drives": [{"name": d.name, "joint": d.joint, "law": d.law.describe()} for d in self.drives],
+            "forces": [f.describe() for f in self.forces],
+            "gravity": self.model.gravity.linear.tolist(),
+            "options": {k: v for k, v in self.options.items()},
+        }
+
+    def __repr__(self):
+        return (f"Mechanism({self.name!r}, nq={self.nq}, nv={self.nv}, closures={len(self.closures)} "
+                f"({self.compiled.m} rows), drives={len(self.drives)}, forces={len(self.forces)})")
+
+
+def _is_euclidean(model) -> bool:
+    """True when q moves by plain addition of v (no quaternions, unbounded angles, Euler charts):
+    then integrating q directly is exact and no chart is needed."""
+    if model.nq != model.nv:
+        return False
+    rng = np.random.default_rng(0)
+    q = pin.randomConfiguration(model, -np.ones(model.nq), np.ones(model.nq)) if model.nq else np.zeros(0)
+    v = rng.standard_normal(model.nv)
+    return bool(np.allclose(pin.integrate(model, q, v), q + v, atol=1e-12)
+                and np.allclose(pin.dIntegrate(model, q, v, pin.ARG1), np.eye(model.nv), atol=1e-12))
+
+
+class Workspace:
+    """Buffers for one evaluation thread: pin.Data, frame kinematics, constraint rows."""
+
+    def __init__(self, mech: Mechanism):
+        nv, m = mech.nv, mech.m
+        self.data = mech.model.createData()
+        self.fk = FrameKinematics(mech.model, mech.compiled.frames)
+        self.phi = np.zeros(m)
+        self.dphi = np.zeros(m)
+        self.bias = np.zeros(m)
+        self.gamma = np.zeros(m)
+        self.J = np.zeros((m, nv))
+        if mech.drives:
+            self.J[mech.compiled.m:] = mech.driverows.J
+        self.tau = np.zeros(nv)
+        self.zdot = np.zeros(mech.nz)
+        self.zero_v = np.zeros(nv)
+        self.q_cur = mech.q0
+        self.lam = np.zeros(m)
+        self.nfev = 0

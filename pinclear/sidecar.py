@@ -1,0 +1,298 @@
+"""Loading a mechanism: URDF spanning tree + YAML sidecar, every name checked against the model."""
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import yaml
+
+from .closures import CLOSURE_TYPES, Closure
+from .drives import Drive
+from .errors import ModelFileError
+from .forces import JointForce, SpringDamper
+from .mechanism import Mechanism
+from .timelaws import build_law, resolve_function
+
+TOP_KEYS = {"name", "urdf", "description", "gravity", "initial", "closures", "drives", "forces",
+            "clearances", "platform", "options", "hook", "parameters", "limbs", "viz", "notes"}
+CLOSURE_KEYS = {"name", "type", "frame1", "frame2", "normal", "length"}
+FRAME_KEYS = {"parent", "xyz", "rpy", "axis", "name"}
+DRIVE_KEYS = {"name", "joint", "law"}
+FORCE_TYPES = {"spring_damper": {"name", "type", "frame1", "frame2", "k", "c", "free_length"},
+               "joint_force": {"name", "type", "joint", "law"}}
+CLEARANCE_TYPES = ("spherical", "revolute", "planar_revolute", "prismatic")
+ONE_DOF_JOINTS = ("RX", "RY", "RZ", "PX", "PY", "PZ", "RevoluteUnaligned", "PrismaticUnaligned")
+
+
+def _check_keys(d, allowed, file, key):
+    if not isinstance(d, dict):
+        raise ModelFileError(file, key, f"expected a mapping, got {type(d).__name__}")
+    for k in d:
+        if k not in allowed:
+            raise ModelFileError(file, f"{key}.{k}" if key else k, "unknown key", choices=allowed)
+
+
+def _vec3(x, file, key):
+    try:
+        a = np.asarray(x, float).reshape(3)
+    except (TypeError, ValueError):
+        raise ModelFileError(file, key, f"expected 3 numbers, got {x!r}") from None
+    return a
+
+
+def _rotation_z_to(axis):
+    """A rotation whose z column is ``axis``."""
+    z = axis / np.linalg.norm(axis)
+    a = np.eye(3)[np.argmin(np.abs(z))]
+    x = np.cross(a, z)
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def _frame(model, spec, default_name, file, key):
+    """Frame id from a name or a {parent, xyz, rpy|axis} mapping (added to the model)."""
+    names = [f.name for f in model.frames]
+    if isinstance(spec, str):
+        if not model.existFrame(spec):
+            raise ModelFileError(file, key, f"unknown frame {spec!r}", choices=names)
+        return model.getFrameId(spec), spec
+    _check_keys(spec, FRAME_KEYS, file, key)
+    parent = spec.get("parent")
+    if parent is None:
+        raise ModelFileError(file, f"{key}.parent", "missing: the link (or frame) the new frame is fixed to")
+    if not model.existFrame(parent):
+        raise ModelFileError(file, f"{key}.parent", f"unknown link/frame {parent!r}", choices=names)
+    pf = model.frames[model.getFrameId(parent)]
+    xyz = _vec3(spec.get("xyz", [0, 0, 0]), file, f"{key}.xyz")
+    if "rpy" in spec and "axis" in spec:
+        raise ModelFileError(file, key, "give either rpy or axis, not both")
+    if "axis" in spec:
+        R = _rotation_z_to(_vec3(spec["axis"], file, f"{key}.axis"))
+    else:
+        R = pin.rpy.rpyToMatrix(_vec3(spec.get("rpy", [0, 0, 0]), file, f"{key}.rpy"))
+    name = spec.get("name", default_name)
+    if model.existFrame(name):
+        raise ModelFileError(file, f"{key}.name", f"frame {name!r} already exists in the model")
+    placement = pf.placement * pin.SE3(R, xyz)
+    fid = model.addFrame(pin.Frame(name, pf.parentJoint, model.getFrameId(parent), placement,
+                                   pin.FrameType.OP_FRAME))
+    return fid, name
+
+
+def _joint(model, name, file, key, one_dof=False):
+    names = [n for n in model.names][1:]
+    if not isinstance(name, str) or not model.existJointName(name):
+        raise ModelFileError(file, key, f"unknown joint {name!r}", choices=names)
+    jid = model.getJointId(name)
+    jm = model.joints[jid]
+    if one_dof and not any(jm.shortname() == "JointModel" + s for s in ONE_DOF_JOINTS):
+        ok = [n for n in names if any(model.joints[model.getJointId(n)].shortname() == "JointModel" + s
+                                      for s in ONE_DOF_JOINTS)]
+        raise ModelFileError(file, key, f"joint {name!r} ({jm.shortname()}) is not a 1-DoF joint", choices=ok)
+    return jm
+
+
+def _parse_value(text):
+    return yaml.safe_load(text) if isinstance(text, str) else text
+
+
+def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
+    """Load ``urdf/<name>.yaml`` (sidecar) and the URDF it names.
+
+    options: scene switches declared under ``options:`` (e.g. {"limbs": False}).
+    overrides: {"S2.clearance": 5e-4, "limbs": False, ...}: clearance keys (NAME.key) or options.
+    clearances: names of clearance joints to activate (besides those with ``active: true``).
+    """
+    path = Path(path)
+    file = str(path)
+    if not path.exists():
+        raise ModelFileError(file, "path", "no such file")
+    if path.suffix.lower() == ".urdf":
+        sc = {"name": path.stem, "urdf": path.name}
+    else:
+        try:
+            sc = yaml.safe_load(path.read_text())
+        except yaml.YAMLError as exc:
+            raise ModelFileError(file, "yaml", f"not valid YAML: {exc}") from None
+    sc = copy.deepcopy(sc)
+    _check_keys(sc, TOP_KEYS, file, "")
+    if "urdf" not in sc:
+        raise ModelFileError(file, "urdf", "missing: the URDF file of the spanning tree")
+    urdf = (path.parent / sc["urdf"]).resolve()
+    if not urdf.exists():
+        raise ModelFileError(file, "urdf", f"URDF file {str(urdf)!r} does not exist")
+    try:
+        model = pin.buildModelFromUrdf(str(urdf))
+    except (RuntimeError, ValueError) as exc:
+        raise ModelFileError(str(urdf), "urdf", f"Pinocchio cannot parse it: {str(exc).strip()}") from None
+    name = sc.get("name", path.stem)
+
+    # ---- scene options and overrides
+    declared = sc.get("options") or {}
+    _check_keys(declared, set(declared), file, "options")
+    opts = {}
+    for k, spec in declared.items():
+        if not isinstance(spec, dict) or "default" not in spec:
+            raise ModelFileError(file, f"options.{k}", "each option is a mapping with a 'default'")
+        _check_keys(spec, {"default", "choices", "doc"}, file, f"options.{k}")
+        opts[k] = spec["default"]
+    clr_specs = sc.get("clearances") or []
+    if not isinstance(clr_specs, list):
+        raise ModelFileError(file, "clearances", "expected a list")
+    clr_names = [c.get("name") for c in clr_specs if isinstance(c, dict)]
+    for k, val in dict(options or {}).items():
+        if k not in opts:
+            raise ModelFileError(file, f"options.{k}", "unknown scene option", choices=list(opts))
+        opts[k] = val
+    clr_overrides: dict[str, dict] = {}
+    for k, val in dict(overrides or {}).items():
+        val = _parse_value(val)
+        if "." in k:
+            cname, key = k.split(".", 1)
+            if cname not in clr_names:
+                raise ModelFileError(file, f"clearances.{cname}", "unknown clearance joint in override",
+                                     choices=clr_names)
+            clr_overrides.setdefault(cname, {})[key] = val
+        elif k in opts:
+            opts[k] = val
+        else:
+            raise ModelFileError(file, k, "unknown override (use NAME.key for clearances or an option name)",
+                                 choices=list(opts) + [f"{c}.<key>" for c in clr_names])
+    for k, val in opts.items():
+        choices = declared[k].get("choices")
+        if choices is not None and val not in choices:
+            raise ModelFileError(file, f"options.{k}", f"invalid value {val!r}", choices=choices)
+    if "hook" in sc:
+        resolve_function(sc["hook"], file, "hook")(model, opts)
+
+    # ---- gravity
+    model.gravity.linear = _vec3(sc.get("gravity", [0.0, 0.0, -9.81]), file, "gravity")
+
+    # ---- closures
+    closures = []
+    seen = set()
+    for i, c in enumerate(sc.get("closures") or []):
+        key = f"closures[{i}]"
+        _check_keys(c, CLOSURE_KEYS, file, key)
+        cname = c.get("name", f"loop{i}")
+        if cname in seen:
+            raise ModelFileError(file, f"{key}.name", f"duplicate closure name {cname!r}")
+        seen.add(cname)
+        ctype = c.get("type")
+        if ctype not in CLOSURE_TYPES:
+            raise ModelFileError(file, f"{key}.type", f"unknown closure type {ctype!r}", choices=CLOSURE_TYPES)
+        for fk in ("frame1", "frame2"):
+            if fk not in c:
+                raise ModelFileError(file, f"{key}.{fk}", "missing")
+        f1, n1 = _frame(model, c["frame1"], f"{cname}.frame1", file, f"{key}.frame1")
+        f2, n2 = _frame(model, c["frame2"], f"{cname}.frame2", file, f"{key}.frame2")
+        if model.frames[f1].parentJoint == model.frames[f2].parentJoint:
+            raise ModelFileError(file, key, "frame1 and frame2 are on the same body: nothing to close")
+        if ctype == "distance" and "length" not in c:
+            raise ModelFileError(file, f"{key}.length", "missing for a distance closure")
+        closures.append(Closure(cname, ctype, n1, n2, f1, f2,
+                                normal=_vec3(c.get("normal", [0, 0, 1]), file, f"{key}.normal"),
+                                length=float(c.get("length", 0.0))))
+
+    # ---- drives
+    drives = []
+    for i, d in enumerate(sc.get("drives") or []):
+        key = f"drives[{i}]"
+        _check_keys(d, DRIVE_KEYS, file, key)
+        jm = _joint(model, d.get("joint"), file, f"{key}.joint", one_dof=True)
+        if "law" not in d:
+            raise ModelFileError(file, f"{key}.law", "missing")
+        drives.append(Drive(d.get("name", d["joint"]), d["joint"], jm.idx_q, jm.idx_v,
+                            build_law(d["law"], file, f"{key}.law")))
+    if len({d.idx_v for d in drives}) != len(drives):
+        raise ModelFileError(file, "drives", "two drives act on the same joint")
+
+    # ---- force elements
+    forces = []
+    for i, f in enumerate(sc.get("forces") or []):
+        key = f"forces[{i}]"
+        ftype = f.get("type") if isinstance(f, dict) else None
+        if ftype not in FORCE_TYPES:
+            raise ModelFileError(file, f"{key}.type", f"unknown force element type {ftype!r}", choices=FORCE_TYPES)
+        _check_keys(f, FORCE_TYPES[ftype], file, key)
+        fname = f.get("name", f"{ftype}{i}")
+        try:
+            if ftype == "spring_damper":
+                f1, _ = _frame(model, f["frame1"], f"{fname}.frame1", file, f"{key}.frame1")
+                f2, _ = _frame(model, f["frame2"], f"{fname}.frame2", file, f"{key}.frame2")
+                forces.append(SpringDamper(fname, f1, f2, f["k"], f.get("c", 0.0), f.get("free_length", 0.0)))
+            else:
+                jm = _joint(model, f["joint"], file, f"{key}.joint", one_dof=True)
+                forces.append(JointForce(fname, jm.idx_v, build_law(f["law"], file, f"{key}.law")))
+        except KeyError as exc:
+            raise ModelFileError(file, f"{key}.{exc.args[0]}", "missing") from None
+
+    # ---- initial guess
+    q0, v0 = pin.neutral(model), np.zeros(model.nv)
+    init = sc.get("initial") or {}
+    _check_keys(init, {"q", "v"}, file, "initial")
+    for which, vec in (("q", q0), ("v", v0)):
+        for jn, val in (init.get(which) or {}).items():
+            jm = _joint(model, jn, file, f"initial.{which}.{jn}")
+            idx, n = (jm.idx_q, jm.nq) if which == "q" else (jm.idx_v, jm.nv)
+            vec[idx:idx + n] = np.atleast_1d(np.asarray(val, float))
+
+    # ---- platform
+    platform_frame, platform_motion = None, None
+    if "platform" in sc:
+        p = sc["platform"]
+        _check_keys(p, {"frame", "motion"}, file, "platform")
+        platform_frame, _ = _frame(model, p.get("frame"), "platform", file, "platform.frame")
+        if "motion" in p:
+            m = p["motion"]
+            _check_keys(m, {"function", "args"}, file, "platform.motion")
+            func = resolve_function(m.get("function"), file, "platform.motion.function")
+            args = dict(m.get("args") or {})
+            platform_motion = lambda t, _f=func, _a=args: _f(t, **_a)  # noqa: E731
+
+    # ---- parameter table
+    params = sc.get("parameters") or []
+    for i, prm in enumerate(params):
+        _check_keys(prm, {"name", "value", "unit", "source", "note"}, file, f"parameters[{i}]")
+        for k in ("name", "value", "unit", "source"):
+            if k not in prm:
+                raise ModelFileError(file, f"parameters[{i}].{k}", "missing (each parameter has name, value, "
+                                     "unit and source)")
+
+    # ---- clearances: validated and built by pinclear.contact
+    active = set(clearances or [])
+    unknown = active - set(clr_names)
+    if unknown:
+        raise ModelFileError(file, "clearances", f"unknown clearance joint {sorted(unknown)[0]!r}", choices=clr_names)
+    chosen = []
+    for i, c in enumerate(clr_specs):
+        if not isinstance(c, dict) or "name" not in c:
+            raise ModelFileError(file, f"clearances[{i}]", "each clearance is a mapping with a 'name'")
+        c = {**c, **clr_overrides.get(c["name"], {})}
+        if c["name"] in active or c.get("active", False):
+            ctype = c.get("type")
+            if ctype not in CLEARANCE_TYPES:
+                raise ModelFileError(file, f"clearances[{i}].type", f"unknown clearance type {ctype!r}",
+                                     choices=CLEARANCE_TYPES)
+            chosen.append((i, c))
+    replaced = {}
+    for i, c in chosen:
+        target = c.get("closure")
+        match = [cl for cl in closures if cl.name == target]
+        if not match:
+            raise ModelFileError(file, f"clearances[{i}].closure", f"no closure named {target!r} to replace",
+                                 choices=[cl.name for cl in closures])
+        replaced[target] = match[0]
+    closures = [cl for cl in closures if cl.name not in replaced]
+
+    mech = Mechanism(model, name, closures, drives, forces, q0=q0, v0=v0, path=str(path),
+                     platform_frame=platform_frame, platform_motion=platform_motion, options=opts,
+                     parameters=params, sidecar=sc, replaced_closures=replaced)
+    if chosen:
+        from . import contact
+
+        elems = [contact.build(c, mech, file) for _, c in chosen]
+        mech = mech.replace(forces=mech.forces + elems)
+    return mech
