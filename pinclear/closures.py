@@ -27,6 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._kernels import DIST, DOT, PERP, PLANE, POINT, closure_rows
+
 # (primitive, arguments, row labels)
 _POINT = ("point", (), ("x", "y", "z"))
 _ORIENT = [("dot", (0, 1), ("rz",)), ("dot", (1, 2), ("rx",)), ("dot", (2, 0), ("ry",))]
@@ -109,6 +111,19 @@ class CompiledClosures:
         self.m = row
         self.frames = np.array(frames, dtype=int)
         self.row_names = [n for c in closures for n in c.row_names()]
+        # flat table for the compiled kernel: (code, i1, i2, first row, axis a, axis b)
+        codes = {"point": POINT, "plane": PLANE, "dot": DOT, "perp": PERP, "distance": DIST}
+        table, E, L = [], [], []
+        for prim, g in groups.items():
+            for k in range(len(g["i1"])):
+                arg = g["args"][k]
+                ab = tuple(arg) + (0, 0) if isinstance(arg, tuple) else (0, 0)
+                table.append((codes[prim], g["i1"][k], g["i2"][k], g["rows"][k][0], ab[0], ab[1]))
+                E.append(arg if prim == "plane" else np.zeros((2, 3)))
+                L.append(arg if prim == "distance" else 0.0)
+        self.table = np.array(table, dtype=np.int64).reshape(-1, 6)
+        self.E = np.array(E, float).reshape(-1, 2, 3)
+        self.L = np.array(L, float)
         self.groups = {}
         for prim, g in groups.items():
             d = {"i1": np.array(g["i1"]), "i2": np.array(g["i2"]), "rows": np.array(g["rows"])}
@@ -126,63 +141,6 @@ class CompiledClosures:
     # --------------------------------------------------------------- evaluation
     def evaluate(self, fk, phi, J, bias, dphi):
         """Fill phi (m), J (m, nv), bias (m) and dphi = J v (m) from frame kinematics ``fk``."""
-        P, R, Jv, Jw, V, W, A, Al = fk.P, fk.R, fk.Jv, fk.Jw, fk.V, fk.W, fk.A, fk.Al
-        g = self.groups.get("point")
-        if g is not None:
-            i1, i2, r = g["i1"], g["i2"], g["rows"]
-            phi[r] = P[i1] - P[i2]
-            J[r] = Jv[i1] - Jv[i2]
-            dphi[r] = V[i1] - V[i2]
-            bias[r] = A[i1] - A[i2]
-        g = self.groups.get("plane")
-        if g is not None:
-            i1, i2, r, E = g["i1"], g["i2"], g["rows"], g["E"]
-            phi[r] = np.einsum("kij,kj->ki", E, P[i1] - P[i2])
-            J[r] = np.einsum("kij,kjn->kin", E, Jv[i1] - Jv[i2])
-            dphi[r] = np.einsum("kij,kj->ki", E, V[i1] - V[i2])
-            bias[r] = np.einsum("kij,kj->ki", E, A[i1] - A[i2])
-        g = self.groups.get("dot")
-        if g is not None:
-            # u fixed in body 1, w fixed in body 2:  d(u.w)/dt = (u x w).(w1 - w2)
-            i1, i2, r = g["i1"], g["i2"], g["rows"][:, 0]
-            k = np.arange(len(i1))
-            u = R[i1, :, g["a"]]
-            w = R[i2, :, g["b"]]
-            uxw = np.cross(u, w)
-            dw = W[i1] - W[i2]
-            phi[r] = np.einsum("ki,ki->k", u, w)
-            J[r] = np.einsum("ki,kin->kn", uxw, Jw[i1] - Jw[i2])
-            dphi[r] = np.einsum("ki,ki->k", uxw, dw)
-            du = np.cross(W[i1], u)
-            dwv = np.cross(W[i2], w)
-            duxw = np.cross(du, w) + np.cross(u, dwv)
-            bias[r] = np.einsum("ki,ki->k", uxw, Al[i1] - Al[i2]) + np.einsum("ki,ki->k", duxw, dw)
-            del k
-        g = self.groups.get("perp")
-        if g is not None:
-            # u fixed in body 1, d = p2 - p1:  d(u.d)/dt = u.(v2 - v1) + (u x d).w1
-            i1, i2, r = g["i1"], g["i2"], g["rows"][:, 0]
-            u = R[i1, :, g["a"]]
-            d = P[i2] - P[i1]
-            dd = V[i2] - V[i1]
-            uxd = np.cross(u, d)
-            w1 = W[i1]
-            phi[r] = np.einsum("ki,ki->k", u, d)
-            J[r] = np.einsum("ki,kin->kn", u, Jv[i2] - Jv[i1]) + np.einsum("ki,kin->kn", uxd, Jw[i1])
-            dphi[r] = np.einsum("ki,ki->k", u, dd) + np.einsum("ki,ki->k", uxd, w1)
-            du = np.cross(w1, u)
-            bias[r] = (np.einsum("ki,ki->k", u, A[i2] - A[i1]) + np.einsum("ki,ki->k", uxd, Al[i1])
-                       + np.einsum("ki,ki->k", du, dd)
-                       + np.einsum("ki,ki->k", np.cross(du, d) + np.cross(u, dd), w1))
-        g = self.groups.get("distance")
-        if g is not None:
-            i1, i2, r = g["i1"], g["i2"], g["rows"][:, 0]
-            d = P[i1] - P[i2]
-            dd = V[i1] - V[i2]
-            nd = np.linalg.norm(d, axis=1)
-            n = d / nd[:, None]
-            ndd = np.einsum("ki,ki->k", n, dd)
-            phi[r] = nd - g["L"]
-            J[r] = np.einsum("ki,kin->kn", n, Jv[i1] - Jv[i2])
-            dphi[r] = ndd
-            bias[r] = np.einsum("ki,ki->k", n, A[i1] - A[i2]) + (np.einsum("ki,ki->k", dd, dd) - ndd**2) / nd
+        if self.m:
+            closure_rows(self.table, self.E, self.L, fk.H, fk.Jv, fk.Jw, fk.V, fk.W, fk.A, fk.Al,
+                         phi, J, bias, dphi)

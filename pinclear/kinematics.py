@@ -4,6 +4,8 @@ assembly on the configuration manifold, consistent velocities, mobility and redu
 from __future__ import annotations
 
 import numpy as np
+
+from ._kernels import frame_kinematics
 import pinocchio as pin
 
 from .errors import AssemblyError
@@ -16,39 +18,31 @@ class FrameKinematics:
 
     For a frame on joint j, its WORLD Jacobian is ``data.J`` masked to the dofs supporting j. The
     velocity of its origin p is v_o + w x p; the classical acceleration at zero ddq is
-    a_o + alpha x p + w x v_p with (a_o; alpha) = (masked dJ) v.
+    a_o + alpha x p + w x v_p with (a_o; alpha) = (masked dJ) v. Linear rows are the origin's
+    velocity in world axes (Pinocchio's LOCAL_WORLD_ALIGNED).
     """
 
     def __init__(self, model: pin.Model, frame_ids):
         self.fids = [int(f) for f in frame_ids]
         F, nv = len(self.fids), model.nv
-        self.mask = np.zeros((F, 1, nv))
+        self.mask = np.zeros((F, nv))
         for k, fid in enumerate(self.fids):
-            j = model.frames[int(fid)].parentJoint
+            j = model.frames[fid].parentJoint
             while j > 0:
                 jm = model.joints[j]
-                self.mask[k, 0, jm.idx_v:jm.idx_v + jm.nv] = 1.0
+                self.mask[k, jm.idx_v:jm.idx_v + jm.nv] = 1.0
                 j = model.parents[j]
         self.H = np.zeros((F, 4, 4))
         self.P, self.R = self.H[:, :3, 3], self.H[:, :3, :3]
-        self.static = not self.mask.any()
+        self.Jv, self.Jw = np.zeros((F, 3, nv)), np.zeros((F, 3, nv))
+        self.V, self.W, self.A, self.Al = (np.zeros((F, 3)) for _ in range(4))
 
     def update(self, data, v):
-        """``data`` must hold placements, data.J and data.dJ for the current (q, v)."""
-        oMf = data.oMf
+        """``data`` must hold frame placements, data.J and data.dJ for the current (q, v)."""
+        oMf, H = data.oMf, self.H
         for k, fid in enumerate(self.fids):
-            self.H[k] = oMf[fid].homogeneous
-        P = self.P
-        Jm = self.mask * data.J                       # (F, 6, nv)
-        dJm = self.mask * data.dJ
-        Jo, self.Jw = Jm[:, :3], Jm[:, 3:]
-        self.Jv = Jo + np.cross(self.Jw, P[:, :, None], axisa=1, axisb=1, axisc=1)
-        S = Jm @ v                                     # spatial velocities (v_o; w)
-        dS = dJm @ v                                   # spatial bias accelerations (a_o; alpha)
-        self.W = S[:, 3:]
-        self.V = S[:, :3] + np.cross(self.W, P)
-        self.Al = dS[:, 3:]
-        self.A = dS[:, :3] + np.cross(self.Al, P) + np.cross(self.W, self.V)
+            H[k] = oMf[fid].homogeneous
+        frame_kinematics(H, self.mask, data.J, data.dJ, v, self.Jv, self.Jw, self.V, self.W, self.A, self.Al)
         return self
 
 

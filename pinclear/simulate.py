@@ -176,7 +176,10 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
     t_eval = np.asarray(t_eval, float)
 
     traj = Trajectory.empty(mech, form, integrator, rtol, atol, t_eval)
-    traj.stats["redundant_rows"] = redundant
+    mob = kinematics.mobility(mech, q, ws)
+    traj.stats.update(mobility=mob["mobility"], redundant_constraints=len(mob["redundant_rows"]),
+                      redundant_rows=mob["redundant_rows"], redundant_rows_with_drives=redundant,
+                      closure_condition=mob["condition"])
     stats = traj.stats
     events = [(fi, k, f, ev) for fi, f in enumerate(mech.forces) for k, ev in enumerate(getattr(f, "events", []))]
     out_i = 0
@@ -284,6 +287,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
     traj.status, traj.message = status, message
     traj.fill(samples, sysf)
     stats["cpu_s_total"] = time.process_time() - cpu0
+    if len(traj.t) > 1:
+        stats["cpu_per_sim_s"] = stats["cpu_s"] / (traj.t[-1] - t0)
     if status != "success":
         if strict:
             from .errors import IntegrationError

@@ -97,25 +97,58 @@ class Spline(TimeLaw):
         return {"type": self.kind, "t": self.t.tolist(), "y": self.y.tolist()}
 
 
+class _Shared:
+    """One evaluation per time of a vector-valued f(t, **args) -> (y, yd, ydd) arrays, shared by
+    the laws that take one component each (e.g. all limb lengths from one inverse kinematics)."""
+
+    _registry: dict = {}
+
+    def __init__(self, func, args):
+        self.func, self.args, self.t, self.val = func, args, None, None
+
+    @classmethod
+    def get(cls, func, args):
+        key = (func, repr(sorted(args.items())))
+        if key not in cls._registry:
+            cls._registry[key] = cls(func, args)
+        return cls._registry[key]
+
+    def __call__(self, t):
+        if t != self.t:
+            self.val = [np.asarray(x, float) for x in self.func(t, **self.args)]
+            self.t = t
+        return self.val
+
+
 class Callable(TimeLaw):
-    """Wraps f(t, **args) -> (y, yd, ydd)."""
+    """Wraps f(t, **args) -> (y, yd, ydd); with ``index``, f returns arrays and this law is
+    component ``index`` (f is then evaluated once per time for all components)."""
 
     kind = "python"
 
-    def __init__(self, func, args=None, name=None):
+    def __init__(self, func, args=None, name=None, index=None):
         self.func, self.args = func, dict(args or {})
         self.name = name or getattr(func, "__qualname__", repr(func))
+        self.index = index
+        self._shared = _Shared.get(func, self.args) if index is not None else None
 
     def eval(self, t):
+        if self._shared is not None:
+            y, yd, ydd = self._shared(t)
+            i = self.index
+            return float(y[i]), float(yd[i]), float(ydd[i])
         y, yd, ydd = self.func(t, **self.args)
         return float(y), float(yd), float(ydd)
 
     def describe(self):
-        return {"type": self.kind, "function": self.name, "args": self.args}
+        d = {"type": self.kind, "function": self.name, "args": self.args}
+        if self.index is not None:
+            d["index"] = self.index
+        return d
 
 
 LAW_TYPES = {"constant": ("value",), "sines": ("offset", "terms"), "polynomial": ("coeffs",),
-             "spline": ("t", "y", "bc_type"), "python": ("function", "args")}
+             "spline": ("t", "y", "bc_type"), "python": ("function", "args", "index")}
 
 
 def resolve_function(spec: str, file, key):
@@ -166,7 +199,10 @@ def build_law(spec, file="<python>", key="law") -> TimeLaw:
         if kind == "spline":
             return Spline(spec["t"], spec["y"], spec.get("bc_type", "not-a-knot"))
         func = resolve_function(spec.get("function"), file, f"{key}.function")
-        return Callable(func, spec.get("args"), name=spec.get("function"))
+        index = spec.get("index")
+        if index is not None and (not isinstance(index, int) or index < 0):
+            raise ModelFileError(file, f"{key}.index", f"expected a non-negative integer, got {index!r}")
+        return Callable(func, spec.get("args"), name=spec.get("function"), index=index)
     except KeyError as exc:
         raise ModelFileError(file, f"{key}.{exc.args[0]}", f"missing for a {kind} law") from None
     except (TypeError, ValueError) as exc:

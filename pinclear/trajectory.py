@@ -127,8 +127,8 @@ class Trajectory:
     def tracking_error(self) -> dict:
         """Drive coordinates vs their laws; platform pose vs its prescribed motion (if any)."""
         res = {}
-        if len(self.drive_error):
-            res["drives"] = float(np.max(self.drive_error)) if self.mech and self.mech.drives else None
+        if len(self.drive_error) and self.mech is not None and self.mech.drives:
+            res["drives"] = float(np.max(self.drive_error))
         mech = self.mech
         if mech is not None and mech.platform_frame is not None and mech.platform_motion is not None:
             ws = mech.workspace()

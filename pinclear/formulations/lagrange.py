@@ -8,12 +8,19 @@ import numpy as np
 from scipy.linalg import cho_solve
 
 from .. import kinematics
-from .base import Formulation
+from .._kernels import kkt_solve
+from .base import RANK_COND, Formulation
 
 
 class Lagrange(Formulation):
     name = "lagrange"
     options = {"alpha": 5.0, "beta": 5.0, "drop_redundant": True}
+
+    def __init__(self, mech, **options):
+        super().__init__(mech, **options)
+        nv, m = mech.nv, mech.m
+        self._buf = {"Lm": np.zeros((nv, nv)), "X": np.zeros((nv, 1 + m)), "S": np.zeros((m, m)),
+                     "Ls": np.zeros((m, m)), "a": np.zeros(nv), "lam": np.zeros(m)}
 
     def baumgarte(self):
         return (self.opts["alpha"], self.opts["beta"])
@@ -21,17 +28,13 @@ class Lagrange(Formulation):
     def accelerations(self, t, q, v, z):
         f = self.applied(t, q, v, z)
         ws, mech = self.ws, self.mech
-        if mech.m == 0:
-            a = cho_solve(self.mass_factor(), f, check_finite=False)
-            return a
         kinematics.constraint_rows(mech, ws, t, v, self.baumgarte())
-        rows = self.rows
-        J = ws.J if len(rows) == mech.m else ws.J[rows]
-        g = ws.gamma if len(rows) == mech.m else ws.gamma[rows]
-        c = self.mass_factor()
-        MiJt = cho_solve(c, J.T, check_finite=False)
-        a_free = cho_solve(c, f, check_finite=False)
-        lam = self.schur_solve(J @ MiJt, g - J @ a_free, t)
+        b = self._buf
+        ratio = kkt_solve(ws.data.M, f, ws.J, ws.gamma, self.rows, b["Lm"], b["X"], b["S"], b["Ls"], b["a"], b["lam"])
+        if ratio < 1.0 / RANK_COND:
+            J = ws.J[self.rows]
+            MiJt = cho_solve(self.mass_factor(), J.T, check_finite=False)
+            self.rank_loss(J @ MiJt, t)
         ws.lam[:] = 0.0
-        ws.lam[rows] = lam
-        return a_free + MiJt @ lam
+        ws.lam[self.rows] = b["lam"][: len(self.rows)]
+        return b["a"].copy()

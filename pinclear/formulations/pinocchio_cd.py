@@ -30,10 +30,8 @@ def rigid_constraints(mech, alpha=0.0, beta=0.0):
                                       pin.LOCAL)
         cm.name = c.name
         if alpha or beta:
-            bp = pin.BaumgarteCorrectorParameters(cm.size() if hasattr(cm, "size") else cm.residualSize())
-            bp.Kp[:] = beta * beta
-            bp.Kd[:] = 2.0 * alpha
-            cm.setBaumgarteCorrectorParameters(bp)
+            # same stabilisation law as lagrange: Kp = beta^2, Kd = 2 alpha
+            cm.setBaumgarteCorrectorParameters(pin.BaumgarteCorrectorParameters(beta * beta, 2.0 * alpha))
         models.append(cm)
     return models
 

@@ -30,12 +30,13 @@ class Projection(Lagrange):
             if np.linalg.norm(phi, np.inf) < self.opts["tol"]:
                 break
             J = ws.J[rows]
-            q = pin.integrate(mech.model, q, -J.T @ np.linalg.solve(J @ J.T, phi))
+            # minimum-norm Gauss-Newton step; lstsq keeps it defined at a rank loss
+            q = pin.integrate(mech.model, q, -np.linalg.lstsq(J, phi, rcond=1e-12)[0])
         ws.q_cur = q
         kinematics.update(mech, ws, q, v)
         kinematics.constraint_rows(mech, ws, t, v)
         J = ws.J[rows]
         c = self.mass_factor()
         MiJt = cho_solve(c, J.T, check_finite=False)
-        v = v - MiJt @ np.linalg.solve(J @ MiJt, ws.dphi[rows])
+        v = v - MiJt @ np.linalg.lstsq(J @ MiJt, ws.dphi[rows], rcond=1e-12)[0]
         return q, v

@@ -10,11 +10,19 @@ from scipy.linalg import cho_factor, cho_solve
 
 from .. import kinematics
 from .base import Formulation
+from .projection import Projection
 
 
 class Proximal(Formulation):
     name = "proximal"
-    options = {"alpha": 5.0, "beta": 5.0, "rho": 1e-8, "max_iter": 30, "tol": 1e-12}
+    options = {"alpha": 5.0, "beta": 5.0, "rho": 1e-12, "max_iter": 30, "tol": 1e-12, "project": True}
+
+    @property
+    def supports_projection(self):
+        return bool(self.opts["project"])
+
+    def project(self, t, q, v):
+        return Projection.project(self, t, q, v)
 
     def accelerations(self, t, q, v, z):
         f = self.applied(t, q, v, z)

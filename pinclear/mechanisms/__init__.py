@@ -1,0 +1,1 @@
+"""Per-mechanism Python: URDF generators, parameter tables, inverse kinematics, motion laws."""
