@@ -153,12 +153,12 @@ def closure_rows(table, E, L, H, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi):
 
 
 @njit(cache=True)
-def _chol_upper(M, L):
-    """L L^T = M reading M's upper triangle (what crba fills). Returns min/max pivot ratio."""
-    n = M.shape[0]
+def _chol_dense(S, L):
+    """Dense Cholesky S = L L^T (lower). Returns the smallest/largest pivot ratio (0 if not PD)."""
+    n = S.shape[0]
     pmin, pmax = np.inf, 0.0
     for j in range(n):
-        s = M[j, j]
+        s = S[j, j]
         for k in range(j):
             s -= L[j, k] * L[j, k]
         if s <= 0.0:
@@ -167,7 +167,7 @@ def _chol_upper(M, L):
         L[j, j] = d
         pmin, pmax = min(pmin, s), max(pmax, s)
         for i in range(j + 1, n):
-            s2 = M[j, i]          # upper triangle
+            s2 = S[i, j]
             for k in range(j):
                 s2 -= L[i, k] * L[j, k]
             L[i, j] = s2 / d
@@ -175,65 +175,138 @@ def _chol_upper(M, L):
 
 
 @njit(cache=True)
-def _chol_solve(L, B):
-    """Solve L L^T X = B in place (B: (n,) or (n, m) as 2-D)."""
-    n = L.shape[0]
-    m = B.shape[1]
-    for c in range(m):
-        for i in range(n):
-            s = B[i, c]
-            for k in range(i):
-                s -= L[i, k] * B[k, c]
-            B[i, c] = s / L[i, i]
-        for i in range(n - 1, -1, -1):
-            s = B[i, c]
-            for k in range(i + 1, n):
-                s -= L[k, i] * B[k, c]
-            B[i, c] = s / L[i, i]
+def ltl_factor(M, parent, L):
+    """Featherstone's LTL factorisation M = L^T L of a joint-space inertia matrix, with no fill-in
+    outside the tree's ancestor pattern (RBDA, sec. 6.5). ``parent`` is Pinocchio's
+    data.parents_fromRow (parent dof, -1 at a root); M's upper triangle is read (crba fills it).
+    L[k, i] is non-zero only for i an ancestor dof of k. Returns False if M is not PD."""
+    n = M.shape[0]
+    for k in range(n):
+        L[k, k] = M[k, k]
+        i = parent[k]
+        while i >= 0:
+            L[k, i] = M[i, k]
+            i = parent[i]
+    for k in range(n - 1, -1, -1):
+        if L[k, k] <= 0.0:
+            return False
+        d = np.sqrt(L[k, k])
+        L[k, k] = d
+        i = parent[k]
+        while i >= 0:
+            L[k, i] /= d
+            i = parent[i]
+        i = parent[k]
+        while i >= 0:
+            j = i
+            while j >= 0:
+                L[i, j] -= L[k, i] * L[k, j]
+                j = parent[j]
+            i = parent[i]
+    return True
 
 
 @njit(cache=True)
-def kkt_solve(M, f, J, gamma, rows, Lm, X, S, Ls, a, lam):
-    """Schur-complement solve of  M a - J^T lam = f,  J a = gamma  over the selected rows.
+def ltl_solve_t(L, parent, b):
+    """In place b <- L^-T b (back substitution along the tree, leaves first)."""
+    for k in range(L.shape[0] - 1, -1, -1):
+        b[k] /= L[k, k]
+        yk = b[k]
+        i = parent[k]
+        while i >= 0:
+            b[i] -= L[k, i] * yk
+            i = parent[i]
 
-    Work arrays: Lm (nv, nv), X (nv, 1 + m), S, Ls (m, m). Returns the smallest/largest pivot
-    ratio of S's Cholesky (0 when S is not positive definite): the caller's rank test."""
+
+@njit(cache=True)
+def ltl_solve(L, parent, y):
+    """In place y <- L^-1 y (forward substitution, roots first)."""
+    for k in range(L.shape[0]):
+        s = y[k]
+        i = parent[k]
+        while i >= 0:
+            s -= L[k, i] * y[i]
+            i = parent[i]
+        y[k] = s / L[k, k]
+
+
+@njit(cache=True)
+def kkt_solve(M, parent, f, J, gamma, rows, Lm, Y, S, Ls, a, lam):
+    """Solve  M a - J^T lam = f,  J a = gamma  over the selected rows by the Schur complement,
+    with M = L^T L (tree-sparse):  Y = L^-T J^T,  S = Y^T Y,  y_f = L^-T f,
+    lam = S^-1 (gamma - Y^T y_f),  a = L^-1 (y_f + Y lam).
+
+    Work arrays: Lm (nv, nv), Y (m, nv) holding Y^T row-wise, S, Ls (m, m). Returns the
+    smallest/largest pivot ratio of S's Cholesky (0 when S is singular: the caller's rank test;
+    -1 when M is not positive definite)."""
     nv = M.shape[0]
     m = rows.shape[0]
-    if _chol_upper(M, Lm) == 0.0:
+    if not ltl_factor(M, parent, Lm):
         return -1.0
-    # X = M^-1 [f, J^T]
     for i in range(nv):
-        X[i, 0] = f[i]
-        for c in range(m):
-            X[i, 1 + c] = J[rows[c], i]
-    _chol_solve(Lm, X[:, : 1 + m])
-    for i in range(nv):
-        a[i] = X[i, 0]
+        a[i] = f[i]
+    ltl_solve_t(Lm, parent, a)                 # a = y_f
     if m == 0:
+        ltl_solve(Lm, parent, a)
         return 1.0
-    # S = J M^-1 J^T (upper), r = gamma - J a_free
     for r in range(m):
-        for c in range(r, m):
+        for k in range(nv):
+            Y[r, k] = J[rows[r], k]
+        ltl_solve_t(Lm, parent, Y[r])
+    for r in range(m):
+        for c in range(r + 1):
             s = 0.0
             for k in range(nv):
-                s += J[rows[r], k] * X[k, 1 + c]
+                s += Y[r, k] * Y[c, k]
             S[r, c] = s
-    ratio = _chol_upper(S[:m, :m], Ls[:m, :m])
+            S[c, r] = s
+    ratio = _chol_dense(S[:m, :m], Ls[:m, :m])
     if ratio == 0.0:
         return 0.0
-    R = np.empty((m, 1))
+    # lam = S^-1 (gamma - Y^T y_f) by two triangular solves with Ls
     for r in range(m):
         s = gamma[rows[r]]
         for k in range(nv):
-            s -= J[rows[r], k] * a[k]
-        R[r, 0] = s
-    _chol_solve(Ls[:m, :m], R)
+            s -= Y[r, k] * a[k]
+        for c in range(r):
+            s -= Ls[r, c] * lam[c]
+        lam[r] = s / Ls[r, r]
+    for r in range(m - 1, -1, -1):
+        s = lam[r]
+        for c in range(r + 1, m):
+            s -= Ls[c, r] * lam[c]
+        lam[r] = s / Ls[r, r]
     for r in range(m):
-        lam[r] = R[r, 0]
-    for i in range(nv):
-        s = a[i]
-        for c in range(m):
-            s += X[i, 1 + c] * R[c, 0]
-        a[i] = s
+        lr = lam[r]
+        for k in range(nv):
+            a[k] += Y[r, k] * lr
+    ltl_solve(Lm, parent, a)
     return ratio
+
+
+@njit(cache=True)
+def constraint_rows_all(H, mask, J, dJ, v, table, E, L, q, iq, iv, fdrv, alpha, beta,
+                        Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma):
+    """Frame kinematics, closure rows, drive rows (q[iq] - f(t)) and the Baumgarte-stabilised
+    right-hand side gamma = -bias - 2 alpha dPhi - beta^2 Phi, in one call."""
+    frame_kinematics(H, mask, J, dJ, v, Jv, Jw, V, W, A, Al)
+    closure_rows(table, E, L, H, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi)
+    mc = phi.shape[0] - iq.shape[0]
+    for k in range(iq.shape[0]):
+        r = mc + k
+        phi[r] = q[iq[k]] - fdrv[0, k]
+        dphi[r] = v[iv[k]] - fdrv[1, k]
+        bias[r] = -fdrv[2, k]
+    for r in range(phi.shape[0]):
+        gamma[r] = -bias[r] - 2.0 * alpha * dphi[r] - beta * beta * phi[r]
+
+
+@njit(cache=True)
+def lagrange_accel(H, mask, J, dJ, v, table, E, L, q, iq, iv, fdrv, alpha, beta,
+                   Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma,
+                   M, parent, tau, nle, rows, Lm, Y, S, Ls, a, lam):
+    """Constraint rows + KKT solve of M a - J^T lam = tau - nle, J a = gamma (one call)."""
+    constraint_rows_all(H, mask, J, dJ, v, table, E, L, q, iq, iv, fdrv, alpha, beta,
+                        Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma)
+    f = tau - nle
+    return kkt_solve(M, parent, f, Jc, gamma, rows, Lm, Y, S, Ls, a, lam)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._kernels import frame_kinematics
+from ._kernels import constraint_rows_all, frame_kinematics
 import pinocchio as pin
 
 from .errors import AssemblyError
@@ -37,12 +37,16 @@ class FrameKinematics:
         self.Jv, self.Jw = np.zeros((F, 3, nv)), np.zeros((F, 3, nv))
         self.V, self.W, self.A, self.Al = (np.zeros((F, 3)) for _ in range(4))
 
-    def update(self, data, v):
-        """``data`` must hold frame placements, data.J and data.dJ for the current (q, v)."""
+    def load_placements(self, data):
+        """Copy the frames' placements out of data.oMf (the only per-frame Python loop)."""
         oMf, H = data.oMf, self.H
         for k, fid in enumerate(self.fids):
             H[k] = oMf[fid].homogeneous
-        frame_kinematics(H, self.mask, data.J, data.dJ, v, self.Jv, self.Jw, self.V, self.W, self.A, self.Al)
+
+    def update(self, data, v):
+        """Standalone use: ``data`` must hold frame placements, data.J and data.dJ at (q, v)."""
+        self.load_placements(data)
+        frame_kinematics(self.H, self.mask, data.J, data.dJ, v, self.Jv, self.Jw, self.V, self.W, self.A, self.Al)
         return self
 
 
@@ -55,7 +59,7 @@ def update(mech, ws, q, v):
     pin.updateFramePlacements(model, data)
     pin.crba(model, data, q)
     pin.nonLinearEffects(model, data, q, v)
-    ws.fk.update(data, v)
+    ws.fk.load_placements(data)
 
 
 def update_positions(mech, ws, q):
@@ -64,29 +68,24 @@ def update_positions(mech, ws, q):
     zero = ws.zero_v
     pin.computeJointJacobiansTimeVariation(model, data, q, zero)
     pin.updateFramePlacements(model, data)
-    ws.fk.update(data, zero)
+    ws.fk.load_placements(data)
 
 
 def constraint_rows(mech, ws, t, v, baumgarte=None):
-    """Fill ws.phi, ws.J, ws.gamma (closures then drives) after :func:`update`.
+    """Fill ws.phi, ws.J, ws.dphi, ws.bias, ws.gamma (closures then drives) after :func:`update`.
 
     gamma is the right-hand side of J a = gamma; with ``baumgarte=(alpha, beta)`` it includes
-    -2 alpha dPhi - beta^2 Phi (the papers' stabilisation).
-    """
-    mc = mech.compiled
-    m = mc.m
-    phi, J, bias, dphi = ws.phi, ws.J, ws.bias, ws.dphi
-    mc.evaluate(ws.fk, phi[:m], J[:m], bias[:m], dphi[:m])
-    if mech.drives:
-        dr = mech.drive_rows(t, ws.q_cur, v)   # (phi, dphi, ddf)
-        phi[m:], dphi[m:], bias[m:] = dr[0], dr[1], -dr[2]
-    np.negative(bias, out=ws.gamma)
-    if baumgarte is not None:
-        alpha, beta = baumgarte
-        if alpha:
-            ws.gamma -= (2.0 * alpha) * dphi
-        if beta:
-            ws.gamma -= (beta * beta) * phi
+    -2 alpha dPhi - beta^2 Phi (the papers' stabilisation)."""
+    alpha, beta = baumgarte if baumgarte is not None else (0.0, 0.0)
+    constraint_rows_all(*kernel_args(mech, ws, t, v, alpha, beta))
+
+
+def kernel_args(mech, ws, t, v, alpha, beta):
+    """Arguments of the compiled constraint-row kernels (see pinclear._kernels)."""
+    fk, mc, dr, data = ws.fk, mech.compiled, mech.driverows, ws.data
+    return (fk.H, fk.mask, data.J, data.dJ, v, mc.table, mc.E, mc.L, ws.q_cur, dr.iq, dr.iv,
+            dr.values(t), float(alpha), float(beta), fk.Jv, fk.Jw, fk.V, fk.W, fk.A, fk.Al,
+            ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma)
 
 
 def closure_residual(mech, ws, q, t=0.0, with_drives=False):

@@ -137,6 +137,7 @@ class Workspace:
     def __init__(self, mech: Mechanism):
         nv, m = mech.nv, mech.m
         self.data = mech.model.createData()
+        self.parent = np.array(self.data.parents_fromRow, dtype=np.int64)   # parent dof, -1 at roots
         self.fk = FrameKinematics(mech.model, mech.compiled.frames)
         self.phi = np.zeros(m)
         self.dphi = np.zeros(m)

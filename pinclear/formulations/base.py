@@ -30,7 +30,7 @@ class Formulation:
 
     # -------------------------------------------------------------- shared pieces
     def applied(self, t, q, v, z):
-        """Kinematics pass and f = tau_applied - nle; fills ws.zdot for internal states."""
+        """Kinematics pass and applied forces into ws.tau; fills ws.zdot for internal states."""
         mech, ws = self.mech, self.ws
         ws.q_cur = q
         ws.nfev += 1
@@ -39,7 +39,6 @@ class Formulation:
         tau[:] = 0.0
         for f, sl in zip(mech.forces, mech.z_slices):
             f.add_force(mech, ws, t, q, v, z[sl], tau, ws.zdot[sl])
-        return tau - ws.data.nle
 
     def mass_factor(self):
         """Cholesky of M (upper triangle of data.M is what crba fills)."""

@@ -8,7 +8,7 @@ import numpy as np
 from scipy.linalg import cho_solve
 
 from .. import kinematics
-from .._kernels import kkt_solve
+from .._kernels import lagrange_accel
 from .base import RANK_COND, Formulation
 
 
@@ -19,18 +19,19 @@ class Lagrange(Formulation):
     def __init__(self, mech, **options):
         super().__init__(mech, **options)
         nv, m = mech.nv, mech.m
-        self._buf = {"Lm": np.zeros((nv, nv)), "X": np.zeros((nv, 1 + m)), "S": np.zeros((m, m)),
+        self._buf = {"Lm": np.zeros((nv, nv)), "Y": np.zeros((m, nv)), "S": np.zeros((m, m)),
                      "Ls": np.zeros((m, m)), "a": np.zeros(nv), "lam": np.zeros(m)}
 
     def baumgarte(self):
         return (self.opts["alpha"], self.opts["beta"])
 
     def accelerations(self, t, q, v, z):
-        f = self.applied(t, q, v, z)
+        self.applied(t, q, v, z)
         ws, mech = self.ws, self.mech
-        kinematics.constraint_rows(mech, ws, t, v, self.baumgarte())
         b = self._buf
-        ratio = kkt_solve(ws.data.M, f, ws.J, ws.gamma, self.rows, b["Lm"], b["X"], b["S"], b["Ls"], b["a"], b["lam"])
+        ratio = lagrange_accel(*kinematics.kernel_args(mech, ws, t, v, *self.baumgarte()),
+                               ws.data.M, ws.parent, ws.tau, ws.data.nle, self.rows, b["Lm"], b["Y"], b["S"], b["Ls"],
+                               b["a"], b["lam"])
         if ratio < 1.0 / RANK_COND:
             J = ws.J[self.rows]
             MiJt = cho_solve(self.mass_factor(), J.T, check_finite=False)

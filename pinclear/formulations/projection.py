@@ -17,7 +17,7 @@ class Projection(Lagrange):
     supports_projection = True
 
     def baumgarte(self):
-        return None
+        return (0.0, 0.0)
 
     def project(self, t, q, v):
         mech, ws = self.mech, self.ws

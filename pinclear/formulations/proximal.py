@@ -25,7 +25,8 @@ class Proximal(Formulation):
         return Projection.project(self, t, q, v)
 
     def accelerations(self, t, q, v, z):
-        f = self.applied(t, q, v, z)
+        self.applied(t, q, v, z)
+        f = self.ws.tau - self.ws.data.nle
         ws, mech = self.ws, self.mech
         c = self.mass_factor()
         a_free = cho_solve(c, f, check_finite=False)
