@@ -285,8 +285,8 @@ def kkt_solve(M, parent, f, J, gamma, rows, Lm, Y, S, Ls, a, lam):
 
 
 @njit(cache=True)
-def constraint_rows_all(H, mask, J, dJ, v, table, E, L, q, iq, iv, fdrv, alpha, beta,
-                        Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma):
+def constraint_rows_all(H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma,
+                        alpha, beta, q, v, fdrv):
     """Frame kinematics, closure rows, drive rows (q[iq] - f(t)) and the Baumgarte-stabilised
     right-hand side gamma = -bias - 2 alpha dPhi - beta^2 Phi, in one call."""
     frame_kinematics(H, mask, J, dJ, v, Jv, Jw, V, W, A, Al)
@@ -302,11 +302,11 @@ def constraint_rows_all(H, mask, J, dJ, v, table, E, L, q, iq, iv, fdrv, alpha, 
 
 
 @njit(cache=True)
-def lagrange_accel(H, mask, J, dJ, v, table, E, L, q, iq, iv, fdrv, alpha, beta,
-                   Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma,
-                   M, parent, tau, nle, rows, Lm, Y, S, Ls, a, lam):
-    """Constraint rows + KKT solve of M a - J^T lam = tau - nle, J a = gamma (one call)."""
-    constraint_rows_all(H, mask, J, dJ, v, table, E, L, q, iq, iv, fdrv, alpha, beta,
-                        Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma)
+def lagrange_accel(H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma,
+                   alpha, beta, M, parent, tau, nle, rows, Lm, Y, S, Ls, a, lam, q, v, fdrv):
+    """Constraint rows + KKT solve of M a - J^T lam = tau - nle, J a = gamma (one call).
+    Arguments: the static buffers first (bound once per formulation), then q, v, f(t)."""
+    constraint_rows_all(H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma,
+                        alpha, beta, q, v, fdrv)
     f = tau - nle
     return kkt_solve(M, parent, f, Jc, gamma, rows, Lm, Y, S, Ls, a, lam)

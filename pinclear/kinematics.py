@@ -77,15 +77,15 @@ def constraint_rows(mech, ws, t, v, baumgarte=None):
     gamma is the right-hand side of J a = gamma; with ``baumgarte=(alpha, beta)`` it includes
     -2 alpha dPhi - beta^2 Phi (the papers' stabilisation)."""
     alpha, beta = baumgarte if baumgarte is not None else (0.0, 0.0)
-    constraint_rows_all(*kernel_args(mech, ws, t, v, alpha, beta))
+    constraint_rows_all(*static_args(mech, ws), float(alpha), float(beta), ws.q_cur, v, mech.driverows.values(t))
 
 
-def kernel_args(mech, ws, t, v, alpha, beta):
-    """Arguments of the compiled constraint-row kernels (see pinclear._kernels)."""
+def static_args(mech, ws):
+    """The buffers the compiled constraint kernels read and write (see pinclear._kernels); all
+    are views that stay valid for the workspace's life (data.J etc. view Pinocchio's memory)."""
     fk, mc, dr, data = ws.fk, mech.compiled, mech.driverows, ws.data
-    return (fk.H, fk.mask, data.J, data.dJ, v, mc.table, mc.E, mc.L, ws.q_cur, dr.iq, dr.iv,
-            dr.values(t), float(alpha), float(beta), fk.Jv, fk.Jw, fk.V, fk.W, fk.A, fk.Al,
-            ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma)
+    return (fk.H, fk.mask, data.J, data.dJ, mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv, fk.Jw, fk.V, fk.W,
+            fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma)
 
 
 def closure_residual(mech, ws, q, t=0.0, with_drives=False):

@@ -21,6 +21,7 @@ class Lagrange(Formulation):
         nv, m = mech.nv, mech.m
         self._buf = {"Lm": np.zeros((nv, nv)), "Y": np.zeros((m, nv)), "S": np.zeros((m, m)),
                      "Ls": np.zeros((m, m)), "a": np.zeros(nv), "lam": np.zeros(m)}
+        self._args = None       # kernel arguments, bound once (rows may be reset by the simulator)
 
     def baumgarte(self):
         return (self.opts["alpha"], self.opts["beta"])
@@ -28,10 +29,14 @@ class Lagrange(Formulation):
     def accelerations(self, t, q, v, z):
         self.applied(t, q, v, z)
         ws, mech = self.ws, self.mech
+        if self._args is None or self._args[-8] is not self.rows:
+            b = self._buf
+            al, be = self.baumgarte()
+            self._args = kinematics.static_args(mech, ws) + (
+                float(al), float(be), ws.data.M, ws.parent, ws.tau, ws.data.nle, self.rows,
+                b["Lm"], b["Y"], b["S"], b["Ls"], b["a"], b["lam"])
+        ratio = lagrange_accel(*self._args, q, v, mech.driverows.values(t))
         b = self._buf
-        ratio = lagrange_accel(*kinematics.kernel_args(mech, ws, t, v, *self.baumgarte()),
-                               ws.data.M, ws.parent, ws.tau, ws.data.nle, self.rows, b["Lm"], b["Y"], b["S"], b["Ls"],
-                               b["a"], b["lam"])
         if ratio < 1.0 / RANK_COND:
             J = ws.J[self.rows]
             MiJt = cho_solve(self.mass_factor(), J.T, check_finite=False)
