@@ -170,7 +170,7 @@ def assemble(mech, q_guess=None, t=0.0, tol=1e-12, max_iter=100, with_drives=Tru
     worst = int(np.argmax(np.abs(ws.phi[:m])))
     names = mech.row_names(with_drives)
     raise AssemblyError(
-        f"{mech.name}: loop closures cannot be assembled from the given guess: residual "
+        f"{mech.path or mech.name}: loop closures cannot be assembled from the given guess: residual "
         f"{res:.3e} after {max_iter} iterations (worst row {names[worst]!r}); check the geometry "
         "or give a better initial guess under 'initial: q:'", residual=res, q=q)
 

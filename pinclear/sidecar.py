@@ -94,6 +94,36 @@ def _joint(model, name, file, key, one_dof=False):
     return jm
 
 
+def _build_model(urdf):
+    """pin.Model from a URDF; malformed XML is reported here, and urdfdom's own stderr chatter
+    is captured into the error message instead of reaching the user's terminal."""
+    import os
+    import tempfile
+    import xml.etree.ElementTree as ET
+
+    try:
+        ET.parse(str(urdf))
+    except ET.ParseError as exc:
+        raise ModelFileError(str(urdf), "urdf", f"malformed XML: {exc}") from None
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        saved = os.dup(2)
+        os.dup2(tmp.fileno(), 2)
+        try:
+            model = pin.buildModelFromUrdf(str(urdf))
+            err = None
+        except (RuntimeError, ValueError) as exc:
+            model, err = None, str(exc).strip()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        tmp.seek(0)
+        chatter = tmp.read().decode(errors="replace").strip()
+    if model is None:
+        detail = f"{err}; {chatter}" if chatter else err
+        raise ModelFileError(str(urdf), "urdf", f"Pinocchio cannot parse it: {' '.join(detail.split())}")
+    return model
+
+
 def _parse_value(text):
     return yaml.safe_load(text) if isinstance(text, str) else text
 
@@ -123,10 +153,7 @@ def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
     urdf = (path.parent / sc["urdf"]).resolve()
     if not urdf.exists():
         raise ModelFileError(file, "urdf", f"URDF file {str(urdf)!r} does not exist")
-    try:
-        model = pin.buildModelFromUrdf(str(urdf))
-    except (RuntimeError, ValueError) as exc:
-        raise ModelFileError(str(urdf), "urdf", f"Pinocchio cannot parse it: {str(exc).strip()}") from None
+    model = _build_model(urdf)
     name = sc.get("name", path.stem)
 
     # ---- scene options and overrides

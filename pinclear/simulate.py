@@ -126,7 +126,8 @@ def _check_inputs(t_end, t0, rtol, atol, integrator, h, max_step, t_eval, dt_out
         raise InputError(f"dt_out must be positive, got {dt_out!r}")
     if t_eval is not None:
         te = np.asarray(t_eval, float)
-        if te.ndim != 1 or np.any(np.diff(te) < 0) or te[0] < t0 or te[-1] > t_end:
+        slack = 1e-12 * max(1.0, abs(t_end))
+        if te.ndim != 1 or np.any(np.diff(te) < 0) or te[0] < t0 - slack or te[-1] > t_end + slack:
             raise InputError("t_eval must be increasing and inside [t0, t_end]")
 
 
@@ -183,7 +184,15 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
     stats = traj.stats
     events = [(fi, k, f, ev) for fi, f in enumerate(mech.forces) for k, ev in enumerate(getattr(f, "events", []))]
     out_i = 0
-    samples = []            # (t, x) pairs recorded at output times
+    samples = []            # (t, x, chart anchor) recorded at output times
+
+    def _sample(ts, xs):
+        """An output sample; projection formulations put it on the manifold like the steps."""
+        if form.supports_projection:
+            qs, vs, zs = sysf.split(xs)
+            qs, vs = form.project(ts, qs, vs)
+            xs = np.concatenate([qs if mech.euclidean else pin.difference(mech.model, sysf.anchor, qs), vs, zs])
+        return ts, xs, None if mech.euclidean else sysf.anchor.copy()
 
     def make_solver(t_start, x_start, step_hint=None):
         kw = {}
@@ -200,7 +209,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
     try:
         solver = make_solver(t0, x)
         while out_i < len(t_eval) and t_eval[out_i] <= t0 + 1e-15:
-            samples.append((t_eval[out_i], x.copy()))
+            samples.append(_sample(t_eval[out_i], x.copy()))
             out_i += 1
         ev_prev = [_event_value(sysf, mech, f, k, t0, x) for _, k, f, _ in events]
         while solver.status == "running":
@@ -215,6 +224,17 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
                 break
             stats["steps"] += 1
             t_new = solver.t
+            if getattr(form, "ratio_ref", None) and form.ratio_min < SINGULAR_DIP * form.ratio_ref:
+                dense_s = solver.dense_output()
+                try:
+                    _locate_singular_passage(form, sysf, dense_s, t_old, t_new)
+                except RankLossError as exc:       # keep the samples before the singular time
+                    while out_i < len(t_eval) and t_eval[out_i] < exc.t:
+                        samples.append(_sample(t_eval[out_i], dense_s(t_eval[out_i])))
+                        out_i += 1
+                    raise
+            if hasattr(form, "ratio_min"):
+                form.ratio_min = np.inf
             if not np.all(np.isfinite(solver.y)):
                 status, message = "failed", f"non-finite state at t = {t_new:.9g} s"
                 break
@@ -235,7 +255,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
                     ev_prev[idx] = g1
             t_stop = hit[0] if hit else t_new
             while out_i < len(t_eval) and t_eval[out_i] <= t_stop:
-                samples.append((t_eval[out_i], dense(t_eval[out_i])))
+                samples.append(_sample(t_eval[out_i], dense(t_eval[out_i])))
                 out_i += 1
             restart, step_hint = False, solver.step_size
             if hit:
@@ -297,6 +317,25 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
         warnings.warn(f"pinclear.simulate: {message} ({len(samples)} of {len(t_eval)} samples kept)",
                       RuntimeWarning, stacklevel=2)
     return traj
+
+
+#: a step whose Schur-complement pivot ratio dips below this fraction of its initial value may
+#: have stepped over a singular configuration: the minimum inside the step is then located
+SINGULAR_DIP = 1e-3
+
+
+def _locate_singular_passage(form, sysf, dense, t_old, t_new):
+    """Minimise the pivot ratio along the step's dense output; a rank loss there raises
+    RankLossError at its time, instead of letting the step jump branches silently."""
+    from scipy.optimize import minimize_scalar
+
+    def ratio(s):
+        q, v, z = sysf.split(dense(s))
+        form.ratio_min = np.inf
+        form.accelerations(s, q, v, z)         # raises RankLossError below the rank threshold
+        return form.ratio_min
+
+    minimize_scalar(ratio, bounds=(t_old, t_new), method="bounded", options={"xatol": 1e-13 * max(1.0, t_new)})
 
 
 def _last_t(samples, t0):

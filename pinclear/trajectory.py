@@ -79,7 +79,9 @@ class Trajectory:
         E = {k: np.zeros(n) for k in ("kinetic", "potential", "spring", "dissipated_power")}
         outs: dict[str, list] = {}
         model = mech.model
-        for i, (t, x) in enumerate(samples):
+        for i, (t, x, anchor) in enumerate(samples):
+            if anchor is not None:
+                sysf.anchor = anchor
             q, v, z = sysf.split(x)
             self.q[i], self.v[i], self.z[i] = q, v, z
             try:

@@ -22,6 +22,8 @@ class Lagrange(Formulation):
         self._buf = {"Lm": np.zeros((nv, nv)), "Y": np.zeros((m, nv)), "S": np.zeros((m, m)),
                      "Ls": np.zeros((m, m)), "a": np.zeros(nv), "lam": np.zeros(m)}
         self._args = None       # kernel arguments, bound once (rows may be reset by the simulator)
+        self.ratio_min = np.inf  # smallest pivot ratio of S since the simulator last reset it
+        self.ratio_ref = None    # pivot ratio at the first evaluation (scale of the monitor)
 
     def baumgarte(self):
         return (self.opts["alpha"], self.opts["beta"])
@@ -37,6 +39,9 @@ class Lagrange(Formulation):
                 b["Lm"], b["Y"], b["S"], b["Ls"], b["a"], b["lam"])
         ratio = lagrange_accel(*self._args, q, v, mech.driverows.values(t))
         b = self._buf
+        if self.ratio_ref is None and ratio > 0:
+            self.ratio_ref = ratio
+        self.ratio_min = min(self.ratio_min, ratio)
         if ratio < 1.0 / RANK_COND:
             J = ws.J[self.rows]
             MiJt = cho_solve(self.mass_factor(), J.T, check_finite=False)

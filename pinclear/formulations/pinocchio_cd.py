@@ -92,11 +92,17 @@ class PinocchioCD(Formulation):
             a = self._cd(q, v, tau).copy()
         else:
             a = a0
-        # pin stores the constraint forces in the constraint frames; report world-aligned rows
-        # only through the Lagrange formulations; here keep Pinocchio's raw values
-        lf = np.asarray(self.data.lambda_c).ravel() if hasattr(self.data, "lambda_c") else None
-        if lf is not None and len(lf) == mc:
-            ws.lam[:mc] = lf
+        # Pinocchio gives each constraint's force in its own frame (joint1 placement, LOCAL);
+        # rotate to world axes so multipliers compare across formulations
+        lf = np.asarray(self.data.lambda_c).ravel()
+        r = 0
+        for cm in self.cmodels:
+            n = cm.residualSize()
+            R = (self.data.oMi[cm.joint1_id] * cm.joint1_placement).rotation
+            ws.lam[r:r + 3] = R @ lf[r:r + 3]
+            if n == 6:
+                ws.lam[r + 3:r + 6] = R @ lf[r + 3:r + 6]
+            r += n
         return a
 
     def _not_converged(self, t):

@@ -1,0 +1,67 @@
+"""Shared fixtures of the core test suite (tests/test_core_*.py)."""
+from __future__ import annotations
+
+import importlib.metadata
+import warnings
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+URDF_DIR = ROOT / "urdf"
+DATA = Path(__file__).resolve().parent / "data"
+
+
+def _double_pendulum_urdf() -> Path | None:
+    """example-robot-data ships its URDFs as package data; find them through the installed
+    distribution's file list rather than a hard-coded site-packages path."""
+    try:
+        files = importlib.metadata.files("example-robot-data") or []
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    for f in files:
+        if str(f).endswith("double_pendulum_description/urdf/double_pendulum.urdf"):
+            return Path(f.locate())
+    return None
+
+
+@pytest.fixture(scope="session")
+def double_pendulum_urdf():
+    p = _double_pendulum_urdf()
+    if p is None or not p.exists():
+        pytest.skip("example-robot-data's double_pendulum.urdf is not installed")
+    return p
+
+
+@pytest.fixture(scope="session")
+def four_bar():
+    import pinclear
+
+    return pinclear.load(URDF_DIR / "four_bar.yaml")
+
+
+@pytest.fixture(scope="session")
+def four_bar_revolute():
+    import pinclear
+
+    return pinclear.load(URDF_DIR / "four_bar_revolute.yaml")
+
+
+@pytest.fixture(scope="session")
+def parallelogram():
+    import pinclear
+
+    return pinclear.load(URDF_DIR / "parallelogram.yaml")
+
+
+@pytest.fixture(scope="session")
+def sim():
+    """pinclear.simulate without the RuntimeWarning a failed run emits (the tests assert status)."""
+    import pinclear
+
+    def run(mech, t_end, **kw):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            return pinclear.simulate(mech, t_end, **kw)
+
+    return run
