@@ -124,6 +124,18 @@ def _build_model(urdf):
     return model
 
 
+def _substitute(obj, opts, file, key):
+    if isinstance(obj, dict):
+        return {k: _substitute(v, opts, file, f"{key}.{k}") for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_substitute(v, opts, file, f"{key}[{i}]") for i, v in enumerate(obj)]
+    if isinstance(obj, str) and obj.startswith("$"):
+        if obj[1:] not in opts:
+            raise ModelFileError(file, key, f"{obj!r} names no scene option", choices=[f"${o}" for o in opts])
+        return opts[obj[1:]]
+    return obj
+
+
 def _parse_value(text):
     return yaml.safe_load(text) if isinstance(text, str) else text
 
@@ -193,6 +205,11 @@ def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
             raise ModelFileError(file, f"options.{k}", f"invalid value {val!r}", choices=choices)
     if "hook" in sc:
         resolve_function(sc["hook"], file, "hook")(model, opts)
+    # "$name" anywhere in drives, forces and platform stands for the scene option's value, so one
+    # sidecar serves every variant (e.g. a drive law's args: {law: $law})
+    for key in ("drives", "forces", "platform"):
+        if key in sc:
+            sc[key] = _substitute(sc[key], opts, file, key)
 
     # ---- gravity
     model.gravity.linear = _vec3(sc.get("gravity", [0.0, 0.0, -9.81]), file, "gravity")
