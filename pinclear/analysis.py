@@ -31,9 +31,16 @@ Poincaré sections are taken at t = t0 + k T + phase. Simulating with ``t_eval``
 :func:`section_times` puts output samples exactly on the section, so no interpolation error
 enters (the samples are the integrator's own dense output); otherwise samples are interpolated
 with cubic Hermite polynomials (using the signal's rate) and flagged ``interpolated``.
+
+:func:`bifurcation` runs one simulation per parameter value in worker processes, keeps every
+failure as a result, and classifies each value; :func:`plot_phase_portrait`,
+:func:`plot_poincare` and :func:`plot_bifurcation` draw on matplotlib Figures (no pyplot,
+no GUI backend) and return the arrays they drew. Command line (:func:`cli_main`):
+``python -m pinclear.analysis bifurcation|poincare ...``.
 """
 from __future__ import annotations
 
+import json
 import math
 import os
 import pickle
@@ -42,12 +49,14 @@ import sys
 import tempfile
 import time
 import warnings
-from concurrent.futures import Executor, ProcessPoolExecutor
+import weakref
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
+import yaml
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
 from .errors import InputError, ModelFileError
@@ -83,8 +92,27 @@ def _spline_rate(t, x):
     return CubicSpline(t, x)(t, 1)
 
 
+# per-trajectory kinematics, so that x, y and z of one frame cost one pass over the samples
+_KIN_CACHE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _cached(traj, key, compute):
+    try:
+        store = _KIN_CACHE.setdefault(traj, {})
+    except TypeError:                           # not weak-referenceable: no caching
+        return compute()
+    stamp = (key, len(traj.t), traj.t[-1] if len(traj.t) else None)
+    if stamp not in store:
+        store[stamp] = compute()
+    return store[stamp]
+
+
 def _frame_series(model, fid, traj):
     """World position, LWA linear velocity and classical acceleration of a frame origin."""
+    return _cached(traj, ("frame", id(model), fid), lambda: _frame_series_uncached(model, fid, traj))
+
+
+def _frame_series_uncached(model, fid, traj):
     data = model.createData()
     n = len(traj.t)
     P, V, A = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
@@ -100,6 +128,10 @@ def _frame_series(model, fid, traj):
 def _relative_rate(model, f1, f2, traj):
     """d/dt of e = R1^T (p2 - p1) (the eccentricity in body 1's frame):
     R1^T (v2 - v1 - w1 x (p2 - p1)), with origin velocities and w1 in world axes."""
+    return _cached(traj, ("relative", id(model), f1, f2), lambda: _relative_rate_uncached(model, f1, f2, traj))
+
+
+def _relative_rate_uncached(model, f1, f2, traj):
     data = model.createData()
     n = len(traj.t)
     out = np.empty((n, 3))
@@ -240,6 +272,9 @@ class PoincareSection:
     label: str
     interpolated: np.ndarray          # bool per sample: True where no output sample sat on t_k
     exact_rate: bool = True
+    #: per coordinate (x, xdot): the larger of the signal's range over the run after the
+    #: transient (the attractor's extent) and max |section|; the default scale of classify()
+    scale: np.ndarray = field(default_factory=lambda: np.zeros(2))
 
     @property
     def points(self) -> np.ndarray:
@@ -291,7 +326,10 @@ def poincare(traj, period, signal, phase=0.0, skip_transient=0, t0=0.0, mech=Non
             xd[miss] = CubicHermiteSpline(tu, s.xdot[first], s.xddot[first])(ts[miss])
         else:
             xd[miss] = CubicSpline(tu, s.xdot[first])(ts[miss])
-    return PoincareSection(k, ts, x, xd, period, phase, s.label, ~hit, s.exact_rate)
+    keep = t >= t0 + phase + skip_transient * period - tol
+    scale = np.maximum([np.ptp(s.x[keep]) if keep.any() else 0.0, np.ptp(s.xdot[keep]) if keep.any() else 0.0],
+                       [np.max(np.abs(x)), np.max(np.abs(xd))])
+    return PoincareSection(k, ts, x, xd, period, phase, s.label, ~hit, s.exact_rate, scale)
 
 
 # =============================================================================== classification
@@ -327,7 +365,7 @@ def detect_period(points, rtol=1e-4, atol=0.0, scale=None, max_period=16):
     return period, len(seeds)
 
 
-def chaos_01(phi, n_c=100, n_cut=None, seed=0, return_all=False):
+def chaos_01(phi, n_c=100, n_cut=None, seed=0, flat_tol=None, return_all=False):
     """0-1 test for chaos (Gottwald & Melbourne 2004; 2009 modified mean-square displacement,
     correlation method) on a scalar sequence phi(j), e.g. Poincaré samples.
 
@@ -341,9 +379,10 @@ def chaos_01(phi, n_c=100, n_cut=None, seed=0, return_all=False):
     Limitations: needs a long sequence (N >= ~100 for a hint, >= 1000 for a clear answer);
     intermediate values appear for short series, for weak chaos, and for transients left in the
     data; a continuous signal sampled far finer than its correlation time (oversampled) reads
-    as regular: feed it stroboscopic samples, not dense output; noise reads as chaos. A sequence
-    that is constant to rounding (a fixed point) returns K = 0 by definition, because D_c is
-    then identically zero and its correlation with n meaningless.
+    as regular: feed it stroboscopic samples, not dense output; noise, and a slow drift (an
+    unfinished transient), read as chaos. A sequence whose standard deviation is at most
+    ``flat_tol`` (default 1e-6 max |phi|: integration noise around a fixed point) returns
+    K = 0, regular, by definition: D_c is then noise and its correlation with n meaningless.
     """
     phi = np.asarray(phi, float).ravel()
     if not np.all(np.isfinite(phi)):
@@ -354,8 +393,8 @@ def chaos_01(phi, n_c=100, n_cut=None, seed=0, return_all=False):
     n_cut = max(N // 10, 2) if n_cut is None else int(n_cut)
     if not 2 <= n_cut < N:
         raise InputError(f"n_cut must be in [2, {N - 1}], got {n_cut}")
-    spread = np.std(phi)
-    if spread <= 1e-12 * max(1.0, float(np.max(np.abs(phi)))):
+    flat = 1e-6 * float(np.max(np.abs(phi))) if flat_tol is None else float(flat_tol)
+    if np.std(phi) <= flat:
         return (0.0, np.zeros(n_c)) if return_all else 0.0
     c = np.random.default_rng(seed).uniform(np.pi / 5, 4 * np.pi / 5, n_c)
     arg = np.outer(c, np.arange(1, N + 1))
@@ -399,13 +438,27 @@ def classify(section, rtol=1e-4, atol=0.0, scale=None, max_period=16, min_sample
     """Classify a Poincaré section (PoincareSection or an (n,) / (n, d) array).
 
     First the period (:func:`detect_period`): "period-k" if the sequence repeats with period
-    k <= max_period. Otherwise, with at least ``min_samples_01`` samples, the 0-1 test on each
-    coordinate (the largest K counts): K > chaos_threshold (default CHAOS_THRESHOLD = 0.5)
-    "chaotic", else "quasi-periodic"; ``note`` says "ambiguous" when 0.1 <= K <= 0.9. With fewer
-    samples the motion is "unresolved".
+    k <= max_period, points being equal within atol + rtol * scale (scale per coordinate:
+    default the section's ``scale``, the attractor's extent, so a point near x = 0 is judged
+    against the size of the orbit, not against itself). rtol must exceed the run-to-run
+    scatter the integration tolerance leaves in the section points. Otherwise, with at least
+    ``min_samples_01`` samples, the 0-1 test on each coordinate (the largest K counts):
+    K > chaos_threshold (default CHAOS_THRESHOLD = 0.5) "chaotic", else "quasi-periodic";
+    ``note`` says "ambiguous" when 0.1 <= K <= 0.9. With fewer samples: "unresolved".
+    A section whose rate is not exact (spline-differentiated output) is judged by x alone.
     """
     thr = CHAOS_THRESHOLD if chaos_threshold is None else float(chaos_threshold)
-    P = section.points if isinstance(section, PoincareSection) else np.asarray(section, float)
+    if isinstance(section, PoincareSection):
+        P = section.points
+        if scale is None and np.any(section.scale > 0):
+            scale = section.scale
+        if not section.exact_rate:
+            # a spline-differentiated rate carries end and sampling errors that differ from cycle
+            # to cycle: judge by x alone
+            P = P[:, :1]
+            scale = None if scale is None else np.broadcast_to(np.asarray(scale, float), (2,))[:1]
+    else:
+        P = np.asarray(section, float)
     if P.ndim == 1:
         P = P[:, None]
     n = len(P)
@@ -418,7 +471,9 @@ def classify(section, rtol=1e-4, atol=0.0, scale=None, max_period=16, min_sample
         return Classification("unresolved", None, clusters, None, n,
                               f"no period <= {min(max_period, n // 2)} and too few samples ({n} < "
                               f"{min_samples_01}) for the 0-1 test")
-    K = max(chaos_01(P[:, j]) for j in range(P.shape[1]))
+    sc = np.broadcast_to(np.max(np.abs(P), axis=0) if scale is None else np.asarray(scale, float), (P.shape[1],))
+    # spread within the period tolerance is a fixed point to this resolution
+    K = max(chaos_01(P[:, j], flat_tol=atol + rtol * sc[j]) for j in range(P.shape[1]))
     kind = "chaotic" if K > thr else "quasi-periodic"
     note = "ambiguous (0.1 <= K <= 0.9): longer runs or a smaller tolerance may decide" if 0.1 <= K <= 0.9 else ""
     return Classification(kind, None, clusters, K, n, note)
@@ -477,8 +532,6 @@ def _walk_set(doc, toks, value, file, path):
 
 def _classify_parameter(path, parameter, load_kw):
     """Split the parameter spec into sidecar-path patches and load() overrides; validate both."""
-    import yaml
-
     from .sidecar import TOP_KEYS
 
     file = str(path)
@@ -499,6 +552,11 @@ def _classify_parameter(path, parameter, load_kw):
             _walk_set(yaml.safe_load(Path(path).read_text()), toks, 0.0, file, spec)   # validate the path
             patches.append((toks, spec, factor))
         elif head in clr or spec in opts:
+            active = {c.get("name") for c in doc.get("clearances") or [] if isinstance(c, dict) and c.get("active")}
+            if head in clr and head not in active | set(load_kw.get("clearances") or ()):
+                # an override of an inactive clearance changes nothing: every run would be the same
+                raise InputError(f"parameter {spec!r}: clearance joint {head!r} is not active in {file}: "
+                                 f"activate it with load_options=dict(clearances=[{head!r}]) (CLI: --clearance {head})")
             if spec in opts and factor != 1.0:
                 raise InputError(f"parameter {spec!r} is a scene option: a factor other than 1 makes no sense")
             overrides.append((spec, factor))
@@ -510,8 +568,6 @@ def _classify_parameter(path, parameter, load_kw):
 
 def _load_variant(path, patches, overrides, value, load_kw):
     """The mechanism of ``path`` with the parameter set to ``value``."""
-    import yaml
-
     from .sidecar import load
 
     ov = dict(load_kw.get("overrides") or {})
@@ -540,14 +596,23 @@ class BifurcationRun:
     value: object
     status: str
     message: str
-    section: PoincareSection | None = None
-    portrait: tuple | None = None         # (t, x, xdot) after the transient, if requested
+    sections: dict = field(default_factory=dict)          # signal key -> PoincareSection
+    portraits: dict = field(default_factory=dict)         # signal key -> (t, x, xdot) after the transient
     stats: dict = field(default_factory=dict)
-    classification: Classification | None = None
+    classifications: dict = field(default_factory=dict)   # signal key -> Classification
 
     @property
     def ok(self):
         return self.status == "success"
+
+    @property
+    def section(self):
+        """The section of the first signal (None if the run produced none)."""
+        return next(iter(self.sections.values()), None)
+
+    @property
+    def classification(self):
+        return next(iter(self.classifications.values()), None)
 
 
 @dataclass
@@ -555,19 +620,30 @@ class BifurcationResult:
     parameter: object
     values: np.ndarray
     runs: list
-    signal: object
+    signals: list                         # signal keys, in the order given
     period: np.ndarray                    # driving period per value
 
-    def points(self, coordinate="xdot", include_failed=False):
-        """(parameter, ordinate) pairs of all Poincaré samples, ready for a scatter plot.
-        coordinate: 'x' or 'xdot' (papers 000/002 plot the relative velocity: 'xdot')."""
+    def _key(self, signal):
+        if signal is None:
+            return self.signals[0]
+        key = signal_key(signal)
+        if key not in self.signals:
+            raise InputError(f"signal {key!r} was not recorded (recorded: {', '.join(self.signals)})")
+        return key
+
+    def points(self, coordinate="xdot", include_failed=False, signal=None):
+        """(parameter, ordinate) pairs of all Poincaré samples of ``signal`` (default: the first),
+        ready for a scatter plot. coordinate: 'x' or 'xdot' (papers 000/002 plot the relative
+        velocity: 'xdot'). Failed runs' partial samples only with include_failed."""
         if coordinate not in ("x", "xdot"):
             raise InputError(f"coordinate must be 'x' or 'xdot', got {coordinate!r}")
+        key = self._key(signal)
         ps, ys = [], []
         for r in self.runs:
-            if r.section is None or (not r.ok and not include_failed):
+            sec = r.sections.get(key)
+            if sec is None or (not r.ok and not include_failed):
                 continue
-            y = getattr(r.section, coordinate)
+            y = getattr(sec, coordinate)
             ps.append(np.full(len(y), float(r.value)))
             ys.append(y)
         if not ps:
@@ -578,16 +654,76 @@ class BifurcationResult:
     def failures(self):
         return [(r.value, r.status, r.message) for r in self.runs if not r.ok]
 
-    def table(self):
+    def table(self, signal=None):
         """One dict per value: value, status, kind, period, K, samples, cpu_s, message."""
+        key = self._key(signal)
         rows = []
         for r in self.runs:
-            c = r.classification
+            c, sec = r.classifications.get(key), r.sections.get(key)
             rows.append({"value": r.value, "status": r.status, "kind": c.kind if c else None,
                          "period": c.period if c else None, "K": c.K if c else None,
-                         "samples": len(r.section) if r.section is not None else 0,
+                         "samples": len(sec) if sec is not None else 0,
                          "cpu_s": r.stats.get("cpu_s"), "message": r.message})
         return rows
+
+
+    # ------------------------------------------------------------------ I/O
+    def save(self, path):
+        """NPZ: every run's Poincaré samples (and portraits) + JSON metadata (statuses, messages,
+        classifications, stats). :meth:`load` reads it back for re-plotting."""
+        from .trajectory import _jsonable
+
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {"values": np.asarray(self.values, float) if all(_is_number(v) for v in self.values)
+                  else np.zeros(0), "period": self.period}
+        runs = []
+        for r in self.runs:
+            for key, sec in r.sections.items():
+                for f in ("k", "t", "x", "xdot", "interpolated", "scale"):
+                    arrays[f"sec/{r.index}/{key}/{f}"] = getattr(sec, f)
+            for key, (t, x, xd) in r.portraits.items():
+                arrays[f"por/{r.index}/{key}/t"], arrays[f"por/{r.index}/{key}/x"] = t, x
+                arrays[f"por/{r.index}/{key}/xdot"] = xd
+            runs.append({"index": r.index, "value": r.value, "status": r.status, "message": r.message,
+                         "stats": r.stats, "sections": {k: {"period": sc.period, "phase": sc.phase, "label": sc.label,
+                                                            "exact_rate": sc.exact_rate}
+                                                        for k, sc in r.sections.items()},
+                         "classifications": {k: c.as_dict() for k, c in r.classifications.items()}})
+        meta = {"parameter": self.parameter if isinstance(self.parameter, (str, dict)) else repr(self.parameter),
+                "signals": self.signals, "runs": runs}
+        arrays["meta"] = np.array(json.dumps(_jsonable(meta)))
+        np.savez_compressed(path, **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path):
+        d = np.load(path, allow_pickle=False)
+        meta = json.loads(str(d["meta"]))
+        runs = []
+        for m in meta["runs"]:
+            i = m["index"]
+            secs = {}
+            for key, sm in m["sections"].items():
+                a = {f: d[f"sec/{i}/{key}/{f}"] for f in ("k", "t", "x", "xdot", "interpolated", "scale")}
+                secs[key] = PoincareSection(a["k"], a["t"], a["x"], a["xdot"], sm["period"], sm["phase"], sm["label"],
+                                            a["interpolated"], sm["exact_rate"], a["scale"])
+            pors = {key: tuple(d[f"por/{i}/{key}/{f}"] for f in ("t", "x", "xdot"))
+                    for key in meta["signals"] if f"por/{i}/{key}/t" in d.files}
+            cls_ = {k: Classification(**c) for k, c in m["classifications"].items()}
+            runs.append(BifurcationRun(i, m["value"], m["status"], m["message"], secs, pors, m["stats"], cls_))
+        values = np.array([r.value for r in runs], dtype=float if all(_is_number(r.value) for r in runs) else object)
+        return cls(meta["parameter"], values, runs, meta["signals"], d["period"])
+
+
+def signal_key(signal) -> str:
+    """The name a signal is recorded under: the string itself, 'x|xdot' for a pair, the
+    callable's __name__."""
+    if callable(signal):
+        return getattr(signal, "__name__", repr(signal))
+    if isinstance(signal, (tuple, list)):
+        return "|".join(map(str, signal))
+    return str(signal)
 
 
 def _run_one(job):
@@ -596,6 +732,10 @@ def _run_one(job):
 
     t_start = time.perf_counter()
     i, value = job["index"], job["value"]
+    if isinstance(value, (float, np.floating)) and not math.isfinite(value):
+        # a NaN/inf parameter only poisons the integrator (SciPy's first-step choice never ends)
+        return BifurcationRun(i, value, "error", f"parameter value {value!r} is not finite",
+                              stats={"wall_s": 0.0, "pid": os.getpid()})
     try:
         if job["factory"] is not None:
             mech = job["factory"](value)
@@ -606,27 +746,34 @@ def _run_one(job):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)     # a failed run is reported, not warned
             traj = simulate(mech, float(t_eval[-1]), t_eval=t_eval, t0=job["t0"], **job["sim_kw"])
-        sec = poincare(traj, T, job["signal"], phase=job["phase"], skip_transient=job["transient"],
-                       t0=job["t0"], mech=mech) if len(traj.t) else None
-        portrait = None
-        if job["keep_portrait"] and len(traj.t):
-            s = series(traj, job["signal"], mech)
-            keep = s.t >= job["t0"] + job["phase"] + job["transient"] * T - 1e-9 * T
-            portrait = (s.t[keep], s.x[keep], s.xdot[keep])
+        sections, portraits = {}, {}
+        for sig in job["signals"] if len(traj.t) else ():
+            key = signal_key(sig)
+            sections[key] = poincare(traj, T, sig, phase=job["phase"], skip_transient=job["transient"],
+                                     t0=job["t0"], mech=mech)
+            if job["keep_portrait"]:
+                s = series(traj, sig, mech)
+                keep = s.t >= job["t0"] + job["phase"] + job["transient"] * T - 1e-9 * T
+                portraits[key] = (s.t[keep], s.x[keep], s.xdot[keep])
         stats = {k: traj.stats.get(k) for k in ("cpu_s", "rhs_evals", "steps") if k in traj.stats}
         stats["events"] = len(traj.stats.get("events", []))
         stats["wall_s"] = time.perf_counter() - t_start
+        stats["pid"] = os.getpid()
         return BifurcationRun(i, value, "success" if traj.status == "success" else "failed", traj.message,
-                              sec, portrait, stats)
+                              sections, portraits, stats)
     except Exception as exc:                  # every failure is a result, never a lost value
         return BifurcationRun(i, value, "error", f"{type(exc).__name__}: {exc}",
-                              stats={"wall_s": time.perf_counter() - t_start})
+                              stats={"wall_s": time.perf_counter() - t_start, "pid": os.getpid()})
 
 
 def bifurcation(model, parameter, values, period, signal, cycles=100, transient=20, phase=0.0, t0=0.0,
-                per_period=1, keep_portrait=False, sim_options=None, load_options=None,
+                per_period=8, keep_portrait=False, sim_options=None, load_options=None,
                 executor=None, max_workers=None, progress=None, classify_options=None) -> BifurcationResult:
     """Poincaré samples of ``signal`` for each parameter value (a bifurcation diagram).
+
+    signal: one signal (see the module docstring) or a list of them, all sampled from the same
+        runs (e.g. platform x, y, z and clearance eccentricity components as in paper 000); a
+        tuple is one (x_spec, xdot_spec) pair, not a list of signals.
 
     model: a sidecar path, or a factory ``f(value) -> Mechanism`` (module-level so it pickles
         to worker processes; ``parameter`` is then only a label).
@@ -640,7 +787,9 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     period: driving period (s), or ``f(value) -> period`` (evaluated here, e.g. 2 pi / w).
     cycles, transient: periods recorded after ``transient`` periods are dropped
         (paper 002: 100 cycles). Each run simulates (transient + cycles) periods with output
-        exactly on the section (``per_period`` samples per period, for keep_portrait).
+        exactly on the section and ``per_period`` samples per period; those samples give the
+        attractor's extent (the scale of the period-detection tolerance, see :func:`classify`)
+        and, with keep_portrait, the phase portrait.
     sim_options: keyword arguments of :func:`pinclear.simulate` (method, integrator, rtol,
         max_cpu to bound a run...). load_options: of :func:`pinclear.load` (options,
         clearances=[...], overrides for fixed keys).
@@ -651,7 +800,8 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     Every value yields a BifurcationRun: a run that stops early is 'failed' with its message and
     partial samples, one that cannot start (bad value, assembly error) is 'error'.
     """
-    values = list(values)
+    # plain Python scalars: they go into YAML and pickles, and print readably
+    values = [v.item() if isinstance(v, np.generic) else v for v in values]
     if not values:
         raise InputError("bifurcation: no parameter values given")
     sim_kw = dict(sim_options or {})
@@ -662,33 +812,48 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     bad = set(load_kw) - {"options", "overrides", "clearances"}
     if bad:
         raise InputError(f"unknown load option {sorted(bad)[0]!r} (valid: clearances, options, overrides)")
+    signals = list(signal) if isinstance(signal, list) else [signal]
+    keys = [signal_key(sg) for sg in signals]
+    if len(set(keys)) != len(keys):
+        raise InputError(f"signals recorded twice: {keys}")
     if int(transient) < 0 or int(cycles) < 1:
         raise InputError(f"need transient >= 0 and cycles >= 1, got {transient}, {cycles}")
-    periods = []
-    for v in values:
-        T = float(period(v)) if callable(period) else float(period)
+    periods, bad_period = [], {}
+    for i, v in enumerate(values):
+        try:
+            T = float(period(v)) if callable(period) else float(period)
+        except Exception as exc:              # this value's fault: reported with its run
+            periods.append(float("nan"))
+            bad_period[i] = f"period({v!r}) failed: {type(exc).__name__}: {exc}"
+            continue
         if not T > 0 or not math.isfinite(T):
-            raise InputError(f"period for value {v!r} is {T!r}: must be a positive number of seconds")
+            if not callable(period):
+                raise InputError(f"period must be a positive number of seconds, got {period!r}")
+            bad_period[i] = f"period({v!r}) = {T!r}: must be a positive number of seconds"
         periods.append(T)
     base = dict(factory=None, path=None, patches=None, overrides=None, load_kw=load_kw, phase=float(phase),
                 t0=float(t0), transient=int(transient), cycles=int(cycles), per_period=int(per_period),
-                signal=signal, sim_kw=sim_kw, keep_portrait=bool(keep_portrait))
+                signals=signals, sim_kw=sim_kw, keep_portrait=bool(keep_portrait))
     if callable(model):
         base["factory"] = model
     else:
         path = Path(model)
         if not path.exists():
             raise ModelFileError(str(path), "path", "no such file")
+        if path.suffix.lower() == ".urdf":
+            raise InputError(f"bifurcation needs a sidecar (.yaml) whose parameter it can change, got {path}")
         patches, overrides = _classify_parameter(path, parameter, load_kw)
         base.update(path=str(path), patches=patches, overrides=overrides)
-    jobs = [dict(base, index=i, value=v, period=T) for i, (v, T) in enumerate(zip(values, periods))]
+    jobs = [dict(base, index=i, value=v, period=T) for i, (v, T) in enumerate(zip(values, periods))
+            if i not in bad_period]
 
     if progress is True:
         def progress(done, total, run):   # noqa: F811 - the default reporter
-            print(f"bifurcation {done}/{total}: {parameter}={run.value!r} {run.status} "
-                  f"({run.stats.get('wall_s', 0):.1f} s)", file=sys.stderr, flush=True)
+            why = "" if run.ok else f": {run.message}"
+            print(f"bifurcation {done}/{total}: {parameter} = {run.value!r} {run.status} "
+                  f"({run.stats.get('wall_s', 0):.1f} s){why}", file=sys.stderr, flush=True)
 
-    runs: list = [None] * len(jobs)
+    runs: list = [None] * len(values)
     done = 0
 
     def finish(run):
@@ -696,7 +861,10 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
         runs[run.index] = run
         done += 1
         if progress:
-            progress(done, len(jobs), run)
+            progress(done, len(values), run)
+
+    for i, msg in bad_period.items():
+        finish(BifurcationRun(i, values[i], "error", msg))
 
     if executor == "serial":
         for job in jobs:
@@ -705,16 +873,16 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
         if executor is not None and not isinstance(executor, Executor):
             raise InputError(f"executor must be None, 'serial' or a concurrent.futures.Executor, got {executor!r}")
         try:
-            pickle.dumps(jobs[0])
+            if executor is None or isinstance(executor, ProcessPoolExecutor):
+                pickle.dumps(jobs[0] if jobs else None)
         except Exception as exc:
             raise InputError(f"bifurcation: the job cannot be sent to worker processes ({exc}); use module-level "
                              "functions for the factory, signal and laws, or executor='serial'") from None
         own = executor is None
-        ex = ProcessPoolExecutor(max_workers=max_workers or min(os.cpu_count() or 1, len(jobs))) if own else executor
+        n_workers = max_workers or max(1, min(os.cpu_count() or 1, len(jobs)))
+        ex = ProcessPoolExecutor(max_workers=n_workers) if own else executor
         try:
             futs = {ex.submit(_run_one, job): job for job in jobs}
-            from concurrent.futures import as_completed
-
             for fut in as_completed(futs):
                 job = futs[fut]
                 try:
@@ -726,20 +894,15 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
             if own:
                 ex.shutdown(wait=True, cancel_futures=True)
     copt = dict(classify_options or {})
+    fixed_scale = copt.pop("scale", None)
     for r in runs:
-        if r.section is not None and len(r.section):
-            sc = copt.pop("scale", None)
-            scale = sc
-            if scale is None and r.portrait is not None and len(r.portrait[1]):
-                scale = [np.ptp(r.portrait[1]), np.ptp(r.portrait[2])]
-            r.classification = classify(r.section, scale=scale, **copt)
-            if sc is not None:
-                copt["scale"] = sc
-        else:
-            r.classification = classify(np.zeros((0, 2)))
-    return BifurcationResult(parameter, np.asarray(values, dtype=object if any(isinstance(v, str) for v in values)
-                                                    else float),
-                             runs, signal, np.asarray(periods))
+        for key in keys:
+            sec = r.sections.get(key)
+            r.classifications[key] = classify(sec if sec is not None else np.zeros((0, 2)),
+                                              scale=fixed_scale, **copt)
+    numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+    return BifurcationResult(parameter, np.asarray(values, dtype=float if numeric else object), runs, keys,
+                             np.asarray(periods))
 
 
 # =============================================================================== plots
@@ -790,14 +953,14 @@ def plot_poincare(section: PoincareSection, ax=None, path=None):
     return fig, {"x": section.x, "xdot": section.xdot}
 
 
-def plot_bifurcation(result: BifurcationResult, coordinate="xdot", ax=None, path=None, label=None):
-    """Bifurcation diagram: Poincaré samples of every successful run against the parameter;
-    failed values are marked with red crosses on the axis. Returns (figure, arrays plotted)."""
-    p, y = result.points(coordinate)
+def plot_bifurcation(result: BifurcationResult, coordinate="xdot", signal=None, ax=None, path=None, label=None):
+    """Bifurcation diagram: Poincaré samples of ``signal`` (default: the first recorded) of
+    every successful run against the parameter; failed values are marked with red crosses at
+    the bottom of the plot. Returns (figure, arrays plotted)."""
+    p, y = result.points(coordinate, signal=signal)
     fig, ax = _figure(ax, (7, 4.5))
-    ax.plot(p, y, ",", color="k", gid="bifurcation", rasterized=len(p) > 20000)
-    if len(p) < 5000:
-        ax.plot(p, y, ".", ms=2, color="k")
+    many = len(p) > 5000
+    ax.plot(p, y, "," if many else ".", ms=2, color="k", gid="bifurcation", rasterized=many)
     failed = np.array([float(r.value) for r in result.runs if not r.ok and _is_number(r.value)])
     if len(failed):
         ybase = np.full(len(failed), np.min(y) if len(y) else 0.0)
@@ -805,7 +968,7 @@ def plot_bifurcation(result: BifurcationResult, coordinate="xdot", ax=None, path
         ax.legend(fontsize=8)
     name = label or (result.parameter if isinstance(result.parameter, str) else "parameter")
     ax.set_xlabel(str(name))
-    sig = result.signal if isinstance(result.signal, str) else "signal"
+    sig = result._key(signal)
     ax.set_ylabel(f"d/dt {sig}" if coordinate == "xdot" else sig)
     ax.set_title("bifurcation diagram (Poincaré samples)")
     ax.grid(alpha=0.3)
@@ -819,3 +982,159 @@ def _is_number(v):
         return math.isfinite(float(v))
     except (TypeError, ValueError):
         return False
+
+
+# =============================================================================== command line
+def _values_arg(text):
+    """'a:b:n' (n values from a to b) or a comma-separated list of YAML scalars."""
+    if ":" in text and "," not in text:
+        parts = text.split(":")
+        if len(parts) != 3:
+            raise InputError(f"--values: expected 'start:stop:count', got {text!r}")
+        try:
+            return list(np.linspace(float(parts[0]), float(parts[1]), int(parts[2])))
+        except ValueError:
+            raise InputError(f"--values: expected 'start:stop:count', got {text!r}") from None
+    return [yaml.safe_load(v) for v in text.split(",")]
+
+
+def _param_arg(items):
+    """--param PATH or PATH*FACTOR (repeatable) -> a string or a mapping path -> factor."""
+    par = {}
+    for it in items:
+        path, factor = it, 1.0
+        if "*" in it.rpartition("]")[2]:          # a '*' inside [...] would be part of a name
+            path, _, fac = it.rpartition("*")
+            try:
+                factor = float(fac)
+            except ValueError:
+                raise InputError(f"--param: factor in {it!r} is not a number") from None
+        par[path] = factor
+    return next(iter(par)) if len(par) == 1 and next(iter(par.values())) == 1.0 else par
+
+
+def _kv(items, what):
+    out = {}
+    for it in items or []:
+        if "=" not in it:
+            raise InputError(f"{what} expects KEY=VALUE, got {it!r}")
+        k, v = it.split("=", 1)
+        out[k.strip()] = yaml.safe_load(v)
+    return out
+
+
+def _tag(key):
+    return re.sub(r"[^A-Za-z0-9_-]+", "_", key).strip("_")
+
+
+def _period_of_speed(w):
+    return 2 * math.pi / abs(float(w))
+
+
+def cli_main(argv) -> int:
+    """`pinclear analyse bifurcation|poincare ...` (see --help)."""
+    import argparse
+    import json
+
+    ap = argparse.ArgumentParser(prog="pinclear analyse",
+                                 description="phase portraits, Poincaré maps and bifurcation diagrams")
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    b = sub.add_parser("bifurcation", help="Poincaré samples against a swept parameter (parallel runs)")
+    b.add_argument("file", help="mechanism sidecar (urdf/NAME.yaml)")
+    b.add_argument("--param", action="append", required=True, metavar="PATH[*FACTOR]",
+                   help="swept key: NAME.key of a clearance (S2.mu), a scene option or a sidecar path "
+                        "(forces[spring].k, drives[crank1_drive].law.coeffs[1]); repeat to set several keys, "
+                        "each to FACTOR*value")
+    b.add_argument("--values", required=True, help="'start:stop:count' or a comma list")
+    grp = b.add_mutually_exclusive_group(required=True)
+    grp.add_argument("--period", type=float, help="driving period [s]")
+    grp.add_argument("--period-from-speed", action="store_true",
+                     help="the swept value is a driving speed w [rad/s]: period 2 pi / |w|")
+    b.add_argument("--signal", action="append", required=True,
+                   help="joint name, FRAME.x|y|z, ELEMENT.output[k] (e.g. S2.eccentricity[1]); repeatable")
+    b.add_argument("--cycles", type=int, default=100)
+    b.add_argument("--transient", type=int, default=20)
+    b.add_argument("--phase", type=float, default=0.0, help="section phase [s] within the period")
+    b.add_argument("--per-period", type=int, default=8, help="output samples per period")
+    b.add_argument("--clearance", action="append", metavar="NAME", help="activate a clearance joint")
+    b.add_argument("--set", action="append", metavar="NAME.KEY=VALUE", help="fixed override (repeatable)")
+    b.add_argument("--option", action="append", metavar="KEY=VALUE", help="scene option (repeatable)")
+    b.add_argument("--method", default="lagrange")
+    b.add_argument("--integrator", default="RK45")
+    b.add_argument("--rtol", type=float, default=1e-6)
+    b.add_argument("--max-cpu", type=float, default=None, help="CPU seconds per run before it is stopped")
+    b.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
+    b.add_argument("--out", default="out")
+    p = sub.add_parser("poincare", help="phase portrait + Poincaré map of a saved run (trajectory.npz)")
+    p.add_argument("trajectory", help="trajectory.npz written by `pinclear simulate`")
+    p.add_argument("--file", help="mechanism sidecar (default: the one recorded in the run)")
+    p.add_argument("--clearance", action="append", metavar="NAME", help="clearance joints active in the run")
+    p.add_argument("--period", type=float, required=True, help="driving period [s]")
+    p.add_argument("--signal", action="append", required=True, help="as for bifurcation; repeatable")
+    p.add_argument("--skip", type=int, default=0, help="transient periods to drop")
+    p.add_argument("--phase", type=float, default=0.0)
+    p.add_argument("--out", default="out")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+
+    if args.cmd == "bifurcation":
+        sim = dict(method=args.method, integrator=args.integrator, rtol=args.rtol)
+        if args.max_cpu:
+            sim["max_cpu"] = args.max_cpu
+        load_kw = dict(clearances=args.clearance or None, options=_kv(args.option, "--option") or None,
+                       overrides=_kv(args.set, "--set") or None)
+        res = bifurcation(args.file, _param_arg(args.param), _values_arg(args.values),
+                          period=_period_of_speed if args.period_from_speed else args.period,
+                          signal=list(args.signal), cycles=args.cycles, transient=args.transient, phase=args.phase,
+                          per_period=args.per_period, sim_options=sim,
+                          load_options={k: v for k, v in load_kw.items() if v}, max_workers=args.workers,
+                          progress=True)
+        res.save(out / "bifurcation.npz")
+        label = ", ".join(args.param)
+        for key in res.signals:
+            plot_bifurcation(res, signal=key, label=label, path=out / f"bifurcation_{_tag(key)}.png")
+        table = {key: res.table(signal=key) for key in res.signals}
+        (out / "bifurcation.json").write_text(json.dumps(table, indent=2, default=str))
+        for key in res.signals:
+            print(f"{key}:")
+            for row in table[key]:
+                K = "" if row["K"] is None else f" K={row['K']:.2f}"
+                print(f"  {row['value']!s:>12} {row['status']:8} {row['kind'] or '-'}{K}"
+                      + ("" if row["status"] == "success" else f"  ({row['message']})"))
+        print(f"wrote {out}/bifurcation.npz, bifurcation.json and the figures")
+        return 0 if not res.failures else 1
+
+    from .sidecar import load
+    from .trajectory import Trajectory
+
+    tr0 = Trajectory.load(args.trajectory)
+    path = args.file or tr0.mech_path
+    if not path:
+        raise InputError(f"{args.trajectory}: no mechanism file recorded in the run: give --file")
+    if args.clearance is None:
+        sc = yaml.safe_load(Path(path).read_text()) or {}
+        names = {c.get("name") for c in sc.get("clearances") or [] if isinstance(c, dict)}
+        ran = {f.get("name") for f in tr0.meta.get("mechanism", {}).get("forces", [])}
+        args.clearance = sorted(names & ran)
+    mech = load(path, clearances=args.clearance or None)
+    traj = Trajectory.load(args.trajectory, mech=mech)
+    report = {}
+    for sig in args.signal:
+        sec = poincare(traj, args.period, sig, phase=args.phase, skip_transient=args.skip, mech=mech)
+        x, xd = phase_portrait(traj, sig, mech=mech, t_min=args.phase + args.skip * args.period)
+        plot_phase_portrait(x, xd, section=sec, label=sig, path=out / f"phase_{_tag(sig)}.png")
+        plot_poincare(sec, path=out / f"poincare_{_tag(sig)}.png")
+        c = classify(sec)
+        report[sig] = dict(c.as_dict(), samples=len(sec), interpolated=int(sec.interpolated.sum()))
+    (out / "poincare.json").write_text(json.dumps(report, indent=2, default=str))
+    print(json.dumps(report, indent=2, default=str))
+    return 0
+
+
+if __name__ == "__main__":
+    try:
+        sys.exit(cli_main(sys.argv[1:]))
+    except (InputError, ModelFileError) as exc:
+        print(f"pinclear: error: {exc}", file=sys.stderr)
+        sys.exit(2)

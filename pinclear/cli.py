@@ -153,7 +153,8 @@ def build_parser():
     for name, module, func, helptext in (
             ("view", "pinclear.viz.cli", "view_main", "meshcat viewer / standalone HTML of a mechanism or a run"),
             ("plot", "pinclear.viz.cli", "plot_main", "standard figures of a saved trajectory"),
-            ("inverse-dynamics", "pinclear.screw", "cli_main", "screw-theory inverse dynamics (paper 004)")):
+            ("inverse-dynamics", "pinclear.screw", "cli_main", "screw-theory inverse dynamics (paper 004)"),
+            ("analyse", "pinclear.analysis", "cli_main", "phase portraits, Poincare maps, bifurcation diagrams")):
         s = sub.add_parser(name, help=helptext, add_help=False)
         s.add_argument("rest", nargs=argparse.REMAINDER)
         s.set_defaults(func=_delegate(module, func))

@@ -272,6 +272,10 @@ def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
                 forces.append(JointForce(fname, jm.idx_v, build_law(f["law"], file, f"{key}.law")))
         except KeyError as exc:
             raise ModelFileError(file, f"{key}.{exc.args[0]}", "missing") from None
+        except (TypeError, ValueError) as exc:
+            if isinstance(exc, ModelFileError):
+                raise
+            raise ModelFileError(file, key, f"bad value: {exc}") from None
 
     # ---- initial guess
     q0, v0 = pin.neutral(model), np.zeros(model.nv)

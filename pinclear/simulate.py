@@ -99,6 +99,10 @@ class _System:
         self.nfev += 1
         q, v, z = self.split(x)
         a = self.form.accelerations(t, q, v, z)
+        if not np.isfinite(a.sum()):
+            # SciPy's step-size control loops forever on NaN: stop here and say where
+            raise FloatingPointError(f"at t = {t:.9g} s: non-finite accelerations (check parameters, "
+                                     "stiffness, and that the mass matrix is positive definite)")
         if self.mech.euclidean:
             dq = v
         else:
@@ -298,7 +302,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
     except RankLossError as exc:
         status, message = "failed", str(exc)
         stats["rank_loss"] = {"t": exc.t, "rank": exc.rank, "rows": exc.rows, "cond": exc.cond}
-    except (np.linalg.LinAlgError, FloatingPointError) as exc:
+    except FloatingPointError as exc:
+        status, message = "failed", f"integrator {integrator} failed {exc}"
+    except np.linalg.LinAlgError as exc:
         status, message = "failed", f"linear algebra failure after t = {_last_t(samples, t0):.9g} s: {exc}"
     except PinclearError:
         raise
