@@ -28,11 +28,20 @@ def _cross(a0, a1, a2, b0, b1, b2):
 
 
 @njit(cache=True)
-def frame_kinematics(H, mask, J, dJ, v, Jv, Jw, V, W, A, Al):
-    """Frame Jacobians (origin velocity, angular; world axes), velocities and zero-ddq
-    classical accelerations of every frame in H (F, 4, 4) from the tree's WORLD J, dJ."""
+def frame_kinematics(Hj, jidx, jMf, H, mask, J, dJ, v, Jv, Jw, V, W, A, Al):
+    """Frame placements H[f] = Hj[jidx[f]] jMf[f] (parent-joint placement times the constant
+    frame offset), then frame Jacobians (origin velocity, angular; world axes), velocities and
+    zero-ddq classical accelerations of every frame from the tree's WORLD J, dJ."""
     F = H.shape[0]
     nv = J.shape[1]
+    for f in range(F):
+        j = jidx[f]
+        for r in range(3):
+            for c in range(4):
+                s = Hj[j, r, 3] if c == 3 else 0.0
+                for i in range(3):
+                    s += Hj[j, r, i] * jMf[f, i, c]
+                H[f, r, c] = s
     for f in range(F):
         px, py, pz = H[f, 0, 3], H[f, 1, 3], H[f, 2, 3]
         vo0 = vo1 = vo2 = w0 = w1 = w2 = 0.0
@@ -285,11 +294,11 @@ def kkt_solve(M, parent, f, J, gamma, rows, Lm, Y, S, Ls, a, lam):
 
 
 @njit(cache=True)
-def constraint_rows_all(H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma,
-                        alpha, beta, q, v, fdrv):
+def constraint_rows_all(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias,
+                        dphi, gamma, alpha, beta, q, v, fdrv):
     """Frame kinematics, closure rows, drive rows (q[iq] - f(t)) and the Baumgarte-stabilised
     right-hand side gamma = -bias - 2 alpha dPhi - beta^2 Phi, in one call."""
-    frame_kinematics(H, mask, J, dJ, v, Jv, Jw, V, W, A, Al)
+    frame_kinematics(Hj, jidx, jMf, H, mask, J, dJ, v, Jv, Jw, V, W, A, Al)
     closure_rows(table, E, L, H, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi)
     mc = phi.shape[0] - iq.shape[0]
     for k in range(iq.shape[0]):
@@ -302,11 +311,11 @@ def constraint_rows_all(H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al
 
 
 @njit(cache=True)
-def lagrange_accel(H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma,
-                   alpha, beta, M, parent, tau, nle, rows, Lm, Y, S, Ls, a, lam, q, v, fdrv):
+def lagrange_accel(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi,
+                   gamma, alpha, beta, M, parent, tau, nle, rows, Lm, Y, S, Ls, a, lam, q, v, fdrv):
     """Constraint rows + KKT solve of M a - J^T lam = tau - nle, J a = gamma (one call).
     Arguments: the static buffers first (bound once per formulation), then q, v, f(t)."""
-    constraint_rows_all(H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi, gamma,
-                        alpha, beta, q, v, fdrv)
+    constraint_rows_all(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias,
+                        dphi, gamma, alpha, beta, q, v, fdrv)
     f = tau - nle
     return kkt_solve(M, parent, f, Jc, gamma, rows, Lm, Y, S, Ls, a, lam)

@@ -28,11 +28,27 @@ class DriveRows:
         self.J = np.zeros((len(drives), nv))
         self.J[np.arange(len(drives)), self.iv] = 1.0
         self._f = np.zeros((3, len(drives)))
+        # drives whose laws are components of one shared vector function (e.g. every limb length
+        # from one inverse kinematics) are filled together: one call, one fancy-index copy
+        groups: dict = {}
+        self._single = []
+        for k, d in enumerate(drives):
+            shared = getattr(d.law, "_shared", None)
+            if shared is not None:
+                g = groups.setdefault(id(shared), (shared, [], []))
+                g[1].append(k)
+                g[2].append(d.law.index)
+            else:
+                self._single.append((k, d.law))
+        self._groups = [(s, np.array(ks), np.array(ix)) for s, ks, ix in groups.values()]
 
     def values(self, t):
         f = self._f
-        for k, d in enumerate(self.drives):
-            f[:, k] = d.law.eval(t)
+        for shared, ks, ix in self._groups:
+            y, yd, ydd = shared(t)
+            f[0, ks], f[1, ks], f[2, ks] = y[ix], yd[ix], ydd[ix]
+        for k, law in self._single:
+            f[:, k] = law.eval(t)
         return f
 
     def rows(self, t, q, v):

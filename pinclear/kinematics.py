@@ -32,21 +32,30 @@ class FrameKinematics:
                 jm = model.joints[j]
                 self.mask[k, jm.idx_v:jm.idx_v + jm.nv] = 1.0
                 j = model.parents[j]
+        # placements come from the distinct parent joints (one Python access each) and the
+        # frames' constant offsets: frames sharing a body cost nothing extra
+        parents = [model.frames[fid].parentJoint for fid in self.fids]
+        self.joints = sorted(set(parents))
+        self.jidx = np.array([self.joints.index(j) for j in parents], dtype=np.int64)
+        self.jMf = np.array([model.frames[fid].placement.homogeneous for fid in self.fids]).reshape(F, 4, 4)
+        self.Hj = np.zeros((len(self.joints), 4, 4))
         self.H = np.zeros((F, 4, 4))
         self.P, self.R = self.H[:, :3, 3], self.H[:, :3, :3]
         self.Jv, self.Jw = np.zeros((F, 3, nv)), np.zeros((F, 3, nv))
         self.V, self.W, self.A, self.Al = (np.zeros((F, 3)) for _ in range(4))
 
     def load_placements(self, data):
-        """Copy the frames' placements out of data.oMf (the only per-frame Python loop)."""
-        oMf, H = data.oMf, self.H
-        for k, fid in enumerate(self.fids):
-            H[k] = oMf[fid].homogeneous
+        """Copy the parent joints' placements out of data.oMi (the only per-body Python loop,
+        over the few joints that carry closure frames)."""
+        oMi, Hj = data.oMi, self.Hj
+        for k, j in enumerate(self.joints):
+            Hj[k] = oMi[j].homogeneous
 
     def update(self, data, v):
         """Standalone use: ``data`` must hold frame placements, data.J and data.dJ at (q, v)."""
         self.load_placements(data)
-        frame_kinematics(self.H, self.mask, data.J, data.dJ, v, self.Jv, self.Jw, self.V, self.W, self.A, self.Al)
+        frame_kinematics(self.Hj, self.jidx, self.jMf, self.H, self.mask, data.J, data.dJ, v, self.Jv, self.Jw,
+                         self.V, self.W, self.A, self.Al)
         return self
 
 
@@ -85,7 +94,7 @@ def static_args(mech, ws):
     are views that stay valid for the workspace's life (data.J etc. view Pinocchio's memory)."""
     fk, mc, dr, data = ws.fk, mech.compiled, mech.driverows, ws.data
     nv = mech.nv     # Pinocchio hands back (6,) for a 1-dof tree: view it as (6, nv)
-    return (fk.H, fk.mask, data.J.reshape(6, nv), data.dJ.reshape(6, nv), mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv, fk.Jw, fk.V, fk.W,
+    return (fk.Hj, fk.jidx, fk.jMf, fk.H, fk.mask, data.J.reshape(6, nv), data.dJ.reshape(6, nv), mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv, fk.Jw, fk.V, fk.W,
             fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma)
 
 

@@ -6,6 +6,8 @@ from .pinocchio_cd import PinocchioCD
 from .projection import Projection
 from .proximal import Proximal
 
+__all__ = ["Formulation", "Lagrange", "Projection", "PinocchioCD", "Proximal", "METHODS", "get"]
+
 METHODS = {cls.name: cls for cls in (Lagrange, Projection, PinocchioCD, Proximal)}
 
 

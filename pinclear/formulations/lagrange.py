@@ -46,6 +46,9 @@ class Lagrange(Formulation):
             J = ws.J[self.rows]
             MiJt = cho_solve(self.mass_factor(), J.T, check_finite=False)
             self.rank_loss(J @ MiJt, t)
-        ws.lam[:] = 0.0
-        ws.lam[self.rows] = b["lam"][: len(self.rows)]
+        if len(self.rows) == mech.m:
+            ws.lam[:] = b["lam"]
+        else:
+            ws.lam[:] = 0.0
+            ws.lam[self.rows] = b["lam"][: len(self.rows)]
         return b["a"].copy()

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError, ModelFileError
+from ..errors import InputError
 
 #: initial platform height (paper 004, sec. 4)
 H0 = 0.38

@@ -188,16 +188,10 @@ def limb_lengths(t):
     return L, dv / L, (v @ v + d @ a) / L - dv * dv / L**3
 
 
-_cache = {"t": None, "val": None}
-
-
 def limb_law(t, limb):
-    """Drive law of limb ``limb`` (1..5): (L, dL/dt, d2L/dt2) -- sidecar ``python`` law.
-    The five drives ask at the same t in turn; the last evaluation is reused."""
-    if _cache["t"] != t:
-        _cache["val"] = limb_lengths(t)
-        _cache["t"] = t
-    L, Ld, Ldd = _cache["val"]
+    """Drive law of limb ``limb`` alone: (L, dL/dt, d2L/dt2). The sidecar's drives use
+    limb_lengths with ``index`` instead, so one inverse kinematics serves all limbs per time."""
+    L, Ld, Ldd = limb_lengths(t)
     k = int(limb) - 1
     return float(L[k]), float(Ld[k]), float(Ldd[k])
 
@@ -272,8 +266,8 @@ def sidecar_dict():
         "initial": {"q": {k: float(round(v, 12)) + 0.0 for k, v in q0.items()}},   # + 0.0: no -0.0
         "closures": CLOSURES,
         "drives": [{"name": f"drive{i}", "joint": f"P{i}",
-                    "law": {"type": "python", "function": "pinclear.mechanisms.four_ups_upu:limb_law",
-                            "args": {"limb": i}}} for i in LIMBS],
+                    "law": {"type": "python", "function": "pinclear.mechanisms.four_ups_upu:limb_lengths",
+                            "index": k}} for k, i in enumerate(LIMBS)],
         "platform": {"frame": "platform",
                      "motion": {"function": "pinclear.mechanisms.four_ups_upu:platform_pose", "args": {}}},
         "parameters": parameters(),

@@ -259,17 +259,11 @@ def limb_lengths(t):
     return out[0], out[1], out[2]
 
 
-_cache = {"t": None, "val": None}
-
-
 def limb_law(t, limb):
-    """Drive law of limb ``limb`` (1..3): (L, dL/dt, d2L/dt2) -- sidecar ``python`` law.
-    The three drives ask at the same t in turn; the last evaluation is reused."""
-    if _cache["t"] != t:
-        _cache["val"] = limb_lengths(t)
-        _cache["t"] = t
-    L, Ld, Ldd = _cache["val"]
-    k = LIMBS.index(int(limb))
+    """Drive law of limb ``limb`` alone: (L, dL/dt, d2L/dt2). The sidecar's drives use
+    limb_lengths with ``index`` instead, so one inverse kinematics serves all limbs per time."""
+    L, Ld, Ldd = limb_lengths(t)
+    k = int(limb) - 1
     return float(L[k]), float(Ld[k]), float(Ldd[k])
 
 
@@ -373,8 +367,8 @@ def sidecar_dict():
         "initial": {"q": {k: float(round(v, 12)) + 0.0 for k, v in q0.items()}},   # + 0.0: no -0.0
         "closures": CLOSURES,
         "drives": [{"name": f"drive{i}", "joint": f"P{i}",
-                    "law": {"type": "python", "function": "pinclear.mechanisms.three_upru_up:limb_law",
-                            "args": {"limb": i}}} for i in LIMBS],
+                    "law": {"type": "python", "function": "pinclear.mechanisms.three_upru_up:limb_lengths",
+                            "index": k}} for k, i in enumerate(LIMBS)],
         "platform": {"frame": "platform",
                      "motion": {"function": "pinclear.mechanisms.three_upru_up:platform_pose", "args": {}}},
         "parameters": parameters(),
