@@ -38,6 +38,7 @@ class Mechanism:
         self.replaced_closures = dict(replaced_closures or {})
         self.visual_model = visual_model
         self.collision_model = collision_model
+        self.load_args = None        # set by pinclear.load: path, options, overrides, clearances
         self.compiled = CompiledClosures(self.closures)
         self.driverows = DriveRows(self.drives, model.nv)
         self.z_slices = []
@@ -98,7 +99,9 @@ class Mechanism:
                       replaced_closures=self.replaced_closures, visual_model=self.visual_model,
                       collision_model=self.collision_model)
         fields.update(changes)
-        return Mechanism(**fields)
+        new = Mechanism(**fields)
+        new.load_args = self.load_args
+        return new
 
     def copy_model(self) -> pin.Model:
         return copy.deepcopy(self.model)

@@ -343,4 +343,8 @@ def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
 
         elems = [contact.build(c, mech, file) for _, c in chosen]
         mech = mech.replace(forces=mech.forces + elems)
+    # how to load this variant again (saved with every trajectory)
+    mech.load_args = {"path": str(path.resolve()), "options": dict(options or {}),
+                      "overrides": {k: _parse_value(v) for k, v in dict(overrides or {}).items()},
+                      "clearances": [c["name"] for _, c in chosen]}
     return mech

@@ -183,7 +183,8 @@ class Trajectory:
         for k, v in self.energies.items():
             arrays[f"energy/{k}"] = v
         meta = dict(self.meta, status=self.status, message=self.message, stats=self.stats,
-                    mech_path=str(self.mech_path) if self.mech_path else None,
+                    mech_path=str(Path(self.mech_path).resolve()) if self.mech_path else None,
+                    load_args=getattr(self.mech, "load_args", None),
                     lam_names=list(self.lam), summary=self.summary())
         if self.mech is not None:
             meta["parameters"] = self.mech.parameters
@@ -205,6 +206,21 @@ class Trajectory:
         tr.energies = {k[7:]: d[k] for k in d.files if k.startswith("energy/")}
         tr.mech = mech
         return tr
+
+    def load_mechanism(self):
+        """The mechanism this run used, loaded again with the same options, overrides and
+        active clearances (from the saved metadata)."""
+        from .sidecar import load
+
+        la = self.meta.get("load_args") or {}
+        path = la.get("path") or self.mech_path
+        if path is None:
+            from .errors import ModelFileError
+
+            raise ModelFileError("<trajectory>", "mech_path", "the run does not name its mechanism file")
+        self.mech = load(path, options=la.get("options") or None, overrides=la.get("overrides") or None,
+                         clearances=la.get("clearances") or None)
+        return self.mech
 
     def __repr__(self):
         return (f"Trajectory({self.status}, {len(self.t)} samples, t = [{self.t[:1]}, {self.t[-1:]}], "

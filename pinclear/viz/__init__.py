@@ -1,0 +1,92 @@
+"""Visual checks: meshcat scenes, standalone HTML animations, the standard plots.
+
+Headless by default: nothing opens a browser or blocks unless asked.
+
+>>> scene = pinclear.viz.show(mech, traj, html="out/run.html")     # file only, no server
+>>> scene = pinclear.viz.show(mech, traj)          # meshcat server on localhost, prints URL
+>>> pinclear.viz.plots.save_all(traj, "out/plots")
+"""
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from .animate import animate, resample
+from .html import export_html, scene_html, screenshot
+from .scene import MechanismScene, SceneRecorder, active_clearances
+
+__all__ = ["show", "build_scene", "animate", "resample", "export_html", "scene_html", "screenshot",
+           "MechanismScene", "SceneRecorder", "active_clearances", "start_viewer"]
+
+
+def _assembled(mech, q=None):
+    """The configuration to show: q if given, else mech.q0 with the loops closed (drives at
+    t = 0) when the core can assemble it, else q0 as it is."""
+    if q is not None:
+        return np.asarray(q, float)
+    try:
+        from pinclear import kinematics
+        return kinematics.assemble(mech, mech.q0)
+    except Exception:      # an unassemblable guess is still worth looking at
+        return np.asarray(mech.q0, float)
+
+
+def build_scene(mech, traj=None, *, q=None, fps: float = 30.0, slowdown: float | None = None,
+                max_frames: int = 1500, ecc_scale: float | None = None, force_scale: float | None = None,
+                play: bool = True, loop: bool = False, use_urdf_visuals: bool = True) -> MechanismScene:
+    """Scene of ``mech`` (at q, or assembled from q0), animated with ``traj`` if given.
+
+    slowdown: playback seconds per simulated second; None = real time, or slowed by a round
+    factor so that runs shorter than 5 s play for 5 s (:func:`pinclear.viz.animate.auto_slowdown`).
+    ecc_scale: eccentricity magnification (None = a 1-2-5 factor drawing the clearance at
+    most 8 % of the mechanism); force_scale: metres of arrow per newton (None = longest force
+    arrow a quarter of the mechanism).  Both are stated in the page's legend."""
+    q0 = traj.q[0] if (traj is not None and q is None) else _assembled(mech, q)
+    scene = MechanismScene(mech, q0, ecc_scale=ecc_scale, force_scale=force_scale,
+                           use_urdf_visuals=use_urdf_visuals)
+    if traj is not None:
+        animate(scene, traj, fps=fps, slowdown=slowdown, max_frames=max_frames, play=play, loop=loop)
+    return scene
+
+
+def start_viewer(scene: MechanismScene, zmq_url: str | None = None, open_browser: bool = False):
+    """Push a scene to a meshcat server (started on localhost unless ``zmq_url`` names a
+    running one); returns the live ``meshcat.Visualizer``."""
+    import meshcat
+
+    vis = meshcat.Visualizer(zmq_url=zmq_url)
+    scene.push(vis)
+    if open_browser:
+        vis.open()
+    return vis
+
+
+def show(mech, traj=None, *, html=None, open_browser: bool = False, block: bool = False,
+         zmq_url: str | None = None, **scene_kw) -> MechanismScene:
+    """Show a mechanism (and animate a trajectory).
+
+    html: write a standalone page there and start no server.  Otherwise a meshcat server is
+    started on localhost (or ``zmq_url`` is used), its URL printed; ``open_browser`` opens it,
+    ``block`` waits until Ctrl-C.  The live visualizer is ``scene.live``.
+    Scene options (fps, slowdown, ecc_scale, force_scale, ...): see :func:`build_scene`.
+    """
+    scene = build_scene(mech, traj, **scene_kw)
+    scene.live = None
+    if html is not None:
+        scene.html_path = export_html(scene, html)
+        return scene
+    scene.live = start_viewer(scene, zmq_url=zmq_url, open_browser=open_browser)
+    if block:
+        wait_forever()
+    return scene
+
+
+def wait_forever():
+    print("meshcat viewer running; press Ctrl-C to stop.", file=sys.stderr, flush=True)
+    try:
+        while True:
+            time.sleep(3600)
+    except KeyboardInterrupt:
+        pass

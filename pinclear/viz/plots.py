@@ -1,0 +1,291 @@
+"""The standard figures of a run (matplotlib ``Figure`` objects without pyplot: no GUI
+backend is ever touched, nothing opens a window, the global backend stays as it was).
+
+Each ``fig_*`` function returns a Figure whose lines carry exactly the arrays they were made
+from (no smoothing, no resampling), so tests can check the data rather than the pixels; it
+returns None when the run has nothing to show for it (no platform, no clearance, ...).
+
+* ``platform``  position, velocity and acceleration of the platform frame (world
+  components that move), with clearance (solid) and, if given, the ideal run (dashed) on the
+  same axes;
+* ``contact_force``  normal and friction force magnitudes of each clearance joint;
+* ``journal``  eccentricity (journal/ball centre in the bearing/socket frame) inside the
+  clearance circle of radius c;
+* ``residual``  closure residual |Phi|_inf;
+* ``energy``  kinetic, potential, spring and total energy, and the dissipated energy of
+  the clearance joints when recorded;
+* ``drives``  drive forces/torques (the drive rows' multipliers).
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+import pinocchio as pin
+from matplotlib.figure import Figure
+
+AXES = "xyz"
+
+
+def _subplots(nrows=1, ncols=1, figsize=(8, 4), **kw):
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(nrows, ncols, **kw)
+
+
+def platform_kinematics(model: pin.Model, fid: int, q, v, a):
+    """World position, linear velocity and classical linear acceleration of frame ``fid``
+    (origin), per sample: three (N, 3) arrays."""
+    data = model.createData()
+    n = len(q)
+    P, V, A = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+    for k in range(n):
+        pin.forwardKinematics(model, data, q[k], v[k], a[k])
+        P[k] = pin.updateFramePlacement(model, data, fid).translation
+        V[k] = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
+        A[k] = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
+    return P, V, A
+
+
+def _moving(X: np.ndarray, rel: float = 1e-3) -> list[int]:
+    """Components that actually move (span above rel x the largest span)."""
+    span = X.max(axis=0) - X.min(axis=0)
+    top = span.max()
+    return [i for i in range(X.shape[1]) if top > 0 and span[i] > rel * top] or [int(np.argmax(span))]
+
+
+def clearance_names(traj) -> list[str]:
+    """Clearance joints recorded in a run: elements with an eccentricity or normal force."""
+    names = []
+    for key in getattr(traj, "outputs", {}) or {}:
+        name, _, what = key.rpartition(".")
+        if what in ("eccentricity", "normal_force", "fn") and name not in names:
+            names.append(name)
+    return names
+
+
+def clearance_type(traj, name: str) -> str | None:
+    """Kind of clearance joint ``name`` (spherical, revolute, planar_revolute, prismatic)."""
+    for el in getattr(getattr(traj, "mech", None), "forces", []) or []:
+        if getattr(el, "name", None) == name and getattr(el, "kind", None):
+            return el.kind
+    for f in (getattr(traj, "meta", {}) or {}).get("mechanism", {}).get("forces", []):
+        if f.get("name") == name:
+            return f.get("type")
+    return None
+
+
+def clearance_size(traj, name: str):
+    """Clearance of joint ``name``: radial c (float) of a ball or journal, or the gaps
+    (c1, c2) across a slider's guide; from the element's description in the run's metadata,
+    else from the outputs (|e| - penetration = c wherever both are recorded)."""
+    def conv(v):
+        if isinstance(v, (list, tuple, np.ndarray)):
+            return tuple(float(x) for x in v) if len(v) > 1 else float(v[0])
+        return float(v)
+
+    for el in getattr(getattr(traj, "mech", None), "forces", []) or []:
+        if getattr(el, "name", None) == name:
+            if hasattr(el, "c"):
+                return float(el.c)
+            if hasattr(el, "c1") and hasattr(el, "c2"):
+                return (float(el.c1), float(el.c2))
+    meta = getattr(traj, "meta", {}) or {}
+    for f in meta.get("mechanism", {}).get("forces", []):
+        if f.get("name") == name and "clearance" in f:
+            return conv(f["clearance"])
+    e = traj.outputs.get(f"{name}.eccentricity")
+    d = traj.outputs.get(f"{name}.penetration")
+    if e is not None and d is not None and np.ndim(e) == 2 and clearance_type(traj, name) != "prismatic":
+        return float(np.median(np.linalg.norm(e, axis=1) - np.ravel(d)))
+    return None
+
+
+# ------------------------------------------------------------------------------ figures
+def fig_platform(traj, model: pin.Model, fid: int, ref=None, label=None,
+                 ref_label="ideal joints"):
+    P, V, A = platform_kinematics(model, fid, traj.q, traj.v, traj.a)
+    comps = _moving(P)
+    if label is None:
+        label = "with clearance" if clearance_names(traj) else "run"
+    fig, axs = _subplots(3, 1, sharex=True, figsize=(8, 8))
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
+    R = platform_kinematics(model, fid, ref.q, ref.v, ref.a) if ref is not None else None
+    for ax, X, k, unit, title in zip(axs, (P, V, A), range(3), ("m", "m/s", "m/s²"),
+                                     ("position", "velocity", "acceleration")):
+        for c in comps:
+            ax.plot(traj.t, X[:, c], color=colors[c], lw=1.2, label=f"{AXES[c]} {label}",
+                    gid=f"{title}.{AXES[c]}")
+            if R is not None:
+                ax.plot(ref.t, R[k][:, c], color=colors[c], lw=1.0, ls="--",
+                        label=f"{AXES[c]} {ref_label}", gid=f"{title}.{AXES[c]}.ref")
+        ax.set_ylabel(f"{title} [{unit}]")
+        ax.grid(alpha=0.3)
+    axs[0].legend(fontsize=8, ncol=2)
+    axs[-1].set_xlabel("t [s]")
+    fig.suptitle(f"platform frame '{model.frames[fid].name}' (world components)")
+    fig.tight_layout()
+    return fig
+
+
+def fig_contact_force(traj):
+    names = [n for n in clearance_names(traj)
+             if f"{n}.normal_force" in traj.outputs or f"{n}.fn" in traj.outputs]
+    if not names:
+        return None
+    fig, axs = _subplots(len(names), 1, sharex=True, figsize=(8, 3 * len(names)), squeeze=False)
+    for ax, n in zip(axs[:, 0], names):
+        fn = traj.outputs.get(f"{n}.normal_force")
+        Fn = np.linalg.norm(fn, axis=1) if fn is not None and np.ndim(fn) == 2 else np.ravel(traj.outputs[f"{n}.fn"])
+        ax.plot(traj.t, Fn, lw=1.0, label="normal |Fn|", gid=f"{n}.normal")
+        ft = traj.outputs.get(f"{n}.friction_force")
+        if ft is not None and np.ndim(ft) == 2:
+            ax.plot(traj.t, np.linalg.norm(ft, axis=1), lw=1.0, label="friction |Ft|", gid=f"{n}.friction")
+        ax.set_ylabel(f"{n} force [N]")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    axs[-1, 0].set_xlabel("t [s]")
+    fig.suptitle("clearance contact forces")
+    fig.tight_layout()
+    return fig
+
+
+def fig_journal(traj):
+    names = [n for n in clearance_names(traj) if f"{n}.eccentricity" in traj.outputs]
+    if not names:
+        return None
+    fig, axs = _subplots(1, len(names), figsize=(5 * len(names), 5), squeeze=False)
+    for ax, n in zip(axs[0], names):
+        E = np.asarray(traj.outputs[f"{n}.eccentricity"], float)
+        if E.ndim == 1:
+            E = E[:, None]
+        if clearance_type(traj, n) in ("revolute", "planar_revolute", "prismatic") and E.shape[1] == 3:
+            # across the bearing/guide axis (z of its frame): along it is free travel
+            i, j = 0, 1
+        else:
+            # a ball moves in 3-D: show the two directions it explores most
+            span = E.max(axis=0) - E.min(axis=0)
+            i, j = (sorted(np.argsort(span)[-2:]) if E.shape[1] >= 2 else (0, 0))
+        ax.plot(E[:, i] * 1e3, E[:, j] * 1e3, lw=0.8, gid=f"{n}.path")
+        c = clearance_size(traj, n)
+        if isinstance(c, tuple) and (i, j) == (0, 1):
+            # slider centre in its guide: free within +-c1 x +-c2 (untilted slider)
+            cx, cy = c[0] * 1e3, c[1] * 1e3
+            ax.plot([-cx, cx, cx, -cx, -cx], [-cy, -cy, cy, cy, -cy], "k--", lw=1.0,
+                    label=f"gaps {cx:.4g} x {cy:.4g} mm", gid=f"{n}.gap")
+            ax.legend(fontsize=8, loc="upper right")
+        elif isinstance(c, float) and c > 0:
+            th = np.linspace(0, 2 * np.pi, 361)
+            ax.plot(c * 1e3 * np.cos(th), c * 1e3 * np.sin(th), "k--", lw=1.0,
+                    label=f"clearance c = {c * 1e3:.4g} mm", gid=f"{n}.circle")
+            ax.legend(fontsize=8, loc="upper right")
+        ax.set_aspect("equal")
+        ax.locator_params(nbins=5)
+        ax.set_xlabel(f"e_{AXES[i]} [mm] (bearing frame)")
+        ax.set_ylabel(f"e_{AXES[j]} [mm]")
+        ax.set_title(f"{n}: {'slider' if clearance_type(traj, n) == 'prismatic' else 'journal/ball'} centre")
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def fig_residual(traj):
+    r = np.asarray(traj.residual, float)
+    if r.size == 0 or not np.any(r != 0):      # no closure rows (all replaced by clearances)
+        return None
+    fig, ax = _subplots(figsize=(8, 3.5))
+    pos = r > 0
+    ax.semilogy(traj.t, np.where(pos, r, np.nan), lw=1.0, gid="residual")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("closure residual |Φ|∞")
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    return fig
+
+
+def fig_energy(traj):
+    try:
+        E = traj.energy()
+    except (AttributeError, KeyError):
+        return None
+    fig, ax = _subplots(figsize=(8, 4))
+    # changes from t0: the potential's datum is arbitrary, its changes are not
+    for k in ("kinetic", "potential", "spring", "total"):
+        if k in E and np.any(np.asarray(E[k]) != 0):
+            ax.plot(traj.t, E[k] - E[k][0], lw=1.2 if k == "total" else 1.0, label=k, gid=f"energy.{k}")
+    for n in clearance_names(traj):
+        d = traj.outputs.get(f"{n}.dissipated")
+        if d is not None:
+            ax.plot(traj.t, np.ravel(d), lw=1.0, ls=":", label=f"{n} dissipated", gid=f"energy.{n}.dissipated")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("energy change since t0 [J]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def drive_names(traj) -> list[str]:
+    mech = getattr(traj, "mech", None)
+    if mech is not None:
+        return [d.name for d in mech.drives]
+    meta = getattr(traj, "meta", {}) or {}
+    drives = meta.get("mechanism", {}).get("drives")
+    if drives is not None:
+        return [d["name"] for d in drives]
+    # closure rows are named "<closure>.<row>"; drive rows carry the drive's name
+    return [k for k in traj.lam if "." not in k]
+
+
+def fig_drives(traj):
+    names = [n for n in drive_names(traj) if n in traj.lam]
+    if not names:
+        return None
+    fig, ax = _subplots(figsize=(8, 4))
+    for n in names:
+        ax.plot(traj.t, traj.lam[n], lw=1.0, label=n, gid=f"drive.{n}")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel("drive force [N] / torque [N m]")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+# ------------------------------------------------------------------------------ all
+def make_figures(traj, mech=None, ref=None, frame: str | None = None) -> dict:
+    """All standard figures of ``traj``: name -> Figure, or name -> reason it was skipped.
+    ``frame`` names the frame to plot as platform (default: the sidecar's platform frame)."""
+    mech = mech if mech is not None else getattr(traj, "mech", None)
+    figs: dict = {}
+    fid = getattr(mech, "platform_frame", None) if mech is not None else None
+    if frame is not None:
+        fid = mech.frame_id(frame)
+    if fid is not None:
+        figs["platform"] = fig_platform(traj, mech.model, fid, ref=ref)
+    else:
+        figs["platform"] = "no platform frame (sidecar 'platform: frame:', or --frame NAME)"
+    for name, fn, why in (("contact_force", fig_contact_force, "no clearance joint active"),
+                          ("journal", fig_journal, "no clearance eccentricity recorded"),
+                          ("residual", fig_residual, "no closure rows (or no samples)"),
+                          ("energy", fig_energy, "no energies recorded"),
+                          ("drives", fig_drives, "no drives")):
+        f = fn(traj)
+        figs[name] = f if f is not None else why
+    return figs
+
+
+def save_all(traj, out_dir, mech=None, ref=None, fmt="png", dpi=110, frame=None) -> tuple[dict, dict]:
+    """Write the standard figures to ``out_dir``; returns (written name -> path,
+    skipped name -> reason)."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written, skipped = {}, {}
+    for name, fig in make_figures(traj, mech=mech, ref=ref, frame=frame).items():
+        if isinstance(fig, str):
+            skipped[name] = fig
+            continue
+        path = out / f"{name}.{fmt}"
+        fig.savefig(path, dpi=dpi)
+        written[name] = path
+    return written, skipped
