@@ -318,4 +318,10 @@ def lagrange_accel(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V
     constraint_rows_all(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias,
                         dphi, gamma, alpha, beta, q, v, fdrv)
     f = tau - nle
-    return kkt_solve(M, parent, f, Jc, gamma, rows, Lm, Y, S, Ls, a, lam)
+    ratio = kkt_solve(M, parent, f, Jc, gamma, rows, Lm, Y, S, Ls, a, lam)
+    s = 0.0
+    for i in range(a.shape[0]):
+        s += a[i]
+    if not np.isfinite(s):
+        return -2.0          # non-finite accelerations: the caller stops the integration
+    return ratio

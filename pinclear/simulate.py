@@ -97,18 +97,24 @@ class _System:
 
     def __call__(self, t, x):
         self.nfev += 1
-        q, v, z = self.split(x)
-        a = self.form.accelerations(t, q, v, z)
-        if not np.isfinite(a.sum()):
+        n, nv = self.nq_state, self.nv
+        v = x[n:n + nv]
+        if self.mech.euclidean:
+            q, dq = x[:n], v
+        else:
+            q = pin.integrate(self.mech.model, self.anchor, x[:n])
+            dq = np.linalg.solve(pin.dIntegrate(self.mech.model, self.anchor, x[:n], pin.ARG1), v)
+        form = self.form
+        a = form.accelerations(t, q, v, x[n + nv:])
+        if not form.checks_finite and not np.isfinite(a.sum()):
             # SciPy's step-size control loops forever on NaN: stop here and say where
             raise FloatingPointError(f"at t = {t:.9g} s: non-finite accelerations (check parameters, "
                                      "stiffness, and that the mass matrix is positive definite)")
-        if self.mech.euclidean:
-            dq = v
-        else:
-            Jd = pin.dIntegrate(self.mech.model, self.anchor, x[: self.nq_state], pin.ARG1)
-            dq = np.linalg.solve(Jd, v)
-        return np.concatenate([dq, a, self.form.ws.zdot])
+        out = np.empty_like(x)
+        out[:n] = dq
+        out[n:n + nv] = a
+        out[n + nv:] = form.ws.zdot
+        return out
 
 
 def _check_inputs(t_end, t0, rtol, atol, integrator, h, max_step, t_eval, dt_out):

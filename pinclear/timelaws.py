@@ -45,17 +45,20 @@ class Sines(TimeLaw):
     def __init__(self, offset=0.0, terms=()):
         self.offset = float(offset)
         self.terms = [dict(t) for t in terms]
-        self._a = np.array([float(t.get("amp", 1.0)) for t in self.terms])
-        self._w = np.array([float(t.get("omega", 1.0)) for t in self.terms])
-        # a cosine is a sine advanced by pi/2
-        self._p = np.array([float(t.get("phase", 0.0)) + (math.pi / 2 if t.get("kind", "sin") == "cos" else 0.0)
-                            for t in self.terms])
+        # (amp, omega, phase) with a cosine written as a sine advanced by pi/2; plain floats and
+        # math.sin: a law has a few terms and is evaluated at every right-hand side
+        self._t = [(float(t.get("amp", 1.0)), float(t.get("omega", 1.0)),
+                    float(t.get("phase", 0.0)) + (math.pi / 2 if t.get("kind", "sin") == "cos" else 0.0))
+                   for t in self.terms]
 
     def eval(self, t):
-        arg = self._w * t + self._p
-        s, c = np.sin(arg), np.cos(arg)
-        a, w = self._a, self._w
-        return (self.offset + float(a @ s), float((a * w) @ c), -float((a * w * w) @ s))
+        y, yd, ydd = self.offset, 0.0, 0.0
+        for a, w, p in self._t:
+            s, c = math.sin(w * t + p), math.cos(w * t + p)
+            y += a * s
+            yd += a * w * c
+            ydd -= a * w * w * s
+        return y, yd, ydd
 
     def describe(self):
         return {"type": self.kind, "offset": self.offset, "terms": self.terms}
@@ -68,11 +71,20 @@ class Polynomial(TimeLaw):
 
     def __init__(self, coeffs):
         self.coeffs = [float(c) for c in coeffs]
-        p = np.polynomial.Polynomial(self.coeffs)
-        self._p, self._d, self._dd = p, p.deriv(1), p.deriv(2)
+        c = self.coeffs
+        self._d = [k * c[k] for k in range(1, len(c))]
+        self._dd = [k * d for k, d in enumerate(self._d) if k > 0]
+
+    @staticmethod
+    def _horner(c, t):
+        y = 0.0
+        for ck in reversed(c):
+            y = y * t + ck
+        return y
 
     def eval(self, t):
-        return float(self._p(t)), float(self._d(t)), float(self._dd(t))
+        h = self._horner
+        return h(self.coeffs, t), h(self._d, t), h(self._dd, t)
 
     def describe(self):
         return {"type": self.kind, "coeffs": self.coeffs}

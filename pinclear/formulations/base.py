@@ -16,6 +16,7 @@ class Formulation:
     name = "base"
     options: dict = {}                    # option name -> default
     supports_projection = False
+    checks_finite = False                 # True: accelerations() itself raises on NaN/inf
 
     def __init__(self, mech, **options):
         bad = set(options) - set(self.options)

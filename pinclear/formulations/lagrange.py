@@ -15,6 +15,7 @@ from .base import RANK_COND, Formulation
 class Lagrange(Formulation):
     name = "lagrange"
     options = {"alpha": 5.0, "beta": 5.0, "drop_redundant": True}
+    checks_finite = True
 
     def __init__(self, mech, **options):
         super().__init__(mech, **options)
@@ -39,6 +40,9 @@ class Lagrange(Formulation):
                 b["Lm"], b["Y"], b["S"], b["Ls"], b["a"], b["lam"])
         ratio = lagrange_accel(*self._args, q, v, mech.driverows.values(t))
         b = self._buf
+        if ratio == -2.0:
+            raise FloatingPointError(f"at t = {t:.9g} s: non-finite accelerations (check parameters, "
+                                     "stiffness and the applied forces)")
         if self.ratio_ref is None and ratio > 0:
             self.ratio_ref = ratio
         self.ratio_min = min(self.ratio_min, ratio)
