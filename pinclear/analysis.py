@@ -1014,13 +1014,9 @@ def _param_arg(items):
 
 
 def _kv(items, what):
-    out = {}
-    for it in items or []:
-        if "=" not in it:
-            raise InputError(f"{what} expects KEY=VALUE, got {it!r}")
-        k, v = it.split("=", 1)
-        out[k.strip()] = yaml.safe_load(v)
-    return out
+    from .cli import parse_kv
+
+    return parse_kv(items, what)
 
 
 def _tag(key):

@@ -12,17 +12,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import PinclearError
+import yaml
+
+from .errors import InputError, PinclearError
 
 
-def _kv(items, what):
+def parse_kv(items, what):
+    """['KEY=VALUE', ...] -> {KEY: value parsed as a YAML scalar} (shared by every subcommand)."""
     out = {}
     for it in items or []:
         if "=" not in it:
-            raise PinclearError(f"{what} expects KEY=VALUE, got {it!r}")
+            raise InputError(f"{what} expects KEY=VALUE, got {it!r}")
         k, v = it.split("=", 1)
-        import yaml
-
         out[k.strip()] = yaml.safe_load(v)
     return out
 
@@ -30,8 +31,8 @@ def _kv(items, what):
 def _load(args):
     from .sidecar import load
 
-    return load(args.file, options=_kv(getattr(args, "option", None), "--option"),
-                overrides=_kv(getattr(args, "set", None), "--set"), clearances=getattr(args, "clearance", None))
+    return load(args.file, options=parse_kv(getattr(args, "option", None), "--option"),
+                overrides=parse_kv(getattr(args, "set", None), "--set"), clearances=getattr(args, "clearance", None))
 
 
 def _add_model_args(p):

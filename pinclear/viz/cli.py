@@ -11,15 +11,9 @@ import yaml
 
 
 def _overrides(pairs, file="--set"):
-    from pinclear.errors import InputError
+    from pinclear.cli import parse_kv
 
-    out = {}
-    for p in pairs or []:
-        if "=" not in p:
-            raise InputError(f"{file}: expected NAME.key=value or option=value, got {p!r}")
-        k, v = p.split("=", 1)
-        out[k.strip()] = yaml.safe_load(v)
-    return out
+    return parse_kv(pairs, file)
 
 
 def _sidecar_clearances(path) -> list[str]:
