@@ -78,6 +78,8 @@ class _System:
         self.nv, self.nz = mech.nv, mech.nz
         self.anchor = None
         self.nfev = 0
+        self.bad = 0            # consecutive non-finite evaluations
+        self.strict = False     # raise on the first non-finite evaluation
 
     def q_of(self, x):
         qc = x[: self.nq_state]
@@ -106,10 +108,16 @@ class _System:
             dq = np.linalg.solve(pin.dIntegrate(self.mech.model, self.anchor, x[:n], pin.ARG1), v)
         form = self.form
         a = form.accelerations(t, q, v, x[n + nv:])
-        if not form.checks_finite and not np.isfinite(a.sum()):
-            # SciPy's step-size control loops forever on NaN: stop here and say where
-            raise FloatingPointError(f"at t = {t:.9g} s: non-finite accelerations (check parameters, "
-                                     "stiffness, and that the mass matrix is positive definite)")
+        if form.nonfinite if form.checks_finite else not np.isfinite(a.sum()):
+            # a too-long trial step into a stiff contact overflows; SciPy's RK solvers reject it
+            # and shrink the step. At a solver's first evaluation, or when it keeps happening, stop
+            # (SciPy's initial-step selection would loop forever on NaN).
+            self.bad += 1
+            if self.strict or self.bad > MAX_NONFINITE:
+                raise FloatingPointError(f"at t = {t:.9g} s: non-finite accelerations (check parameters, "
+                                         "stiffness, and that the mass matrix is positive definite)")
+        else:
+            self.bad = 0
         out = np.empty_like(x)
         out[:n] = dq
         out[n:n + nv] = a
@@ -192,7 +200,21 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
                       redundant_rows=mob["redundant_rows"], redundant_rows_with_drives=redundant,
                       closure_condition=mob["condition"])
     stats = traj.stats
-    events = [(fi, k, f, ev) for fi, f in enumerate(mech.forces) for k, ev in enumerate(getattr(f, "events", []))]
+    # event channels per force element, evaluated together (one kinematics pass per element)
+    events = [(fi, f, np.array([e[1] if isinstance(e, tuple) else 0 for e in f.events]))
+              for fi, f in enumerate(mech.forces) if getattr(f, "events", None)]
+
+    def event_vals(fi, f, t, x):
+        q_, v_, z_ = sysf.split(x)
+        ws.q_cur = q_
+        kinematics.update(mech, ws, q_, v_)
+        zf = z_[mech.z_slices[fi]]
+        if hasattr(f, "event_values"):
+            return np.array(f.event_values(mech, ws, t, q_, v_, zf), float)
+        return np.array([f.event_value(k, mech, ws, t, q_, v_, zf) for k in range(len(f.events))], float)
+
+    def all_events(t, x):
+        return [event_vals(fi, f, t, x) for fi, f, _ in events]
     out_i = 0
     samples = []            # (t, x, chart anchor) recorded at output times
 
@@ -213,7 +235,11 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
         fs = first_step if step_hint is None else step_hint
         if fs is not None:
             kw["first_step"] = min(fs, t_end - t_start)
-        return _SCIPY[integrator](sysf, t_start, x_start, t_end, rtol=rtol, atol=atol, **kw)
+        sysf.strict = True          # a non-finite first evaluation would hang SciPy's step selection
+        try:
+            return _SCIPY[integrator](sysf, t_start, x_start, t_end, rtol=rtol, atol=atol, **kw)
+        finally:
+            sysf.strict = False
 
     status, message = "success", "reached t_end"
     try:
@@ -221,7 +247,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
         while out_i < len(t_eval) and t_eval[out_i] <= t0 + 1e-15:
             samples.append(_sample(t_eval[out_i], x.copy()))
             out_i += 1
-        ev_prev = [_event_value(sysf, mech, f, k, t0, x) for _, k, f, _ in events]
+        ev_prev = all_events(t0, x)
         while solver.status == "running":
             t_old = solver.t
             msg = solver.step()
@@ -252,17 +278,15 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
             # ---- events: earliest sign change in this step
             hit = None
             if events:
-                for idx, (fi, k, f, ev) in enumerate(events):
-                    g1 = _event_value(sysf, mech, f, k, t_new, solver.y)
-                    g0 = ev_prev[idx]
-                    direction = ev[1] if isinstance(ev, tuple) else 0
-                    crossed = (g0 < 0 <= g1 and direction >= 0) or (g0 > 0 >= g1 and direction <= 0)
-                    if crossed:
-                        te = brentq(lambda s: _event_value(sysf, mech, f, k, s, dense(s)), t_old, t_new,
+                g_new = all_events(t_new, solver.y)
+                for (fi, f, dirs), g0, g1 in zip(events, ev_prev, g_new):
+                    crossed = (((g0 < 0) & (g1 >= 0) & (dirs >= 0)) | ((g0 > 0) & (g1 <= 0) & (dirs <= 0)))
+                    for k in np.flatnonzero(crossed):
+                        te = brentq(lambda s, fi=fi, f=f, k=k: event_vals(fi, f, s, dense(s))[k], t_old, t_new,
                                     xtol=1e-14, rtol=4 * np.finfo(float).eps)
                         if hit is None or te < hit[0]:
-                            hit = (te, fi, k, f)
-                    ev_prev[idx] = g1
+                            hit = (te, fi, int(k), f)
+                ev_prev = g_new
             t_stop = hit[0] if hit else t_new
             while out_i < len(t_eval) and t_eval[out_i] <= t_stop:
                 samples.append(_sample(t_eval[out_i], dense(t_eval[out_i])))
@@ -278,11 +302,11 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
                 ze[sl] = f.handle_event(k, mech, ws, te, qe, ve, ze[sl])
                 stats["events"].append({"t": float(te), "element": f.name, "event": _event_name(f, k)})
                 x_restart, t_restart, restart = sysf.pack(qe, ve, ze), te, True
-                ev_prev = [_event_value(sysf, mech, ff, kk, te, x_restart) for _, kk, ff, _ in events]
-                # the event function sits at zero right after the event: step off it in its sense
-                for idx, (fi2, k2, f2, ev2) in enumerate(events):
-                    if fi2 == fi and k2 == k:
-                        ev_prev[idx] = 0.0
+                # an impact changes the time scale: let the integrator choose its first step again
+                step_hint = None
+                ev_prev = all_events(te, x_restart)
+                # the handled channel sits at zero right after its event: step off it in its sense
+                ev_prev[[e[0] for e in events].index(fi)][k] = 0.0
             elif form.supports_projection:
                 q1, v1, z1 = sysf.split(solver.y)
                 q1, v1 = form.project(t_new, q1, v1)
@@ -295,12 +319,6 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
                 stats["restarts"] += 1
                 if t_restart < t_end:
                     solver = make_solver(t_restart, x_restart, step_hint)
-                    if events:
-                        ev_prev = [_event_value(sysf, mech, ff, kk, t_restart, x_restart) for _, kk, ff, _ in events]
-                        if hit:
-                            for idx, (fi2, k2, _, _) in enumerate(events):
-                                if fi2 == hit[1] and k2 == hit[2]:
-                                    ev_prev[idx] = 0.0
             if max_cpu is not None and time.process_time() - cpu0 > max_cpu:
                 status = "failed"
                 message = f"stopped at t = {solver.t:.9g} s: CPU budget max_cpu = {max_cpu} s exhausted"
@@ -331,6 +349,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
     return traj
 
 
+#: consecutive non-finite right-hand sides tolerated (rejected trial steps) before failing
+MAX_NONFINITE = 50
+
 #: a step whose Schur-complement pivot ratio dips below this fraction of its initial value may
 #: have stepped over a singular configuration: the minimum inside the step is then located
 SINGULAR_DIP = 1e-3
@@ -352,15 +373,6 @@ def _locate_singular_passage(form, sysf, dense, t_old, t_new):
 
 def _last_t(samples, t0):
     return samples[-1][0] if samples else t0
-
-
-def _event_value(sysf, mech, f, k, t, x):
-    q, v, z = sysf.split(x)
-    ws = sysf.form.ws
-    ws.q_cur = q
-    kinematics.update(mech, ws, q, v)
-    fi = mech.forces.index(f)
-    return float(f.event_value(k, mech, ws, t, q, v, z[mech.z_slices[fi]]))
 
 
 def _event_name(f, k):

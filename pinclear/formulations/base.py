@@ -16,7 +16,8 @@ class Formulation:
     name = "base"
     options: dict = {}                    # option name -> default
     supports_projection = False
-    checks_finite = False                 # True: accelerations() itself raises on NaN/inf
+    checks_finite = False                 # True: accelerations() sets self.nonfinite itself
+    nonfinite = False
 
     def __init__(self, mech, **options):
         bad = set(options) - set(self.options)

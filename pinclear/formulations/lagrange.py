@@ -40,9 +40,9 @@ class Lagrange(Formulation):
                 b["Lm"], b["Y"], b["S"], b["Ls"], b["a"], b["lam"])
         ratio = lagrange_accel(*self._args, q, v, mech.driverows.values(t))
         b = self._buf
-        if ratio == -2.0:
-            raise FloatingPointError(f"at t = {t:.9g} s: non-finite accelerations (check parameters, "
-                                     "stiffness and the applied forces)")
+        self.nonfinite = ratio == -2.0        # checked by the simulator (trial stages may overflow)
+        if self.nonfinite:
+            return b["a"].copy()
         if self.ratio_ref is None and ratio > 0:
             self.ratio_ref = ratio
         self.ratio_min = min(self.ratio_min, ratio)

@@ -1,0 +1,169 @@
+"""Compiled inner loops of the clearance joints (numba), for the same reason as
+pinclear._kernels: the arithmetic per contact channel is a handful of flops, and ~30 small numpy
+calls per right-hand side cost far more than the work. The maths is in pinclear.contact.base.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+try:
+    from numba import njit
+except ImportError:  # pragma: no cover - numba is a declared dependency of pinclear
+    def njit(*args, **kwargs):
+        if args and callable(args[0]):
+            return args[0]
+        return lambda f: f
+
+
+@njit(cache=True)
+def relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt):
+    """dd[k] = n_k . (v2(p2_k) - v1(p1_k)), vt[k] = the tangential rest, for material points p1_k
+    on body 1 and p2_k on body 2 (velocities v_o + w x p from WORLD Jacobian columns idx)."""
+    s1 = [0.0] * 6
+    s2 = [0.0] * 6
+    for r in range(6):
+        a = 0.0
+        for i in idx1:
+            a += J[r, i] * v[i]
+        s1[r] = a
+        b = 0.0
+        for i in idx2:
+            b += J[r, i] * v[i]
+        s2[r] = b
+    for k in range(n.shape[0]):
+        x2, y2, z2 = p2[k, 0], p2[k, 1], p2[k, 2]
+        x1, y1, z1 = p1[k, 0], p1[k, 1], p1[k, 2]
+        r0 = (s2[0] + s2[4] * z2 - s2[5] * y2) - (s1[0] + s1[4] * z1 - s1[5] * y1)
+        r1 = (s2[1] + s2[5] * x2 - s2[3] * z2) - (s1[1] + s1[5] * x1 - s1[3] * z1)
+        r2 = (s2[2] + s2[3] * y2 - s2[4] * x2) - (s1[2] + s1[3] * y1 - s1[4] * x1)
+        d = n[k, 0] * r0 + n[k, 1] * r1 + n[k, 2] * r2
+        dd[k] = d
+        vt[k, 0] = r0 - d * n[k, 0]
+        vt[k, 1] = r1 - d * n[k, 1]
+        vt[k, 2] = r2 - d * n[k, 2]
+
+
+@njit(cache=True)
+def add_wrenches(J, idx1, idx2, F2, p1, p2, tau):
+    """tau += J2^T (f; sum p2 x F2) + J1^T (-f; -sum p1 x F2): contact forces F2 on body 2 at p2,
+    their reactions on body 1 at p1, as wrenches about the world origin (WORLD Jacobians)."""
+    w2 = [0.0] * 6
+    w1 = [0.0] * 6
+    for k in range(F2.shape[0]):
+        fx, fy, fz = F2[k, 0], F2[k, 1], F2[k, 2]
+        w2[0] += fx
+        w2[1] += fy
+        w2[2] += fz
+        w2[3] += p2[k, 1] * fz - p2[k, 2] * fy
+        w2[4] += p2[k, 2] * fx - p2[k, 0] * fz
+        w2[5] += p2[k, 0] * fy - p2[k, 1] * fx
+        w1[3] -= p1[k, 1] * fz - p1[k, 2] * fy
+        w1[4] -= p1[k, 2] * fx - p1[k, 0] * fz
+        w1[5] -= p1[k, 0] * fy - p1[k, 1] * fx
+    w1[0], w1[1], w1[2] = -w2[0], -w2[1], -w2[2]
+    for i in idx2:
+        a = 0.0
+        for r in range(6):
+            a += J[r, i] * w2[r]
+        tau[i] += a
+    for i in idx1:
+        a = 0.0
+        for r in range(6):
+            a += J[r, i] * w1[r]
+        tau[i] += a
+
+
+#: penetration (m) and rate ratio dd/dd0 beyond which the laws are held constant (never physical)
+DELTA_CAP, RATE_CAP = 0.1, 1e6
+
+#: friction codes of contact_forces (memoryless laws of pinclear.contact.laws)
+F_NONE, F_COULOMB, F_MODIFIED, F_STICKSLIP = 0, 1, 2, 3
+
+
+@njit(cache=True)
+def friction_coefficient(code, par, s):
+    """mu(|vt|) of the memoryless friction laws (see laws.py for the formulas and sources)."""
+    if code == F_COULOMB:
+        return par[0] * s / (s * s + par[1] * par[1]) ** 0.5
+    if code == F_MODIFIED:
+        x = (s - par[1]) / (par[2] - par[1])
+        return par[0] * min(max(x, 0.0), 1.0)
+    if code == F_STICKSLIP:
+        mu_s, mu_d, vs, vd = par[0], par[1], par[2], par[3]
+        if s < vs:
+            return mu_s * np.sin(0.5 * np.pi * s / vs)
+        if s > vd:
+            return mu_d
+        return 0.5 * (mu_s + mu_d) + 0.5 * (mu_s - mu_d) * np.cos(np.pi * (s - vs) / (vd - vs))
+    return 0.0
+
+
+@njit(cache=True)
+def contact_forces(delta, dd, vt, n, dd0, K, expo, chi, fcode, fpar, Fn, Fel, F2):
+    """Damped power law F = K d^e (1 + chi dd/dd0) clipped at zero (per channel K, e, chi) and a
+    memoryless friction law; fills Fn, Fel, F2 (force on body 2) and returns the dissipated power
+    (Fn - Fel) dd - Ft . vt."""
+    loss = 0.0
+    for k in range(delta.shape[0]):
+        d = delta[k]
+        if d <= 0.0:
+            Fn[k] = 0.0
+            Fel[k] = 0.0
+            F2[k, 0] = 0.0
+            F2[k, 1] = 0.0
+            F2[k, 2] = 0.0
+            continue
+        # trial stages of an explicit step may propose absurd states; keep the force finite so
+        # the step is rejected by its error estimate rather than poisoned by inf/NaN
+        fe = K[k] * min(d, DELTA_CAP) ** expo[k]
+        f = fe * (1.0 + chi[k] * min(max(dd[k] / dd0[k], -RATE_CAP), RATE_CAP))
+        if f < 0.0:
+            f = 0.0
+        Fn[k] = f
+        Fel[k] = fe
+        t0, t1, t2 = vt[k, 0], vt[k, 1], vt[k, 2]
+        s = (t0 * t0 + t1 * t1 + t2 * t2) ** 0.5
+        g = 0.0
+        if s > 0.0 and fcode != F_NONE:
+            g = friction_coefficient(fcode, fpar, s) * f / s
+        F2[k, 0] = -g * t0 - f * n[k, 0]
+        F2[k, 1] = -g * t1 - f * n[k, 1]
+        F2[k, 2] = -g * t2 - f * n[k, 2]
+        loss += (f - fe) * dd[k] + g * s * s
+    return loss
+
+
+@njit(cache=True)
+def radial_geometry(s, a, pts, c, R1, R2, delta, n, p1, p2):
+    """Journal points pts (m, 3) in a bearing of centre s and unit axis a (a = 0: a spherical
+    socket): eccentricity e = pt - s less its axial part u a, n = e/|e|, delta = |e| - c,
+    bearing point p1 = s + u a + R1 n (at the journal point's axial station), journal point
+    p2 = pt + R2 n (paper 000 eqs. 3-9, paper 002 eqs. 1-3 and 6)."""
+    for k in range(pts.shape[0]):
+        e0, e1, e2 = pts[k, 0] - s[0], pts[k, 1] - s[1], pts[k, 2] - s[2]
+        u = e0 * a[0] + e1 * a[1] + e2 * a[2]
+        e0 -= u * a[0]
+        e1 -= u * a[1]
+        e2 -= u * a[2]
+        el = (e0 * e0 + e1 * e1 + e2 * e2) ** 0.5
+        if el > 0.0:
+            n0, n1, n2 = e0 / el, e1 / el, e2 / el
+        else:
+            # centred: any radial direction (the force is zero there anyway)
+            if abs(a[0]) < 0.9:
+                n0, n1, n2 = 0.0, a[2], -a[1]
+            else:
+                n0, n1, n2 = -a[2], 0.0, a[0]
+            nn = (n0 * n0 + n1 * n1 + n2 * n2) ** 0.5
+            if nn > 0.0:
+                n0, n1, n2 = n0 / nn, n1 / nn, n2 / nn
+            else:
+                n0, n1, n2 = 1.0, 0.0, 0.0
+        delta[k] = el - c
+        n[k, 0], n[k, 1], n[k, 2] = n0, n1, n2
+        p1[k, 0] = s[0] + u * a[0] + R1 * n0
+        p1[k, 1] = s[1] + u * a[1] + R1 * n1
+        p1[k, 2] = s[2] + u * a[2] + R1 * n2
+        p2[k, 0] = pts[k, 0] + R2 * n0
+        p2[k, 1] = pts[k, 1] + R2 * n1
+        p2[k, 2] = pts[k, 2] + R2 * n2

@@ -1,0 +1,217 @@
+"""Prismatic clearance joint: rectangular slider (frame2 of the replaced closure) in a
+rectangular guide (frame1), paper 003 sec. 2.
+
+Guide frame: x1 = e1 (towards the "top" face, inner height a'), y1 = e2 (side faces, inner
+width b'), z1 the sliding direction (the closure's slide axis). The slider is a box a x b x L
+centred on frame2 (x2, y2, z2 likewise). Its 8 corners P1..P8 are expressed in the guide frame
+(paper 003 eq. 1) and tested against the faces: R.e1 > a'/2 (top), R.e2 > b'/2 (side) and
+their opposites. A corner can only reach the faces on its own side, so there are 16 channels
+(corner k, direction x or y); the slider keeps its full 6-DOF pose relative to the guide.
+
+Per face, the touching corners decide the contact kind and the force law (paper 003 sec. 2.2):
+
+* one corner (or two diagonal ones): point contacts, Lankarani-Nikravesh with the Hertz
+  stiffness of a corner of radius ``edge_radius`` on a flat (eq. 7);
+* two corners sharing an edge: a line contact of that edge's length, cylindrical law (eqs. 5-6),
+  half the line load at each end, each from its own penetration (a tilted edge carries more at
+  the deeper end);
+* three or four corners: plane contact F = E A delta / l (eq. 4) on the face area A, a quarter
+  at each corner from its own penetration (the resultant and moment of a linear foundation).
+
+The kinds of the four faces combine into the 15 modes of paper 003 Table 1 (``MODES``); any
+other combination (possible with large tilts) is reported as mode 16. Because the force law
+changes with the mode, every channel raises an event at contact onset and at separation.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .base import ClearanceJoint
+
+KEYS = {"section", "length", "edge_radius", "point_law", "line_law", "plane_law"}
+
+#: paper 003 Table 1: (points, lines, planes) -> mode number
+MODES = {
+    (1, 0, 0): 1, (2, 0, 0): 2, (3, 0, 0): 3, (4, 0, 0): 4,
+    (1, 1, 0): 5, (1, 2, 0): 6, (2, 1, 0): 7,
+    (0, 1, 0): 8, (0, 2, 0): 9, (0, 3, 0): 10, (0, 4, 0): 11,
+    (0, 1, 1): 12, (0, 2, 1): 13, (0, 0, 1): 14, (0, 0, 2): 15,
+}
+MODE_NAMES = {
+    0: "free", 1: "single point", 2: "double points", 3: "three points", 4: "four points",
+    5: "single point and single line", 6: "single point and double lines",
+    7: "double points and single line", 8: "single line", 9: "double lines", 10: "three lines",
+    11: "four lines", 12: "single line and single plane", 13: "double lines and single plane",
+    14: "one plane", 15: "two planes", 16: "other combination",
+}
+
+# corner k has signs S[k] = (s1, s2, s3) (bit 2 -> s1, bit 1 -> s2, bit 0 -> s3)
+SIGNS = np.array([[1 if k & 4 else -1, 1 if k & 2 else -1, 1 if k & 1 else -1] for k in range(8)], float)
+
+
+def _faces():
+    """Channel bookkeeping: channel ch = 2 k + d (d = 0: x face, 1: y face).
+
+    Returns face id per channel (0: +x, 1: -x, 2: +y, 3: -y), and per face the 4 channels in a
+    fixed order with, for each pair of them, the edge they share (0: none (diagonal), 1: edge
+    along the slide axis, 2: edge across the section)."""
+    face_of = np.zeros(16, int)
+    members = [[] for _ in range(4)]
+    for k in range(8):
+        s1, s2, _ = SIGNS[k]
+        for d in (0, 1):
+            f = (0 if s1 > 0 else 1) if d == 0 else (2 if s2 > 0 else 3)
+            face_of[2 * k + d] = f
+            members[f].append(2 * k + d)
+    return face_of, [np.array(m) for m in members]
+
+
+FACE_OF, FACE_MEMBERS = _faces()
+
+
+def classify(touch):
+    """Contact kind per face and the paper's mode from a boolean per channel (16,).
+
+    Returns (mode, (points, lines, planes), kinds) with kinds[f] in
+    {"", "point", "points2", "line_long", "line_short", "plane"}.
+    """
+    counts = [0, 0, 0]
+    kinds = []
+    for f in range(4):
+        ch = FACE_MEMBERS[f][touch[FACE_MEMBERS[f]]]
+        m = len(ch)
+        if m == 0:
+            kinds.append("")
+        elif m == 1:
+            kinds.append("point")
+            counts[0] += 1
+        elif m == 2:
+            sa, sb = SIGNS[ch[0] // 2], SIGNS[ch[1] // 2]
+            diff = sa != sb                       # the face's own sign is shared
+            if diff.sum() == 1:
+                kinds.append("line_long" if diff[2] else "line_short")
+                counts[1] += 1
+            else:
+                kinds.append("points2")
+                counts[0] += 2
+        else:
+            kinds.append("plane")
+            counts[2] += 1
+    counts = tuple(counts)
+    if counts == (0, 0, 0):
+        return 0, counts, kinds
+    return MODES.get(counts, 16), counts, kinds
+
+
+class PrismaticClearance(ClearanceJoint):
+    kind = "prismatic"
+    event_direction = 0
+
+    def __init__(self, name, model, f1, f2, section, clearance, length, laws, friction, **kw):
+        super().__init__(name, model, f1, f2, 16, friction, **kw)
+        self.a, self.b = map(float, section)
+        self.c1, self.c2 = map(float, clearance)
+        self.L = float(length)
+        self.ha = 0.5 * self.a + self.c1           # a'/2
+        self.hb = 0.5 * self.b + self.c2           # b'/2
+        self.corners = SIGNS * np.array([0.5 * self.a, 0.5 * self.b, 0.5 * self.L])   # in frame 2
+        self.laws = laws            # dict: point, line_long, line_short, plane_x, plane_y
+        self.mode = 0
+        self.counts = (0, 0, 0)
+
+    # geometry -----------------------------------------------------------------
+    def _geometry(self, data):
+        M1, M2 = data.oMf[self.f1], data.oMf[self.f2]
+        R1, o1 = M1.rotation, M1.translation
+        P = M2.translation + self.corners @ M2.rotation.T          # (8, 3) world corners
+        r = (P - o1) @ R1                                           # paper 003 eq. 1, guide frame
+        d = self.delta.reshape(8, 2)
+        d[:, 0] = SIGNS[:, 0] * r[:, 0] - self.ha
+        d[:, 1] = SIGNS[:, 1] * r[:, 1] - self.hb
+        n = self.n.reshape(8, 2, 3)
+        n[:, 0] = SIGNS[:, 0:1] * R1[:, 0]
+        n[:, 1] = SIGNS[:, 1:2] * R1[:, 1]
+        self.p1.reshape(8, 2, 3)[:] = P[:, None, :]
+        self.p2.reshape(8, 2, 3)[:] = P[:, None, :]
+
+    def _scales(self, delta):
+        """Per-channel law name and weight for the current set of touching channels."""
+        mode, counts, kinds = classify(delta > 0.0)
+        self.mode, self.counts = mode, counts
+        return kinds
+
+    def _apply(self, delta, fn):
+        """Sum over faces of fn(law, weight, channel indices)."""
+        kinds = self._scales(delta)
+        for f, kind in enumerate(kinds):
+            if not kind:
+                continue
+            ch = FACE_MEMBERS[f]
+            if kind in ("point", "points2"):
+                fn(self.laws["point"], 1.0, ch)
+            elif kind.startswith("line"):
+                if kind == "line_short":
+                    law = self.laws["line_x" if f < 2 else "line_y"]
+                else:
+                    law = self.laws["line_long"]
+                fn(law, 0.5, ch)
+            else:
+                fn(self.laws["plane_x" if f < 2 else "plane_y"], 0.25, ch)
+
+    def _normal(self, delta, dd, dd0):
+        Fn = np.zeros(16)
+        Fel = np.zeros(16)
+
+        def fn(law, w, ch):
+            Fn[ch] = w * law.force(delta[ch], dd[ch], dd0[ch])
+            Fel[ch] = w * law.elastic(delta[ch])
+
+        self._apply(delta, fn)
+        return Fn, Fel
+
+    def _energy(self, delta):
+        E = np.zeros(16)
+
+        def fn(law, w, ch):
+            E[ch] = w * law.energy(delta[ch])
+
+        self._apply(delta, fn)
+        return E
+
+    def outputs(self, mech, ws, t, q, v, z):
+        out = super().outputs(mech, ws, t, q, v, z)
+        c = self._eval(mech, ws, t, q, v, z)
+        mode, counts, _ = classify(c["delta"] > 0.0)
+        M1, M2 = ws.data.oMf[self.f1], ws.data.oMf[self.f2]
+        out["eccentricity"] = M1.rotation.T @ (M2.translation - M1.translation)
+        out["mode"] = np.array(float(mode))
+        out["kinds"] = np.array(counts, float)
+        return out
+
+    def describe(self):
+        return {**super().describe(), "section": [self.a, self.b], "clearance": [self.c1, self.c2],
+                "length": self.L, "laws": {k: repr(v) for k, v in self.laws.items()}}
+
+
+def from_spec(sp, mech, closure):
+    a, b = sp.pair("section", [0.05, 0.05])
+    c1, c2 = sp.pair("clearance")
+    L = sp.number("length", 0.1)
+    r = sp.number("edge_radius", 1e-3)
+    E1, _ = sp.material(1)
+    E2, _ = sp.material(2)
+    Es = sp.estar()
+    # corner of radius r on a flat face: Hertz sphere-on-plane stiffness 4/3 E* sqrt(r)
+    laws = {"point": sp.normal_law("point_law", "lankarani_nikravesh", K=4.0 / 3.0 * Es * math.sqrt(r))}
+    for key, length in (("line_long", L), ("line_x", b), ("line_y", a)):
+        laws[key] = sp.normal_law("line_law", "line", line=(Es, length, r))
+    E = min(E1, E2)                                   # the softer body sets the plane compliance
+    laws["plane_x"] = sp.normal_law("plane_law", "plane", plane=(E, L * b, a))
+    laws["plane_y"] = sp.normal_law("plane_law", "plane", plane=(E, L * a, b))
+    return PrismaticClearance(sp.name, mech.model, closure.f1, closure.f2, (a, b), (c1, c2), L, laws,
+                              sp.friction_law(), **sp.common(min(c1, c2)))
+
+
+__all__ = ["PrismaticClearance", "classify", "MODES", "MODE_NAMES", "SIGNS"]

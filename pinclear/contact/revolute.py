@@ -1,0 +1,104 @@
+"""Revolute clearance joints: journal (frame2 of the replaced closure) in a bearing (frame1).
+
+``planar_revolute`` (paper 002, sec. 1.1): e = r_journal - r_bearing (eq. 1) taken in the plane
+normal to the bearing axis (frame1 z), n = e/|e| (eq. 2), delta = |e| - c, c = R_bearing -
+R_journal (eq. 6), contact points r + R n (eq. 3), normal and tangential velocities of the
+contact points (eqs. 4-5). Use it where the rest of the mechanism keeps the motion planar.
+
+``revolute`` (spatial radial clearance): the journal, of length L along its own axis (frame2 z),
+is checked at both ends against the bearing cylinder (two radial channels: they carry both the
+radial load and the tilting moment), and its centre against the two thrust faces a distance
+``axial_clearance`` away along the bearing axis (two axial channels). All five freedoms the
+ideal revolute closure removed come back, held by contact.
+
+For each radial channel the bearing point is taken at the journal point's axial station,
+p1 = s + u a + R_bearing n, so n . (v2(p2) - v1(p1)) is exactly d(delta)/dt even when the
+bearing axis turns (energy balance exact).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _kernels
+from .base import ClearanceJoint
+from .spherical import stiffness
+
+KEYS_PLANAR = {"radius", "bearing_radius", "length"}
+KEYS_SPATIAL = KEYS_PLANAR | {"axial_clearance"}
+
+
+class RevoluteClearance(ClearanceJoint):
+    """Planar (``spatial=False``, one radial channel at the journal centre) or spatial."""
+
+    def __init__(self, name, model, f1, f2, clearance, R_journal, law, friction, *, spatial=False,
+                 length=None, axial_clearance=None, **kw):
+        nc = 4 if spatial else 1
+        super().__init__(name, model, f1, f2, nc, friction, **kw)
+        self.kind = "revolute" if spatial else "planar_revolute"
+        self.spatial = spatial
+        self.c = float(clearance)
+        self.R2 = float(R_journal)
+        self.R1 = self.R2 + self.c
+        self.law = law
+        self.L = float(length) if length is not None else 2.0 * self.R2
+        self.ca = float(axial_clearance) if axial_clearance is not None else self.c
+        self._ends = np.array([[0.5], [-0.5]]) * self.L      # axial stations of the journal ends
+        self._d2, self._n2, self._q1, self._q2 = np.zeros(2), np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((2, 3))
+
+    def _geometry(self, data):
+        M1, M2 = data.oMf[self.f1], data.oMf[self.f2]
+        s, a = M1.translation, M1.rotation[:, 2].copy()
+        j = M2.translation
+        if not self.spatial:
+            _kernels.radial_geometry(s, a, j.reshape(1, 3), self.c, self.R1, self.R2,
+                                     self.delta, self.n, self.p1, self.p2)
+            return
+        # journal ends against the bearing cylinder (channels 0, 1)
+        pts = j + self._ends * M2.rotation[:, 2]
+        _kernels.radial_geometry(s, a, pts, self.c, self.R1, self.R2, self._d2, self._n2, self._q1, self._q2)
+        self.delta[:2], self.n[:2], self.p1[:2], self.p2[:2] = self._d2, self._n2, self._q1, self._q2
+        # journal centre against the two thrust faces (channels 2, 3), forces at the centre
+        u = float((j - s) @ a)
+        self.delta[2], self.delta[3] = u - self.ca, -u - self.ca
+        self.n[2], self.n[3] = a, -a
+        self.p1[2:] = j
+        self.p2[2:] = j
+
+    def _normal(self, delta, dd, dd0):
+        return self.law.force(delta, dd, dd0), self.law.elastic(delta)
+
+    def _energy(self, delta):
+        return self.law.energy(delta)
+
+    def outputs(self, mech, ws, t, q, v, z):
+        M1, M2 = ws.data.oMf[self.f1], ws.data.oMf[self.f2]
+        out = super().outputs(mech, ws, t, q, v, z)
+        # journal-centre position in the bearing frame: x, y radial, z axial
+        out["eccentricity"] = M1.rotation.T @ (M2.translation - M1.translation)
+        return out
+
+    def describe(self):
+        return {**super().describe(), "clearance": self.c, "R_journal": self.R2, "R_bearing": self.R1,
+                "length": self.L, "normal_law": repr(self.law), "stiffness": self.stiffness_note}
+
+
+def from_spec(sp, mech, closure, spatial):
+    c = sp.clearance()
+    R2 = sp.number("radius", 0.01)
+    if "bearing_radius" in sp.d:
+        R1 = sp.number("bearing_radius")
+        if R1 <= R2:
+            raise sp.error("bearing_radius", f"bearing radius {R1} m must exceed the journal radius {R2} m")
+        if abs((R1 - R2) - c) > 1e-12 * max(R1, 1.0):
+            raise sp.error("bearing_radius", f"bearing_radius - radius = {R1 - R2} m differs from clearance {c} m")
+    R1 = R2 + c
+    L = sp.number("length", 2.0 * R2)
+    K, note = stiffness(sp, R2, R1)
+    # line law (paper 003 eq. 6) for a journal: conformal curvature radius, contact length L
+    Reff = R2 * R1 / c
+    law = sp.normal_law(K=K, line=(sp.estar(), L, Reff))
+    ca = sp.number("axial_clearance", c) if spatial else None
+    el = RevoluteClearance(sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(),
+                           spatial=spatial, length=L, axial_clearance=ca, **sp.common(min(c, ca or c)))
+    el.stiffness_note = note
+    return el

@@ -1,0 +1,79 @@
+"""Spherical clearance joint: ball (frame2 of the replaced closure) in a socket (frame1).
+
+Paper 000, sec. 1: eccentricity e = P_ball - P_socket (eq. 3), n = e/|e| (eq. 5),
+penetration delta = |e| - c with c = R_socket - R_ball (eq. 6), contact points
+C = P_socket + R_socket n and D = P_ball + R_ball n (eqs. 8-9), relative normal and tangential
+velocities of D with respect to C (eqs. 10-16). Replacing the ideal 3-row closure, the ball
+gets its 3 relative translations back.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import _kernels
+from .base import ClearanceJoint
+from .laws import hertz_stiffness
+
+KEYS = {"radius", "socket_radius"}
+
+
+class SphericalClearance(ClearanceJoint):
+    kind = "spherical"
+
+    def __init__(self, name, model, f1, f2, clearance, R_ball, law, friction, **kw):
+        super().__init__(name, model, f1, f2, 1, friction, **kw)
+        self.c = float(clearance)
+        self.R2 = float(R_ball)
+        self.R1 = self.R2 + self.c
+        self.law = law
+        self._noaxis = np.zeros(3)
+
+    def _geometry(self, data):
+        # the socket has no axis: radial_geometry with a = 0 is paper 000 eqs. 3-9 as they stand
+        _kernels.radial_geometry(data.oMf[self.f1].translation, self._noaxis,
+                                 data.oMf[self.f2].translation.reshape(1, 3), self.c, self.R1, self.R2,
+                                 self.delta, self.n, self.p1, self.p2)
+
+    def _normal(self, delta, dd, dd0):
+        return self.law.force(delta, dd, dd0), self.law.elastic(delta)
+
+    def _energy(self, delta):
+        return self.law.energy(delta)
+
+    def outputs(self, mech, ws, t, q, v, z):
+        M1, M2 = ws.data.oMf[self.f1], ws.data.oMf[self.f2]
+        out = super().outputs(mech, ws, t, q, v, z)
+        out["eccentricity"] = M1.rotation.T @ (M2.translation - M1.translation)   # eq. 3, socket frame
+        return out
+
+    def describe(self):
+        return {**super().describe(), "clearance": self.c, "R_ball": self.R2, "R_socket": self.R1,
+                "normal_law": repr(self.law), "stiffness": self.stiffness_note}
+
+
+def from_spec(sp, mech, closure):
+    c = sp.clearance()
+    R2 = sp.number("radius", 0.01)
+    if "socket_radius" in sp.d:
+        R1 = sp.number("socket_radius")
+        if R1 <= R2:
+            raise sp.error("socket_radius", f"socket radius {R1} m must exceed the ball radius {R2} m")
+        if abs((R1 - R2) - c) > 1e-12 * max(R1, 1.0):
+            raise sp.error("socket_radius", f"socket_radius - radius = {R1 - R2} m differs from clearance {c} m")
+    R1 = R2 + c
+    K, note = stiffness(sp, R2, R1)
+    law = sp.normal_law(K=K)
+    el = SphericalClearance(sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(),
+                            **sp.common(c))
+    el.stiffness_note = note
+    return el
+
+
+def stiffness(sp, R_in, R_out):
+    """K from ``stiffness``: conformal (default) | printed | a number (N/m^n)."""
+    st = sp.d.get("stiffness", "conformal")
+    if isinstance(st, str):
+        if st not in ("conformal", "printed"):
+            raise sp.error("stiffness", f"invalid value {st!r}", ["conformal", "printed", "<number N/m^n>"])
+        return hertz_stiffness(sp.estar(), R_in, R_out, st), st
+    return sp.number("stiffness"), "given"
