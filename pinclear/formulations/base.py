@@ -35,12 +35,12 @@ class Formulation:
         """Kinematics pass and applied forces into ws.tau; fills ws.zdot for internal states."""
         mech, ws = self.mech, self.ws
         ws.q_cur = q
-        ws.nfev += 1
         kinematics.update(mech, ws, q, v)
-        tau = ws.tau
-        tau[:] = 0.0
-        for f, sl in zip(mech.forces, mech.z_slices):
-            f.add_force(mech, ws, t, q, v, z[sl], tau, ws.zdot[sl])
+        if mech.forces:                   # tau stays zero otherwise
+            tau = ws.tau
+            tau[:] = 0.0
+            for f, sl in zip(mech.forces, mech.z_slices):
+                f.add_force(mech, ws, t, q, v, z[sl], tau, ws.zdot[sl])
 
     def mass_factor(self):
         """Cholesky of M (upper triangle of data.M is what crba fills)."""

@@ -23,36 +23,48 @@ class Lagrange(Formulation):
         self._buf = {"Lm": np.zeros((nv, nv)), "Y": np.zeros((m, nv)), "S": np.zeros((m, m)),
                      "Ls": np.zeros((m, m)), "a": np.zeros(nv), "lam": np.zeros(m)}
         self._args = None       # kernel arguments, bound once (rows may be reset by the simulator)
+        self._bound_rows = None
+        self._drive_values = mech.driverows.values
+        self._ratio_floor = 1.0 / RANK_COND
         self.ratio_min = np.inf  # smallest pivot ratio of S since the simulator last reset it
         self.ratio_ref = None    # pivot ratio at the first evaluation (scale of the monitor)
 
     def baumgarte(self):
         return (self.opts["alpha"], self.opts["beta"])
 
+    def _bind(self):
+        """Kernel arguments, bound once: every array is a persistent buffer or a view of
+        Pinocchio's data. With all rows kept the kernel writes the multipliers into ws.lam."""
+        ws, mech, b = self.ws, self.mech, self._buf
+        al, be = self.baumgarte()
+        self._all_rows = len(self.rows) == mech.m
+        lam = ws.lam if self._all_rows else b["lam"]
+        self._bound_rows = self.rows
+        self._args = kinematics.static_args(mech, ws) + (
+            float(al), float(be), ws.data.M, ws.parent, ws.tau, ws.data.nle, self.rows,
+            b["Lm"], b["Y"], b["S"], b["Ls"], b["a"], lam)
+
     def accelerations(self, t, q, v, z):
         self.applied(t, q, v, z)
-        ws, mech = self.ws, self.mech
-        if self._args is None or self._args[-8] is not self.rows:
-            b = self._buf
-            al, be = self.baumgarte()
-            self._args = kinematics.static_args(mech, ws) + (
-                float(al), float(be), ws.data.M, ws.parent, ws.tau, ws.data.nle, self.rows,
-                b["Lm"], b["Y"], b["S"], b["Ls"], b["a"], b["lam"])
-        ratio = lagrange_accel(*self._args, q, v, mech.driverows.values(t))
-        b = self._buf
+        if self._bound_rows is not self.rows:
+            self._bind()
+        ratio = lagrange_accel(*self._args, q, v, self._drive_values(t))
+        a = self._buf["a"].copy()
         self.nonfinite = ratio == -2.0        # checked by the simulator (trial stages may overflow)
-        if self.nonfinite:
-            return b["a"].copy()
-        if self.ratio_ref is None and ratio > 0:
-            self.ratio_ref = ratio
-        self.ratio_min = min(self.ratio_min, ratio)
-        if ratio < 1.0 / RANK_COND:
-            J = ws.J[self.rows]
-            MiJt = cho_solve(self.mass_factor(), J.T, check_finite=False)
-            self.rank_loss(J @ MiJt, t)
-        if len(self.rows) == mech.m:
-            ws.lam[:] = b["lam"]
-        else:
+        if ratio < self._ratio_floor:
+            if self.nonfinite:
+                return a
+            self.rank_loss(self._schur(), t)
+        if ratio < self.ratio_min:
+            self.ratio_min = ratio
+            if self.ratio_ref is None:
+                self.ratio_ref = ratio
+        if not self._all_rows:
+            ws = self.ws
             ws.lam[:] = 0.0
-            ws.lam[self.rows] = b["lam"][: len(self.rows)]
-        return b["a"].copy()
+            ws.lam[self.rows] = self._buf["lam"][: len(self.rows)]
+        return a
+
+    def _schur(self):
+        J = self.ws.J[self.rows]
+        return J @ cho_solve(self.mass_factor(), J.T, check_finite=False)
