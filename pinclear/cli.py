@@ -61,8 +61,9 @@ def cmd_simulate(args):
     summary = traj.summary()
     summary["mechanism"] = mech.name
     summary["file"] = str(args.file)
-    summary["clearances"] = [f.name for f in mech.forces if f.name in {c.get("name") for c in
-                                                                       mech.sidecar.get("clearances") or []}]
+    # which clearance joints were active, with their law, stiffness form and sizes
+    names = {c.get("name") for c in mech.sidecar.get("clearances") or [] if isinstance(c, dict)}
+    summary["clearances"] = [f.describe() for f in mech.forces if f.name in names]
     summary["drive_force_peaks"] = {d.name: float(np.nanmax(np.abs(traj.lam[d.name]))) for d in mech.drives} \
         if len(traj.t) else {}
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
