@@ -88,11 +88,11 @@ class ClearanceJoint(ForceElement):
         raise NotImplementedError
 
     def _normal(self, delta, dd, dd0):
-        """(Fn, F_elastic) per channel."""
-        raise NotImplementedError
+        """(Fn, F_elastic) per channel; one normal law ``self.law`` unless a subclass mixes laws."""
+        return self.law.force(delta, dd, dd0), self.law.elastic(delta)
 
     def _energy(self, delta):
-        raise NotImplementedError
+        return self.law.energy(delta)
 
     def _extra_outputs(self, c):
         return {}
@@ -261,6 +261,10 @@ class ClearanceJoint(ForceElement):
             "contact": np.array(float(c["on"].any())),
             "dissipated": np.array(float(z[self.nc])),
         }
+        # eccentricity: frame2's origin (ball / journal / slider centre) in frame1 (socket /
+        # bearing / guide) axes, paper 000 eq. 3
+        M1, M2 = ws.data.oMf[self.f1], ws.data.oMf[self.f2]
+        out["eccentricity"] = M1.rotation.T @ (M2.translation - M1.translation)
         out.update(self._extra_outputs(c))
         return out
 

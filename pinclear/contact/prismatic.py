@@ -184,8 +184,6 @@ class PrismaticClearance(ClearanceJoint):
         out = super().outputs(mech, ws, t, q, v, z)
         c = self._eval(mech, ws, t, q, v, z)
         mode, counts, _ = classify(c["delta"] > 0.0)
-        M1, M2 = ws.data.oMf[self.f1], ws.data.oMf[self.f2]
-        out["eccentricity"] = M1.rotation.T @ (M2.translation - M1.translation)
         out["mode"] = np.array(float(mode))
         out["kinds"] = np.array(counts, float)
         return out

@@ -64,19 +64,6 @@ class RevoluteClearance(ClearanceJoint):
         self.p1[2:] = j
         self.p2[2:] = j
 
-    def _normal(self, delta, dd, dd0):
-        return self.law.force(delta, dd, dd0), self.law.elastic(delta)
-
-    def _energy(self, delta):
-        return self.law.energy(delta)
-
-    def outputs(self, mech, ws, t, q, v, z):
-        M1, M2 = ws.data.oMf[self.f1], ws.data.oMf[self.f2]
-        out = super().outputs(mech, ws, t, q, v, z)
-        # journal-centre position in the bearing frame: x, y radial, z axial
-        out["eccentricity"] = M1.rotation.T @ (M2.translation - M1.translation)
-        return out
-
     def describe(self):
         return {**super().describe(), "clearance": self.c, "R_journal": self.R2, "R_bearing": self.R1,
                 "length": self.L, "normal_law": repr(self.law), "stiffness": self.stiffness_note}

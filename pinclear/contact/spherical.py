@@ -34,18 +34,6 @@ class SphericalClearance(ClearanceJoint):
                                  data.oMf[self.f2].translation.reshape(1, 3), self.c, self.R1, self.R2,
                                  self.delta, self.n, self.p1, self.p2)
 
-    def _normal(self, delta, dd, dd0):
-        return self.law.force(delta, dd, dd0), self.law.elastic(delta)
-
-    def _energy(self, delta):
-        return self.law.energy(delta)
-
-    def outputs(self, mech, ws, t, q, v, z):
-        M1, M2 = ws.data.oMf[self.f1], ws.data.oMf[self.f2]
-        out = super().outputs(mech, ws, t, q, v, z)
-        out["eccentricity"] = M1.rotation.T @ (M2.translation - M1.translation)   # eq. 3, socket frame
-        return out
-
     def describe(self):
         return {**super().describe(), "clearance": self.c, "R_ball": self.R2, "R_socket": self.R1,
                 "normal_law": repr(self.law), "stiffness": self.stiffness_note}
