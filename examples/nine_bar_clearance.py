@@ -33,6 +33,7 @@ def main(argv=None) -> int:
     ap.add_argument("--max-cpu", type=float, default=None, help="stop the clearance run after this many CPU s")
     ap.add_argument("--set", action="append", default=[], metavar="A.KEY=VALUE")
     a = ap.parse_args(argv)
+    Path(a.out).mkdir(parents=True, exist_ok=True)
     overrides = dict(s.split("=", 1) for s in a.set)
     res = scenes.run(f"nine_bar_{a.joints}", t_end=a.t_end, rtol=a.rtol, integrator=a.integrator, overrides=overrides,
                      max_cpu=a.max_cpu)
