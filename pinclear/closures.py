@@ -16,8 +16,8 @@ planar_point     2   E^T (p1 - p2) = 0, E spans the plane normal to n (world, de
 distance         1   |p1 - p2| = L
 =============  ====  =====================================================================
 
-The primitives are evaluated for all closures at once (vectorised over instances) from the
-frame kinematics of :mod:`pinclear.kinematics`; a closure never calls Pinocchio itself.
+The primitives of all closures are compiled into one table evaluated by the kernel
+``pinclear._kernels.closure_rows`` from the frame kinematics; a closure never calls Pinocchio.
 Velocity-level rows are J v; acceleration level J a + bias, the bias being the value of the
 second time derivative at zero joint acceleration (from Pinocchio's dJ/dt, no finite differences).
 """
@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._kernels import DIST, DOT, PERP, PLANE, POINT, closure_rows
+from ._kernels import DIST, DOT, PERP, PLANE, POINT
 
 # (primitive, arguments, row labels)
 _POINT = ("point", (), ("x", "y", "z"))
@@ -124,23 +124,3 @@ class CompiledClosures:
         self.table = np.array(table, dtype=np.int64).reshape(-1, 6)
         self.E = np.array(E, float).reshape(-1, 2, 3)
         self.L = np.array(L, float)
-        self.groups = {}
-        for prim, g in groups.items():
-            d = {"i1": np.array(g["i1"]), "i2": np.array(g["i2"]), "rows": np.array(g["rows"])}
-            if prim == "plane":
-                d["E"] = np.array(g["args"])                  # (k, 2, 3)
-            elif prim == "distance":
-                d["L"] = np.array(g["args"], float)
-            elif prim in ("dot", "perp"):
-                a = np.array(g["args"])
-                d["a"] = a[:, 0]
-                if prim == "dot":
-                    d["b"] = a[:, 1]
-            self.groups[prim] = d
-
-    # --------------------------------------------------------------- evaluation
-    def evaluate(self, fk, phi, J, bias, dphi):
-        """Fill phi (m), J (m, nv), bias (m) and dphi = J v (m) from frame kinematics ``fk``."""
-        if self.m:
-            closure_rows(self.table, self.E, self.L, fk.H, fk.Jv, fk.Jw, fk.V, fk.W, fk.A, fk.Al,
-                         phi, J, bias, dphi)

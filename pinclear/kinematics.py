@@ -61,11 +61,13 @@ class FrameKinematics:
 
 def update(mech, ws, q, v):
     """One kinematic/dynamic pass at (q, v): the only place the right-hand side calls Pinocchio's
-    tree algorithms. Afterwards data.M (upper triangle), data.nle, data.oMf, data.J, data.dJ,
-    data.v and data.a (joint accelerations at zero ddq) are valid."""
+    tree algorithms. Afterwards data.M (upper triangle), data.nle, data.oMi, data.J, data.dJ,
+    data.v and data.a (joint accelerations at zero ddq) are valid, and data.oMf when the
+    mechanism has force elements (the only readers of frame placements on this path)."""
     model, data = mech.model, ws.data
     pin.computeJointJacobiansTimeVariation(model, data, q, v)
-    pin.updateFramePlacements(model, data)
+    if mech.forces:          # closures read joint placements; only force elements read data.oMf
+        pin.updateFramePlacements(model, data)
     pin.crba(model, data, q)
     pin.nonLinearEffects(model, data, q, v)
     ws.fk.load_placements(data)

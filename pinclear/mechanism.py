@@ -80,9 +80,6 @@ class Mechanism:
                                  choices=[f.name for f in self.model.frames])
         return self.model.getFrameId(name)
 
-    def drive_rows(self, t, q, v):
-        return self.driverows.rows(t, q, v)
-
     @property
     def conservative(self) -> bool:
         return not self.drives and all(f.conservative for f in self.forces)

@@ -5,6 +5,7 @@ import importlib.metadata
 import warnings
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -65,3 +66,21 @@ def sim():
             return pinclear.simulate(mech, t_end, **kw)
 
     return run
+
+
+def kkt_singular_time(mech, a, b, law="high"):
+    """Independent reference for a singular crossing of the 4-UPS/UPR: the time in [a, b] at which
+    the closed chain's full constraint Jacobian (closures + drive rows, from pinclear.kinematics at
+    the exact inverse-kinematics configuration of ``law``) has its smallest singular value."""
+    from scipy.optimize import minimize_scalar
+
+    from pinclear import kinematics
+    from pinclear.mechanisms import four_ups_upr as m
+
+    ws = mech.workspace()
+
+    def smin(t):
+        q = m.tree_configuration(mech.model, m.platform_pose(t, law))
+        return np.linalg.svd(kinematics.jacobian(mech, ws, q, t, with_drives=True), compute_uv=False)[-1]
+
+    return minimize_scalar(smin, bounds=(a, b), method="bounded", options={"xatol": 1e-12}).x

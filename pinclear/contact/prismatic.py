@@ -68,7 +68,7 @@ def _faces():
     return face_of, [np.array(m) for m in members]
 
 
-FACE_OF, FACE_MEMBERS = _faces()
+_, FACE_MEMBERS = _faces()
 
 
 def classify(touch):

@@ -56,12 +56,6 @@ class Spec:
             raise self.error(key, f"must be > 0, got {v!r}")
         return out
 
-    def choice(self, key, choices, default):
-        v = self.d.get(key, default)
-        if v not in choices:
-            raise self.error(key, f"invalid value {v!r}", choices)
-        return v
-
     def clearance(self):
         c = self.d.get("clearance")
         if c is None:

@@ -3,7 +3,7 @@ a formulation maps (t, q, v, z) to accelerations and multipliers; the simulator 
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve, LinAlgError
+from scipy.linalg import cho_factor
 
 from .. import kinematics
 from ..errors import InputError, RankLossError
@@ -28,7 +28,6 @@ class Formulation:
         self.opts = {**self.options, **options}
         self.ws = mech.workspace()
         self.rows = np.arange(mech.m)      # constraint rows used (redundant ones may be dropped)
-        self.t_last = 0.0
 
     # -------------------------------------------------------------- shared pieces
     def applied(self, t, q, v, z):
@@ -45,17 +44,6 @@ class Formulation:
     def mass_factor(self):
         """Cholesky of M (upper triangle of data.M is what crba fills)."""
         return cho_factor(self.ws.data.M, lower=False, check_finite=False)
-
-    def schur_solve(self, S, r, t):
-        """lam = S^-1 r with a rank check: a near-singular S means the closures lost rank here."""
-        try:
-            c = cho_factor(S, lower=True, check_finite=False)
-            d = np.abs(np.diag(c[0]))
-            if d.min() ** 2 > d.max() ** 2 / RANK_COND:
-                return cho_solve(c, r, check_finite=False)
-        except LinAlgError:
-            pass
-        self.rank_loss(S, t)
 
     def rank_loss(self, S, t):
         sv = np.linalg.svd(S, compute_uv=False)

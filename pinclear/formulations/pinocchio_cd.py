@@ -59,7 +59,6 @@ class PinocchioCD(Formulation):
     def accelerations(self, t, q, v, z):
         mech, ws = self.mech, self.ws
         ws.q_cur = q
-        ws.nfev += 1
         tau = ws.tau
         tau[:] = 0.0
         if mech.forces:

@@ -148,6 +148,15 @@ class ClosedChain:
         raise AssemblyError(f"closed-chain Newton did not converge: |residual| = {np.max(np.abs(r)):.3e}")
 
 
+def solve_lengths(model, closures, drive_joints, lengths, q0, frame="platform"):
+    """Forward position analysis of a platform: the closed-chain configuration whose driven
+    joints have ``lengths``, by Newton from q0. Returns (q, world pose of ``frame``)."""
+    ch = ClosedChain(model, closures, drive_joints)
+    q = ch.solve(q0, targets=lengths)
+    pin.framesForwardKinematics(model, ch.data, q)
+    return q, pin.SE3(ch.data.oMf[model.getFrameId(frame)])
+
+
 def config_vector(model, values):
     q = pin.neutral(model)
     for name, val in values.items():

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector,  # noqa: F401
+from ._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, solve_lengths,  # noqa: F401
                       cylinder_inertia, u_angles, urdf_joint, urdf_link, write_sidecar_yaml)
 from ._common import cross_inertia as _cross_inertia
 
@@ -301,9 +301,5 @@ def forward_kinematics(lengths, guess=None, model=None):
     ``lengths`` (limbs 1..5), by Newton from ``guess`` (default: the IK pose at t = 0).
     Returns (q, pose of frame ``platform``)."""
     model = model or _model()
-    ch = chain(model)
     q0 = config_vector(model, ik_configuration(0.0)) if guess is None else guess
-    q = ch.solve(q0, targets=lengths)
-    data = ch.data
-    pin.framesForwardKinematics(model, data, q)
-    return q, pin.SE3(data.oMf[model.getFrameId("platform")])
+    return solve_lengths(model, CLOSURES, [f"P{i}" for i in LIMBS], lengths, q0)

@@ -29,7 +29,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, cross_inertia, u_angles,
+from ._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, cross_inertia, solve_lengths,
+                      u_angles,
                       urdf_joint, urdf_link, write_sidecar_yaml)
 
 G = 9.81
@@ -401,8 +402,5 @@ def forward_kinematics(lengths, guess=None, model=None):
     ``lengths`` (limbs 1..3), by Newton from ``guess`` (default: the IK pose at t = 0).
     Returns (q, pose of frame ``platform``)."""
     model = model or _model()
-    ch = chain(model)
     q0 = config_vector(model, ik_configuration(0.0)) if guess is None else guess
-    q = ch.solve(q0, targets=lengths)
-    pin.framesForwardKinematics(model, ch.data, q)
-    return q, pin.SE3(ch.data.oMf[model.getFrameId("platform")])
+    return solve_lengths(model, CLOSURES, [f"P{i}" for i in LIMBS], lengths, q0)
