@@ -10,13 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-try:
-    from numba import njit
-except ImportError:  # pragma: no cover - numba is a declared dependency; keep importable
-    def njit(*args, **kwargs):
-        if args and callable(args[0]):
-            return args[0]
-        return lambda f: f
+from pinclear._jit import njit
 
 # primitive codes of CompiledClosures.table
 POINT, PLANE, DOT, PERP, DIST = 0, 1, 2, 3, 4

@@ -17,15 +17,7 @@ import yaml
 from .errors import InputError, PinclearError
 
 
-def parse_kv(items, what):
-    """['KEY=VALUE', ...] -> {KEY: value parsed as a YAML scalar} (shared by every subcommand)."""
-    out = {}
-    for it in items or []:
-        if "=" not in it:
-            raise InputError(f"{what} expects KEY=VALUE, got {it!r}")
-        k, v = it.split("=", 1)
-        out[k.strip()] = yaml.safe_load(v)
-    return out
+from .sidecar import parse_assignments as parse_kv
 
 
 def _load(args):

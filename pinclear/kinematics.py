@@ -11,6 +11,62 @@ import pinocchio as pin
 from .errors import AssemblyError
 
 
+def supporting_dofs(model: pin.Model, fid: int) -> np.ndarray:
+    """Velocity indices of the joints that move frame ``fid`` (the walk up the tree from its
+    parent joint to the root; empty for a world-fixed frame). The one tree walk of pinclear."""
+    idx = []
+    j = model.frames[int(fid)].parentJoint
+    while j > 0:
+        jm = model.joints[j]
+        idx.extend(range(jm.idx_v, jm.idx_v + jm.nv))
+        j = model.parents[j]
+    return np.array(sorted(idx), dtype=np.int64)
+
+
+class FrameMotion:
+    """World placement, LOCAL_WORLD_ALIGNED twist and classical acceleration of some frames
+    along a trajectory (arrays indexed [sample, frame, ...])."""
+
+    def __init__(self, n, F):
+        self.p = np.empty((n, F, 3))          # origin position, world
+        self.R = np.empty((n, F, 3, 3))       # rotation (frame axes in world)
+        self.v = np.empty((n, F, 3))          # origin velocity, world axes
+        self.w = np.empty((n, F, 3))          # angular velocity, world axes
+        self.a = np.empty((n, F, 3))          # classical acceleration of the origin, world axes
+
+
+def frame_motion(model: pin.Model, frames, q, v=None, a=None) -> FrameMotion:
+    """Kinematics of ``frames`` (ids) at every sample of (q, v, a): one forward pass per sample
+    for all frames (Pinocchio has no batched API). With v None only positions and rotations are
+    filled (velocities and accelerations are zero); with a None the acceleration is the one at
+    zero joint acceleration. The one place pinclear computes frame motion along a trajectory."""
+    fids = [int(f) for f in frames]
+    q = np.atleast_2d(np.asarray(q, float))
+    n = len(q)
+    out = FrameMotion(n, len(fids))
+    data = model.createData()
+    if v is None:
+        for k in range(n):
+            pin.framesForwardKinematics(model, data, q[k])
+            for i, f in enumerate(fids):
+                M = data.oMf[f]
+                out.p[k, i], out.R[k, i] = M.translation, M.rotation
+        out.v[:] = out.w[:] = out.a[:] = 0.0
+        return out
+    v = np.atleast_2d(np.asarray(v, float))
+    a = np.zeros_like(v) if a is None else np.atleast_2d(np.asarray(a, float))
+    LWA = pin.LOCAL_WORLD_ALIGNED
+    for k in range(n):
+        pin.forwardKinematics(model, data, q[k], v[k], a[k])
+        for i, f in enumerate(fids):
+            M = pin.updateFramePlacement(model, data, f)
+            out.p[k, i], out.R[k, i] = M.translation, M.rotation
+            tw = pin.getFrameVelocity(model, data, f, LWA)
+            out.v[k, i], out.w[k, i] = tw.linear, tw.angular
+            out.a[k, i] = pin.getFrameClassicalAcceleration(model, data, f, LWA).linear
+    return out
+
+
 class FrameKinematics:
     """Positions, rotations, Jacobians, velocities and zero-acceleration biases of a fixed set of
     frames, computed from Pinocchio's whole-tree Jacobian ``data.J`` and its time derivative
@@ -27,11 +83,7 @@ class FrameKinematics:
         F, nv = len(self.fids), model.nv
         self.mask = np.zeros((F, nv))
         for k, fid in enumerate(self.fids):
-            j = model.frames[fid].parentJoint
-            while j > 0:
-                jm = model.joints[j]
-                self.mask[k, jm.idx_v:jm.idx_v + jm.nv] = 1.0
-                j = model.parents[j]
+            self.mask[k, supporting_dofs(model, fid)] = 1.0
         # placements come from the distinct parent joints (one Python access each) and the
         # frames' constant offsets: frames sharing a body cost nothing extra
         parents = [model.frames[fid].parentJoint for fid in self.fids]

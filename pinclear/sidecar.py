@@ -140,6 +140,23 @@ def _parse_value(text):
     return yaml.safe_load(text) if isinstance(text, str) else text
 
 
+def parse_assignments(items, what="--set") -> dict:
+    """['KEY=VALUE', ...] -> {KEY: value parsed as a YAML scalar}: the command-line spelling of
+    load()'s ``options`` / ``overrides`` (the one parameter language of pinclear)."""
+    from .errors import InputError
+
+    out = {}
+    for it in items or []:
+        if not isinstance(it, str) or "=" not in it:
+            raise InputError(f"{what} expects KEY=VALUE, got {it!r}")
+        k, v = it.split("=", 1)
+        try:
+            out[k.strip()] = yaml.safe_load(v)
+        except yaml.YAMLError as exc:
+            raise InputError(f"{what} {it!r}: the value is not a YAML scalar ({' '.join(str(exc).split())})") from None
+    return out
+
+
 def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
     """Load ``urdf/<name>.yaml`` (sidecar) and the URDF it names.
 

@@ -1,0 +1,42 @@
+"""Where the mechanism files are: one function for every module, test and example.
+
+The ``urdf/`` folder of the repository is installed as the package ``pinclear.urdf`` (see
+pyproject.toml), so a non-editable ``pip install .`` finds the models by name from anywhere.
+"""
+from __future__ import annotations
+
+from importlib import resources
+from pathlib import Path
+
+from .errors import ModelFileError
+
+
+def models_dir() -> Path:
+    """The folder holding the bundled URDF trees and sidecars."""
+    try:
+        return Path(str(resources.files("pinclear.urdf")))
+    except ModuleNotFoundError:
+        # an editable install maps the package folder only: the models are then the
+        # repository's own urdf/ beside it
+        return Path(__file__).resolve().parents[1] / "urdf"
+
+
+def available() -> list[str]:
+    """Names of the bundled mechanisms (sidecar stems)."""
+    return sorted(p.stem for p in models_dir().glob("*.yaml"))
+
+
+def model_path(name) -> Path:
+    """A sidecar (or URDF) path from a bundled mechanism's name (``"four_bar"``) or any path.
+
+    An existing path is returned as it is; a bare name is looked up among the bundled models.
+    """
+    p = Path(name)
+    if p.exists():
+        return p
+    if p.suffix in ("", ".yaml", ".urdf") and len(p.parts) == 1:
+        cand = models_dir() / (p.name if p.suffix else p.name + ".yaml")
+        if cand.exists():
+            return cand
+    raise ModelFileError(str(name), "path", "no such file, and no bundled mechanism of that name",
+                         choices=available())
