@@ -9,7 +9,7 @@ import numpy as np
 from .timelaws import TimeLaw
 
 
-@dataclass
+@dataclass(frozen=True)
 class Drive:
     name: str
     joint: str
@@ -18,39 +18,55 @@ class Drive:
     law: TimeLaw
 
 
+class DriveData:
+    """Per-workspace drive buffers: law values (3, nd) and the last time of each shared group."""
+
+    def __init__(self, nd, ngroups):
+        self.f = np.zeros((3, nd))
+        self.t_group = [None] * ngroups
+
+
 class DriveRows:
-    """Vectorised drive rows: phi = q[iq] - f(t), dphi = v[iv] - f'(t), f''(t)."""
+    """Vectorised drive rows: phi = q[iq] - f(t), dphi = v[iv] - f'(t), f''(t). Immutable; the
+    values live in a :class:`DriveData` of the workspace."""
 
     def __init__(self, drives: list[Drive], nv: int):
-        self.drives = drives
-        self.iq = np.array([d.idx_q for d in drives], dtype=int)
-        self.iv = np.array([d.idx_v for d in drives], dtype=int)
+        self.drives = tuple(drives)
+        self.iq = np.array([d.idx_q for d in drives], dtype=np.int64)
+        self.iv = np.array([d.idx_v for d in drives], dtype=np.int64)
         self.J = np.zeros((len(drives), nv))
         self.J[np.arange(len(drives)), self.iv] = 1.0
-        self._f = np.zeros((3, len(drives)))
+        self.J.flags.writeable = False
         # drives whose laws are components of one shared vector function (e.g. every limb length
-        # from one inverse kinematics) are filled together: one call, one fancy-index copy
+        # from one inverse kinematics) are filled together: one call per time, one fancy-index copy
         groups: dict = {}
-        self._single = []
+        single = []
         for k, d in enumerate(drives):
-            shared = getattr(d.law, "_shared", None)
-            if shared is not None:
-                g = groups.setdefault(id(shared), (shared, [], []))
+            key = getattr(d.law, "share_key", None)
+            if key is not None:
+                g = groups.setdefault(key, (d.law, [], []))
                 g[1].append(k)
                 g[2].append(d.law.index)
             else:
-                self._single.append((k, d.law))
-        self._groups = [(s, np.array(ks), np.array(ix)) for s, ks, ix in groups.values()]
+                single.append((k, d.law))
+        self.single = tuple(single)
+        self.groups = tuple((law, np.array(ks), np.array(ix)) for law, ks, ix in groups.values())
 
-    def values(self, t):
-        f = self._f
-        for shared, ks, ix in self._groups:
-            y, yd, ydd = shared(t)
-            f[0, ks], f[1, ks], f[2, ks] = y[ix], yd[ix], ydd[ix]
-        for k, law in self._single:
+    def create_data(self) -> DriveData:
+        return DriveData(len(self.drives), len(self.groups))
+
+    def values(self, t, d: DriveData):
+        """(3, nd) law values, first and second derivatives at t (written into ``d.f``)."""
+        f = d.f
+        for g, (law, ks, ix) in enumerate(self.groups):
+            if d.t_group[g] != t:            # the same instant is asked for by many evaluations
+                y, yd, ydd = law.vector(t)
+                f[0, ks], f[1, ks], f[2, ks] = y[ix], yd[ix], ydd[ix]
+                d.t_group[g] = t
+        for k, law in self.single:
             f[:, k] = law.eval(t)
         return f
 
-    def rows(self, t, q, v):
-        f = self.values(t)
+    def rows(self, t, q, v, d: DriveData):
+        f = self.values(t, d)
         return q[self.iq] - f[0], v[self.iv] - f[1], f[2]

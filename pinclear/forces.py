@@ -1,83 +1,152 @@
 """Force elements: anything that adds a generalized force computed from the state.
 
-Springs, applied joint forces and clearance contacts share this interface, so the formulations
-never special-case them. See docs/design.md for the contract.
+Springs, applied joint forces and clearance contacts share one contract, so the formulations
+and the simulator never special-case them.
 """
 from __future__ import annotations
 
-import numpy as np
-import pinocchio as pin
+import abc
 
+import numpy as np
+
+from .kinematics import supporting_dofs
 from .timelaws import TimeLaw
 
-LWA = pin.LOCAL_WORLD_ALIGNED
 
+class ForceElement(abc.ABC):
+    """Base class of every force element.
 
-class ForceElement:
+    The contract (the simulator and the formulations rely on nothing else):
+
+    1. An element is an immutable description. After ``__init__`` no method writes to ``self``;
+       everything an evaluation writes (buffers, caches, contact modes) lives in the object
+       returned by :meth:`create_data`, one per workspace (``ws.force_data[i]`` for element i of
+       ``mech.forces``). Two workspaces may evaluate one element in two threads.
+    2. ``nz`` internal states (LuGre bristles, impact speeds, dissipated energy) are integrated
+       with q and v; :meth:`z0` gives their initial value.
+    3. Every evaluation method receives ``(mech, ws, d, ...)``: the mechanism, the workspace and
+       this element's data ``d``. Before any call the caller ran ``kinematics.update(mech, ws, q,
+       v)`` at the same (q, v): ``ws.data`` holds placements, frame placements, joint Jacobians
+       and their time derivative. Elements never call Pinocchio's tree algorithms themselves.
+    4. :meth:`add_force` ADDS the element's generalized force into ``tau`` (nv) and WRITES the
+       rates of its internal states into ``zdot`` (nz).
+    5. :meth:`potential` is the stored elastic energy, :meth:`power_loss` the dissipated power
+       (negative when the element injects energy): the energy balance of a run closes with them.
+    6. ``conservative`` says whether the element neither dissipates nor injects energy.
+    7. Events: ``events`` is a tuple of ``(name, direction)`` channels (direction +1: rising
+       zero crossings only, -1 falling, 0 both). :meth:`event_values` returns all channels'
+       values at once; the simulator locates crossings and calls :meth:`handle_event` with the
+       channel index, which returns the new internal state.
+    8. ``is_clearance`` is True for clearance joints: the one way code tells them apart.
+    9. :meth:`outputs` returns the per-sample records (arrays) a trajectory keeps, named
+       ``"<element>.<key>"`` there.
+    """
+
     name: str = ""
     nz: int = 0
     conservative: bool = True
-    events: list = []
+    events: tuple = ()
+    is_clearance: bool = False
 
-    def z0(self, mech, ws, q, v):
+    def create_data(self, mech):
+        """Per-workspace data of this element (None when it writes nothing)."""
+        return None
+
+    def z0(self, mech, ws, d, q, v) -> np.ndarray:
         return np.zeros(self.nz)
 
-    def add_force(self, mech, ws, t, q, v, z, tau, zdot):
-        raise NotImplementedError
+    @abc.abstractmethod
+    def add_force(self, mech, ws, d, t, q, v, z, tau, zdot) -> None:
+        """Add the generalized force into ``tau``; write internal-state rates into ``zdot``."""
 
-    def potential(self, mech, ws, q) -> float:
+    def potential(self, mech, ws, d, q) -> float:
         return 0.0
 
-    def power_loss(self, mech, ws, t, q, v, z) -> float:
+    def power_loss(self, mech, ws, d, t, q, v, z) -> float:
         return 0.0
 
-    def outputs(self, mech, ws, t, q, v, z) -> dict:
+    def outputs(self, mech, ws, d, t, q, v, z) -> dict:
         return {}
 
-    def event_value(self, k, mech, ws, t, q, v, z) -> float:
-        raise NotImplementedError
+    def event_values(self, mech, ws, d, t, q, v, z) -> np.ndarray:
+        return np.zeros(0)
 
-    def handle_event(self, k, mech, ws, t, q, v, z):
+    def handle_event(self, k, mech, ws, d, t, q, v, z) -> np.ndarray:
         return z
 
     def describe(self) -> dict:
         return {"name": self.name, "type": type(self).__name__}
 
+    def __setattr__(self, key, value):
+        if getattr(self, "_frozen", False):
+            raise AttributeError(f"{type(self).__name__} {self.name!r} is immutable: per-evaluation "
+                                 f"state belongs in its create_data() object (tried to set {key!r})")
+        object.__setattr__(self, key, value)
+
+    def _freeze(self):
+        """Called at the end of a subclass ``__init__``: later writes raise."""
+        object.__setattr__(self, "_frozen", True)
+
+
+def world_jacobian_columns(J, idx, p):
+    """Linear rows at point p (world) of the WORLD joint Jacobian restricted to columns idx:
+    v(p) = v_o + w x p = (Jv - [p]x Jw) v."""
+    Jv, Jw = J[:3, idx], J[3:, idx]
+    return Jv - np.cross(p[:, None], Jw, axis=0)
+
+
+class _SpringData:
+    __slots__ = ("Jd",)
+
+    def __init__(self, nv):
+        self.Jd = np.zeros((3, nv))
+
 
 class SpringDamper(ForceElement):
     """Point-to-point spring-damper between two frames: F = k (|d| - L0) + c d|d|/dt along d."""
 
-    def __init__(self, name, f1, f2, k, c=0.0, free_length=0.0):
+    def __init__(self, name, model, f1, f2, k, c=0.0, free_length=0.0):
         self.name, self.f1, self.f2 = name, int(f1), int(f2)
         self.k, self.c, self.L0 = float(k), float(c), float(free_length)
         self.conservative = self.c == 0.0
+        self.idx1 = supporting_dofs(model, self.f1)
+        self.idx2 = supporting_dofs(model, self.f2)
+        self._freeze()
 
-    def _geometry(self, mech, ws):
+    def create_data(self, mech):
+        return _SpringData(mech.nv)
+
+    def _geometry(self, ws, d):
+        """Length, unit direction (frame 1 - frame 2) and the Jacobian of p1 - p2."""
         data = ws.data
-        d = data.oMf[self.f1].translation - data.oMf[self.f2].translation
-        L = float(np.linalg.norm(d))
-        n = d / L if L > 0 else np.zeros(3)
-        J1 = pin.getFrameJacobian(mech.model, data, self.f1, LWA)[:3]
-        J2 = pin.getFrameJacobian(mech.model, data, self.f2, LWA)[:3]
-        return L, n, J1 - J2
+        p1, p2 = data.oMf[self.f1].translation, data.oMf[self.f2].translation
+        dv = p1 - p2
+        L = float(np.sqrt(dv @ dv))
+        n = dv / L if L > 0 else np.zeros(3)
+        J = data.J.reshape(6, -1)
+        Jd = d.Jd
+        Jd[:] = 0.0
+        Jd[:, self.idx1] += world_jacobian_columns(J, self.idx1, p1)
+        Jd[:, self.idx2] -= world_jacobian_columns(J, self.idx2, p2)
+        return L, n, Jd
 
-    def add_force(self, mech, ws, t, q, v, z, tau, zdot):
-        L, n, Jd = self._geometry(mech, ws)
+    def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
+        L, n, Jd = self._geometry(ws, d)
         Ldot = float(n @ (Jd @ v))
         f = self.k * (L - self.L0) + self.c * Ldot       # tension
         tau -= f * (Jd.T @ n)
 
-    def potential(self, mech, ws, q):
+    def potential(self, mech, ws, d, q):
         L = np.linalg.norm(ws.data.oMf[self.f1].translation - ws.data.oMf[self.f2].translation)
         return 0.5 * self.k * (L - self.L0) ** 2
 
-    def power_loss(self, mech, ws, t, q, v, z):
-        L, n, Jd = self._geometry(mech, ws)
+    def power_loss(self, mech, ws, d, t, q, v, z):
+        L, n, Jd = self._geometry(ws, d)
         Ldot = float(n @ (Jd @ v))
         return self.c * Ldot * Ldot
 
-    def outputs(self, mech, ws, t, q, v, z):
-        L, n, Jd = self._geometry(mech, ws)
+    def outputs(self, mech, ws, d, t, q, v, z):
+        L, n, Jd = self._geometry(ws, d)
         Ldot = float(n @ (Jd @ v))
         return {"length": np.array(L), "force": np.array(self.k * (L - self.L0) + self.c * Ldot)}
 
@@ -92,15 +161,16 @@ class JointForce(ForceElement):
 
     def __init__(self, name, idx_v, law: TimeLaw):
         self.name, self.idx_v, self.law = name, int(idx_v), law
+        self._freeze()
 
-    def add_force(self, mech, ws, t, q, v, z, tau, zdot):
+    def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
         tau[self.idx_v] += self.law.eval(t)[0]
 
-    def power_loss(self, mech, ws, t, q, v, z):
+    def power_loss(self, mech, ws, d, t, q, v, z):
         # negative loss = power injected
         return -self.law.eval(t)[0] * v[self.idx_v]
 
-    def outputs(self, mech, ws, t, q, v, z):
+    def outputs(self, mech, ws, d, t, q, v, z):
         return {"force": np.array(self.law.eval(t)[0])}
 
     def describe(self):

@@ -134,13 +134,15 @@ def update_positions(mech, ws, q):
     ws.fk.load_placements(data)
 
 
-def constraint_rows(mech, ws, t, v, baumgarte=None):
-    """Fill ws.phi, ws.J, ws.dphi, ws.bias, ws.gamma (closures then drives) after :func:`update`.
+def constraint_rows(mech, ws, t, q, v, baumgarte=None):
+    """Fill ws.phi, ws.J, ws.dphi, ws.bias, ws.gamma (closures then drives) at (t, q, v), after
+    :func:`update` (or :func:`update_positions` with v = 0) at the same q.
 
     gamma is the right-hand side of J a = gamma; with ``baumgarte=(alpha, beta)`` it includes
     -2 alpha dPhi - beta^2 Phi (the papers' stabilisation)."""
     alpha, beta = baumgarte if baumgarte is not None else (0.0, 0.0)
-    constraint_rows_all(*static_args(mech, ws), float(alpha), float(beta), ws.q_cur, v, mech.driverows.values(t))
+    constraint_rows_all(*static_args(mech, ws), float(alpha), float(beta), q, v,
+                        mech.driverows.values(t, ws.drive_data))
 
 
 def static_args(mech, ws):
@@ -154,16 +156,14 @@ def static_args(mech, ws):
 
 def closure_residual(mech, ws, q, t=0.0, with_drives=False):
     """Residual vector Phi(q, t) of the closures (and drives)."""
-    ws.q_cur = q
     update_positions(mech, ws, q)
-    constraint_rows(mech, ws, t, ws.zero_v)
+    constraint_rows(mech, ws, t, q, ws.zero_v)
     return (ws.phi if with_drives else ws.phi[: mech.compiled.m]).copy()
 
 
 def jacobian(mech, ws, q, t=0.0, with_drives=False):
-    ws.q_cur = q
     update_positions(mech, ws, q)
-    constraint_rows(mech, ws, t, ws.zero_v)
+    constraint_rows(mech, ws, t, q, ws.zero_v)
     return (ws.J if with_drives else ws.J[: mech.compiled.m]).copy()
 
 
@@ -207,9 +207,8 @@ def assemble(mech, q_guess=None, t=0.0, tol=1e-12, max_iter=100, with_drives=Tru
     model = mech.model
     last = np.inf
     for it in range(max_iter):
-        ws.q_cur = q
         update_positions(mech, ws, q)
-        constraint_rows(mech, ws, t, ws.zero_v)
+        constraint_rows(mech, ws, t, q, ws.zero_v)
         m = mech.compiled.m + (len(mech.drives) if with_drives else 0)
         phi, J = ws.phi[:m], ws.J[:m]
         res = float(np.linalg.norm(phi, np.inf)) if m else 0.0
@@ -224,9 +223,8 @@ def assemble(mech, q_guess=None, t=0.0, tol=1e-12, max_iter=100, with_drives=Tru
         if it > 20 and res > 0.99 * last and res > 1e-6:
             break
         last = min(last, res)
-    ws.q_cur = q
     update_positions(mech, ws, q)
-    constraint_rows(mech, ws, t, ws.zero_v)
+    constraint_rows(mech, ws, t, q, ws.zero_v)
     m = mech.compiled.m + (len(mech.drives) if with_drives else 0)
     res = float(np.linalg.norm(ws.phi[:m], np.inf)) if m else 0.0
     if res < max(tol, 1e-10):
@@ -243,9 +241,8 @@ def consistent_velocity(mech, q, v_guess=None, t=0.0, ws=None):
     """Velocity closest to the guess (in the mass metric) that satisfies J v = -Phi_t."""
     ws = ws or mech.workspace()
     v0 = np.zeros(mech.model.nv) if v_guess is None else np.asarray(v_guess, float)
-    ws.q_cur = q
     update_positions(mech, ws, q)
-    constraint_rows(mech, ws, t, ws.zero_v)
+    constraint_rows(mech, ws, t, q, ws.zero_v)
     m = mech.compiled.m + len(mech.drives)
     if m == 0:
         return v0.copy()

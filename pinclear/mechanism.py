@@ -25,9 +25,10 @@ class Mechanism:
         self.model = model
         self.name = name
         self.path = path
-        self.closures = list(closures)
-        self.drives = list(drives)
-        self.forces = list(forces)
+        # tuples: a mechanism's elements are fixed; variants are made with replace()
+        self.closures = tuple(closures)
+        self.drives = tuple(drives)
+        self.forces = tuple(forces)
         self.q0 = pin.neutral(model) if q0 is None else np.asarray(q0, float)
         self.v0 = np.zeros(model.nv) if v0 is None else np.asarray(v0, float)
         self.platform_frame = platform_frame
@@ -39,8 +40,8 @@ class Mechanism:
         self.visual_model = visual_model
         self.collision_model = collision_model
         self.load_args = None        # set by pinclear.load: path, options, overrides, clearances
-        self.compiled = CompiledClosures(self.closures)
-        self.driverows = DriveRows(self.drives, model.nv)
+        self.compiled = CompiledClosures(list(self.closures))
+        self.driverows = DriveRows(list(self.drives), model.nv)
         self.z_slices = []
         n = 0
         for f in self.forces:
@@ -84,7 +85,14 @@ class Mechanism:
     def conservative(self) -> bool:
         return not self.drives and all(f.conservative for f in self.forces)
 
+    @property
+    def clearances(self) -> tuple:
+        """The active clearance joints (force elements with ``is_clearance``)."""
+        return tuple(f for f in self.forces if f.is_clearance)
+
     def workspace(self) -> "Workspace":
+        """New per-evaluation data: Pinocchio's Data, constraint buffers, every element's data.
+        One workspace per thread; any number may serve one mechanism."""
         return Workspace(self)
 
     def replace(self, **changes) -> "Mechanism":
@@ -96,6 +104,8 @@ class Mechanism:
                       replaced_closures=self.replaced_closures, visual_model=self.visual_model,
                       collision_model=self.collision_model)
         fields.update(changes)
+        for key in ("closures", "drives", "forces"):
+            fields[key] = list(fields[key])
         new = Mechanism(**fields)
         new.load_args = self.load_args
         return new
@@ -132,7 +142,8 @@ def _is_euclidean(model) -> bool:
 
 
 class Workspace:
-    """Buffers for one evaluation thread: pin.Data, frame kinematics, constraint rows."""
+    """Everything one evaluation thread writes: pin.Data, frame kinematics, constraint rows, the
+    drives' law values and each force element's data (``force_data[i]`` for ``mech.forces[i]``)."""
 
     def __init__(self, mech: Mechanism):
         nv, m = mech.nv, mech.m
@@ -149,6 +160,6 @@ class Workspace:
         self.tau = np.zeros(nv)
         self.zdot = np.zeros(mech.nz)
         self.zero_v = np.zeros(nv)
-        self.q_cur = mech.q0
         self.lam = np.zeros(m)
-        self.nfev = 0
+        self.drive_data = mech.driverows.create_data()
+        self.force_data = [f.create_data(mech) for f in mech.forces]

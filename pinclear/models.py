@@ -40,3 +40,21 @@ def model_path(name) -> Path:
             return cand
     raise ModelFileError(str(name), "path", "no such file, and no bundled mechanism of that name",
                          choices=available())
+
+
+def example_robot_data_dir() -> Path | None:
+    """The folder holding example-robot-data's robots (``.../share/example-robot-data/robots``),
+    found through the installed distribution's file list (it ships no importable module)."""
+    import importlib.metadata
+
+    try:
+        files = importlib.metadata.files("example-robot-data") or []
+    except importlib.metadata.PackageNotFoundError:
+        return None
+    for f in files:
+        parts = Path(str(f)).parts
+        if "robots" in parts and str(f).endswith(".urdf"):
+            located = Path(f.locate()).resolve()
+            depth = len(parts) - parts.index("robots") - 1
+            return located.parents[depth - 1]
+    return None

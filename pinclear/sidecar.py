@@ -13,10 +13,45 @@ from .drives import Drive
 from .errors import ModelFileError
 from .forces import JointForce, SpringDamper
 from .mechanism import Mechanism
-from .timelaws import build_law, resolve_function
+from .timelaws import build_law, resolve_function, trusted
+
+
+class _SidecarLoader(yaml.SafeLoader):
+    """PyYAML's safe loader without aliases: a 600-byte file of nested aliases expands to
+    gigabytes ("billion laughs"), and a mechanism file has no use for them."""
+
+    def compose_node(self, parent, index):
+        if self.check_event(yaml.events.AliasEvent):
+            event = self.peek_event()
+            raise yaml.YAMLError(f"line {event.start_mark.line + 1}: YAML aliases (*{event.anchor}) are not "
+                                 "accepted in a mechanism file; write the value out")
+        return super().compose_node(parent, index)
+
+
+def read_yaml(path, what="sidecar"):
+    """A YAML mapping from a file: UTF-8, bounded size, no aliases, errors naming the file."""
+    path = Path(path)
+    file = str(path)
+    try:
+        size = path.stat().st_size
+        if size > MAX_SIDECAR_BYTES:
+            raise ModelFileError(file, "yaml", f"{size} bytes is too large for a {what} (at most {MAX_SIDECAR_BYTES})")
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise ModelFileError(file, "yaml", f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except IsADirectoryError:
+        raise ModelFileError(file, "path", "is a folder, not a file") from None
+    except OSError as exc:
+        raise ModelFileError(file, "path", f"cannot be read: {exc.strerror}") from None
+    try:
+        return yaml.load(text, Loader=_SidecarLoader)
+    except yaml.YAMLError as exc:
+        raise ModelFileError(file, "yaml", f"not valid YAML: {' '.join(str(exc).split())}") from None
 
 TOP_KEYS = {"name", "urdf", "description", "gravity", "initial", "closures", "drives", "forces",
-            "clearances", "platform", "options", "hook", "parameters", "limbs", "viz", "notes"}
+            "clearances", "platform", "options", "hook", "parameters", "screw"}
+#: a sidecar is a few kilobytes; anything near this is not one
+MAX_SIDECAR_BYTES = 1_000_000
 CLOSURE_KEYS = {"name", "type", "frame1", "frame2", "normal", "length"}
 FRAME_KEYS = {"parent", "xyz", "rpy", "axis", "name"}
 DRIVE_KEYS = {"name", "joint", "law"}
@@ -24,6 +59,18 @@ FORCE_TYPES = {"spring_damper": {"name", "type", "frame1", "frame2", "k", "c", "
                "joint_force": {"name", "type", "joint", "law"}}
 CLEARANCE_TYPES = ("spherical", "revolute", "planar_revolute", "prismatic")
 ONE_DOF_JOINTS = ("RX", "RY", "RZ", "PX", "PY", "PZ", "RevoluteUnaligned", "PrismaticUnaligned")
+
+
+def allowed_roots(sidecar_path) -> list:
+    """Folders an untrusted mechanism file may read from: its own folder, pinclear's bundled
+    models and example-robot-data's model folder."""
+    from .models import example_robot_data_dir, models_dir
+
+    roots = [Path(sidecar_path).resolve().parent, models_dir().resolve()]
+    erd = example_robot_data_dir()
+    if erd is not None:
+        roots.append(erd)
+    return roots
 
 
 def _check_keys(d, allowed, file, key):
@@ -39,6 +86,8 @@ def _vec3(x, file, key):
         a = np.asarray(x, float).reshape(3)
     except (TypeError, ValueError):
         raise ModelFileError(file, key, f"expected 3 numbers, got {x!r}") from None
+    if not np.all(np.isfinite(a)):
+        raise ModelFileError(file, key, f"expected 3 finite numbers, got {x!r}")
     return a
 
 
@@ -102,9 +151,20 @@ def _build_model(urdf):
     import xml.etree.ElementTree as ET
 
     try:
-        ET.parse(str(urdf))
+        tree = ET.parse(str(urdf))
     except ET.ParseError as exc:
         raise ModelFileError(str(urdf), "urdf", f"malformed XML: {exc}") from None
+    parents: dict = {}
+    for j in tree.getroot().iter("joint"):
+        child = j.find("child")
+        if child is not None:
+            parents.setdefault(child.get("link"), []).append(j.get("name"))
+    loops = {link: js for link, js in parents.items() if len(js) > 1}
+    if loops:
+        link, js = next(iter(loops.items()))
+        raise ModelFileError(str(urdf), f"link {link!r}", f"is the child of {len(js)} joints ({', '.join(js)}): "
+                             "a URDF must be a tree; keep one joint in the URDF and declare the cut one under "
+                             "'closures:' in the sidecar")
     with tempfile.TemporaryFile(mode="w+b") as tmp:
         saved = os.dup(2)
         os.dup2(tmp.fileno(), 2)
@@ -121,7 +181,31 @@ def _build_model(urdf):
     if model is None:
         detail = f"{err}; {chatter}" if chatter else err
         raise ModelFileError(str(urdf), "urdf", f"Pinocchio cannot parse it: {' '.join(detail.split())}")
+    check_inertias(model, urdf)
     return model
+
+
+def check_inertias(model, file):
+    """Every body's inertia must be physically possible: mass >= 0, and where it has mass a
+    positive-definite rotational inertia whose principal moments obey the triangle inequality
+    (I1 + I2 >= I3 for every ordering). A bad inertia otherwise fails only mid-run."""
+    for j in range(1, model.njoints):
+        I = model.inertias[j]
+        name = model.names[j]
+        m = float(I.mass)
+        if not np.isfinite(m) or m < 0:
+            raise ModelFileError(str(file), f"inertial of the body moved by joint {name!r}", f"mass {m} kg is not >= 0")
+        if m == 0:
+            continue
+        Ic = np.asarray(I.inertia, float)
+        if not np.all(np.isfinite(Ic)) or not np.all(np.isfinite(np.asarray(I.lever))):
+            raise ModelFileError(str(file), f"inertial of the body moved by joint {name!r}", "non-finite inertia")
+        ev = np.linalg.eigvalsh(0.5 * (Ic + Ic.T))
+        tol = 1e-9 * max(abs(ev).max(), 1e-300)
+        if ev[0] <= 0 or ev[0] + ev[1] < ev[2] - tol:
+            raise ModelFileError(str(file), f"inertial of the body moved by joint {name!r}",
+                                 f"principal moments {ev.tolist()} kg m^2 are not physically possible "
+                                 "(each must be positive and at most the sum of the other two)")
 
 
 def _substitute(obj, opts, file, key):
@@ -157,30 +241,40 @@ def parse_assignments(items, what="--set") -> dict:
     return out
 
 
-def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
-    """Load ``urdf/<name>.yaml`` (sidecar) and the URDF it names.
+def load(path, options=None, overrides=None, clearances=None, trust=None) -> Mechanism:
+    """Load ``urdf/<name>.yaml`` (sidecar) and the URDF it names; a bare name (``"four_bar"``)
+    loads a bundled model.
+
+    trust: a mechanism file may name Python functions (drive laws, platform motions, hooks);
+    only functions inside the pinclear package are imported unless ``trust=True`` (or the
+    environment variable PINCLEAR_TRUST=1): importing a module runs its code.
 
     options: scene switches declared under ``options:`` (e.g. {"limbs": False}).
     overrides: {"S2.clearance": 5e-4, "limbs": False, ...}: clearance keys (NAME.key) or options.
     clearances: names of clearance joints to activate (besides those with ``active: true``).
     """
-    path = Path(path)
+    from .models import model_path
+
+    path = model_path(path)
     file = str(path)
-    if not path.exists():
-        raise ModelFileError(file, "path", "no such file")
+    trust = trusted(trust)
     if path.suffix.lower() == ".urdf":
         sc = {"name": path.stem, "urdf": path.name}
     else:
-        try:
-            sc = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            raise ModelFileError(file, "yaml", f"not valid YAML: {exc}") from None
+        sc = read_yaml(path)
     sc = copy.deepcopy(sc)
     _check_keys(sc, TOP_KEYS, file, "")
     if "urdf" not in sc:
         raise ModelFileError(file, "urdf", "missing: the URDF file of the spanning tree")
+    if not isinstance(sc["urdf"], str):
+        raise ModelFileError(file, "urdf", f"expected a file name, got {sc['urdf']!r}")
     urdf = (path.parent / sc["urdf"]).resolve()
-    if not urdf.exists():
+    roots = allowed_roots(path)
+    if not trust and not any(urdf.is_relative_to(r) for r in roots):
+        raise ModelFileError(file, "urdf", f"{sc['urdf']!r} lies outside the folders a mechanism file may read "
+                             f"({', '.join(map(str, roots))}); keep the URDF beside its sidecar, or trust the file "
+                             "(trust=True, --trust, PINCLEAR_TRUST=1)")
+    if not urdf.is_file():
         raise ModelFileError(file, "urdf", f"URDF file {str(urdf)!r} does not exist")
     model = _build_model(urdf)
     name = sc.get("name", path.stem)
@@ -221,7 +315,7 @@ def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
         if choices is not None and val not in choices:
             raise ModelFileError(file, f"options.{k}", f"invalid value {val!r}", choices=choices)
     if "hook" in sc:
-        resolve_function(sc["hook"], file, "hook")(model, opts)
+        resolve_function(sc["hook"], file, "hook", trust)(model, opts)
     # "$name" anywhere in drives, forces and platform stands for the scene option's value, so one
     # sidecar serves every variant (e.g. a drive law's args: {law: $law})
     for key in ("drives", "forces", "platform"):
@@ -266,7 +360,7 @@ def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
         if "law" not in d:
             raise ModelFileError(file, f"{key}.law", "missing")
         drives.append(Drive(d.get("name", d["joint"]), d["joint"], jm.idx_q, jm.idx_v,
-                            build_law(d["law"], file, f"{key}.law")))
+                            build_law(d["law"], file, f"{key}.law", trust)))
     if len({d.idx_v for d in drives}) != len(drives):
         raise ModelFileError(file, "drives", "two drives act on the same joint")
 
@@ -283,10 +377,10 @@ def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
             if ftype == "spring_damper":
                 f1, _ = _frame(model, f["frame1"], f"{fname}.frame1", file, f"{key}.frame1")
                 f2, _ = _frame(model, f["frame2"], f"{fname}.frame2", file, f"{key}.frame2")
-                forces.append(SpringDamper(fname, f1, f2, f["k"], f.get("c", 0.0), f.get("free_length", 0.0)))
+                forces.append(SpringDamper(fname, model, f1, f2, f["k"], f.get("c", 0.0), f.get("free_length", 0.0)))
             else:
                 jm = _joint(model, f["joint"], file, f"{key}.joint", one_dof=True)
-                forces.append(JointForce(fname, jm.idx_v, build_law(f["law"], file, f"{key}.law")))
+                forces.append(JointForce(fname, jm.idx_v, build_law(f["law"], file, f"{key}.law", trust)))
         except KeyError as exc:
             raise ModelFileError(file, f"{key}.{exc.args[0]}", "missing") from None
         except (TypeError, ValueError) as exc:
@@ -302,7 +396,13 @@ def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
         for jn, val in (init.get(which) or {}).items():
             jm = _joint(model, jn, file, f"initial.{which}.{jn}")
             idx, n = (jm.idx_q, jm.nq) if which == "q" else (jm.idx_v, jm.nv)
-            vec[idx:idx + n] = np.atleast_1d(np.asarray(val, float))
+            try:
+                arr = np.atleast_1d(np.asarray(val, float))
+            except (TypeError, ValueError):
+                raise ModelFileError(file, f"initial.{which}.{jn}", f"expected {n} number(s), got {val!r}") from None
+            if arr.size != n or not np.all(np.isfinite(arr)):
+                raise ModelFileError(file, f"initial.{which}.{jn}", f"expected {n} finite number(s), got {val!r}")
+            vec[idx:idx + n] = arr
 
     # ---- platform
     platform_frame, platform_motion = None, None
@@ -313,7 +413,7 @@ def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
         if "motion" in p:
             m = p["motion"]
             _check_keys(m, {"function", "args"}, file, "platform.motion")
-            func = resolve_function(m.get("function"), file, "platform.motion.function")
+            func = resolve_function(m.get("function"), file, "platform.motion.function", trust)
             args = dict(m.get("args") or {})
             platform_motion = lambda t, _f=func, _a=args: _f(t, **_a)  # noqa: E731
 
@@ -331,6 +431,12 @@ def load(path, options=None, overrides=None, clearances=None) -> Mechanism:
     unknown = active - set(clr_names)
     if unknown:
         raise ModelFileError(file, "clearances", f"unknown clearance joint {sorted(unknown)[0]!r}", choices=clr_names)
+    on = active | {c["name"] for c in clr_specs if isinstance(c, dict) and c.get("active", False)}
+    idle = sorted(set(clr_overrides) - on)
+    if idle:
+        raise ModelFileError(file, f"clearances.{idle[0]}", "an override names an inactive clearance joint: it "
+                             f"would change nothing (activate it with --clearance {idle[0]} / clearances=[...])",
+                             choices=sorted(on))
     chosen = []
     for i, c in enumerate(clr_specs):
         if not isinstance(c, dict) or "name" not in c:

@@ -1,21 +1,36 @@
 """Time laws for drives and applied forces: value, first and second derivative, all exact."""
 from __future__ import annotations
 
+import abc
 import importlib
 import math
+import os
 
 import numpy as np
 
 from .errors import ModelFileError
 
 
-class TimeLaw:
-    """A scalar function of time with exact first and second derivatives."""
+class TimeLaw(abc.ABC):
+    """A scalar function of time with exact first and second derivatives.
+
+    The contract:
+
+    1. ``eval(t)`` returns ``(y, dy/dt, d2y/dt2)`` as three floats, in SI units (m or rad for a
+       drive, N or N m for an applied force, per second and per second squared).
+    2. The derivatives are exact derivatives of ``y`` (no finite differences): drives enforce
+       them at velocity and acceleration level.
+    3. A law is immutable and ``eval`` is a pure function of ``t``: no caches on the object, so
+       one law serves any number of workspaces and threads.
+    4. ``kind`` names the sidecar ``type`` and ``describe()`` returns the mapping that rebuilds
+       the law with :func:`build_law`.
+    """
 
     kind = "law"
 
+    @abc.abstractmethod
     def eval(self, t: float) -> tuple[float, float, float]:
-        raise NotImplementedError
+        """(y, y', y'') at time t."""
 
     def __call__(self, t):
         return self.eval(t)
@@ -109,32 +124,10 @@ class Spline(TimeLaw):
         return {"type": self.kind, "t": self.t.tolist(), "y": self.y.tolist()}
 
 
-class _Shared:
-    """One evaluation per time of a vector-valued f(t, **args) -> (y, yd, ydd) arrays, shared by
-    the laws that take one component each (e.g. all limb lengths from one inverse kinematics)."""
-
-    _registry: dict = {}
-
-    def __init__(self, func, args):
-        self.func, self.args, self.t, self.val = func, args, None, None
-
-    @classmethod
-    def get(cls, func, args):
-        key = (func, repr(sorted(args.items())))
-        if key not in cls._registry:
-            cls._registry[key] = cls(func, args)
-        return cls._registry[key]
-
-    def __call__(self, t):
-        if t != self.t:
-            self.val = [np.asarray(x, float) for x in self.func(t, **self.args)]
-            self.t = t
-        return self.val
-
-
 class Callable(TimeLaw):
     """Wraps f(t, **args) -> (y, yd, ydd); with ``index``, f returns arrays and this law is
-    component ``index`` (f is then evaluated once per time for all components)."""
+    component ``index``. Drives whose laws share (f, args) are evaluated with one call of f per
+    time (``share_key``), the result cached in the workspace (pinclear.drives)."""
 
     kind = "python"
 
@@ -142,11 +135,16 @@ class Callable(TimeLaw):
         self.func, self.args = func, dict(args or {})
         self.name = name or getattr(func, "__qualname__", repr(func))
         self.index = index
-        self._shared = _Shared.get(func, self.args) if index is not None else None
+        # laws with equal keys are components of one vector function
+        self.share_key = (func, repr(sorted(self.args.items()))) if index is not None else None
+
+    def vector(self, t):
+        """All components of the shared function at t (three float arrays)."""
+        return [np.asarray(x, float) for x in self.func(t, **self.args)]
 
     def eval(self, t):
-        if self._shared is not None:
-            y, yd, ydd = self._shared(t)
+        if self.index is not None:
+            y, yd, ydd = self.vector(t)
             i = self.index
             return float(y[i]), float(yd[i]), float(ydd[i])
         y, yd, ydd = self.func(t, **self.args)
@@ -163,11 +161,33 @@ LAW_TYPES = {"constant": ("value",), "sines": ("offset", "terms"), "polynomial":
              "spline": ("t", "y", "bc_type"), "python": ("function", "args", "index")}
 
 
-def resolve_function(spec: str, file, key):
-    """'package.module:attr' -> the object."""
+#: environment variable that trusts every mechanism file (as ``trust=True`` / ``--trust``)
+TRUST_ENV = "PINCLEAR_TRUST"
+
+
+def trusted(trust=None) -> bool:
+    """The effective trust setting: an explicit argument wins, else the environment variable."""
+    if trust is not None:
+        return bool(trust)
+    return os.environ.get(TRUST_ENV, "").strip().lower() in ("1", "true", "yes", "on")
+
+
+def resolve_function(spec: str, file, key, trust=None):
+    """'package.module:attr' -> the object.
+
+    Importing a module runs its code, so a mechanism file may name only functions inside the
+    pinclear package unless the user trusts the file (``trust=True``, ``--trust`` on the CLI or
+    PINCLEAR_TRUST=1): a shared sidecar cannot run code on ``pinclear info``."""
     if not isinstance(spec, str) or ":" not in spec:
         raise ModelFileError(file, key, f"expected 'module:function', got {spec!r}")
     mod, attr = spec.split(":", 1)
+    if not (mod == "pinclear" or mod.startswith("pinclear.")) and not trusted(trust):
+        raise ModelFileError(
+            file, key, f"refusing to import {spec!r}: a mechanism file may only name functions inside the "
+            f"pinclear package unless you trust it (pinclear.load(..., trust=True), --trust on the command "
+            f"line, or {TRUST_ENV}=1)")
+    if any(not part.isidentifier() for part in mod.split(".") + attr.split(".")):
+        raise ModelFileError(file, key, f"{spec!r} is not a 'package.module:function' name")
     try:
         obj = importlib.import_module(mod)
         for part in attr.split("."):
@@ -177,7 +197,18 @@ def resolve_function(spec: str, file, key):
     return obj
 
 
-def build_law(spec, file="<python>", key="law") -> TimeLaw:
+def _finite(law, file, key):
+    """A tabulated law must give finite values (NaN or inf in a sidecar is a typo, not a law)."""
+    vals = law.eval(0.0)
+    params = [getattr(law, a, 0.0) for a in ("value", "offset")] + list(getattr(law, "coeffs", []))
+    params += [x for term in getattr(law, "_t", []) for x in term]
+    params += list(np.ravel(getattr(law, "y", []))) + list(np.ravel(getattr(law, "t", [])))
+    if not (np.all(np.isfinite(vals)) and np.all(np.isfinite(np.asarray(params, float)))):
+        raise ModelFileError(file, key, "the law has a non-finite parameter (nan or inf)")
+    return law
+
+
+def build_law(spec, file="<python>", key="law", trust=None) -> TimeLaw:
     """A TimeLaw from a sidecar mapping, a number, a callable or a TimeLaw."""
     if isinstance(spec, TimeLaw):
         return spec
@@ -196,7 +227,7 @@ def build_law(spec, file="<python>", key="law") -> TimeLaw:
                              choices=LAW_TYPES[kind])
     try:
         if kind == "constant":
-            return Constant(spec["value"])
+            return _finite(Constant(spec["value"]), file, key)
         if kind == "sines":
             for i, term in enumerate(spec.get("terms", [])):
                 bad = set(term) - {"amp", "omega", "phase", "kind"}
@@ -205,12 +236,16 @@ def build_law(spec, file="<python>", key="law") -> TimeLaw:
                                          choices=["amp", "omega", "phase", "kind"])
                 if term.get("kind", "sin") not in ("sin", "cos"):
                     raise ModelFileError(file, f"{key}.terms[{i}].kind", f"{term['kind']!r}", choices=["sin", "cos"])
-            return Sines(spec.get("offset", 0.0), spec.get("terms", []))
+            return _finite(Sines(spec.get("offset", 0.0), spec.get("terms", [])), file, key)
         if kind == "polynomial":
-            return Polynomial(spec["coeffs"])
+            c = spec["coeffs"]
+            if not isinstance(c, list) or not c:
+                raise ModelFileError(file, f"{key}.coeffs", f"expected a non-empty list of numbers [c0, c1, ...], "
+                                     f"got {c!r}")
+            return _finite(Polynomial(c), file, key)
         if kind == "spline":
-            return Spline(spec["t"], spec["y"], spec.get("bc_type", "not-a-knot"))
-        func = resolve_function(spec.get("function"), file, f"{key}.function")
+            return _finite(Spline(spec["t"], spec["y"], spec.get("bc_type", "not-a-knot")), file, key)
+        func = resolve_function(spec.get("function"), file, f"{key}.function", trust)
         index = spec.get("index")
         if index is not None and (not isinstance(index, int) or index < 0):
             raise ModelFileError(file, f"{key}.index", f"expected a non-negative integer, got {index!r}")

@@ -2,7 +2,10 @@
 from __future__ import annotations
 
 import json
+import os
 import platform
+import tempfile
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +23,11 @@ def _versions():
             "scipy": scipy.__version__, "python": platform.python_version()}
 
 
+def jsonable(x):
+    """A JSON-safe copy of x (arrays to lists, numpy scalars to Python, others by repr)."""
+    return _jsonable(x)
+
+
 def _jsonable(x):
     if isinstance(x, dict):
         return {str(k): _jsonable(v) for k, v in x.items()}
@@ -34,6 +42,81 @@ def _jsonable(x):
     return repr(x)
 
 
+@dataclass
+class Checkpoint:
+    """Where a run stood after an accepted step: enough to continue it exactly (same steps,
+    same samples) with ``simulate(..., resume=checkpoint)``."""
+
+    t0: float
+    q: np.ndarray                # initial state of the run
+    v: np.ndarray
+    z: np.ndarray
+    t: float                     # time of the last accepted step
+    q_now: np.ndarray
+    v_now: np.ndarray
+    z_now: np.ndarray
+    h_next: float | None         # the step the integrator would try next
+    samples: list = field(default_factory=list)      # (t, q, v, z) output samples so far
+    stats: dict = field(default_factory=dict)
+
+    def save(self, path):
+        """NPZ, written atomically (a temporary file renamed into place)."""
+        n = len(self.samples)
+        arrays = {k: np.asarray(getattr(self, k), float) for k in ("q", "v", "z", "q_now", "v_now", "z_now")}
+        arrays["ts"] = np.array([s[0] for s in self.samples], float)
+        for i, k in enumerate(("qs", "vs", "zs")):
+            arrays[k] = (np.array([s[i + 1] for s in self.samples], float) if n
+                         else np.zeros((0, arrays[k[0]].size)))
+        meta = {"t0": self.t0, "t": self.t, "h_next": self.h_next, "stats": self.stats}
+        arrays["meta"] = np.array(json.dumps(_jsonable(meta)))
+        return atomic_savez(path, arrays)
+
+    @classmethod
+    def load(cls, path):
+        from .errors import InputError
+
+        try:
+            d = np.load(path, allow_pickle=False)
+            meta = json.loads(str(d["meta"]))
+            samples = [(float(t), qs, vs, zs) for t, qs, vs, zs in zip(d["ts"], d["qs"], d["vs"], d["zs"])]
+            return cls(t0=float(meta["t0"]), q=d["q"], v=d["v"], z=d["z"], t=float(meta["t"]), q_now=d["q_now"],
+                       v_now=d["v_now"], z_now=d["z_now"], h_next=meta["h_next"], samples=samples,
+                       stats=dict(meta["stats"]))
+        except (OSError, KeyError, ValueError, TypeError, json.JSONDecodeError) as exc:
+            raise InputError(f"{path}: not a pinclear checkpoint ({type(exc).__name__}: {exc})") from None
+
+
+def atomic_savez(path, arrays: dict):
+    """np.savez_compressed to a temporary file in the target folder, then an atomic rename: a
+    reader never sees half a file, and two runs writing one path never mix their contents."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".npz", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def atomic_write_text(path, text: str):
+    """Text written to a temporary file beside ``path`` and renamed into place."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
 class Trajectory:
     """Samples of a run: t, q, v, a, lam (by name), residual, outputs, energy, stats, status."""
 
@@ -43,6 +126,7 @@ class Trajectory:
         self.z = np.zeros((0, 0))
         self.lam: dict[str, np.ndarray] = {}
         self.residual = np.zeros(0)
+        self.drive_error = np.zeros(0)
         self.outputs: dict[str, np.ndarray] = {}
         self.energies: dict[str, np.ndarray] = {}
         self.stats: dict = {}
@@ -63,27 +147,31 @@ class Trajectory:
                    "options": mech.options, "versions": _versions()}
         return tr
 
-    def fill(self, samples, sysf):
-        """Evaluate accelerations, multipliers, residuals, outputs and energies at the samples."""
-        mech, form = sysf.mech, sysf.form
-        ws = form.ws
+    def fill_states(self, samples):
+        """Times and states of the samples (t, q, v, z), nothing evaluated."""
+        mech = self.mech
         n = len(samples)
         self.t = np.array([s[0] for s in samples], float)
-        self.q = np.zeros((n, mech.nq))
-        self.v = np.zeros((n, mech.nv))
-        self.a = np.zeros((n, mech.nv))
-        self.z = np.zeros((n, mech.nz))
+        self.q = np.array([s[1] for s in samples], float).reshape(n, mech.nq)
+        self.v = np.array([s[2] for s in samples], float).reshape(n, mech.nv)
+        self.z = np.array([s[3] for s in samples], float).reshape(n, mech.nz)
+        self.a = np.full((n, mech.nv), np.nan)
+        self.residual = np.full(n, np.nan)
+        self.drive_error = np.full(n, np.nan)
+
+    def fill(self, samples, form):
+        """Evaluate accelerations, multipliers, residuals, outputs and energies at the samples
+        (t, q, v, z) with the run's formulation."""
+        mech = self.mech
+        ws = form.ws
+        self.fill_states(samples)
+        n = len(samples)
         lam = np.zeros((n, mech.m))
-        self.residual = np.zeros(n)
-        self.drive_error = np.zeros(n)
         E = {k: np.zeros(n) for k in ("kinetic", "potential", "spring", "dissipated_power")}
         outs: dict[str, list] = {}
         model = mech.model
-        for i, (t, x, anchor) in enumerate(samples):
-            if anchor is not None:
-                sysf.anchor = anchor
-            q, v, z = sysf.split(x)
-            self.q[i], self.v[i], self.z[i] = q, v, z
+        mc = mech.compiled.m
+        for i, (t, q, v, z) in enumerate(samples):
             try:
                 self.a[i] = form.accelerations(t, q, v, z)
                 lam[i] = ws.lam
@@ -91,18 +179,15 @@ class Trajectory:
                 self.a[i] = np.nan
                 lam[i] = np.nan
             kinematics.update(mech, ws, q, v)
-            ws.q_cur = q
-            kinematics.constraint_rows(mech, ws, t, v)
-            mc = mech.compiled.m
+            kinematics.constraint_rows(mech, ws, t, q, v)
             self.residual[i] = np.linalg.norm(ws.phi[:mc], np.inf) if mc else 0.0
-            if mech.drives:
-                self.drive_error[i] = np.abs(ws.phi[mc:]).max()
+            self.drive_error[i] = np.abs(ws.phi[mc:]).max() if mech.drives else 0.0
             E["kinetic"][i] = pin.computeKineticEnergy(model, ws.data, q, v)
             E["potential"][i] = pin.computePotentialEnergy(model, ws.data, q)
-            for f, sl in zip(mech.forces, mech.z_slices):
-                E["spring"][i] += f.potential(mech, ws, q)
-                E["dissipated_power"][i] += f.power_loss(mech, ws, t, q, v, z[sl])
-                for k, val in f.outputs(mech, ws, t, q, v, z[sl]).items():
+            for f, d, sl in zip(mech.forces, ws.force_data, mech.z_slices):
+                E["spring"][i] += f.potential(mech, ws, d, q)
+                E["dissipated_power"][i] += f.power_loss(mech, ws, d, t, q, v, z[sl])
+                for k, val in f.outputs(mech, ws, d, t, q, v, z[sl]).items():
                     outs.setdefault(f"{f.name}.{k}", []).append(np.asarray(val, float))
         names = mech.row_names()
         self.lam = {nm: lam[:, k] for k, nm in enumerate(names)}
@@ -133,11 +218,10 @@ class Trajectory:
             res["drives"] = float(np.max(self.drive_error))
         mech = self.mech
         if mech is not None and mech.platform_frame is not None and mech.platform_motion is not None:
-            ws = mech.workspace()
+            fm = kinematics.frame_motion(mech.model, [mech.platform_frame], self.q)
             ep, er = 0.0, 0.0
-            for t, q in zip(self.t, self.q):
-                pin.framesForwardKinematics(mech.model, ws.data, q)
-                M = ws.data.oMf[mech.platform_frame]
+            for k, t in enumerate(self.t):
+                M = pin.SE3(fm.R[k, 0], fm.p[k, 0])
                 Mref = mech.platform_motion(t)
                 if isinstance(Mref, tuple):
                     Mref = Mref[0]
@@ -175,7 +259,8 @@ class Trajectory:
         """NPZ with every array + JSON metadata (versions, parameters, method options, stats)."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        arrays = {"t": self.t, "q": self.q, "v": self.v, "a": self.a, "z": self.z, "residual": self.residual}
+        arrays = {"t": self.t, "q": self.q, "v": self.v, "a": self.a, "z": self.z, "residual": self.residual,
+                  "drive_error": self.drive_error}
         for k, v in self.lam.items():
             arrays[f"lam/{k}"] = v
         for k, v in self.outputs.items():
@@ -189,27 +274,56 @@ class Trajectory:
         if self.mech is not None:
             meta["parameters"] = self.mech.parameters
         arrays["meta"] = np.array(json.dumps(_jsonable(meta)))
-        np.savez_compressed(path, **arrays)
-        return path
+        return atomic_savez(path, arrays)
 
     @classmethod
     def load(cls, path, mech=None):
-        d = np.load(path, allow_pickle=False)
+        """A saved run (NPZ + JSON metadata). Loading never imports code; ``mech`` (optional) is
+        the mechanism it belongs to, checked against the recorded description."""
+        from .errors import InputError
+
         tr = cls()
-        meta = json.loads(str(d["meta"]))
-        tr.meta, tr.status, tr.message, tr.stats = meta, meta["status"], meta["message"], meta["stats"]
-        tr.mech_path = meta.get("mech_path")
-        for k in ("t", "q", "v", "a", "z", "residual"):
-            setattr(tr, k, d[k])
-        tr.lam = {k: d[f"lam/{k}"] for k in meta["lam_names"]}
-        tr.outputs = {k[4:]: d[k] for k in d.files if k.startswith("out/")}
-        tr.energies = {k[7:]: d[k] for k in d.files if k.startswith("energy/")}
+        try:
+            d = np.load(path, allow_pickle=False)
+            meta = json.loads(str(d["meta"]))
+            if not isinstance(meta, dict):
+                raise TypeError("metadata is not a mapping")
+            tr.meta, tr.status, tr.message, tr.stats = meta, meta["status"], meta["message"], dict(meta["stats"])
+            tr.mech_path = meta.get("mech_path")
+            for k in ("t", "q", "v", "a", "z", "residual"):
+                setattr(tr, k, np.asarray(d[k], float))
+            tr.drive_error = np.asarray(d["drive_error"], float) if "drive_error" in d.files else np.zeros(0)
+            tr.lam = {k: d[f"lam/{k}"] for k in meta["lam_names"]}
+            tr.outputs = {k[4:]: d[k] for k in d.files if k.startswith("out/")}
+            tr.energies = {k[7:]: d[k] for k in d.files if k.startswith("energy/")}
+        except (OSError, KeyError, ValueError, TypeError, EOFError, json.JSONDecodeError) as exc:
+            raise InputError(f"{path}: not a readable pinclear trajectory ({type(exc).__name__}: "
+                             f"{' '.join(str(exc).split())[:200]})") from None
+        n = len(tr.t)
+        if tr.q.ndim != 2 or len(tr.q) != n or len(tr.v) != n:
+            raise InputError(f"{path}: inconsistent trajectory arrays (t has {n} samples, q {tr.q.shape})")
+        if mech is not None:
+            tr.check_mechanism(mech, path)
         tr.mech = mech
         return tr
 
-    def load_mechanism(self):
+    def check_mechanism(self, mech, path="<trajectory>"):
+        """Refuse a mechanism other than the one the run recorded (same sizes are not enough)."""
+        from .errors import InputError
+
+        rec = self.meta.get("mechanism") or {}
+        have = mech.describe()
+        for key in ("nq", "nv", "closures", "drives"):
+            if key in rec and _jsonable(rec[key]) != _jsonable(have[key]):
+                raise InputError(f"{path}: the run was made with mechanism {rec.get('name')!r} "
+                                 f"({rec.get('path')}); {mech.path or mech.name} differs in {key!r}")
+        if self.q.ndim == 2 and self.q.shape[1] != mech.nq:
+            raise InputError(f"{path}: q has {self.q.shape[1]} columns, mechanism {mech.name!r} has nq = {mech.nq}")
+
+    def load_mechanism(self, trust=None):
         """The mechanism this run used, loaded again with the same options, overrides and
-        active clearances (from the saved metadata)."""
+        active clearances (from the saved metadata). A file that names code outside pinclear is
+        refused unless ``trust`` (see pinclear.load)."""
         from .sidecar import load
 
         la = self.meta.get("load_args") or {}
@@ -218,8 +332,10 @@ class Trajectory:
             from .errors import ModelFileError
 
             raise ModelFileError("<trajectory>", "mech_path", "the run does not name its mechanism file")
-        self.mech = load(path, options=la.get("options") or None, overrides=la.get("overrides") or None,
-                         clearances=la.get("clearances") or None)
+        mech = load(path, options=la.get("options") or None, overrides=la.get("overrides") or None,
+                    clearances=la.get("clearances") or None, trust=trust)
+        self.check_mechanism(mech)
+        self.mech = mech
         return self.mech
 
     def __repr__(self):

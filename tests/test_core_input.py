@@ -106,16 +106,24 @@ def test_python_law_plain_callable():
 
 
 def test_python_law_with_index_evaluates_once_per_time():
+    from pinclear.drives import Drive, DriveRows
+
     spec = {"type": "python", "function": "test_core_input:shared_ik", "args": {"scale": 2.0}}
-    laws = [build_law(dict(spec, index=k), "f.yaml", f"drives[{k}].law") for k in range(3)]
+    laws = [build_law(dict(spec, index=k), "f.yaml", f"drives[{k}].law", trust=True) for k in range(3)]
+    rows = DriveRows([Drive(f"d{k}", f"j{k}", k, k, law) for k, law in enumerate(laws)], 3)
+    data = rows.create_data()        # the shared value lives in the workspace's drive data
     CALLS.clear()
     for t in (0.1, 0.35, 0.35, 1.2):
-        vals = [law.eval(t) for law in laws]
+        f = rows.values(t, data)
+        vals = [tuple(f[:, k]) for k in range(3)]
         y, yd, ydd = shared_ik(t, 2.0)
         CALLS.pop()                                             # the reference call above
         for k, val in enumerate(vals):
             assert val == pytest.approx((y[k], yd[k], ydd[k]), abs=1e-14)
     assert CALLS == [0.1, 0.35, 1.2]                             # once per distinct time
+    CALLS.clear()
+    rows.values(0.1, rows.create_data())                         # a second workspace: its own cache
+    assert CALLS == [0.1]
     for law in laws:
         _fd_check(law, [0.3, 1.1])
 
@@ -156,7 +164,7 @@ def test_law_spec_errors_name_key_and_choices():
     with pytest.raises(pinclear.ModelFileError, match=r"drives\[0\]\.law\.terms\[0\]\.freq.*omega"):
         build_law({"type": "sines", "terms": [{"amp": 1, "freq": 2}]}, "m.yaml", "drives[0].law")
     with pytest.raises(pinclear.ModelFileError, match="cannot import"):
-        build_law({"type": "python", "function": "no_such_module_xyz:f"}, "m.yaml", "law")
+        build_law({"type": "python", "function": "no_such_module_xyz:f"}, "m.yaml", "law", trust=True)
     with pytest.raises(pinclear.ModelFileError, match=r"law\.coeffs"):
         build_law({"type": "polynomial"}, "m.yaml", "law")
 

@@ -2,6 +2,8 @@
 a formulation maps (t, q, v, z) to accelerations and multipliers; the simulator does the rest."""
 from __future__ import annotations
 
+import abc
+
 import numpy as np
 from scipy.linalg import cho_factor
 
@@ -11,13 +13,41 @@ from ..errors import InputError, RankLossError
 #: condition number of the constraint Schur complement beyond which a plain solve is garbage
 RANK_COND = 1e12
 
+#: a step whose Schur-complement pivot ratio dips below this fraction of its initial value may
+#: have stepped over a singular configuration (see Formulation.pivot_dip)
+SINGULAR_DIP = 1e-3
 
-class Formulation:
+
+class Formulation(abc.ABC):
+    """Base class of the forward-dynamics formulations, chosen by ``name``.
+
+    The contract (the simulator relies on nothing else):
+
+    1. ``Formulation(mech, **options)`` accepts exactly the keys of the class attribute
+       ``options`` (name -> default); any other key is an InputError naming the valid ones. The
+       object owns one workspace ``self.ws`` (a formulation serves one run in one thread).
+    2. :meth:`accelerations` ``(t, q, v, z) -> a`` returns the joint accelerations (nv,) and
+       leaves the multipliers of every constraint row (closures, then drives) in ``ws.lam`` and
+       the internal-state rates of the force elements in ``ws.zdot``. Sign convention:
+       ``M a + b = tau + J^T lam``.
+    3. :meth:`finite` says whether the last evaluation was finite. A trial stage of an explicit
+       integrator may overflow in a stiff contact; the simulator rejects it rather than stopping.
+    4. A configuration the formulation cannot pass (rank loss of the constraint Jacobian) raises
+       RankLossError with the time, the rank and the condition number.
+    5. Capabilities are declared, not probed:
+       - ``supports_projection``: :meth:`project` ``(t, q, v) -> (q, v)`` puts a state back on the
+         constraint manifold; the simulator calls it after every accepted step and on samples.
+       - :meth:`use_rows` receives the independent rows found at the initial configuration; a
+         formulation that needs a full-rank Schur complement keeps only those.
+       - :meth:`pivot_dip` / :meth:`reset_pivot_monitor`: a formulation that watches the pivots
+         of its constraint solve reports when they dipped during a step, so the simulator can
+         search the step for a singular configuration it may have jumped over.
+    6. :meth:`describe` returns a JSON-safe mapping of the method and its options (saved with runs).
+    """
+
     name = "base"
     options: dict = {}                    # option name -> default
     supports_projection = False
-    checks_finite = False                 # True: accelerations() sets self.nonfinite itself
-    nonfinite = False
 
     def __init__(self, mech, **options):
         bad = set(options) - set(self.options)
@@ -28,18 +58,15 @@ class Formulation:
         self.opts = {**self.options, **options}
         self.ws = mech.workspace()
         self.rows = np.arange(mech.m)      # constraint rows used (redundant ones may be dropped)
+        self._last_finite = True
 
     # -------------------------------------------------------------- shared pieces
     def applied(self, t, q, v, z):
         """Kinematics pass and applied forces into ws.tau; fills ws.zdot for internal states."""
         mech, ws = self.mech, self.ws
-        ws.q_cur = q
         kinematics.update(mech, ws, q, v)
         if mech.forces:                   # tau stays zero otherwise
-            tau = ws.tau
-            tau[:] = 0.0
-            for f, sl in zip(mech.forces, mech.z_slices):
-                f.add_force(mech, ws, t, q, v, z[sl], tau, ws.zdot[sl])
+            apply_forces(mech, ws, t, q, v, z)
 
     def mass_factor(self):
         """Cholesky of M (upper triangle of data.M is what crba fills)."""
@@ -56,12 +83,39 @@ class Formulation:
             t=t, rank=rank, rows=S.shape[0], cond=float(sv[0] / max(sv[-1], 1e-300)))
 
     # -------------------------------------------------------------- interface
+    @abc.abstractmethod
     def accelerations(self, t, q, v, z):
         """Return a (nv,); leave multipliers in ws.lam and internal-state rates in ws.zdot."""
-        raise NotImplementedError
+
+    def finite(self, a) -> bool:
+        """Whether the last evaluation (which returned ``a``) was finite."""
+        return bool(np.isfinite(a.sum()))
 
     def project(self, t, q, v):
         return q, v
 
+    def use_rows(self, independent):
+        """Rows found independent at the initial configuration (default: keep every row)."""
+
+    def pivot_dip(self) -> bool:
+        """True when the constraint solve's pivots dipped during the current step."""
+        return False
+
+    def reset_pivot_monitor(self):
+        """Start watching the pivots afresh (called after every step)."""
+
+    def pivot_ratio(self) -> float:
+        """Smallest pivot ratio of the constraint solve since the last reset (inf: not watched)."""
+        return np.inf
+
     def describe(self) -> dict:
         return {"method": self.name, **self.opts}
+
+
+def apply_forces(mech, ws, t, q, v, z):
+    """Sum every force element's generalized force into ws.tau and its state rates into ws.zdot
+    (kinematics already updated at (q, v))."""
+    tau = ws.tau
+    tau[:] = 0.0
+    for f, d, sl in zip(mech.forces, ws.force_data, mech.z_slices):
+        f.add_force(mech, ws, d, t, q, v, z[sl], tau, ws.zdot[sl])

@@ -9,13 +9,12 @@ from scipy.linalg import cho_solve
 
 from .. import kinematics
 from .._kernels import lagrange_accel
-from .base import RANK_COND, Formulation
+from .base import RANK_COND, SINGULAR_DIP, Formulation
 
 
 class Lagrange(Formulation):
     name = "lagrange"
     options = {"alpha": 5.0, "beta": 5.0, "drop_redundant": True}
-    checks_finite = True
 
     def __init__(self, mech, **options):
         super().__init__(mech, **options)
@@ -25,9 +24,27 @@ class Lagrange(Formulation):
         self._args = None       # kernel arguments, bound once (rows may be reset by the simulator)
         self._bound_rows = None
         self._drive_values = mech.driverows.values
+        self._drive_data = self.ws.drive_data
         self._ratio_floor = 1.0 / RANK_COND
         self.ratio_min = np.inf  # smallest pivot ratio of S since the simulator last reset it
         self.ratio_ref = None    # pivot ratio at the first evaluation (scale of the monitor)
+        self.nonfinite = False
+
+    def use_rows(self, independent):
+        if self.opts["drop_redundant"]:
+            self.rows = np.array(independent, dtype=int)
+
+    def finite(self, a):
+        return not self.nonfinite
+
+    def pivot_dip(self):
+        return self.ratio_ref is not None and self.ratio_min < SINGULAR_DIP * self.ratio_ref
+
+    def reset_pivot_monitor(self):
+        self.ratio_min = np.inf
+
+    def pivot_ratio(self):
+        return self.ratio_min
 
     def baumgarte(self):
         return (self.opts["alpha"], self.opts["beta"])
@@ -48,9 +65,9 @@ class Lagrange(Formulation):
         self.applied(t, q, v, z)
         if self._bound_rows is not self.rows:
             self._bind()
-        ratio = lagrange_accel(*self._args, q, v, self._drive_values(t))
+        ratio = lagrange_accel(*self._args, q, v, self._drive_values(t, self._drive_data))
         a = self._buf["a"].copy()
-        self.nonfinite = ratio == -2.0        # checked by the simulator (trial stages may overflow)
+        self.nonfinite = ratio == -2.0        # read by finite() (trial stages may overflow)
         if ratio < self._ratio_floor:
             if self.nonfinite:
                 return a

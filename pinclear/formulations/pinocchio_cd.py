@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .. import kinematics
 from ..closures import PINOCCHIO_TYPES
 from ..errors import InputError, RankLossError
 from .base import Formulation
@@ -52,26 +51,26 @@ class PinocchioCD(Formulation):
         pin.initConstraintDynamics(mech.model, self.data, self.cmodels, self.cdatas)
         self.prox = pin.ProximalSettings(self.opts["accuracy"], self.opts["mu"], self.opts["max_iter"])
         self.nd = len(mech.drives)
+        self._tau = np.zeros(mech.nv)     # applied forces plus the drive forces being solved for
 
     def _cd(self, q, v, tau):
         return pin.constraintDynamics(self.mech.model, self.data, q, v, tau, self.cmodels, self.cdatas, self.prox)
 
     def accelerations(self, t, q, v, z):
         mech, ws = self.mech, self.ws
-        ws.q_cur = q
-        tau = ws.tau
-        tau[:] = 0.0
+        tau = self._tau
         if mech.forces:
-            kinematics.update(mech, ws, q, v)
-            for f, sl in zip(mech.forces, mech.z_slices):
-                f.add_force(mech, ws, t, q, v, z[sl], tau, ws.zdot[sl])
+            self.applied(t, q, v, z)
+            tau[:] = ws.tau
+        else:
+            tau[:] = 0.0
         a0 = self._cd(q, v, tau).copy()
         if self.prox.iter >= self.opts["max_iter"]:
             self._not_converged(t)
         mc = mech.compiled.m
         if self.nd:
             dr = mech.driverows
-            phi, dphi, ddf = dr.rows(t, q, v)
+            phi, dphi, ddf = dr.rows(t, q, v, ws.drive_data)
             g = ddf - 2.0 * self.opts["alpha"] * dphi - self.opts["beta"] ** 2 * phi
             K = np.empty((mech.nv, self.nd))
             for k, iv in enumerate(dr.iv):

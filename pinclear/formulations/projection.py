@@ -11,6 +11,28 @@ from .. import kinematics
 from .lagrange import Lagrange
 
 
+def project_to_manifold(form, t, q, v, tol, max_iter):
+    """(q, v) moved onto Phi(q, t) = 0 and J v + Phi_t = 0 over the formulation's rows: the
+    shared projection of every formulation that offers one."""
+    mech, ws, rows = form.mech, form.ws, form.rows
+    for _ in range(max_iter):
+        kinematics.update_positions(mech, ws, q)
+        kinematics.constraint_rows(mech, ws, t, q, ws.zero_v)
+        phi = ws.phi[rows]
+        if np.linalg.norm(phi, np.inf) < tol:
+            break
+        J = ws.J[rows]
+        # minimum-norm Gauss-Newton step; lstsq keeps it defined at a rank loss
+        q = pin.integrate(mech.model, q, -np.linalg.lstsq(J, phi, rcond=1e-12)[0])
+    kinematics.update(mech, ws, q, v)
+    kinematics.constraint_rows(mech, ws, t, q, v)
+    J = ws.J[rows]
+    c = form.mass_factor()
+    MiJt = cho_solve(c, J.T, check_finite=False)
+    v = v - MiJt @ np.linalg.lstsq(J @ MiJt, ws.dphi[rows], rcond=1e-12)[0]
+    return q, v
+
+
 class Projection(Lagrange):
     name = "projection"
     options = {"tol": 1e-12, "max_iter": 10, "drop_redundant": True}
@@ -20,23 +42,4 @@ class Projection(Lagrange):
         return (0.0, 0.0)
 
     def project(self, t, q, v):
-        mech, ws = self.mech, self.ws
-        rows = self.rows
-        for _ in range(self.opts["max_iter"]):
-            ws.q_cur = q
-            kinematics.update_positions(mech, ws, q)
-            kinematics.constraint_rows(mech, ws, t, ws.zero_v)
-            phi = ws.phi[rows]
-            if np.linalg.norm(phi, np.inf) < self.opts["tol"]:
-                break
-            J = ws.J[rows]
-            # minimum-norm Gauss-Newton step; lstsq keeps it defined at a rank loss
-            q = pin.integrate(mech.model, q, -np.linalg.lstsq(J, phi, rcond=1e-12)[0])
-        ws.q_cur = q
-        kinematics.update(mech, ws, q, v)
-        kinematics.constraint_rows(mech, ws, t, v)
-        J = ws.J[rows]
-        c = self.mass_factor()
-        MiJt = cho_solve(c, J.T, check_finite=False)
-        v = v - MiJt @ np.linalg.lstsq(J @ MiJt, ws.dphi[rows], rcond=1e-12)[0]
-        return q, v
+        return project_to_manifold(self, t, q, v, self.opts["tol"], self.opts["max_iter"])

@@ -13,7 +13,7 @@ from scipy.linalg import cho_factor, cho_solve
 
 from .. import kinematics
 from .base import Formulation
-from .projection import Projection
+from .projection import project_to_manifold
 
 
 class Proximal(Formulation):
@@ -25,7 +25,7 @@ class Proximal(Formulation):
         return bool(self.opts["project"])
 
     def project(self, t, q, v):
-        return Projection.project(self, t, q, v)
+        return project_to_manifold(self, t, q, v, self.opts["tol"], self.opts["max_iter"])
 
     def accelerations(self, t, q, v, z):
         self.applied(t, q, v, z)
@@ -35,7 +35,7 @@ class Proximal(Formulation):
         a_free = cho_solve(c, f, check_finite=False)
         if mech.m == 0:
             return a_free
-        kinematics.constraint_rows(mech, ws, t, v, (self.opts["alpha"], self.opts["beta"]))
+        kinematics.constraint_rows(mech, ws, t, q, v, (self.opts["alpha"], self.opts["beta"]))
         J, g = ws.J, ws.gamma
         MiJt = cho_solve(c, J.T, check_finite=False)
         S = J @ MiJt

@@ -1,0 +1,136 @@
+"""Time integrators by name, behind one small contract: SciPy's OdeSolvers (RK45, DOP853,
+Radau, BDF, LSODA) and a fixed-step classical Runge-Kutta 4 in the same interface."""
+from __future__ import annotations
+
+import abc
+
+import numpy as np
+from scipy import integrate as spi
+
+from .errors import InputError
+
+
+class Integrator(abc.ABC):
+    """How the simulator obtains and steers an ODE solver.
+
+    The contract:
+
+    1. ``name`` is the user-facing name; ``adaptive`` says whether it takes rtol/atol (error
+       control) or a fixed step ``h``; giving the other kind of option is an InputError.
+    2. :meth:`start` returns a SciPy ``OdeSolver`` (``step()``, ``t``, ``y``, ``status``,
+       ``step_size``, ``dense_output()``) over ``fun(t, y)`` from (t0, y0) to ``t_bound``.
+    3. ``corrects_state`` says whether a state changed between steps (projection) can be put
+       into the running solver with :meth:`reset_state`; if not, the simulator restarts it.
+    """
+
+    name = ""
+    adaptive = True
+    corrects_state = True
+
+    @abc.abstractmethod
+    def start(self, fun, t0, y0, t_bound, *, rtol, atol, max_step, first_step, h):
+        """A fresh solver."""
+
+    def reset_state(self, solver, fun, x, t):
+        """Put a corrected state x at time t into a running solver."""
+        solver.y = x
+        solver.f = fun(t, x)
+
+    def check_options(self, *, h=None, max_step=None, first_step=None):
+        if self.adaptive and h is not None:
+            raise InputError(f"integrator {self.name!r} is adaptive (rtol/atol): the fixed step h "
+                             "applies only to 'RK4'")
+        if not self.adaptive:
+            if h is None:
+                raise InputError(f"integrator {self.name!r} is fixed-step: give h (seconds)")
+            if max_step is not None and np.isfinite(max_step):
+                raise InputError(f"integrator {self.name!r} is fixed-step: max_step does not apply (give h)")
+            if first_step is not None:
+                raise InputError(f"integrator {self.name!r} is fixed-step: first_step does not apply (give h)")
+
+
+class ScipyIntegrator(Integrator):
+    def __init__(self, name, cls, corrects_state=True):
+        self.name, self.cls, self.corrects_state = name, cls, corrects_state
+
+    def start(self, fun, t0, y0, t_bound, *, rtol, atol, max_step, first_step, h):
+        kw = {}
+        if max_step is not None and np.isfinite(max_step):
+            kw["max_step"] = max_step
+        if first_step is not None:
+            kw["first_step"] = min(first_step, t_bound - t0)
+        return self.cls(fun, t0, y0, t_bound, rtol=rtol, atol=atol, **kw)
+
+
+class _BDF(ScipyIntegrator):
+    def reset_state(self, solver, fun, x, t):
+        solver.y = x
+        solver.D[0] = x
+
+
+class _HermiteDense(spi.DenseOutput):
+    """Cubic Hermite interpolant over one step (for the fixed-step RK4)."""
+
+    def __init__(self, t0, t1, y0, y1, f0, f1):
+        super().__init__(t0, t1)
+        self.h, self.y0, self.y1, self.f0, self.f1 = t1 - t0, y0, y1, f0, f1
+
+    def _call_impl(self, t):
+        s = (np.asarray(t) - self.t_old) / self.h
+        h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
+        h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
+        return (np.multiply.outer(self.y0, h00) + np.multiply.outer(self.f0 * self.h, h10)
+                + np.multiply.outer(self.y1, h01) + np.multiply.outer(self.f1 * self.h, h11))
+
+
+class RK4Solver(spi.OdeSolver):
+    """Classical fixed-step Runge-Kutta 4 in SciPy's OdeSolver interface."""
+
+    def __init__(self, fun, t0, y0, t_bound, h=1e-3, vectorized=False, **_):
+        super().__init__(fun, t0, y0, t_bound, vectorized)
+        if not h or h <= 0:
+            raise InputError(f"RK4 needs a positive step h, got {h!r}")
+        self.h_fixed = float(h)
+        self.f = self.fun(self.t, self.y)
+        self._prev = None
+
+    def _step_impl(self):
+        t, y, h = self.t, self.y, min(self.h_fixed, abs(self.t_bound - self.t))
+        k1 = self.f
+        k2 = self.fun(t + h / 2, y + h / 2 * k1)
+        k3 = self.fun(t + h / 2, y + h / 2 * k2)
+        k4 = self.fun(t + h, y + h * k3)
+        y1 = y + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        f1 = self.fun(t + h, y1)
+        self._prev = (t, t + h, y, y1, k1, f1)
+        self.t, self.y, self.f = t + h, y1, f1
+        return True, None
+
+    def _dense_output_impl(self):
+        return _HermiteDense(*self._prev)
+
+
+class RK4(Integrator):
+    name = "RK4"
+    adaptive = False
+
+    def start(self, fun, t0, y0, t_bound, *, rtol, atol, max_step, first_step, h):
+        return RK4Solver(fun, t0, y0, t_bound, h=h)
+
+
+INTEGRATORS = {
+    "RK45": ScipyIntegrator("RK45", spi.RK45),
+    "DOP853": ScipyIntegrator("DOP853", spi.DOP853),
+    "Radau": ScipyIntegrator("Radau", spi.Radau),
+    "BDF": _BDF("BDF", spi.BDF),
+    # LSODA keeps an internal history that a corrected state cannot enter
+    "LSODA": ScipyIntegrator("LSODA", spi.LSODA, corrects_state=False),
+    "RK4": RK4(),
+}
+
+
+def get(name) -> Integrator:
+    try:
+        return INTEGRATORS[name]
+    except (KeyError, TypeError):
+        raise InputError(f"unknown integrator {name!r} (valid: {', '.join(INTEGRATORS)})") from None
