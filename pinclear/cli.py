@@ -6,7 +6,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import signal
 import sys
+import traceback
 import warnings
 from pathlib import Path
 
@@ -24,44 +27,142 @@ def _load(args):
     from .sidecar import load
 
     return load(args.file, options=parse_kv(getattr(args, "option", None), "--option"),
-                overrides=parse_kv(getattr(args, "set", None), "--set"), clearances=getattr(args, "clearance", None))
+                overrides=parse_kv(getattr(args, "set", None), "--set"), clearances=getattr(args, "clearance", None),
+                trust=True if getattr(args, "trust", False) else None)
 
 
-def _add_model_args(p):
-    p.add_argument("file", help="mechanism sidecar (urdf/NAME.yaml)")
+def _add_model_args(p, file_required=True):
+    if file_required:
+        p.add_argument("file", help="mechanism sidecar (urdf/NAME.yaml) or a bundled mechanism's name")
     p.add_argument("--clearance", action="append", metavar="NAME", help="activate a clearance joint (repeatable)")
     p.add_argument("--set", action="append", metavar="NAME.KEY=VALUE",
                    help="override a clearance key or a scene option (repeatable)")
     p.add_argument("--option", action="append", metavar="KEY=VALUE", help="set a scene option (repeatable)")
+    p.add_argument("--trust", action="store_true",
+                   help="allow the mechanism file to import Python code outside pinclear (see README: trust)")
+
+
+#: the simulate options recorded in OUT/run.json, so that --resume OUT repeats the same run
+RUN_KEYS = ("file", "clearance", "set", "option", "trust", "t_end", "method", "integrator", "rtol", "atol", "h",
+            "max_step", "dt_out", "alpha", "beta", "max_cpu")
+
+
+def _check_out_dir(out: Path):
+    """Fail before the run, not after it, when the results could not be written."""
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out {str(out)!r} is an existing file; give a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"--out {str(out)!r}: cannot create the folder ({exc.strerror})") from None
+    probe = out / f".pinclear-write-test-{os.getpid()}"
+    try:
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError as exc:
+        raise InputError(f"--out {str(out)!r}: the folder is not writable ({exc.strerror})") from None
+
+
+class _StopRequest:
+    """SIGINT/SIGTERM during a run: finish the current step, keep every sample, checkpoint."""
+
+    def __init__(self):
+        self.requested = False
+        self._old = {}
+
+    def __enter__(self):
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            try:
+                self._old[sig] = signal.signal(sig, self._handle)
+            except ValueError:          # not the main thread: signals stay as they are
+                pass
+        return self
+
+    def _handle(self, signum, frame):
+        if self.requested:              # a second signal: stop at once
+            raise KeyboardInterrupt
+        self.requested = True
+
+    def __exit__(self, *exc):
+        for sig, old in self._old.items():
+            signal.signal(sig, old)
+        return False
+
+
+def _progress_bar(args, t0, t_end):
+    """A tqdm bar over simulated time on an interactive terminal (never in CI or when quiet)."""
+    show = args.progress == "on" or (args.progress == "auto" and sys.stderr.isatty() and not os.environ.get("CI"))
+    if not show:
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=t_end - t0, unit="sim s", file=sys.stderr, dynamic_ncols=True,
+                bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} sim s [{elapsed}<{remaining}]")
 
 
 def cmd_simulate(args):
     from .simulate import simulate
+    from .trajectory import Checkpoint, atomic_write_text
 
-    mech = _load(args)
-    kw = {}
-    for k in ("alpha", "beta"):
-        if getattr(args, k) is not None:
-            kw[k] = getattr(args, k)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        traj = simulate(mech, args.t_end, method=args.method, integrator=args.integrator, rtol=args.rtol,
-                        atol=args.atol, h=args.h, dt_out=args.dt_out, max_step=args.max_step or np.inf, **kw)
+    resume = None
+    if args.resume:
+        rdir = Path(args.resume)
+        try:
+            recorded = json.loads((rdir / "run.json").read_text(encoding="utf-8"))
+        except (OSError, ValueError) as exc:
+            raise InputError(f"--resume {str(rdir)!r}: no readable run.json of an earlier run ({exc})") from None
+        if not isinstance(recorded, dict) or "file" not in recorded:
+            raise InputError(f"--resume {str(rdir)!r}: run.json does not describe a run")
+        for k in RUN_KEYS:
+            setattr(args, k, recorded.get(k))
+        args.out = str(rdir)
+        resume = Checkpoint.load(rdir / "checkpoint.npz")
+    elif args.file is None or args.t_end is None:
+        raise InputError("simulate needs a mechanism file and --t-end (or --resume DIR)")
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    _check_out_dir(out)
+    mech = _load(args)
+    kw = {k: getattr(args, k) for k in ("alpha", "beta") if getattr(args, k) is not None}
+    max_step = np.inf if args.max_step is None else args.max_step
+    atomic_write_text(out / "run.json", json.dumps({k: getattr(args, k) for k in RUN_KEYS}, indent=2))
+
+    def save_checkpoint(ck):
+        ck.save(out / "checkpoint.npz")
+
+    bar = _progress_bar(args, resume.t if resume else 0.0, args.t_end)
+    with _StopRequest() as stop, warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+
+        def progress(t):
+            if bar is not None:
+                bar.update(t - bar.n)
+            return stop.requested
+
+        try:
+            traj = simulate(mech, args.t_end, method=args.method, integrator=args.integrator, rtol=args.rtol,
+                            atol=args.atol, h=args.h, dt_out=args.dt_out, max_step=max_step, max_cpu=args.max_cpu,
+                            progress=progress, checkpoint=save_checkpoint, checkpoint_every=args.checkpoint_every,
+                            resume=resume, **kw)
+        finally:
+            if bar is not None:
+                bar.close()
     traj.save(out / "trajectory.npz")
     summary = traj.summary()
     summary["mechanism"] = mech.name
     summary["file"] = str(args.file)
-    # which clearance joints were active, with their law, stiffness form and sizes
-    names = {c.get("name") for c in mech.sidecar.get("clearances") or [] if isinstance(c, dict)}
-    summary["clearances"] = [f.describe() for f in mech.forces if f.name in names]
+    summary["clearances"] = [f.describe() for f in mech.clearances]
     summary["drive_force_peaks"] = {d.name: float(np.nanmax(np.abs(traj.lam[d.name]))) for d in mech.drives} \
         if len(traj.t) else {}
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2))
+    if traj.status == "success":
+        (out / "checkpoint.npz").unlink(missing_ok=True)
     print(json.dumps({k: summary[k] for k in ("status", "mobility", "redundant_constraints", "max_closure_residual",
                                               "energy_drift_rel", "tracking_error", "rhs_evals", "cpu_s")
                       if k in summary}))
+    if traj.status == "interrupted":
+        print(f"pinclear: {traj.message}; {len(traj.t)} samples saved in {out}; continue with "
+              f"pinclear simulate --resume {out}", file=sys.stderr)
+        return 130
     if traj.status != "success":
         print(f"pinclear: integration failed: {traj.message}", file=sys.stderr)
         return 1
@@ -83,7 +184,7 @@ def cmd_info(args):
 
 
 def cmd_bench(args):
-    from . import bench
+    from . import bench, formulations
 
     if args.what == "restitution":
         from .contact import bench as cbench
@@ -93,7 +194,10 @@ def cmd_bench(args):
         raise PinclearError(f"bench {args.what} needs a mechanism file")
     mech = _load(args)
     if args.what == "rhs":
-        res = bench.bench_rhs(mech, methods=args.methods.split(",") if args.methods else None)
+        methods = args.methods.split(",") if args.methods else None
+        for m in methods or []:
+            formulations.get(m)         # an unknown name is an error, not skipped
+        res = bench.bench_rhs(mech, methods=methods)
     else:
         res = bench.work_precision(mech, t_end=args.t_end, out_dir=args.out)
         res.pop("rows")
@@ -110,12 +214,14 @@ def _delegate(module, func):
 
 
 def build_parser():
-    p = argparse.ArgumentParser(prog="pinclear", description="Dynamics of parallel mechanisms with joint clearance")
-    sub = p.add_subparsers(dest="cmd", required=True)
+    p = _OneLineParser(prog="pinclear", description="Dynamics of parallel mechanisms with joint clearance "
+                       "(--debug anywhere shows tracebacks)")
+    sub = p.add_subparsers(dest="cmd", required=True, parser_class=_OneLineParser)
 
     s = sub.add_parser("simulate", help="forward dynamics; writes OUT/trajectory.npz and OUT/summary.json")
-    _add_model_args(s)
-    s.add_argument("--t-end", type=float, required=True)
+    s.add_argument("file", nargs="?", help="mechanism sidecar (urdf/NAME.yaml) or a bundled mechanism's name")
+    _add_model_args(s, file_required=False)
+    s.add_argument("--t-end", type=float, default=None, help="end time [s]")
     s.add_argument("--method", default="lagrange", help="lagrange | projection | pinocchio | proximal")
     s.add_argument("--integrator", default="RK45", help="RK45 | DOP853 | Radau | BDF | LSODA | RK4")
     s.add_argument("--rtol", type=float, default=1e-8)
@@ -126,6 +232,13 @@ def build_parser():
     s.add_argument("--alpha", type=float, default=None, help="Baumgarte alpha [1/s]")
     s.add_argument("--beta", type=float, default=None, help="Baumgarte beta [1/s]")
     s.add_argument("--out", default="out")
+    s.add_argument("--max-cpu", type=float, default=None, help="CPU budget [s]: the run ends as failed, samples kept")
+    s.add_argument("--checkpoint-every", type=float, default=None, metavar="SECONDS",
+                   help="write OUT/checkpoint.npz every SECONDS of CPU, so a killed run can be resumed")
+    s.add_argument("--resume", default=None, metavar="DIR",
+                   help="continue the interrupted or stopped run saved in DIR (same options, same steps)")
+    s.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
+                   help="progress bar (auto: on an interactive terminal outside CI)")
     s.set_defaults(func=cmd_simulate)
 
     s = sub.add_parser("info", help="assemble and print the mechanism: mobility, redundancy, parameters")
@@ -138,6 +251,7 @@ def build_parser():
     s.add_argument("--clearance", action="append", metavar="NAME")
     s.add_argument("--set", action="append", metavar="NAME.KEY=VALUE")
     s.add_argument("--option", action="append", metavar="KEY=VALUE")
+    s.add_argument("--trust", action="store_true")
     s.add_argument("--methods", default=None, help="comma-separated formulations (default: all)")
     s.add_argument("--t-end", type=float, default=2.0)
     s.add_argument("--out", default="benchmarks")
@@ -155,21 +269,39 @@ def build_parser():
     return p
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """argparse prints a usage block on a bad argument; pinclear's errors are one line."""
+
+    def error(self, message):
+        raise InputError(f"{self.prog}: {message} (see {self.prog} --help)")
+
+
 def main(argv=None):
-    argv = sys.argv[1:] if argv is None else argv
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    if debug:
+        argv.remove("--debug")
     try:
+        args = build_parser().parse_args(argv)
         return int(args.func(args) or 0)
     except PinclearError as exc:
-        print(f"pinclear: error: {exc}", file=sys.stderr)
+        if debug:
+            traceback.print_exc()
+        print(f"pinclear: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
-    except (FileNotFoundError, PermissionError, IsADirectoryError) as exc:
-        print(f"pinclear: error: {exc}", file=sys.stderr)
+    except OSError as exc:
+        if debug:
+            traceback.print_exc()
+        print(f"pinclear: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
+        print("pinclear: interrupted", file=sys.stderr)
         return 130
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    except SystemExit:
+        raise
+    except Exception as exc:  # a bug or an input we did not foresee: one line, the rest on --debug
+        if debug:
+            traceback.print_exc()
+        print(f"pinclear: error: {type(exc).__name__}: {' '.join(str(exc).split())[:500]} "
+              "(unexpected; run with --debug for the traceback and please report it)", file=sys.stderr)
+        return 3

@@ -240,18 +240,30 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
         finally:
             sysf.strict = False
 
-    def save_checkpoint(solver):
+    good = None     # (t, q, v, z, next step, samples, events) after the last completed step
+
+    def mark_good(solver):
+        nonlocal good
+        q_, v_, z_ = sysf.split(solver.y)
+        good = (float(solver.t), np.array(q_), np.array(v_), np.array(z_), _next_step(solver), len(samples),
+                len(stats["events"]))
+
+    def save_checkpoint():
+        """Hand the state after the last completed step to the checkpoint callback; samples or
+        events recorded past it (an interrupt inside a step) are dropped so a resume redoes them."""
+        if good is None:
+            return
+        tg, qg, vg, zg, hg, ns, ne = good
+        del samples[ns:]
+        del stats["events"][ne:]
         if checkpoint is None:
             return
-        q_, v_, z_ = sysf.split(solver.y)
         stats["rhs_evals"] = nfev0 + sysf.nfev
         stats["cpu_s"] = cpu_prior + time.process_time() - cpu0
-        checkpoint(Checkpoint(t0=t0, q=q, v=v, z=z, t=float(solver.t), q_now=np.array(q_), v_now=np.array(v_),
-                              z_now=np.array(z_), h_next=_next_step(solver), samples=list(samples),
-                              stats=dict(stats, events=list(stats["events"]))))
+        checkpoint(Checkpoint(t0=t0, q=q, v=v, z=z, t=tg, q_now=qg, v_now=vg, z_now=zg, h_next=hg,
+                              samples=list(samples), stats=dict(stats, events=list(stats["events"]))))
 
     status, message = "success", "reached t_end"
-    solver = None
     last_ckpt = time.process_time()
     try:
         solver = make_solver(t_start, x, step_hint)
@@ -259,6 +271,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
             samples.append(sample(t_eval[out_i], x.copy()))
             out_i += 1
         ev_prev = all_events(t_start, x)
+        mark_good(solver)
         while solver.status == "running":
             t_old = solver.t
             msg = solver.step()
@@ -329,24 +342,23 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
                 stats["restarts"] += 1
                 if t_restart < t_end:
                     solver = make_solver(t_restart, x_restart, hint)
-            if progress is not None:
-                progress(float(solver.t))
+            mark_good(solver)
+            if progress is not None and progress(float(solver.t)) and solver.status == "running":
+                raise KeyboardInterrupt     # the caller asked to stop (a signal handler, a GUI)
             now = time.process_time()
             if checkpoint_every is not None and now - last_ckpt >= checkpoint_every and solver.status == "running":
-                save_checkpoint(solver)
+                save_checkpoint()
                 last_ckpt = now
-            if max_cpu is not None and now - cpu0 > max_cpu:
+            if max_cpu is not None and now - cpu0 > max_cpu and solver.status == "running":
                 status = "failed"
                 message = f"stopped at t = {solver.t:.9g} s: CPU budget max_cpu = {max_cpu} s exhausted"
-                save_checkpoint(solver)
+                save_checkpoint()
                 break
     except KeyboardInterrupt:
         status = "interrupted"
-        message = f"interrupted at t = {_last_t(samples, t0):.9g} s (SIGINT/SIGTERM)"
-        if solver is not None and not np.all(np.isfinite(solver.y)):
-            solver = None
-        if solver is not None:
-            save_checkpoint(solver)
+        save_checkpoint()
+        message = (f"interrupted at t = {good[0] if good else t0:.9g} s (SIGINT/SIGTERM); "
+                   "continue with simulate(..., resume=checkpoint) / pinclear simulate --resume DIR")
     except RankLossError as exc:
         status, message = "failed", str(exc)
         stats["rank_loss"] = {"t": exc.t, "rank": exc.rank, "rows": exc.rows, "cond": exc.cond}

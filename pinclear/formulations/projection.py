@@ -11,9 +11,13 @@ from .. import kinematics
 from .lagrange import Lagrange
 
 
-def project_to_manifold(form, t, q, v, tol, max_iter):
+def project_to_manifold(form, t, q, v, tol, max_iter, solve=None):
     """(q, v) moved onto Phi(q, t) = 0 and J v + Phi_t = 0 over the formulation's rows: the
-    shared projection of every formulation that offers one."""
+    shared projection of every formulation that offers one. ``solve(A, b)`` solves the normal
+    equations A x = b of both steps (default: least squares, minimum norm)."""
+    if solve is None:
+        def solve(A, b):
+            return np.linalg.lstsq(A, b, rcond=1e-12)[0]
     mech, ws, rows = form.mech, form.ws, form.rows
     for _ in range(max_iter):
         kinematics.update_positions(mech, ws, q)
@@ -22,14 +26,14 @@ def project_to_manifold(form, t, q, v, tol, max_iter):
         if np.linalg.norm(phi, np.inf) < tol:
             break
         J = ws.J[rows]
-        # minimum-norm Gauss-Newton step; lstsq keeps it defined at a rank loss
-        q = pin.integrate(mech.model, q, -np.linalg.lstsq(J, phi, rcond=1e-12)[0])
+        # minimum-norm Gauss-Newton step J^T (J J^T)^+ phi, defined at a rank loss
+        q = pin.integrate(mech.model, q, -J.T @ solve(J @ J.T, phi))
     kinematics.update(mech, ws, q, v)
     kinematics.constraint_rows(mech, ws, t, q, v)
     J = ws.J[rows]
     c = form.mass_factor()
     MiJt = cho_solve(c, J.T, check_finite=False)
-    v = v - MiJt @ np.linalg.lstsq(J @ MiJt, ws.dphi[rows], rcond=1e-12)[0]
+    v = v - MiJt @ solve(J @ MiJt, ws.dphi[rows])
     return q, v
 
 

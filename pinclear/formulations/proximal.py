@@ -9,7 +9,7 @@ anti-parallelogram branch at the flat configuration (measured: rho 1e-12 switche
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
+from scipy.linalg import cho_solve
 
 from .. import kinematics
 from .base import Formulation
@@ -25,7 +25,11 @@ class Proximal(Formulation):
         return bool(self.opts["project"])
 
     def project(self, t, q, v):
-        return project_to_manifold(self, t, q, v, self.opts["tol"], self.opts["max_iter"])
+        def solve(A, b):         # the same smooth filter as the multipliers (see proximal_multipliers)
+            rho = self.opts["rho"] * max(np.trace(A) / len(A), 1e-300)
+            return proximal_multipliers(A, b, rho, self.opts["max_iter"])
+
+        return project_to_manifold(self, t, q, v, self.opts["tol"], self.opts["max_iter"], solve)
 
     def accelerations(self, t, q, v, z):
         self.applied(t, q, v, z)
@@ -40,19 +44,26 @@ class Proximal(Formulation):
         MiJt = cho_solve(c, J.T, check_finite=False)
         S = J @ MiJt
         r = g - J @ a_free
-        # rho relative to the scale of S keeps the iteration well conditioned for any units
+        # rho relative to the scale of S keeps the filter well defined for any units
         rho = self.opts["rho"] * max(np.trace(S) / len(S), 1e-300)
-        cf = cho_factor(S + rho * np.eye(len(S)), lower=True, check_finite=False)
-        lam = np.zeros(len(S))
-        scale = max(np.linalg.norm(r), 1e-300)
-        prev = np.inf
-        for _ in range(self.opts["max_iter"]):
-            res = r - S @ lam
-            nres = np.linalg.norm(res)
-            # stop when consistent to tol, or when the residual stalls (inconsistent rows)
-            if nres <= self.opts["tol"] * scale or nres > 0.999 * prev:
-                break
-            prev = nres
-            lam += cho_solve(cf, res, check_finite=False)
-        ws.lam[:] = lam
-        return a_free + MiJt @ lam
+        ws.lam[:] = proximal_multipliers(S, r, rho, self.opts["max_iter"])
+        return a_free + MiJt @ ws.lam
+
+
+def proximal_multipliers(S, r, rho, k):
+    """The multipliers after k proximal iterations (S + rho I) lam_{i+1} = r + rho lam_i from
+    lam_0 = 0, in closed form: lam = V diag(f(s)) V^T r over the eigenpairs (s, V) of S with the
+    filter f(s) = (1 - (rho / (s + rho))^k) / s (limit k / rho at s = 0).
+
+    Why closed form and a fixed k: stopping the iteration on its residual made the right-hand
+    side a discontinuous function of the state, so an adaptive integrator's steps, and the
+    accuracy of a singular passage, depended on the machine's rounding. The filter is a smooth
+    function of S; it equals S^-1 to (rho / (s + rho))^k where S is well conditioned, and caps
+    the response of the directions whose eigenvalue drops below rho / k near a singular or
+    redundant configuration."""
+    s, V = np.linalg.eigh(S)
+    s = np.maximum(s, 0.0)                  # S is positive semi-definite; drop rounding below 0
+    x = rho / (s + rho)
+    small = s < 1e-9 * rho
+    f = np.where(small, k / rho, -np.expm1(k * np.log(np.where(small, 0.5, x))) / np.where(small, 1.0, s))
+    return V @ (f * (V.T @ r))
