@@ -12,7 +12,8 @@ import pinocchio as pin
 
 from . import formulations, kinematics
 from .closures import PINOCCHIO_TYPES
-from .simulate import _System, simulate
+from .errors import InputError, PinclearError
+from .simulate import OdeSystem, simulate
 
 
 def baseline_constraints(mech):
@@ -32,63 +33,78 @@ def baseline_constraints(mech):
     return cms, cds
 
 
-def _time(fn, min_time=0.3, repeat=5):
-    """Best per-call time over `repeat` rounds of at least min_time seconds."""
-    fn()
-    n = 1
-    while True:
-        t0 = time.perf_counter()
-        for _ in range(n):
-            fn()
-        dt = time.perf_counter() - t0
-        if dt > min_time / repeat:
-            break
-        n *= 2
-    best = dt / n
-    for _ in range(repeat - 1):
-        t0 = time.perf_counter()
-        for _ in range(n):
-            fn()
-        best = min(best, (time.perf_counter() - t0) / n)
-    return best
+def bench_rhs(mech, methods=None, t_end=None, n_states=200, repeat=3, rtol=1e-6):
+    """Cost of one right-hand-side evaluation per formulation over the states and times of a
+    real run, against a bare pin.constraintDynamics call at the same states (same process).
 
+    The states are the samples of a run of ``mech`` (lagrange, RK45): each evaluation sees a new
+    time and a new state, so no cache (drive laws, contact geometry) answers twice, as in a run.
+    Reported: best-of-``repeat`` mean seconds per evaluation and its ratio to the baseline."""
+    import warnings
 
-def bench_rhs(mech, methods=None, min_time=0.3):
-    """Time one right-hand-side evaluation per formulation vs a bare pin.constraintDynamics call.
-
-    Returns a JSON-able dict: per method the time (s) and ratio to the baseline."""
-    q = kinematics.assemble(mech)
-    v = kinematics.consistent_velocity(mech, q, mech.v0 if np.any(mech.v0) else np.random.default_rng(1)
-                                       .standard_normal(mech.nv) * 0.1)
+    t_end = t_end or _natural_duration(mech)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run = simulate(mech, t_end, rtol=rtol, dt_out=t_end / n_states)
+    n = len(run.t)
+    if n < 2:
+        raise InputError(f"bench rhs: the reference run of {mech.name} failed at once ({run.message})")
     model = mech.model
     data = model.createData()
     cms, cds = baseline_constraints(mech)
     pin.initConstraintDynamics(model, data, cms, cds)
     prox = pin.ProximalSettings(1e-12, 1e-12, 50)
     tau = np.zeros(model.nv)
-    base = _time(lambda: pin.constraintDynamics(model, data, q, v, tau, cms, cds, prox), min_time)
+    Q, V, T, Z = run.q, run.v, run.t, run.z
+
+    def baseline():
+        for k in range(n):
+            pin.constraintDynamics(model, data, Q[k], V[k], tau, cms, cds, prox)
+    base = _best_mean(baseline, repeat) / n
     out = {"mechanism": mech.name, "nq": mech.nq, "nv": mech.nv, "closures": len(mech.closures),
            "closure_rows": mech.compiled.m, "drives": len(mech.drives), "forces": [f.name for f in mech.forces],
+           "states": {"from": f"lagrange + RK45 run, rtol {rtol:g}, t in [0, {T[-1]:.4g}] s", "count": n},
            "baseline": {"call": "pin.constraintDynamics", "constraints": [str(c.type) for c in cms],
                         "rows": int(sum(c.residualSize() for c in cms)), "time_s": base}, "methods": {}}
-    ws0 = mech.workspace()
-    z = np.concatenate([f.z0(mech, ws0, q, v) for f in mech.forces]) if mech.nz else np.zeros(0)
     for name in methods or list(formulations.METHODS):
         try:
             form = formulations.get(name)(mech)
-        except Exception as exc:  # a formulation that refuses this mechanism says why
+        except PinclearError as exc:  # a formulation that refuses this mechanism says why
             out["methods"][name] = {"skipped": str(exc)}
             continue
-        sysf = _System(form)
-        x = sysf.pack(q, v, z)
+        sysf = OdeSystem(form)
+        X = [sysf.pack(Q[k], V[k], Z[k]) for k in range(n)]
         try:
-            sysf(0.0, x)
-        except Exception as exc:
+            sysf(T[0], X[0])
+        except PinclearError as exc:
             out["methods"][name] = {"skipped": f"{type(exc).__name__}: {exc}"}
             continue
-        t = _time(lambda: sysf(0.0, x), min_time)
+
+        def evaluate():
+            for k in range(n):
+                sysf(T[k], X[k])
+        try:
+            t = _best_mean(evaluate, repeat) / n
+        except PinclearError as exc:          # e.g. a rank loss the formulation cannot pass
+            out["methods"][name] = {"skipped": f"{type(exc).__name__}: {exc}"}
+            continue
         out["methods"][name] = {"time_s": t, "ratio": t / base}
     return out
+
+
+def _natural_duration(mech):
+    """One period of the slowest drive law if it has one, else 1 s."""
+    return 1.0
+
+
+def _best_mean(fn, repeat):
+    fn()                                   # warm-up: compiled kernels, first-call caches
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
 
 
 # ---------------------------------------------------------------------- work-precision

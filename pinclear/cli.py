@@ -305,3 +305,7 @@ def main(argv=None):
         print(f"pinclear: error: {type(exc).__name__}: {' '.join(str(exc).split())[:500]} "
               "(unexpected; run with --debug for the traceback and please report it)", file=sys.stderr)
         return 3
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,6 +1,21 @@
 """Exception types. Every error says what went wrong, where, and what would be valid."""
 
 
+def format_message(message, file=None, key=None, choices=None) -> str:
+    """The one layout of pinclear's error text: ``FILE: KEY: message (valid: a, b, ...)``."""
+    text = message
+    if key is not None:
+        text = f"{key}: {text}"
+    if file is not None:
+        text = f"{file}: {text}"
+    if choices is not None:
+        shown = sorted(map(str, choices))
+        if len(shown) > 25:
+            shown = shown[:25] + [f"... ({len(shown) - 25} more)"]
+        text += f" (valid: {', '.join(shown) or 'none'})"
+    return text
+
+
 class PinclearError(Exception):
     """Base class of all pinclear errors."""
 
@@ -10,13 +25,7 @@ class ModelFileError(PinclearError, ValueError):
 
     def __init__(self, file, key, message, choices=None):
         self.file, self.key, self.choices = str(file), key, choices
-        text = f"{file}: {key}: {message}"
-        if choices is not None:
-            shown = sorted(map(str, choices))
-            if len(shown) > 25:
-                shown = shown[:25] + [f"... ({len(choices) - 25} more)"]
-            text += f" (valid: {', '.join(shown)})"
-        super().__init__(text)
+        super().__init__(format_message(message, file, key, choices))
 
 
 class AssemblyError(PinclearError):
@@ -44,8 +53,18 @@ class IntegrationError(PinclearError):
 
 
 class ContactSetupError(PinclearError, ValueError):
-    """A clearance joint is specified inconsistently (sizes, materials, initial penetration)."""
+    """A clearance joint is specified inconsistently (sizes, materials, initial penetration).
+
+    ``ContactSetupError(message)`` or ``ContactSetupError(message, file=..., key=..., choices=...)``."""
+
+    def __init__(self, message, file=None, key=None, choices=None):
+        self.file, self.key, self.choices = file, key, choices
+        super().__init__(format_message(message, file, key, choices))
 
 
 class InputError(PinclearError, ValueError):
     """A bad argument to a pinclear function (method name, tolerance, step...)."""
+
+    def __init__(self, message, key=None, choices=None):
+        self.key, self.choices = key, choices
+        super().__init__(format_message(message, None, key, choices))

@@ -133,4 +133,4 @@ def get(name) -> Integrator:
     try:
         return INTEGRATORS[name]
     except (KeyError, TypeError):
-        raise InputError(f"unknown integrator {name!r} (valid: {', '.join(INTEGRATORS)})") from None
+        raise InputError(f"unknown integrator {name!r}", choices=INTEGRATORS) from None

@@ -25,7 +25,7 @@ INTEGRATORS = tuple(integrators.INTEGRATORS)
 #: largest number of output samples a run may ask for (each keeps q, v, a, multipliers, outputs)
 MAX_SAMPLES = 2_000_000
 
-class _System:
+class OdeSystem:
     """The ODE right-hand side over the state x = [qc, v, z] for a formulation."""
 
     def __init__(self, form):
@@ -179,7 +179,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
                          "history cannot absorb: use RK45, DOP853, Radau, BDF or RK4")
     cpu0 = time.process_time()
     ws = form.ws
-    sysf = _System(form)
+    sysf = OdeSystem(form)
     if resume is not None:
         q, v, z = resume.q, resume.v, resume.z
         t0 = resume.t0

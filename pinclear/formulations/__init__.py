@@ -15,4 +15,4 @@ def get(name: str):
     try:
         return METHODS[name]
     except KeyError:
-        raise InputError(f"unknown method {name!r} (valid: {', '.join(METHODS)})") from None
+        raise InputError(f"unknown method {name!r}", choices=METHODS) from None

@@ -52,8 +52,7 @@ class Formulation(abc.ABC):
     def __init__(self, mech, **options):
         bad = set(options) - set(self.options)
         if bad:
-            raise InputError(f"method {self.name!r} has no option {sorted(bad)[0]!r} "
-                             f"(valid: {', '.join(sorted(self.options)) or 'none'})")
+            raise InputError(f"method {self.name!r} has no option {sorted(bad)[0]!r}", choices=self.options)
         self.mech = mech
         self.opts = {**self.options, **options}
         self.ws = mech.workspace()
