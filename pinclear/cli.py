@@ -272,6 +272,10 @@ def build_parser():
 class _OneLineParser(argparse.ArgumentParser):
     """argparse prints a usage block on a bad argument; pinclear's errors are one line."""
 
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)   # "--h" must not silently mean "--help"
+        super().__init__(*args, **kwargs)
+
     def error(self, message):
         raise InputError(f"{self.prog}: {message} (see {self.prog} --help)")
 

@@ -13,7 +13,8 @@ def format_message(message, file=None, key=None, choices=None) -> str:
         if len(shown) > 25:
             shown = shown[:25] + [f"... ({len(shown) - 25} more)"]
         text += f" (valid: {', '.join(shown) or 'none'})"
-    return text
+    # one line, whatever a file's keys or values contain
+    return text.replace("\r", "\\r").replace("\n", "\\n")
 
 
 class PinclearError(Exception):

@@ -10,7 +10,7 @@ import yaml
 
 from .closures import CLOSURE_TYPES, Closure
 from .drives import Drive
-from .errors import ModelFileError
+from .errors import ModelFileError, PinclearError
 from .forces import JointForce, SpringDamper
 from .mechanism import Mechanism
 from .timelaws import build_law, resolve_function, trusted
@@ -253,6 +253,18 @@ def load(path, options=None, overrides=None, clearances=None, trust=None) -> Mec
     overrides: {"S2.clearance": 5e-4, "limbs": False, ...}: clearance keys (NAME.key) or options.
     clearances: names of clearance joints to activate (besides those with ``active: true``).
     """
+    try:
+        return _load(path, options, overrides, clearances, trust)
+    except (TypeError, AttributeError, KeyError, IndexError, ValueError) as exc:
+        if isinstance(exc, PinclearError):
+            raise
+        # a value of the wrong shape somewhere the checks above did not foresee: still one clear
+        # line naming the file, never a traceback
+        raise ModelFileError(str(path), "sidecar", f"malformed value ({type(exc).__name__}: "
+                             f"{' '.join(str(exc).split())[:200]})") from None
+
+
+def _load(path, options, overrides, clearances, trust) -> Mechanism:
     from .models import model_path
 
     path = model_path(path)
