@@ -5,6 +5,7 @@ computed and exits 1."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import signal
@@ -61,6 +62,22 @@ def _check_out_dir(out: Path):
         probe.unlink()
     except OSError as exc:
         raise InputError(f"--out {str(out)!r}: the folder is not writable ({exc.strerror})") from None
+
+
+@contextlib.contextmanager
+def _folder_lock(folder: Path):
+    """An advisory lock on OUT/.lock (fcntl on POSIX; a no-op where fcntl is missing)."""
+    try:
+        import fcntl
+    except ImportError:            # pragma: no cover - Windows
+        yield
+        return
+    with open(folder / ".lock", "a+") as fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
 
 
 class _StopRequest:
@@ -146,16 +163,19 @@ def cmd_simulate(args):
         finally:
             if bar is not None:
                 bar.close()
-    traj.save(out / "trajectory.npz")
     summary = traj.summary()
     summary["mechanism"] = mech.name
     summary["file"] = str(args.file)
     summary["clearances"] = [f.describe() for f in mech.clearances]
     summary["drive_force_peaks"] = {d.name: float(np.nanmax(np.abs(traj.lam[d.name]))) for d in mech.drives} \
         if len(traj.t) else {}
-    atomic_write_text(out / "summary.json", json.dumps(summary, indent=2))
-    if traj.status == "success":
-        (out / "checkpoint.npz").unlink(missing_ok=True)
+    # trajectory and summary are written under one lock on the folder, each atomically, so two
+    # runs into one folder leave a matching pair (the later run's), never a mix
+    with _folder_lock(out):
+        traj.save(out / "trajectory.npz")
+        atomic_write_text(out / "summary.json", json.dumps(summary, indent=2))
+        if traj.status == "success":
+            (out / "checkpoint.npz").unlink(missing_ok=True)
     print(json.dumps({k: summary[k] for k in ("status", "mobility", "redundant_constraints", "max_closure_residual",
                                               "energy_drift_rel", "tracking_error", "rhs_evals", "cpu_s")
                       if k in summary}))
@@ -190,6 +210,8 @@ def cmd_bench(args):
         from .contact import bench as cbench
 
         return cbench.restitution_main(args.rest)
+    if args.rest:
+        raise InputError(f"bench {args.what}: unrecognized arguments: {' '.join(args.rest)}")
     if args.file is None:
         raise PinclearError(f"bench {args.what} needs a mechanism file")
     mech = _load(args)
@@ -255,7 +277,7 @@ def build_parser():
     s.add_argument("--methods", default=None, help="comma-separated formulations (default: all)")
     s.add_argument("--t-end", type=float, default=2.0)
     s.add_argument("--out", default="benchmarks")
-    s.add_argument("rest", nargs=argparse.REMAINDER)
+    s.add_argument("rest", nargs="*", help=argparse.SUPPRESS)
     s.set_defaults(func=cmd_bench)
 
     for name, module, func, helptext in (
@@ -286,7 +308,13 @@ def main(argv=None):
     if debug:
         argv.remove("--debug")
     try:
-        args = build_parser().parse_args(argv)
+        parser = build_parser()
+        args, unknown = parser.parse_known_args(argv)
+        if unknown:
+            if getattr(args, "what", None) == "restitution":
+                args.rest = list(args.rest or []) + unknown     # its own options, parsed there
+            else:
+                parser.error(f"unrecognized arguments: {' '.join(unknown)}")
         return int(args.func(args) or 0)
     except PinclearError as exc:
         if debug:

@@ -1,0 +1,327 @@
+"""Reliability and security (issue 11): no code from data without consent, nothing computed is
+lost, every fault a clear status. One test per observed gap, numbered as in the issue."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+import pinclear
+from pinclear import cli
+
+ROOT = Path(__file__).resolve().parents[1]
+FOUR = yaml.safe_load((ROOT / "urdf" / "four_bar.yaml").read_text())
+
+
+def _sidecar(tmp_path, doc, name="m.yaml"):
+    (tmp_path / "four_bar.urdf").write_text((ROOT / "urdf" / "four_bar.urdf").read_text())
+    p = tmp_path / name
+    p.write_text(yaml.safe_dump(doc))
+    return p
+
+
+def _cli(argv, capsys):
+    code = cli.main(argv)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+# ------------------------------------------------------------------ 1. no code from data
+def test_1_sidecar_cannot_run_a_shell_command(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("PINCLEAR_TRUST", raising=False)
+    doc = dict(FOUR, drives=[{"name": "d", "joint": "crank_joint",
+                              "law": {"type": "python", "function": "pydoc:pipepager",
+                                      "args": {"cmd": f"id > {tmp_path / 'pwned'}"}}}])
+    path = _sidecar(tmp_path, doc)
+    code, _, err = _cli(["info", str(path)], capsys)
+    assert code == 2 and not (tmp_path / "pwned").exists()
+    assert "pydoc:pipepager" in err and "--trust" in err and err.count("\n") == 1
+    # the same through platform.motion and hook
+    for extra in ({"platform": {"frame": "coupler", "motion": {"function": "os:system", "args": {}}}},
+                  {"hook": "this:s"}):
+        with pytest.raises(pinclear.ModelFileError, match="trust"):
+            pinclear.load(_sidecar(tmp_path, dict(FOUR, **extra)))
+
+
+def test_1_trust_is_the_users_choice(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(Path(__file__).parent))
+    doc = dict(FOUR, forces=[{"name": "motor", "type": "joint_force", "joint": "crank_joint",
+                              "law": {"type": "python", "function": "test_reliability:torque"}}])
+    path = _sidecar(tmp_path, doc)
+    monkeypatch.delenv("PINCLEAR_TRUST", raising=False)
+    with pytest.raises(pinclear.ModelFileError, match="test_reliability:torque"):
+        pinclear.load(path)
+    assert pinclear.load(path, trust=True).forces[0].law.eval(1.0) == (0.5, 0.0, 0.0)
+    monkeypatch.setenv("PINCLEAR_TRUST", "1")
+    assert pinclear.load(path).forces[0].name == "motor"
+    # functions inside pinclear need no trust
+    monkeypatch.delenv("PINCLEAR_TRUST")
+    assert pinclear.load("four_ups_upu").platform_motion is not None
+
+
+def torque(t):
+    return 0.5, 0.0, 0.0
+
+
+def test_1_saved_run_does_not_import_code_on_load(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(Path(__file__).parent))
+    monkeypatch.delenv("PINCLEAR_TRUST", raising=False)
+    doc = dict(FOUR, forces=[{"name": "motor", "type": "joint_force", "joint": "crank_joint",
+                              "law": {"type": "python", "function": "test_reliability:torque"}}])
+    path = _sidecar(tmp_path, doc)
+    mech = pinclear.load(path, trust=True)
+    tr = pinclear.simulate(mech, 0.05)
+    tr.save(tmp_path / "run.npz")
+    back = pinclear.Trajectory.load(tmp_path / "run.npz")          # reads arrays only
+    with pytest.raises(pinclear.ModelFileError, match="trust"):
+        back.load_mechanism()
+    assert back.load_mechanism(trust=True).name == mech.name
+
+
+def test_2_urdf_outside_the_allowed_folders_is_refused(tmp_path):
+    secret = tmp_path / "secret"
+    secret.mkdir()
+    (secret / "tree.urdf").write_text((ROOT / "urdf" / "four_bar.urdf").read_text())
+    sub = tmp_path / "models"
+    sub.mkdir()
+    doc = dict(FOUR, urdf="../secret/tree.urdf")
+    (sub / "m.yaml").write_text(yaml.safe_dump(doc))
+    with pytest.raises(pinclear.ModelFileError, match="outside"):
+        pinclear.load(sub / "m.yaml")
+    assert pinclear.load(sub / "m.yaml", trust=True).nq == 3
+
+
+# ------------------------------------------------------------------ 4. nothing computed is lost
+def test_4_output_checked_before_the_run(tmp_path, capsys):
+    target = tmp_path / "afile"
+    target.write_text("x")
+    t0 = time.process_time()
+    code, _, err = _cli(["simulate", "four_bar", "--t-end", "50", "--out", str(target)], capsys)
+    assert code == 2 and "existing file" in err
+    assert time.process_time() - t0 < 5          # refused at once, not after a 50 s run
+    assert target.read_text() == "x"
+
+
+def _run_cli(args, **kw):
+    return subprocess.Popen([sys.executable, "-m", "pinclear.cli"] + args, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, **kw)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_4_interrupt_keeps_samples_and_resume_completes_the_run(tmp_path, sig):
+    """Interrupt a real CLI run; the saved trajectory has the samples up to the interrupt, and
+    --resume completes it to the final state of an uninterrupted run."""
+    args = ["four_bar", "--t-end", "30", "--rtol", "1e-11", "--progress", "off"]
+    out = tmp_path / "run"
+    proc = _run_cli(["simulate"] + args + ["--out", str(out)])
+    # wait until the run is under way (run.json is written right before integrating)
+    deadline = time.time() + 120
+    while not (out / "run.json").exists() and time.time() < deadline:
+        time.sleep(0.1)
+    time.sleep(3.0)
+    proc.send_signal(sig)
+    stdout, stderr = proc.communicate(timeout=300)
+    assert proc.returncode == 130, stderr
+    part = pinclear.Trajectory.load(out / "trajectory.npz")
+    assert part.status == "interrupted" and 0.0 < part.t[-1] < 30.0
+    assert len(part.t) > 5 and np.all(np.isfinite(part.q))
+    assert (out / "checkpoint.npz").exists()
+    done = subprocess.run([sys.executable, "-m", "pinclear.cli", "simulate", "--resume", str(out)],
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    resumed = pinclear.Trajectory.load(out / "trajectory.npz")
+    whole = pinclear.simulate(pinclear.load("four_bar"), 30.0, rtol=1e-11)
+    assert resumed.status == "success" and len(resumed.t) == len(whole.t)
+    np.testing.assert_allclose(resumed.q, whole.q, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(resumed.q[:len(part.t)], part.q, rtol=0, atol=0)
+    assert not (out / "checkpoint.npz").exists()
+
+
+def test_4_max_cpu_keeps_samples_and_checkpoint_resumes(tmp_path):
+    mech = pinclear.load("four_bar")
+    saved = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        part = pinclear.simulate(mech, 20.0, rtol=1e-11, max_cpu=0.5, checkpoint=saved.append)
+    assert part.status == "failed" and "max_cpu" in part.message and len(part.t) > 1
+    saved[-1].save(tmp_path / "ck.npz")
+    ck = pinclear.trajectory.Checkpoint.load(tmp_path / "ck.npz")
+    rest = pinclear.simulate(mech, 20.0, rtol=1e-11, resume=ck)
+    whole = pinclear.simulate(mech, 20.0, rtol=1e-11)
+    np.testing.assert_array_equal(rest.q, whole.q)          # the same steps: bit for bit
+    assert rest.stats["steps"] == whole.stats["steps"]
+
+
+def test_4_two_runs_into_one_folder_leave_a_matching_pair(tmp_path):
+    out = tmp_path / "same"
+    procs = [_run_cli(["simulate", "four_bar", "--t-end", str(t), "--progress", "off", "--out", str(out)])
+             for t in (0.3, 0.6)]
+    for p in procs:
+        p.communicate(timeout=300)
+        assert p.returncode == 0
+    summary = json.loads((out / "summary.json").read_text())
+    traj = pinclear.Trajectory.load(out / "trajectory.npz")
+    assert summary["t_end"] == pytest.approx(traj.t[-1])
+    assert summary["rhs_evals"] == traj.stats["rhs_evals"]
+    assert not list(out.glob(".*.npz")) and not list(out.glob(".summary.json.*"))   # no temporaries left
+
+
+# ------------------------------------------------------------------ 5. faults end as failed runs
+def exploding_law(t):
+    if t > 0.05:
+        raise RuntimeError("the user's function failed")
+    return 0.0, 0.0, 0.0
+
+
+def nan_law(t):
+    return (float("nan") if t > 0.05 else 0.0), 0.0, 0.0
+
+
+@pytest.mark.parametrize("fn, words", [("exploding_law", ["RuntimeError", "user's function"]),
+                                       ("nan_law", ["non-finite"])])
+def test_5_user_function_faults_keep_samples(tmp_path, monkeypatch, fn, words):
+    monkeypatch.syspath_prepend(str(Path(__file__).parent))
+    doc = dict(FOUR, forces=[{"name": "motor", "type": "joint_force", "joint": "crank_joint",
+                              "law": {"type": "python", "function": f"test_reliability:{fn}"}}])
+    mech = pinclear.load(_sidecar(tmp_path, doc), trust=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tr = pinclear.simulate(mech, 0.2, rtol=1e-8, dt_out=0.01)
+    assert tr.status == "failed"
+    for w in words:
+        assert w in tr.message
+    # samples up to the fault are kept, and the reported time is the fault's (0.05 s)
+    assert 0.03 <= tr.t[-1] <= 0.05 + 1e-9 and len(tr.t) >= 4
+    assert np.all(np.isfinite(tr.q))
+
+
+def test_5_rk4_overflow_is_a_failed_run():
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        tr = pinclear.simulate(pinclear.load("four_bar"), 5.0, integrator="RK4", h=0.5)
+    assert tr.status == "failed" and len(tr.t) >= 1
+    assert "t =" in tr.message
+
+
+@pytest.mark.parametrize("mutate, key", [
+    (lambda d: d["initial"]["q"].update(crank_joint=float("nan")), "initial.q.crank_joint"),
+    (lambda d: d["initial"]["q"].update(crank_joint="abc"), "initial.q.crank_joint"),
+    (lambda d: d["closures"][0]["frame2"].update(xyz=[float("inf"), 0, 0]), "xyz"),
+])
+def test_5_bad_numbers_in_a_sidecar_are_file_errors(tmp_path, mutate, key):
+    doc = json.loads(json.dumps(FOUR))
+    doc.setdefault("initial", {}).setdefault("q", {})
+    mutate(doc)
+    with pytest.raises(pinclear.ModelFileError, match=key.replace(".", r"\.")):
+        pinclear.load(_sidecar(tmp_path, doc))
+
+
+def test_5_unreadable_files_are_clear_errors(tmp_path, capsys):
+    (tmp_path / "bin.yaml").write_bytes(b"name: \xff\xfe\x00 bad")
+    with pytest.raises(pinclear.ModelFileError, match="UTF-8"):
+        pinclear.load(tmp_path / "bin.yaml")
+    (tmp_path / "empty.npz").write_bytes(b"")
+    with pytest.raises(pinclear.InputError, match="not a readable pinclear trajectory"):
+        pinclear.Trajectory.load(tmp_path / "empty.npz")
+    np.savez(tmp_path / "listmeta.npz", meta=np.array(json.dumps([1, 2])), t=np.zeros(1))
+    with pytest.raises(pinclear.InputError):
+        pinclear.Trajectory.load(tmp_path / "listmeta.npz")
+    tr = pinclear.simulate(pinclear.load("four_bar"), 0.05)
+    tr.save(tmp_path / "run.npz")
+    with pytest.raises(pinclear.InputError, match="differs|nq"):
+        pinclear.Trajectory.load(tmp_path / "run.npz", mech=pinclear.load("nine_bar"))
+
+
+# ------------------------------------------------------------------ 6. nothing silently wrong
+@pytest.mark.parametrize("argv, words", [
+    (["--rtol", "1e300"], ["rtol"]),
+    (["--max-step", "0"], ["max_step"]),
+    (["--h", "0.01"], ["h", "RK4"]),
+    (["--integrator", "RK4", "--h", "0.001", "--max-step", "0.1"], ["max_step"]),
+    (["--set", "S2.clearance=1e-3"], ["inactive"]),
+])
+def test_6_silently_ignored_options_are_errors(tmp_path, capsys, argv, words):
+    f = "four_ups_upu" if any("S2" in a for a in argv) else "four_bar"
+    code, _, err = _cli(["simulate", f, "--t-end", "0.1", "--out", str(tmp_path / "o")] + argv, capsys)
+    assert code == 2
+    for w in words:
+        assert w in err
+
+
+def test_6_bench_unknown_method_is_an_error(capsys):
+    code, _, err = _cli(["bench", "rhs", "four_bar", "--methods", "bogus"], capsys)
+    assert code == 2 and "bogus" in err and "lagrange" in err
+
+
+def test_6_empty_polynomial_law(tmp_path):
+    doc = dict(FOUR, forces=[{"name": "m", "type": "joint_force", "joint": "crank_joint",
+                              "law": {"type": "polynomial", "coeffs": []}}])
+    with pytest.raises(pinclear.ModelFileError, match="coeffs"):
+        pinclear.load(_sidecar(tmp_path, doc))
+
+
+def test_6_non_physical_inertia_refused_at_load(tmp_path):
+    text = (ROOT / "urdf" / "four_bar.urdf").read_text()
+    import re
+
+    m = re.search(r'ixx="([^"]+)"', text)
+    bad = text.replace(m.group(0), 'ixx="-1.0"', 1)
+    (tmp_path / "four_bar.urdf").write_text(bad)
+    (tmp_path / "m.yaml").write_text(yaml.safe_dump(FOUR))
+    with pytest.raises(pinclear.ModelFileError, match="principal moments|not physically"):
+        pinclear.load(tmp_path / "m.yaml")
+
+
+def test_6_urdf_with_a_kinematic_loop_is_named(tmp_path):
+    text = (ROOT / "urdf" / "four_bar.urdf").read_text()
+    loop = ('<joint name="extra" type="revolute"><parent link="crank"/><child link="rocker"/>'
+            '<axis xyz="0 0 1"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint></robot>')
+    (tmp_path / "four_bar.urdf").write_text(text.replace("</robot>", loop))
+    (tmp_path / "m.yaml").write_text(yaml.safe_dump(FOUR))
+    with pytest.raises(pinclear.ModelFileError, match="child of 2 joints.*closures"):
+        pinclear.load(tmp_path / "m.yaml")
+
+
+# ------------------------------------------------------------------ 7. bounds on memory and time
+def test_7_output_samples_are_bounded(tmp_path, capsys):
+    code, _, err = _cli(["simulate", "four_bar", "--t-end", "1", "--dt-out", "1e-9", "--out", str(tmp_path)],
+                        capsys)
+    assert code == 2 and "dt_out" in err
+
+
+def test_7_yaml_alias_bomb_is_refused(tmp_path):
+    bomb = "a: &a [x, x, x, x, x, x, x, x, x]\nb: &b [*a, *a, *a, *a, *a, *a, *a, *a, *a]\n" \
+           "c: &c [*b, *b, *b, *b, *b, *b, *b, *b, *b]\n"
+    (tmp_path / "bomb.yaml").write_text("name: x\nurdf: four_bar.urdf\n" + bomb)
+    t0 = time.process_time()
+    with pytest.raises(pinclear.ModelFileError, match="aliases"):
+        pinclear.load(tmp_path / "bomb.yaml")
+    assert time.process_time() - t0 < 2
+
+
+def test_7_cpu_budget_on_the_command_line(tmp_path, capsys):
+    t0 = time.process_time()
+    code, out, err = _cli(["simulate", "four_bar", "--t-end", "1e6", "--max-cpu", "0.5", "--progress", "off",
+                           "--out", str(tmp_path)], capsys)
+    assert code == 1 and "max_cpu" in err
+    assert time.process_time() - t0 < 30
+    assert pinclear.Trajectory.load(tmp_path / "trajectory.npz").status == "failed"
+
+
+def test_cli_never_prints_a_traceback_for_an_unforeseen_error(capsys, monkeypatch):
+    def broken(args):
+        raise TypeError("an internal bug")
+    monkeypatch.setattr(cli, "cmd_info", broken)
+    code, _, err = _cli(["info", "four_bar"], capsys)
+    assert code == 3 and "Traceback" not in err and "--debug" in err and err.count("\n") == 1
+    code, _, err = _cli(["info", "four_bar", "--debug"], capsys)
+    assert code == 3 and "Traceback" in err
