@@ -23,7 +23,6 @@ import pinocchio as pin  # noqa: E402
 import pinclear  # noqa: E402
 from pinclear.mechanisms import four_ups_upu as mod  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def platform_samples(mech, tr):
@@ -43,9 +42,12 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=".", help="output directory (default: current)")
     ap.add_argument("--rtol", type=float, default=1e-8)
     ap.add_argument("--t-end", type=float, default=mod.PERIOD, help="simulated time, s (one period = 2 s)")
+    ap.add_argument("--quick", action="store_true", help="smoke run: 0.2 s simulated")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.t_end = min(args.t_end, 0.2)
 
-    mech = pinclear.load(ROOT / "urdf" / "four_ups_upu.yaml")
+    mech = pinclear.load("four_ups_upu")
     t0 = time.process_time()
     tr = pinclear.simulate(mech, args.t_end, rtol=args.rtol, dt_out=0.005)
     cpu = time.process_time() - t0

@@ -20,7 +20,6 @@ import numpy as np  # noqa: E402
 import pinclear  # noqa: E402
 from pinclear.mechanisms import nine_bar as nb  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def main(argv=None) -> int:
@@ -28,9 +27,12 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default=".", help="output directory (default: current)")
     ap.add_argument("--rtol", type=float, default=1e-8)
     ap.add_argument("--t-end", type=float, default=1.0, help="simulated time, s (one period = 1 s)")
+    ap.add_argument("--quick", action="store_true", help="smoke run: 0.1 s simulated")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.t_end = min(args.t_end, 0.1)
 
-    mech = pinclear.load(ROOT / "urdf" / "nine_bar.yaml")
+    mech = pinclear.load("nine_bar")
     t0 = time.process_time()
     tr = pinclear.simulate(mech, args.t_end, rtol=args.rtol, dt_out=0.002)
     cpu = time.process_time() - t0
