@@ -299,8 +299,8 @@ def test_baumgarte_bounds_drift(drift_runs):
 
 
 def test_projection_bounds_drift(drift_runs):
-    """Projection after every step: the samples (interpolated inside a step, see the xfail
-    below) stay at the local-error level (measured max 6.2e-6 m) and do not grow."""
+    """Projection after every step: the samples (interpolated inside a step, then projected
+    like the steps) stay at the local-error level (measured max 6.2e-6 m) and do not grow."""
     r, t = drift_runs["projection"].residual, drift_runs["projection"].t
     assert r.max() < 2e-5
     assert r[t >= 5.0].max() <= 3 * r[t <= 5.0].max()

@@ -201,18 +201,10 @@ def test_restricted_jacobian_matches_core_rows():
 
 
 # ----------------------------------------------------------------------------- dynamics
-def _simulate_or_skip():
-    try:
-        from pinclear.simulate import simulate
-    except ImportError as exc:       # the core's simulator lands separately (issue 1)
-        pytest.skip(f"pinclear.simulate not available yet: {exc}")
-    return simulate
-
-
 def test_one_period_tracks_the_drive_laws():
     from scipy.integrate import cumulative_simpson
 
-    simulate = _simulate_or_skip()
+    from pinclear.simulate import simulate
     mech = _load()
     tr = simulate(mech, 1.0, rtol=1e-10, atol=1e-12, dt_out=0.004)
     assert tr.status == "success"
@@ -250,7 +242,7 @@ def test_one_period_tracks_the_drive_laws():
 
 def test_static_crank_torques_equal_virtual_work(tmp_path):
     """Cranks held still under gravity: the drive multipliers are dV/dtheta on the manifold."""
-    simulate = _simulate_or_skip()
+    from pinclear.simulate import simulate
     th1, th4 = 2.1, -0.7                   # generic, away from the initial pose
     sc = yaml.safe_load(SIDECAR.read_text())
     sc["urdf"] = str(ROOT / "urdf" / "nine_bar.urdf")

@@ -6,12 +6,14 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+
 import numpy as np
 import pinocchio as pin
+from ..models import models_dir
 
 STEEL = 7850.0       # kg/m^3
 ALUMINIUM = 2700.0   # kg/m^3
-URDF_DIR = Path(__file__).resolve().parents[2] / "urdf"
+URDF_DIR = models_dir()        # where the generators write (the bundled models)
 
 
 def cylinder_inertia(rho, length, r_out, r_in=0.0):

@@ -8,7 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+
 import numpy as np
+from ._common import URDF_DIR
 
 STEEL = 7850.0          # kg/m^3
 SECTION = 0.01          # m, square bar side
@@ -98,6 +100,6 @@ def tree_q(theta2, dims=FOUR_BAR, branch=+1):
 
 
 if __name__ == "__main__":          # regenerate the URDFs
-    here = Path(__file__).resolve().parents[2] / "urdf"
+    here = URDF_DIR
     write_urdf(here / "four_bar.urdf", FOUR_BAR, "four_bar")
     write_urdf(here / "parallelogram.urdf", PARALLELOGRAM, "parallelogram")

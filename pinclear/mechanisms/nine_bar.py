@@ -43,6 +43,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from ._common import URDF_DIR
+
 RHO_STEEL = 7850.0          # kg/m^3
 GRAVITY = 9.81              # m/s^2, along -y
 THETA1_0 = math.radians(146.9)
@@ -524,7 +526,7 @@ def main(argv=None) -> int:
     """Regenerate urdf/nine_bar.urdf and urdf/nine_bar.yaml (default: the repository's urdf/),
     then print the singularity sweep over three periods of the paper's drive law."""
     argv = sys.argv[1:] if argv is None else argv
-    out = Path(argv[0]) if argv else Path(__file__).resolve().parents[2] / "urdf"
+    out = Path(argv[0]) if argv else URDF_DIR
     write_urdf(out / "nine_bar.urdf")
     write_sidecar(out / "nine_bar.yaml")
     print(f"wrote {out / 'nine_bar.urdf'} and {out / 'nine_bar.yaml'}")
