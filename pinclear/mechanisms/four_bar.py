@@ -10,6 +10,7 @@ from pathlib import Path
 
 
 import numpy as np
+
 from ._common import URDF_DIR
 
 STEEL = 7850.0          # kg/m^3
