@@ -319,3 +319,49 @@ def lagrange_accel(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V
     if not np.isfinite(s):
         return -2.0          # non-finite accelerations: the caller stops the integration
     return ratio
+
+
+# joint kinds of the compiled placement chain (1-dof joints only)
+J_REVOLUTE, J_PRISMATIC = 0, 1
+
+
+@njit(cache=True)
+def joint_placements(parent, jP, kind, axis, iq, q, O, want, Hj):
+    """World placements of every joint of a tree of 1-dof joints, O[j] = O[parent[j]] jP[j]
+    X_j(q), with X_j a rotation about (revolute) or a translation along (prismatic) the unit
+    ``axis[j]`` by q[iq[j]] (Rodrigues); then Hj[k] = O[want[k]]. Replaces one Python access to
+    data.oMi per joint, which cost more than Pinocchio's whole forward pass."""
+    O[0, :, :] = 0.0
+    for i in range(4):
+        O[0, i, i] = 1.0
+    X = np.empty((4, 4))
+    T = np.empty((4, 4))
+    for j in range(1, parent.shape[0]):
+        qj = q[iq[j]]
+        ax, ay, az = axis[j, 0], axis[j, 1], axis[j, 2]
+        X[:, :] = 0.0
+        X[3, 3] = 1.0
+        if kind[j] == J_REVOLUTE:
+            c, s = np.cos(qj), np.sin(qj)
+            C = 1.0 - c
+            X[0, 0], X[0, 1], X[0, 2] = c + ax * ax * C, ax * ay * C - az * s, ax * az * C + ay * s
+            X[1, 0], X[1, 1], X[1, 2] = ay * ax * C + az * s, c + ay * ay * C, ay * az * C - ax * s
+            X[2, 0], X[2, 1], X[2, 2] = az * ax * C - ay * s, az * ay * C + ax * s, c + az * az * C
+        else:
+            X[0, 0] = X[1, 1] = X[2, 2] = 1.0
+            X[0, 3], X[1, 3], X[2, 3] = ax * qj, ay * qj, az * qj
+        p = parent[j]
+        for r in range(4):
+            for c2 in range(4):
+                acc = 0.0
+                for k in range(4):
+                    acc += O[p, r, k] * jP[j, k, c2]
+                T[r, c2] = acc
+        for r in range(4):
+            for c2 in range(4):
+                acc = 0.0
+                for k in range(4):
+                    acc += T[r, k] * X[k, c2]
+                O[j, r, c2] = acc
+    for k in range(want.shape[0]):
+        Hj[k, :, :] = O[want[k]]

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._kernels import constraint_rows_all, frame_kinematics
+from ._kernels import J_PRISMATIC, J_REVOLUTE, constraint_rows_all, frame_kinematics, joint_placements
 import pinocchio as pin
 
 from .errors import AssemblyError
@@ -67,6 +67,38 @@ def frame_motion(model: pin.Model, frames, q, v=None, a=None) -> FrameMotion:
     return out
 
 
+_ONE_DOF = {"JointModelRX": (J_REVOLUTE, (1, 0, 0)), "JointModelRY": (J_REVOLUTE, (0, 1, 0)),
+            "JointModelRZ": (J_REVOLUTE, (0, 0, 1)), "JointModelPX": (J_PRISMATIC, (1, 0, 0)),
+            "JointModelPY": (J_PRISMATIC, (0, 1, 0)), "JointModelPZ": (J_PRISMATIC, (0, 0, 1))}
+
+
+def joint_chain(model):
+    """(parent, placement, kind, axis, q index) arrays of a tree of revolute and prismatic joints
+    for the compiled placement kernel; None when the tree has other joints (spherical, free
+    flyer, unbounded revolute), which then go through Pinocchio's data.oMi."""
+    n = model.njoints
+    parent = np.zeros(n, dtype=np.int64)
+    jP = np.zeros((n, 4, 4))
+    kind = np.zeros(n, dtype=np.int64)
+    axis = np.zeros((n, 3))
+    iq = np.zeros(n, dtype=np.int64)
+    for j in range(1, n):
+        jm = model.joints[j]
+        name = jm.shortname()
+        if name in _ONE_DOF:
+            kind[j], ax = _ONE_DOF[name]
+            axis[j] = ax
+        elif name in ("JointModelRevoluteUnaligned", "JointModelPrismaticUnaligned"):
+            kind[j] = J_REVOLUTE if "Revolute" in name else J_PRISMATIC
+            axis[j] = np.asarray(jm.extract().axis, float)
+        else:
+            return None
+        parent[j] = model.parents[j]
+        jP[j] = model.jointPlacements[j].homogeneous
+        iq[j] = jm.idx_q
+    return parent, jP, kind, axis, iq
+
+
 class FrameKinematics:
     """Positions, rotations, Jacobians, velocities and zero-acceleration biases of a fixed set of
     frames, computed from Pinocchio's whole-tree Jacobian ``data.J`` and its time derivative
@@ -96,16 +128,25 @@ class FrameKinematics:
         self.Jv, self.Jw = np.zeros((F, 3, nv)), np.zeros((F, 3, nv))
         self.V, self.W, self.A, self.Al = (np.zeros((F, 3)) for _ in range(4))
 
-    def load_placements(self, data):
-        """Copy the parent joints' placements out of data.oMi (the only per-body Python loop,
-        over the few joints that carry closure frames)."""
+        self.chain = joint_chain(model)
+        if self.chain is not None:
+            self.chain_args = self.chain + (np.zeros((model.njoints, 4, 4)), np.array(self.joints, dtype=np.int64),
+                                            self.Hj)
+
+    def load_placements(self, data, q):
+        """Placements of the parent joints at q: computed in one compiled call for trees of
+        1-dof joints, else copied out of data.oMi (one Python access per joint)."""
+        if self.chain is not None and q is not None:
+            a = self.chain_args
+            joint_placements(a[0], a[1], a[2], a[3], a[4], q, a[5], a[6], a[7])
+            return
         oMi, Hj = data.oMi, self.Hj
         for k, j in enumerate(self.joints):
             Hj[k] = oMi[j].homogeneous
 
-    def update(self, data, v):
-        """Standalone use: ``data`` must hold frame placements, data.J and data.dJ at (q, v)."""
-        self.load_placements(data)
+    def update(self, data, v, q=None):
+        """Standalone use: ``data`` must hold joint placements, data.J and data.dJ at (q, v)."""
+        self.load_placements(data, q)
         frame_kinematics(self.Hj, self.jidx, self.jMf, self.H, self.mask, data.J, data.dJ, v, self.Jv, self.Jw,
                          self.V, self.W, self.A, self.Al)
         return self
@@ -122,7 +163,7 @@ def update(mech, ws, q, v):
         pin.updateFramePlacements(model, data)
     pin.crba(model, data, q)
     pin.nonLinearEffects(model, data, q, v)
-    ws.fk.load_placements(data)
+    ws.fk.load_placements(data, q)
 
 
 def update_positions(mech, ws, q):
@@ -131,7 +172,7 @@ def update_positions(mech, ws, q):
     zero = ws.zero_v
     pin.computeJointJacobiansTimeVariation(model, data, q, zero)
     pin.updateFramePlacements(model, data)
-    ws.fk.load_placements(data)
+    ws.fk.load_placements(data, q)
 
 
 def constraint_rows(mech, ws, t, q, v, baumgarte=None):
