@@ -182,6 +182,85 @@ def _chart(rows, path, title):
     plt.close(fig)
 
 
+# ---------------------------------------------------------------------- real runs
+def scenes(files=None):
+    """(label, sidecar path, clearances) of every scene: each sidecar with ideal joints, and once
+    more per clearance joint it declares, that joint active."""
+    from .models import available, model_path
+    from .sidecar import read_yaml
+
+    out = []
+    for f in files or available():
+        path = model_path(f)
+        doc = read_yaml(path) if path.suffix == ".yaml" else {}
+        clr = [c["name"] for c in doc.get("clearances") or [] if isinstance(c, dict) and "name" in c]
+        active = [c["name"] for c in doc.get("clearances") or [] if isinstance(c, dict) and c.get("active")]
+        if not active:
+            out.append((path.stem, path, []))
+        out += [(f"{path.stem}+{c}", path, [c]) for c in clr if c not in active]
+        if active:
+            out.append((f"{path.stem}+{'+'.join(active)}", path, []))
+    return out
+
+
+def pinocchio_floor(mech, q, v, repeat=3):
+    """Seconds per state of the Pinocchio work one right-hand side needs at least:
+    computeAllTerms + updateFramePlacements, over the given states."""
+    model, data = mech.model, mech.model.createData()
+
+    def go():
+        for k in range(len(q)):
+            pin.computeAllTerms(model, data, q[k], v[k])
+            pin.updateFramePlacements(model, data)
+    return _best_mean(go, repeat) / len(q)
+
+
+def bench_runs(files=None, t_end=0.5, rtol=1e-6, integrator="RK45", max_cpu=120.0, progress=None):
+    """Simulate every scene for ``t_end`` simulated seconds (RK45, rtol 1e-6: the clearance
+    default) and report per scene: CPU s per simulated s, right-hand-side evaluations, steps, us
+    per evaluation inside the run (CPU over evaluations: integrator and output included) and its
+    ratio over the Pinocchio floor measured at the run's own samples in the same process."""
+    import warnings
+
+    from .sidecar import load
+
+    rows = []
+    for label, path, clr in scenes(files):
+        if progress is not None:
+            progress(label)
+        mech = load(path, clearances=clr or None)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            tr = simulate(mech, t_end, rtol=rtol, integrator=integrator, max_cpu=max_cpu, dt_out=t_end / 100)
+        st = tr.stats
+        row = {"scene": label, "nv": mech.nv, "closure_rows": mech.compiled.m, "drives": len(mech.drives),
+               "clearances": [f.name for f in mech.clearances], "status": tr.status,
+               "t_reached": float(tr.t[-1]) if len(tr.t) else 0.0, "cpu_s": st["cpu_s"], "rhs_evals": st["rhs_evals"],
+               "steps": st["steps"], "events": len(st["events"])}
+        sim_t = max(row["t_reached"], 1e-12)
+        row["cpu_per_sim_s"] = st["cpu_s"] / sim_t
+        row["us_per_eval"] = 1e6 * st["cpu_s"] / max(st["rhs_evals"], 1)
+        if len(tr.t):
+            floor = pinocchio_floor(mech, tr.q, tr.v)
+            row["floor_us"] = 1e6 * floor
+            row["ratio_over_floor"] = row["us_per_eval"] / row["floor_us"]
+        if tr.status != "success":
+            row["message"] = tr.message
+        rows.append(row)
+    return {"t_end": t_end, "rtol": rtol, "integrator": integrator, "max_cpu": max_cpu, "scenes": rows}
+
+
+def runs_table(res) -> str:
+    """Markdown table of a bench_runs result."""
+    lines = ["| scene | status | CPU s / sim s | rhs evals | steps | us / eval | floor us | ratio |",
+             "|---|---|---|---|---|---|---|---|"]
+    for r in res["scenes"]:
+        lines.append(f"| {r['scene']} | {r['status']} | {r['cpu_per_sim_s']:.3g} | {r['rhs_evals']} | {r['steps']} | "
+                     f"{r['us_per_eval']:.0f} | {r.get('floor_us', float('nan')):.1f} | "
+                     f"{r.get('ratio_over_floor', float('nan')):.1f} |")
+    return "\n".join(lines)
+
+
 def main_rhs(path, methods=None, options=None, clearances=None, overrides=None):
     from .sidecar import load
 

@@ -210,10 +210,25 @@ def cmd_bench(args):
         from .contact import bench as cbench
 
         return cbench.restitution_main(args.rest)
+    if args.what == "runs":
+        from .trajectory import atomic_write_text
+
+        out = Path(args.out)
+        _check_out_dir(out)
+        files = [args.file] + list(args.rest or []) if args.file else None
+        res = bench.bench_runs(files, t_end=0.5 if args.t_end is None else args.t_end,
+                               progress=lambda s: print(f"bench runs: {s}", file=sys.stderr, flush=True))
+        atomic_write_text(out / "bench_runs.json", json.dumps(res, indent=2, default=str))
+        table = bench.runs_table(res)
+        atomic_write_text(out / "bench_runs.md", table + "\n")
+        print(table)
+        return 0
     if args.rest:
         raise InputError(f"bench {args.what}: unrecognized arguments: {' '.join(args.rest)}")
     if args.file is None:
-        raise PinclearError(f"bench {args.what} needs a mechanism file")
+        raise InputError(f"bench {args.what} needs a mechanism file")
+    if args.t_end is None:
+        args.t_end = 2.0
     mech = _load(args)
     if args.what == "rhs":
         methods = args.methods.split(",") if args.methods else None
@@ -267,15 +282,16 @@ def build_parser():
     _add_model_args(s)
     s.set_defaults(func=cmd_info)
 
-    s = sub.add_parser("bench", help="bench rhs FILE | bench work-precision FILE | bench restitution")
-    s.add_argument("what", choices=["rhs", "work-precision", "restitution"])
+    s = sub.add_parser("bench", help="bench rhs FILE | bench runs [FILES] | bench work-precision FILE | "
+                       "bench restitution")
+    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution"])
     s.add_argument("file", nargs="?")
     s.add_argument("--clearance", action="append", metavar="NAME")
     s.add_argument("--set", action="append", metavar="NAME.KEY=VALUE")
     s.add_argument("--option", action="append", metavar="KEY=VALUE")
     s.add_argument("--trust", action="store_true")
     s.add_argument("--methods", default=None, help="comma-separated formulations (default: all)")
-    s.add_argument("--t-end", type=float, default=2.0)
+    s.add_argument("--t-end", type=float, default=None, help="simulated time [s] (work-precision 2, runs 0.5)")
     s.add_argument("--out", default="benchmarks")
     s.add_argument("rest", nargs="*", help=argparse.SUPPRESS)
     s.set_defaults(func=cmd_bench)

@@ -477,7 +477,7 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
         from . import contact
 
         elems = [contact.build(c, mech, file) for _, c in chosen]
-        mech = mech.replace(forces=mech.forces + elems)
+        mech = mech.replace(forces=list(mech.forces) + elems)
     # how to load this variant again (saved with every trajectory)
     mech.load_args = {"path": str(path.resolve()), "options": dict(options or {}),
                       "overrides": {k: _parse_value(v) for k, v in dict(overrides or {}).items()},
