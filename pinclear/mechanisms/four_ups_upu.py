@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from .._jit import njit
 from ._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, solve_lengths,  # noqa: F401
                       cylinder_inertia, u_angles, urdf_joint, urdf_link, write_sidecar_yaml)
 from ._common import cross_inertia as _cross_inertia
@@ -180,12 +181,27 @@ def platform_pose(t):
 
 def limb_lengths(t):
     """Exact limb lengths L_i = |p + b_i - a_i| and their first two time derivatives
-    (the platform only translates), arrays indexed like ``LIMBS``."""
-    p, v, a = platform_position(t)
-    d = p + _OFFSETS                       # (5, 3): a_i -> b_i
-    L = np.sqrt(np.einsum("ij,ij->i", d, d))
-    dv = d @ v
-    return L, dv / L, (v @ v + d @ a) / L - dv * dv / L**3
+    (the platform only translates), arrays indexed like ``LIMBS``. Compiled: the drives ask for
+    it at every right-hand side of a run."""
+    return _limb_lengths(float(t), _OFFSETS, X0, AMPLITUDE, OMEGA)
+
+
+@njit(cache=True)
+def _limb_lengths(t, offsets, x0, amp, w):
+    s, c = math.sin(w * t), math.cos(w * t)
+    p = (x0, amp * s, amp * c)              # platform_position(t)
+    v = (0.0, amp * w * c, -amp * w * s)
+    a = (0.0, -amp * w * w * s, -amp * w * w * c)
+    n = offsets.shape[0]
+    L, Ld, Ldd = np.empty(n), np.empty(n), np.empty(n)
+    vv = v[1] * v[1] + v[2] * v[2]
+    for i in range(n):
+        d0, d1, d2 = p[0] + offsets[i, 0], p[1] + offsets[i, 1], p[2] + offsets[i, 2]
+        li = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        dv = d1 * v[1] + d2 * v[2]
+        da = d1 * a[1] + d2 * a[2]
+        L[i], Ld[i], Ldd[i] = li, dv / li, (vv + da) / li - dv * dv / li**3
+    return L, Ld, Ldd
 
 
 def limb_law(t, limb):
