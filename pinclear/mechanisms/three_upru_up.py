@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from .._jit import njit
 from ._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, cross_inertia, solve_lengths,
                       u_angles,
                       urdf_joint, urdf_link, write_sidecar_yaml)
@@ -178,66 +179,85 @@ def parameters():
 
 # ================================================================== exact derivatives
 # A "jet" is (f, f', f'') along time; the products and quotients below are the Leibniz
-# rules, so the drive laws get exact first and second derivatives.
+# rules, so the drive laws get exact first and second derivatives. Compiled (numba): the drives
+# evaluate the inverse kinematics at every right-hand side of a run. Jets hold floats (scalar
+# jets) or 3-vectors (vector jets).
+@njit(cache=True)
 def _mul(a, b):
     return (a[0] * b[0], a[1] * b[0] + a[0] * b[1], a[2] * b[0] + 2 * a[1] * b[1] + a[0] * b[2])
 
 
+@njit(cache=True)
 def _inv(b):
     r = 1.0 / b[0]
     return (r, -b[1] * r * r, -b[2] * r * r + 2 * b[1] ** 2 * r**3)
 
 
+@njit(cache=True)
 def _sqrt(a):
     s = np.sqrt(a[0])
     return (s, a[1] / (2 * s), a[2] / (2 * s) - a[1] ** 2 / (4 * s**3))
 
 
+@njit(cache=True)
 def _add(a, b):
-    return tuple(x + y for x, y in zip(a, b))
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
+@njit(cache=True)
 def _scale(a, k):
-    return tuple(x * k for x in a)
+    return (a[0] * k, a[1] * k, a[2] * k)
 
 
+@njit(cache=True)
 def _comp(v, k):
-    return tuple(x[k] for x in v)
+    return (v[0][k], v[1][k], v[2][k])
 
 
+@njit(cache=True)
 def _dot(u, w):
     return _add(_add(_mul(_comp(u, 0), _comp(w, 0)), _mul(_comp(u, 1), _comp(w, 1))), _mul(_comp(u, 2), _comp(w, 2)))
 
 
+@njit(cache=True)
 def _vec(x, y, z):
-    return tuple(np.array([a, b, c]) for a, b, c in zip(x, y, z))
+    return (np.array([x[0], y[0], z[0]]), np.array([x[1], y[1], z[1]]), np.array([x[2], y[2], z[2]]))
 
 
+@njit(cache=True)
+def _cross_c(u, w, i, j):
+    return _add(_mul(_comp(u, i), _comp(w, j)), _scale(_mul(_comp(u, j), _comp(w, i)), -1.0))
+
+
+@njit(cache=True)
 def _cross(u, w):
-    def c(i, j):
-        return _add(_mul(_comp(u, i), _comp(w, j)), _scale(_mul(_comp(u, j), _comp(w, i)), -1.0))
-    return _vec(c(1, 2), c(2, 0), c(0, 1))
+    return _vec(_cross_c(u, w, 1, 2), _cross_c(u, w, 2, 0), _cross_c(u, w, 0, 1))
 
 
+@njit(cache=True)
 def _vscale(v, s):
     """vector jet times scalar jet"""
     return (v[0] * s[0], v[1] * s[0] + v[0] * s[1], v[2] * s[0] + 2 * v[1] * s[1] + v[0] * s[2])
 
 
+@njit(cache=True)
+def _circle(t, xc, yc, z0, radius, th0, w):
+    ph = th0 + w * t
+    c, s = math.cos(ph), math.sin(ph)
+    return (np.array([xc + radius * c, yc + radius * s, z0]),
+            np.array([-radius * w * s, radius * w * c, 0.0]),
+            np.array([-radius * w * w * c, -radius * w * w * s, 0.0]))
+
+
 def platform_position(t):
     """Platform centre on the circle (paper 003, sec. 4): position, velocity, acceleration."""
-    ph = THETA0 + OMEGA * t
-    c, s = math.cos(ph), math.sin(ph)
-    w = OMEGA
-    return (np.array([XC + RADIUS * c, YC + RADIUS * s, Z0]),
-            np.array([-RADIUS * w * s, RADIUS * w * c, 0.0]),
-            np.array([-RADIUS * w * w * c, -RADIUS * w * w * s, 0.0]))
+    return _circle(float(t), XC, YC, Z0, RADIUS, THETA0, OMEGA)
 
 
-def _pose_jet(t):
-    """Jets of the platform position and of its rotation columns. The UP branch fixes the
+@njit(cache=True)
+def _pose_jet_of(p):
+    """Jets of the platform rotation columns from the position jet p. The UP branch fixes the
     orientation from the position: R = Rx(a) Ry(b) with R e_z = p/|p| (base U axes x, then y)."""
-    p = platform_position(t)
     s = _sqrt(_dot(p, p))
     n = _vscale(p, _inv(s))
     ny, nz = _comp(n, 1), _comp(n, 2)
@@ -245,7 +265,13 @@ def _pose_jet(t):
     zero = (0.0, 0.0, 0.0)
     c2 = _vec(zero, _mul(nz, cb_inv), _scale(_mul(ny, cb_inv), -1.0))
     c1 = _cross(c2, n)
-    return p, (c1, c2, n), s
+    return (c1, c2, n), s
+
+
+def _pose_jet(t):
+    p = platform_position(t)
+    cols, s = _pose_jet_of(p)
+    return p, cols, s
 
 
 def platform_pose(t):
@@ -254,15 +280,26 @@ def platform_pose(t):
     return pin.SE3(np.column_stack([c[0] for c in cols]), p[0].copy())
 
 
+# platform joint points in the platform's (c1, c2) axes (they lie in its plane, z = 0)
+_PLATFORM_XY = np.array([platform_point(i)[:2] for i in LIMBS])
+_BASE = np.array([base_point(i) for i in LIMBS])
+
+
 def limb_lengths(t):
     """Exact lengths |U_i U_{i+4}| of limbs 1..3 and their first two time derivatives."""
-    p, (c1, c2, _), _ = _pose_jet(t)
-    out = np.empty((3, 3))
-    for k, i in enumerate(LIMBS):
-        b = platform_point(i)
-        B = _add(_add(p, _scale(c1, b[0])), _scale(c2, b[1]))
-        d = (B[0] - base_point(i), B[1], B[2])
-        out[:, k] = _sqrt(_dot(d, d))
+    return _limb_lengths(platform_position(t), _PLATFORM_XY, _BASE)
+
+
+@njit(cache=True)
+def _limb_lengths(p, plat_xy, base):
+    cols, _ = _pose_jet_of(p)
+    c1, c2 = cols[0], cols[1]
+    out = np.empty((3, plat_xy.shape[0]))
+    for k in range(plat_xy.shape[0]):
+        B = _add(_add(p, _scale(c1, plat_xy[k, 0])), _scale(c2, plat_xy[k, 1]))
+        d = (B[0] - base[k], B[1], B[2])
+        L = _sqrt(_dot(d, d))
+        out[0, k], out[1, k], out[2, k] = L[0], L[1], L[2]
     return out[0], out[1], out[2]
 
 
