@@ -8,6 +8,8 @@ pinclear.closures and pinclear.kinematics.FrameKinematics.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from pinclear._jit import njit
@@ -365,3 +367,76 @@ def joint_placements(parent, jP, kind, axis, iq, q, O, want, Hj):
                 O[j, r, c2] = acc
     for k in range(want.shape[0]):
         Hj[k, :, :] = O[want[k]]
+
+
+@njit(cache=True)
+def proximal_filter(S, r, rho, k, out):
+    """out = V diag(f(s)) V^T r over the eigenpairs of the symmetric S, f(s) = (1 - (rho /
+    (s + rho))^k) / s: k proximal iterations from zero in closed form (see
+    pinclear.formulations.proximal.proximal_multipliers, the NumPy twin of this kernel)."""
+    s, V = np.linalg.eigh(S)
+    m = S.shape[0]
+    w = np.empty(m)
+    for i in range(m):
+        si = max(s[i], 0.0)
+        if si < 1e-9 * rho:
+            fi = k / rho
+        else:
+            fi = -math.expm1(k * math.log(rho / (si + rho))) / si
+        acc = 0.0
+        for j in range(m):
+            acc += V[j, i] * r[j]
+        w[i] = fi * acc
+    for j in range(m):
+        acc = 0.0
+        for i in range(m):
+            acc += V[j, i] * w[i]
+        out[j] = acc
+
+
+@njit(cache=True)
+def proximal_accel(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi,
+                   gamma, alpha, beta, M, parent, tau, nle, Lm, Y, S, r, a, lam, rho_rel, k, q, v, fdrv):
+    """Constraint rows + the proximal solve over all rows (one call): M = L^T L, Y = L^-T J^T,
+    S = Y^T Y = J M^-1 J^T, lam = filter(S) (gamma - J M^-1 f), a = M^-1 (f + J^T lam).
+    Returns 1, -1 when M is not positive definite, -2 when the result is not finite."""
+    constraint_rows_all(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias,
+                        dphi, gamma, alpha, beta, q, v, fdrv)
+    nv = M.shape[0]
+    m = Jc.shape[0]
+    if not ltl_factor(M, parent, Lm):
+        return -1.0
+    for i in range(nv):
+        a[i] = tau[i] - nle[i]
+    ltl_solve_t(Lm, parent, a)                 # a = y_f = L^-T f
+    if m > 0:
+        trace = 0.0
+        for rr in range(m):
+            for kk in range(nv):
+                Y[rr, kk] = Jc[rr, kk]
+            ltl_solve_t(Lm, parent, Y[rr])
+        for rr in range(m):
+            for c in range(rr + 1):
+                s = 0.0
+                for kk in range(nv):
+                    s += Y[rr, kk] * Y[c, kk]
+                S[rr, c] = s
+                S[c, rr] = s
+            trace += S[rr, rr]
+            s = gamma[rr]
+            for kk in range(nv):
+                s -= Y[rr, kk] * a[kk]
+            r[rr] = s                            # gamma - J M^-1 f
+        rho = rho_rel * max(trace / m, 1e-300)
+        proximal_filter(S, r, rho, k, lam)
+        for rr in range(m):
+            lr = lam[rr]
+            for kk in range(nv):
+                a[kk] += Y[rr, kk] * lr
+    ltl_solve(Lm, parent, a)
+    s = 0.0
+    for i in range(nv):
+        s += a[i]
+    if not np.isfinite(s):
+        return -2.0
+    return 1.0

@@ -1,17 +1,20 @@
-"""Robust formulation: proximal (regularised) iterations on the multipliers,
-  (S + rho I) lam_{k+1} = r + rho lam_k,   S = J M^-1 J^T,
-which converge for redundant rows (lam not unique, accelerations unique) and give the
-least-squares acceleration where gamma is inconsistent (singular configurations): the part of
-lam that grows along null(J^T) does not reach the accelerations. Baumgarte as in lagrange.
-rho (relative to the mean diagonal of S) = 1e-4: smaller values let a parallelogram jump to its
-anti-parallelogram branch at the flat configuration (measured: rho 1e-12 switched at t = 1.37 s,
-1e-4 follows the one-degree-of-freedom pendulum it must be), larger ones slow convergence."""
+"""Robust formulation: ``max_iter`` proximal (regularised) iterations on the multipliers,
+  (S + rho I) lam_{k+1} = r + rho lam_k,   S = J M^-1 J^T,   lam_0 = 0,
+evaluated in closed form (one eigendecomposition of S, see proximal_multipliers), so the
+right-hand side is a smooth function of the state. They handle redundant rows (lam not unique,
+accelerations unique) and give a bounded, least-squares-like acceleration where gamma is
+inconsistent (singular configurations): the part of lam along null(J^T) does not reach the
+accelerations. Baumgarte as in lagrange; positions and velocities are projected after every step
+with the same filter. rho is relative to the mean diagonal of S (default 1e-4; the parallelogram
+study in tests/test_core_fourbar.py shows 1e-6 already makes a singular passage depend on
+rounding). The multipliers and accelerations are computed by one compiled kernel
+(pinclear._kernels.proximal_accel), tested against the NumPy expression below."""
 from __future__ import annotations
 
 import numpy as np
-from scipy.linalg import cho_solve
 
 from .. import kinematics
+from .._kernels import proximal_accel
 from .base import Formulation
 from .projection import project_to_manifold
 
@@ -31,23 +34,30 @@ class Proximal(Formulation):
 
         return project_to_manifold(self, t, q, v, self.opts["tol"], self.opts["max_iter"], solve)
 
+    def __init__(self, mech, **options):
+        super().__init__(mech, **options)
+        nv, m = mech.nv, mech.m
+        ws = self.ws
+        self._buf = {"Lm": np.zeros((nv, nv)), "Y": np.zeros((m, nv)), "S": np.zeros((m, m)), "r": np.zeros(m),
+                     "a": np.zeros(nv)}
+        b = self._buf
+        self._args = kinematics.static_args(mech, ws) + (
+            float(self.opts["alpha"]), float(self.opts["beta"]), ws.data.M, ws.parent, ws.tau, ws.data.nle,
+            b["Lm"], b["Y"], b["S"], b["r"], b["a"], ws.lam, float(self.opts["rho"]), float(self.opts["max_iter"]))
+        self._values = mech.driverows.values
+        self._nonfinite = False
+
+    def finite(self, a):
+        return not self._nonfinite
+
     def accelerations(self, t, q, v, z):
         self.applied(t, q, v, z)
-        f = self.ws.tau - self.ws.data.nle
-        ws, mech = self.ws, self.mech
-        c = self.mass_factor()
-        a_free = cho_solve(c, f, check_finite=False)
-        if mech.m == 0:
-            return a_free
-        kinematics.constraint_rows(mech, ws, t, q, v, (self.opts["alpha"], self.opts["beta"]))
-        J, g = ws.J, ws.gamma
-        MiJt = cho_solve(c, J.T, check_finite=False)
-        S = J @ MiJt
-        r = g - J @ a_free
-        # rho relative to the scale of S keeps the filter well defined for any units
-        rho = self.opts["rho"] * max(np.trace(S) / len(S), 1e-300)
-        ws.lam[:] = proximal_multipliers(S, r, rho, self.opts["max_iter"])
-        return a_free + MiJt @ ws.lam
+        code = proximal_accel(*self._args, q, v, self._values(t, self.ws.drive_data))
+        self._nonfinite = code == -2.0
+        if code == -1.0:
+            raise np.linalg.LinAlgError(f"{self.mech.name}: the mass matrix is not positive definite at "
+                                        f"t = {t:.9g} s (check the URDF inertias)")
+        return self._buf["a"].copy()
 
 
 def proximal_multipliers(S, r, rho, k):
