@@ -311,9 +311,12 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
                             hit = (te, fi, int(k), f)
                 ev_prev = g_new
             t_stop = hit[0] if hit else t_new
-            while out_i < len(t_eval) and t_eval[out_i] <= t_stop:
-                samples.append(sample(t_eval[out_i], dense(t_eval[out_i])))
-                out_i += 1
+            j = int(np.searchsorted(t_eval, t_stop, side="right"))
+            if j > out_i:               # every output time of this step from one dense-output call
+                X = dense(t_eval[out_i:j]).reshape(len(x), -1)
+                for k in range(j - out_i):
+                    samples.append(sample(t_eval[out_i + k], X[:, k]))
+                out_i = j
             restart, hint = False, solver.step_size
             if hit:
                 te, fi, k, f = hit

@@ -182,10 +182,11 @@ class Trajectory:
             # accelerations() ran the kinematics pass at (q, v): only the cheap rows are redone
             # (a formulation may have left Baumgarte terms or a subset of rows in the buffers)
             kinematics.constraint_rows(mech, ws, t, q, v)
-            self.residual[i] = np.linalg.norm(ws.phi[:mc], np.inf) if mc else 0.0
-            self.drive_error[i] = np.abs(ws.phi[mc:]).max() if mech.drives else 0.0
-            Mu = ws.data.M                  # crba fills the upper triangle
-            E["kinetic"][i] = 0.5 * (v @ (np.triu(Mu) @ v) + v @ (np.triu(Mu, 1).T @ v))
+            absphi = np.abs(ws.phi)
+            self.residual[i] = absphi[:mc].max() if mc else 0.0
+            self.drive_error[i] = absphi[mc:].max() if mech.drives else 0.0
+            # from the joint velocities and placements the kinematics pass left in data
+            E["kinetic"][i] = pin.computeKineticEnergy(model, ws.data)
             E["potential"][i] = pin.computePotentialEnergy(model, ws.data)
             for f, d, sl in zip(mech.forces, ws.force_data, mech.z_slices):
                 E["spring"][i] += f.potential(mech, ws, d, q)
