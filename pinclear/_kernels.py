@@ -236,6 +236,25 @@ def ltl_solve(L, parent, y):
 
 
 @njit(cache=True)
+def schur_complement(Lm, parent, J, rows, Y, S):
+    """Y[r] = L^-T J[rows[r]] (row-wise) and S = Y Y^T = J M^-1 J^T over the selected rows, for
+    M = L^T L factorised by ltl_factor."""
+    nv = Lm.shape[0]
+    m = rows.shape[0]
+    for r in range(m):
+        for k in range(nv):
+            Y[r, k] = J[rows[r], k]
+        ltl_solve_t(Lm, parent, Y[r])
+    for r in range(m):
+        for c in range(r + 1):
+            s = 0.0
+            for k in range(nv):
+                s += Y[r, k] * Y[c, k]
+            S[r, c] = s
+            S[c, r] = s
+
+
+@njit(cache=True)
 def kkt_solve(M, parent, f, J, gamma, rows, Lm, Y, S, Ls, a, lam):
     """Solve  M a - J^T lam = f,  J a = gamma  over the selected rows by the Schur complement,
     with M = L^T L (tree-sparse):  Y = L^-T J^T,  S = Y^T Y,  y_f = L^-T f,
@@ -254,17 +273,7 @@ def kkt_solve(M, parent, f, J, gamma, rows, Lm, Y, S, Ls, a, lam):
     if m == 0:
         ltl_solve(Lm, parent, a)
         return 1.0
-    for r in range(m):
-        for k in range(nv):
-            Y[r, k] = J[rows[r], k]
-        ltl_solve_t(Lm, parent, Y[r])
-    for r in range(m):
-        for c in range(r + 1):
-            s = 0.0
-            for k in range(nv):
-                s += Y[r, k] * Y[c, k]
-            S[r, c] = s
-            S[c, r] = s
+    schur_complement(Lm, parent, J, rows, Y, S)
     ratio = _chol_dense(S[:m, :m], Ls[:m, :m])
     if ratio == 0.0:
         return 0.0
@@ -396,8 +405,8 @@ def proximal_filter(S, r, rho, k, out):
 
 @njit(cache=True)
 def proximal_accel(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi,
-                   gamma, alpha, beta, M, parent, tau, nle, Lm, Y, S, r, a, lam, rho_rel, k, q, v, fdrv):
-    """Constraint rows + the proximal solve over all rows (one call): M = L^T L, Y = L^-T J^T,
+                   gamma, alpha, beta, M, parent, tau, nle, rows, Lm, Y, S, r, a, lam, rho_rel, k, q, v, fdrv):
+    """Constraint rows + the proximal solve over all rows (``rows`` = 0..m-1) (one call): M = L^T L, Y = L^-T J^T,
     S = Y^T Y = J M^-1 J^T, lam = filter(S) (gamma - J M^-1 f), a = M^-1 (f + J^T lam).
     Returns 1, -1 when M is not positive definite, -2 when the result is not finite."""
     constraint_rows_all(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias,
@@ -410,18 +419,9 @@ def proximal_accel(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V
         a[i] = tau[i] - nle[i]
     ltl_solve_t(Lm, parent, a)                 # a = y_f = L^-T f
     if m > 0:
+        schur_complement(Lm, parent, Jc, rows, Y, S)
         trace = 0.0
         for rr in range(m):
-            for kk in range(nv):
-                Y[rr, kk] = Jc[rr, kk]
-            ltl_solve_t(Lm, parent, Y[rr])
-        for rr in range(m):
-            for c in range(rr + 1):
-                s = 0.0
-                for kk in range(nv):
-                    s += Y[rr, kk] * Y[c, kk]
-                S[rr, c] = s
-                S[c, rr] = s
             trace += S[rr, rr]
             s = gamma[rr]
             for kk in range(nv):

@@ -43,7 +43,7 @@ class Proximal(Formulation):
         b = self._buf
         self._args = kinematics.static_args(mech, ws) + (
             float(self.opts["alpha"]), float(self.opts["beta"]), ws.data.M, ws.parent, ws.tau, ws.data.nle,
-            b["Lm"], b["Y"], b["S"], b["r"], b["a"], ws.lam, float(self.opts["rho"]), float(self.opts["max_iter"]))
+            np.arange(m, dtype=np.int64), b["Lm"], b["Y"], b["S"], b["r"], b["a"], ws.lam, float(self.opts["rho"]), float(self.opts["max_iter"]))
         self._values = mech.driverows.values
         self._nonfinite = False
 
