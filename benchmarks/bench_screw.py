@@ -9,7 +9,7 @@ of the same law for the Lagrangian one), and both return the four drive forces.
 * lagrange:  closure + drive Jacobian J and its bias (computeJointJacobiansTimeVariation), solve
              J v = rhs and J a = gamma (16x16), pin.rnea, solve J^T lam = tau.
 
-Run: python benchmarks/bench_screw.py [--n 2000]
+Run: python benchmarks/bench_screw.py [--n 2000] [--law high|low]
 """
 from __future__ import annotations
 
@@ -21,21 +21,18 @@ import pinocchio as pin
 
 from pinclear import kinematics, screw
 from pinclear.mechanisms import four_ups_upr as m
+from pinclear.models import model_path
 
 
 def _lagrange_eval(mech, ws, t, q):
     """Drive forces from Pinocchio's RNEA with loop-closure Jacobians and drive multipliers."""
     model, data = mech.model, ws.data
-    ws.q_cur = q
-    zero = ws.zero_v
-    pin.computeJointJacobiansTimeVariation(model, data, q, zero)
-    pin.updateFramePlacements(model, data)
-    ws.fk.update(data, zero)
-    kinematics.constraint_rows(mech, ws, t, zero)
+    kinematics.update_positions(mech, ws, q)
+    kinematics.constraint_rows(mech, ws, t, q, ws.zero_v)
     v = np.linalg.solve(ws.J, -ws.dphi)              # at v = 0, dphi = Phi_t
+    # same q: the placements stay, only the Jacobian's time variation changes with v
     pin.computeJointJacobiansTimeVariation(model, data, q, v)
-    ws.fk.update(data, v)
-    kinematics.constraint_rows(mech, ws, t, v)
+    kinematics.constraint_rows(mech, ws, t, q, v)
     a = np.linalg.solve(ws.J, ws.gamma)
     tau = pin.rnea(model, data, q, v, a)
     return np.linalg.solve(ws.J.T, tau)[mech.m_closures:]
@@ -46,7 +43,7 @@ def main(argv=None):
     ap.add_argument("--n", type=int, default=2000, help="evaluations per method")
     ap.add_argument("--law", default="high", choices=["low", "high"])
     args = ap.parse_args(argv)
-    mech = m.load(law=args.law)
+    mech = m.load(model_path("four_ups_upr"), law=args.law)
     system = screw.screw_system(mech)
     ws = mech.workspace()
     T = m.PERIODS[args.law]

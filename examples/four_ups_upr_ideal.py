@@ -1,6 +1,6 @@
 """Paper 004 4-UPS/UPR motion simulator, ideal joints: forward dynamics under the drive laws.
 
-    python examples/four_ups_upr_ideal.py [--law high|low] [--limbs on|off] [--t-end T] [--out DIR]
+    python examples/four_ups_upr_ideal.py [--law high|low] [--limbs on|off] [--t-end T] [--out DIR] [--quick]
 
 The four UPS prismatic joints follow the analytic IK of the coupled motion (alpha, beta, dx, dz).
 A full period of either law crosses two singular configurations of the Table 1 layout (high law:
@@ -26,8 +26,7 @@ import pinocchio as pin  # noqa: E402
 import pinclear  # noqa: E402
 from pinclear import screw  # noqa: E402
 from pinclear.mechanisms import four_ups_upr as mod  # noqa: E402
-
-ROOT = Path(__file__).resolve().parents[1]
+from pinclear.models import model_path  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -37,10 +36,11 @@ def main(argv=None) -> int:
     ap.add_argument("--t-end", type=float, default=None, help="default 1.0 s (high) / 5.0 s (low)")
     ap.add_argument("--rtol", type=float, default=1e-8)
     ap.add_argument("--out", default=".")
+    ap.add_argument("--quick", action="store_true", help="smoke run: 0.2 s simulated")
     args = ap.parse_args(argv)
-    t_end = args.t_end or (1.0 if args.law == "high" else 5.0)
+    t_end = args.t_end or (0.2 if args.quick else 1.0 if args.law == "high" else 5.0)
 
-    mech = mod.load(ROOT / "urdf" / "four_ups_upr.yaml", law=args.law, limbs=args.limbs == "on")
+    mech = mod.load(model_path("four_ups_upr"), law=args.law, limbs=args.limbs == "on")
     c0 = time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)

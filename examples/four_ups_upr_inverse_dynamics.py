@@ -1,7 +1,7 @@
 """Paper 004's screw-theory inverse dynamics of the 4-UPS/UPR simulator: the three cases of its
 sec. 4.2, the printed influence coefficients, the hinge layouts of its Fig. 2.
 
-    python examples/four_ups_upr_inverse_dynamics.py [--out DIR] [--n 2001]
+    python examples/four_ups_upr_inverse_dynamics.py [--out DIR] [--n 2001] [--quick]
 
 Gravity off, as in the paper's example. Prints, per case, the peak drive force over the full
 period and over the stretches the condition monitor finds well conditioned, next to the paper's
@@ -22,9 +22,9 @@ import numpy as np  # noqa: E402
 
 from pinclear import screw  # noqa: E402
 from pinclear.mechanisms import four_ups_upr as mod  # noqa: E402
+from pinclear.models import model_path  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
-SIDECAR = ROOT / "urdf" / "four_ups_upr.yaml"
+SIDECAR = model_path("four_ups_upr")
 PAPER = {"low speed, platform only": 85.0, "high speed, platform only": 2080.0, "high speed, with limbs": 2560.0}
 PAPER_G = np.array([[0.8237, 0.8237, -0.8673, -0.8673, 0.0, 0.4628],
                     [-7.7204, 7.7204, -6.5346, 6.5346, 0.9231, 0.0],
@@ -38,7 +38,10 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default=".")
     ap.add_argument("--n", type=int, default=2001, help="samples per period")
+    ap.add_argument("--quick", action="store_true", help="smoke run: 201 samples per period")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.n = 201
     mech = mod.load(SIDECAR)
     system = screw.screw_system(mech)
     np.set_printoptions(precision=4, suppress=True, linewidth=120)

@@ -49,7 +49,7 @@ def read_yaml(path, what="sidecar"):
         raise ModelFileError(file, "yaml", f"not valid YAML: {' '.join(str(exc).split())}") from None
 
 TOP_KEYS = {"name", "urdf", "description", "gravity", "initial", "closures", "drives", "forces",
-            "clearances", "platform", "options", "hook", "parameters", "screw"}
+            "clearances", "platform", "options", "hook", "parameters", "screw", "nonphysical_inertia"}
 #: a sidecar is a few kilobytes; anything near this is not one
 MAX_SIDECAR_BYTES = 1_000_000
 CLOSURE_KEYS = {"name", "type", "frame1", "frame2", "normal", "length"}
@@ -181,14 +181,25 @@ def _build_model(urdf):
     if model is None:
         detail = f"{err}; {chatter}" if chatter else err
         raise ModelFileError(str(urdf), "urdf", f"Pinocchio cannot parse it: {' '.join(detail.split())}")
-    check_inertias(model, urdf)
     return model
 
 
-def check_inertias(model, file):
+def check_inertias(model, file, accepted=None, sidecar="<sidecar>"):
     """Every body's inertia must be physically possible: mass >= 0, and where it has mass a
     positive-definite rotational inertia whose principal moments obey the triangle inequality
-    (I1 + I2 >= I3 for every ordering). A bad inertia otherwise fails only mid-run."""
+    (I1 + I2 >= I3 for every ordering). A bad inertia otherwise fails only mid-run.
+
+    ``accepted`` ({joint name: reason}, the sidecar's ``nonphysical_inertia:``) lets a body moved
+    by that joint break the triangle inequality only (a paper's printed values kept for
+    reproduction); the reason is required and ends up in the mechanism's description."""
+    accepted = dict(accepted or {})
+    names = list(model.names)
+    for jn, why in accepted.items():
+        if jn not in names[1:]:
+            raise ModelFileError(sidecar, f"nonphysical_inertia.{jn}", "unknown joint", choices=names[1:])
+        if not isinstance(why, str) or len(why.split()) < 3:
+            raise ModelFileError(sidecar, f"nonphysical_inertia.{jn}", "give the reason (where the values come "
+                                 "from and why they are kept)")
     for j in range(1, model.njoints):
         I = model.inertias[j]
         name = model.names[j]
@@ -202,6 +213,8 @@ def check_inertias(model, file):
             raise ModelFileError(str(file), f"inertial of the body moved by joint {name!r}", "non-finite inertia")
         ev = np.linalg.eigvalsh(0.5 * (Ic + Ic.T))
         tol = 1e-9 * max(abs(ev).max(), 1e-300)
+        if ev[0] > 0 and ev[0] + ev[1] < ev[2] - tol and name in accepted:
+            continue
         if ev[0] <= 0 or ev[0] + ev[1] < ev[2] - tol:
             raise ModelFileError(str(file), f"inertial of the body moved by joint {name!r}",
                                  f"principal moments {ev.tolist()} kg m^2 are not physically possible "
@@ -289,6 +302,9 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
     if not urdf.is_file():
         raise ModelFileError(file, "urdf", f"URDF file {str(urdf)!r} does not exist")
     model = _build_model(urdf)
+    accepted = sc.get("nonphysical_inertia") or {}
+    _check_keys(accepted, set(accepted), file, "nonphysical_inertia")
+    check_inertias(model, urdf, accepted, file)
     name = sc.get("name", path.stem)
 
     # ---- scene options and overrides
@@ -481,5 +497,7 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
     # how to load this variant again (saved with every trajectory)
     mech.load_args = {"path": str(path.resolve()), "options": dict(options or {}),
                       "overrides": {k: _parse_value(v) for k, v in dict(overrides or {}).items()},
-                      "clearances": [c["name"] for _, c in chosen]}
+                      "clearances": [c["name"] for _, c in chosen],
+                      # read by plug-ins that resolve functions later (screw); never by a reload
+                      "trust": trust}
     return mech

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -13,14 +12,15 @@ from scipy.optimize import minimize_scalar
 
 import pinclear
 from pinclear import kinematics, screw
+from pinclear.errors import ModelFileError
+from pinclear.models import model_path
 from pinclear.forces import JointForce
 from pinclear.mechanisms import four_ups_upr as m
 
 from conftest import kkt_singular_time
 from pinclear.timelaws import Callable
 
-ROOT = Path(__file__).resolve().parents[1]
-SIDECAR = ROOT / "urdf" / "four_ups_upr.yaml"
+SIDECAR = model_path("four_ups_upr")
 GENERIC = (0.12, -0.09, 0.04, 0.07)
 #: paper 004, sec. 4.1: G_q^p printed at the initial configuration (rows omega; v_o)
 PAPER_G = np.array([[0.8237, 0.8237, -0.8673, -0.8673, 0.0000, 0.4628],
@@ -58,9 +58,8 @@ def _lagrange(mech, model, t, law, ws):
     M = m.platform_pose(t, law)
     q = m.tree_configuration(mech.model, M)
     v = kinematics.consistent_velocity(mech, q, t=t, ws=ws)
-    ws.q_cur = q
     kinematics.update(mech, ws, q, v)
-    kinematics.constraint_rows(mech, ws, t, v)
+    kinematics.constraint_rows(mech, ws, t, q, v)
     a = np.linalg.solve(ws.J, ws.gamma)
     tau = pin.rnea(model, model.createData(), q, v, a)
     lam = np.linalg.solve(ws.J.T, tau)
@@ -122,13 +121,12 @@ def test_second_order_H_reproduces_platform_acceleration(mech, system):
             qd = np.r_[rng.standard_normal(4), 0.0, 0.0]
             qdd = np.r_[rng.standard_normal(4), 0.0, 0.0]
             # Pinocchio closed loop: closure rows + drive rows carry the input rates
-            ws.q_cur = q
             kinematics.update_positions(mech, ws, q)
-            kinematics.constraint_rows(mech, ws, 0.0, ws.zero_v)
+            kinematics.constraint_rows(mech, ws, 0.0, q, ws.zero_v)
             J = ws.J.copy()
             v = np.linalg.solve(J, np.r_[np.zeros(n), qd[:4]])
             kinematics.update(mech, ws, q, v)
-            kinematics.constraint_rows(mech, ws, 0.0, v)
+            kinematics.constraint_rows(mech, ws, 0.0, q, v)
             a = np.linalg.solve(J, np.r_[-ws.bias[:n], qdd[:4]])
             pin.forwardKinematics(mech.model, data, q, v, a)
             pin.updateFramePlacements(mech.model, data)
@@ -325,12 +323,9 @@ def test_paper_G_and_peaks_compared(mech, system):
 
 # ------------------------------------------------------------------ generality, CLI
 def test_same_code_path_on_the_4ups_upu_of_paper_000():
-    path = ROOT / "urdf" / "four_ups_upu.yaml"
-    if not path.exists():
-        pytest.skip("urdf/four_ups_upu.yaml (paper 000 model) not present")
     from pinclear.mechanisms import four_ups_upu as u
 
-    mech = pinclear.load(path)
+    mech = pinclear.load("four_ups_upu")
     system = screw.screw_system(mech)
     assert system.n_act == 5 and system.labels[-1].endswith("virtual1")
 
@@ -348,9 +343,8 @@ def test_same_code_path_on_the_4ups_upu_of_paper_000():
     for i, t in enumerate(ts):
         q = res.q[i]
         v = kinematics.consistent_velocity(mech, q, t=t, ws=ws)
-        ws.q_cur = q
         kinematics.update(mech, ws, q, v)
-        kinematics.constraint_rows(mech, ws, t, v)
+        kinematics.constraint_rows(mech, ws, t, q, v)
         a = np.linalg.solve(ws.J, ws.gamma)
         lam = screw.lagrange_inverse_dynamics(mech, q, v, a, ws)
         assert np.abs(lam - res.tau[i]).max() < 1e-8 * np.abs(lam).max()
@@ -369,7 +363,7 @@ def test_cli_writes_csv_png_and_peaks(tmp_path, capsys):
     assert csv.shape == (301, 1 + 4 + 2 + 1)
     assert np.abs(csv[:, 1:5]).max() == pytest.approx(peaks["peak_abs_all"])
     assert (out / "drive_forces.png").stat().st_size > 1000
-    assert screw.cli_main([str(SIDECAR), "--layout", "z", "--out", str(out)]) == 2
+    assert screw.cli_main([str(SIDECAR), "--option", "layout=z", "--out", str(out)]) == 2
     assert "layout" in capsys.readouterr().err
 
 
@@ -384,3 +378,73 @@ def test_pose_only_motion_is_differentiated_consistently(mech, system):
     exact = screw.inverse_dynamics(mech, "high", [t], system=system).tau
     approx = screw.inverse_dynamics(mech, lambda s: m.platform_pose(s, "high"), [t], system=system).tau
     assert np.abs(exact - approx).max() < 1e-4 * np.abs(exact).max()
+
+
+# ------------------------------------------------------------ the sidecar's screw: section
+def _with_screw(mech, **changes):
+    """The mechanism with its sidecar's screw: section changed (None removes a key)."""
+    sec = {**mech.sidecar["screw"], **changes}
+    return mech.replace(sidecar={**mech.sidecar, "screw": {k: v for k, v in sec.items() if v is not None}})
+
+
+def test_virtual_joint_rule_changes_only_the_constraint_limb_forces(mech, system):
+    """The completion of the UPR limb is a modelling choice (paper 004, sec. 2.1): the complement
+    rule gives the line_normal drive forces to round-off, and with massless limbs the same
+    constraint wrench on the platform, while the virtual joints' own forces differ."""
+    t = np.linspace(0.05, 0.95, 7)
+    comp = screw.screw_system(_with_screw(mech, virtual={"UPR": "complement"}))
+    for limbs in (True, False):
+        ref = screw.inverse_dynamics(mech, "high", t, limbs=limbs, system=system)
+        alt = screw.inverse_dynamics(mech, "high", t, limbs=limbs, system=comp)
+        assert np.abs(alt.tau - ref.tau).max() < 1e-9 * np.abs(ref.tau).max()
+        assert np.abs(alt.virtual - ref.virtual).max() > 1.0
+    scale = np.abs(ref.constraint_wrench).max()
+    assert np.abs(alt.constraint_wrench - ref.constraint_wrench).max() < 1e-9 * scale and scale > 10.0
+    # the registered rule named as module:function is the same rule
+    named = screw.screw_system(_with_screw(mech, virtual={"UPR": "pinclear.screw.virtual:line_normal"}))
+    assert np.array_equal(named.influence_coefficients(mech.q0)[0], system.influence_coefficients(mech.q0)[0])
+
+
+def test_numerical_ik_serves_a_sidecar_without_analytic_ik(mech, system):
+    """Without screw.ik the generic Newton IK (closures + platform pose) finds the configuration
+    of the analytic IK, hence the same drive forces."""
+    t = [0.1, 0.35, 0.6]
+    a = screw.inverse_dynamics(mech, "high", t, system=system, keep_q=True)
+    b = screw.inverse_dynamics(_with_screw(mech, ik=None), "high", t, keep_q=True)
+    assert np.abs(a.q - b.q).max() < 1e-9
+    assert np.abs(a.tau - b.tau).max() < 1e-8 * np.abs(a.tau).max()
+
+
+def test_screw_section_errors_name_file_key_and_choices(mech, system, monkeypatch):
+    monkeypatch.delenv("PINCLEAR_TRUST", raising=False)
+    fn = "pinclear.mechanisms.four_ups_upr:platform_motion"
+    cases = [
+        (dict(virtual={"UPR": "upr"}), "screw.virtual.UPR", "line_normal"),
+        (dict(virtual={"UPX": "complement"}), "screw.virtual.UPX", "UPS1"),
+        (dict(virtual={"UPS1": "line_normal"}), "screw.virtual.UPS1", "no virtual joints"),
+        (dict(ik="os:getcwd"), "screw.ik", "refusing"),
+        (dict(extra=1), "screw.extra", "motions"),
+        (dict(motions={"fast": {"function": fn, "speed": 2}}), "screw.motions.fast.speed", "period"),
+        (dict(motions={"fast": {"function": fn, "period": -1.0}}), "screw.motions.fast.period", "positive"),
+        (dict(limbs=[{"name": "UPR", "joints": ["upr_u1", "nope"], "closure": None}]), "screw.limbs[0].joints",
+         "upr_r"),
+    ]
+    for changes, key, text in cases:
+        with pytest.raises(ModelFileError) as info:
+            screw.screw_system(_with_screw(mech, **changes))
+        assert info.value.key == key and text in str(info.value) and str(SIDECAR) in str(info.value), changes
+    with pytest.raises(ModelFileError, match="valid: high, low") as info:
+        screw.inverse_dynamics(mech, "medium", [0.0], system=system)
+    assert info.value.key == "screw.motions"
+
+
+def test_cli_serves_a_mechanism_without_screw_section(tmp_path, capsys):
+    """The 4UPS-UPU sidecar declares nothing for the screw method: limbs from the topology, the
+    numerical IK, and its platform.motion over the default end time."""
+    out = tmp_path / "upu"
+    assert screw.cli_main(["four_ups_upu", "--n", "5", "--out", str(out)]) == 0
+    peaks = json.loads((out / "peaks.json").read_text())
+    assert set(peaks["peaks"]) == {f"drive{i}" for i in range(1, 6)} and peaks["law"] is None
+    assert peaks["t_end"] == 2.0 and peaks["cond_max"] < 100
+    assert screw.cli_main(["four_ups_upu", "--law", "high", "--out", str(out)]) == 2
+    assert "screw.motions" in capsys.readouterr().err

@@ -13,6 +13,11 @@ Spanning tree (no quaternion joints):
   closed on the platform by a ``spherical`` closure ``S{i}`` between ``ups{i}_rod`` and
   ``platform_b{i}``.
 
+What the screw method (:mod:`pinclear.screw`) needs is declared in the sidecar's ``screw:``
+section written by :func:`screw_section`: the limbs, paper 004's virtual joints of the UPR limb
+(the generic ``line_normal`` rule), the analytic IK :func:`tree_configuration_ik` and the two
+motion laws :func:`platform_motion` with their periods.
+
 Screw conventions follow the paper: twist V = (omega; v_o), v_o the velocity of the body point at
 the fixed origin; acceleration A = (domega; a_o) its time derivative (paper 004, eq. 6).
 Pinocchio's Motion is (v; omega); the converters below go between the two.
@@ -26,6 +31,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import InputError
+from ._common import URDF_DIR
 
 #: initial platform height (paper 004, sec. 4)
 H0 = 0.38
@@ -302,18 +308,19 @@ def limb_kinematics(pose, V=None, A=None, layout="f"):
     return ell, ld, ldd
 
 
-_LAST = {"key": None, "val": None}
+def limb_lengths(t, law="high", layout="f"):
+    """Lengths of the four UPS limbs and their first two time derivatives from the analytic IK of
+    the coupled motion (three arrays). The sidecar's drives take one component each (``index``),
+    so the IK runs once per time for all four, the cache in the run's workspace."""
+    M, V, A = platform_motion(t, law)
+    return limb_kinematics(M, V, A, layout)
 
 
 def limb_law(t, limb, law="high", layout="f"):
-    """Drive law of UPS limb ``limb`` (1..4): (l, l', l'') from the analytic IK of the coupled motion."""
+    """Drive law of UPS limb ``limb`` (1..4) alone: (l, l', l'')."""
     if limb not in (1, 2, 3, 4):
         raise InputError(f"four_ups_upr.limb_law: limb must be 1..4, got {limb!r}")
-    key = (t, law, layout)
-    if _LAST["key"] != key:       # the four drives ask in turn at the same instant
-        M, V, A = platform_motion(t, law)
-        _LAST["val"], _LAST["key"] = limb_kinematics(M, V, A, layout), key
-    ell, ld, ldd = _LAST["val"]
+    ell, ld, ldd = limb_lengths(t, law, layout)
     k = limb - 1
     return float(ell[k]), float(ld[k]), float(ldd[k])
 
@@ -357,6 +364,12 @@ def tree_configuration(model, pose, layout="f"):
         put(f"ups{i + 1}_u2", math.asin(max(-1.0, min(1.0, n[0]))))
         put(f"ups{i + 1}_p", ell)
     return q
+
+
+def tree_configuration_ik(mech, pose, q_prev=None):
+    """The sidecar's ``screw: ik:``: :func:`tree_configuration` in the loaded mechanism's hinge
+    layout (closed form, so the previous configuration is not needed)."""
+    return tree_configuration(mech.model, pose, mech.options.get("layout", SIDECAR_LAYOUT))
 
 
 def forward_kinematics(lengths, layout="f", guess=None, tol=1e-13, max_iter=50):
@@ -532,14 +545,31 @@ def sidecar_dict(law="high"):
         "closures": [{"name": f"S{k}", "type": "spherical", "frame1": f"ups{k}_rod", "frame2": f"platform_b{k}"}
                      for k in range(1, 5)],
         "drives": [{"name": f"P{k}", "joint": f"ups{k}_p",
-                    "law": {"type": "python", "function": f"{fn}:limb_law",
-                            "args": {"limb": k, "law": "$law", "layout": "$layout"}}} for k in range(1, 5)],
+                    "law": {"type": "python", "function": f"{fn}:limb_lengths",
+                            "args": {"law": "$law", "layout": "$layout"}, "index": k - 1}} for k in range(1, 5)],
         "platform": {"frame": "platform", "motion": {"function": f"{fn}:platform_pose", "args": {"law": "$law"}}},
         "options": {k: dict(v) for k, v in OPTIONS.items()},
         "hook": f"{fn}:sidecar_hook",
-        "limbs": [{"name": f"UPS{k}", "joints": UPS_JOINTS[k - 1], "closure": f"S{k}"} for k in range(1, 5)]
-        + [{"name": "UPR", "joints": UPR_JOINTS, "closure": None, "virtual": "upr"}],
+        "screw": screw_section(),
+        "nonphysical_inertia": {"upr_r": "paper 004, sec. 4 prints the platform inertia (1.41, 4.41, 2.82) kg m^2, "
+                                "which breaks the triangle inequality (1.41 + 2.82 < 4.41); kept as printed to "
+                                "reproduce the paper's drive forces"},
         "parameters": parameters(),
+    }
+
+
+def screw_section():
+    """The sidecar's ``screw:`` section (format in :mod:`pinclear.screw`): the five limbs, the
+    UPR limb completed by paper 004's virtual joints (sec. 2.1: the ``line_normal`` rule), the
+    analytic IK, and the two motion laws with their periods."""
+    fn = "pinclear.mechanisms.four_ups_upr"
+    return {
+        "limbs": [{"name": f"UPS{k}", "joints": UPS_JOINTS[k - 1], "closure": f"S{k}"} for k in range(1, 5)]
+        + [{"name": "UPR", "joints": UPR_JOINTS, "closure": None}],
+        "virtual": {"UPR": "line_normal"},
+        "ik": f"{fn}:tree_configuration_ik",
+        "motions": {law: {"function": f"{fn}:platform_motion", "args": {"law": law}, "period": PERIODS[law]}
+                    for law in LAWS},
     }
 
 
@@ -560,7 +590,7 @@ def load(path=None, law=None, limbs=None, layout=None, **kw):
     the configuration of the chosen layout."""
     from .. import sidecar as _sidecar
 
-    path = Path(path) if path else Path(__file__).resolve().parents[2] / "urdf" / "four_ups_upr.yaml"
+    path = Path(path) if path else URDF_DIR / "four_ups_upr.yaml"
     options = dict(kw.pop("options", None) or {})
     for k, v in (("law", law), ("limbs", limbs), ("layout", layout)):
         if v is not None:

@@ -38,11 +38,7 @@ G = 9.81
 # ------------------------------------------------------------------ paper 003, Table 2
 M_M, J_M = 138.239, (35.509, 35.478, 1.452)      # platform + UP branch
 R_S, R_M = 0.4, 0.15                              # U joint circles, base / platform
-L_A, M_A, J_A_PRINTED = 0.6, 70.8, (14.264, 14.598, 0.203)
-# The printed J_a breaks the triangle inequality (0.203 + 14.264 < 14.598), which no body can:
-# pinclear refuses such an inertia. A cylinder's two transverse moments are equal; their mean keeps
-# the printed trace and the axial moment.
-J_A = (0.5 * (J_A_PRINTED[0] + J_A_PRINTED[1]),) * 2 + (J_A_PRINTED[2],)
+L_A, M_A, J_A = 0.6, 70.8, (14.264, 14.598, 0.203)
 L_B, M_B, J_B = 1.2, 29.85, (5.94, 5.94, 0.02)
 L_C, M_C, J_C = 0.09, 1.3, (0.004, 0.004, 0.004)
 M_LOAD = 118.5
@@ -137,9 +133,7 @@ def parameters():
         ("r_m", R_M, "m", "paper 003, Table 2"),
         ("L_a", L_A, "m", "paper 003, Table 2"),
         ("m_a", M_A, "kg", "paper 003, Table 2"),
-        ("J_a", list(J_A), "kg m^2", "reconstructed: paper 003, Table 2 prints (14.264, 14.598, 0.203), which "
-         "breaks the triangle inequality; transverse moments set to their mean (axes: x radial, z along the "
-         "limb: reconstructed)"),
+        ("J_a", list(J_A), "kg m^2", "paper 003, Table 2 (axes: x radial, z along the limb: reconstructed)"),
         ("L_b", L_B, "m", "paper 003, Table 2"),
         ("m_b", M_B, "kg", "paper 003, Table 2"),
         ("J_b", list(J_B), "kg m^2", "paper 003, Table 2 (printed as J_c: typo)"),
@@ -415,6 +409,9 @@ def sidecar_dict():
                             "index": k}} for k, i in enumerate(LIMBS)],
         "platform": {"frame": "platform",
                      "motion": {"function": "pinclear.mechanisms.three_upru_up:platform_pose", "args": {}}},
+        "nonphysical_inertia": {f"U{i}_2": "paper 003, Table 2 prints J_a = (14.264, 14.598, 0.203) kg m^2, which "
+                                "breaks the triangle inequality (0.203 + 14.264 < 14.598); kept as printed to "
+                                "reproduce the paper" for i in LIMBS},
         "parameters": parameters(),
     }
 
