@@ -36,3 +36,20 @@ def test_ideal_examples(tmp_path, script, png):
     # the loops stay closed to the integrator's tolerance (rtol 1e-8 on metre-sized links)
     assert number(text, "max closure residual") < 1e-6
     assert (tmp_path / png).stat().st_size > 10_000
+
+
+def test_four_ups_upr_ideal(tmp_path):
+    text = run_example("four_ups_upr_ideal.py", tmp_path)
+    assert "status success" in text
+    assert number(text, "max closure residual") < 1e-6
+    assert (tmp_path / "four_ups_upr_ideal_high.png").stat().st_size > 10_000
+
+
+def test_four_ups_upr_inverse_dynamics(tmp_path):
+    """Paper 004's layouts: (a)-(e) are singular at the initial pose (rank 5 of 6), (f) is not
+    (rank 6, condition 26.7 -- independent of the run, a property of the geometry)."""
+    text = run_example("four_ups_upr_inverse_dynamics.py", tmp_path)
+    for lay in "abcde":
+        assert re.search(rf"\({lay}\) rank 5 ", text), text
+    assert number(text, r"\(f\) rank 6 cond") == pytest.approx(26.7, abs=0.05)
+    assert (tmp_path / "four_ups_upr_inverse_dynamics.png").stat().st_size > 10_000
