@@ -7,16 +7,14 @@ clearance joint active and a PNG screenshot (headless Chromium).
         --screenshot docs/viz_nine_bar.png
 
 Nothing opens a browser; open the HTML file yourself (it plays offline).
+``--quick``: a 0.05 s smoke run; ``--out DIR``: where the page goes when --html is not given.
 """
 import argparse
-from pathlib import Path
-
 import pinclear
 from pinclear.viz import show
 from pinclear.viz.animate import loudest_frame_time
 from pinclear.viz.html import screenshot
 
-HERE = Path(__file__).resolve().parent
 #: one period of each motion law [s], and the screenshot time without a clearance [s]
 PERIODS = {"four_ups_upu": (2.0, 0.5), "nine_bar": (1.0, 0.25), "three_upru_up": (25.1327, 5.0),
            "four_ups_upr": (2.0 * 3.14159265, 0.5)}
@@ -32,15 +30,18 @@ def main(argv=None):
                          "if a clearance is active)")
     ap.add_argument("--clearance", action="append", default=[], help="activate a clearance joint (e.g. S2, A)")
     ap.add_argument("--t-end", type=float, default=None, help="simulated time (default: one period)")
+    ap.add_argument("--out", default="out", help="folder of the page when --html is not given")
+    ap.add_argument("--quick", action="store_true", help="smoke run: 0.05 s simulated")
     a = ap.parse_args(argv)
     period, t_shot = PERIODS[a.mechanism]
-    mech = pinclear.load(HERE.parent / "urdf" / f"{a.mechanism}.yaml", clearances=a.clearance or None)
-    traj = pinclear.simulate(mech, a.t_end or period, dt_out=1e-3, rtol=1e-7)   # impacts last ~ms
+    mech = pinclear.load(a.mechanism, clearances=a.clearance or None)      # a bundled model by name
+    t_end = a.t_end or (0.05 if a.quick else period)
+    traj = pinclear.simulate(mech, t_end, dt_out=1e-3, rtol=1e-7)   # impacts last ~ms
     print(traj.summary()["status"], traj.message)
-    scene = show(mech, traj, html=a.html or f"out/{a.mechanism}.html", slowdown=None)
+    scene = show(mech, traj, html=a.html or f"{a.out}/{a.mechanism}.html", slowdown=None)
     print(f"wrote {scene.html_path}")
     if a.screenshot:
-        t = a.t if a.t is not None else (loudest_frame_time(scene, traj) or t_shot)
+        t = a.t if a.t is not None else (loudest_frame_time(scene, traj) or min(t_shot, t_end))
         print(f"wrote {screenshot(scene.html_path, a.screenshot, t=t)} (t = {t:g} s)")
 
 

@@ -267,10 +267,7 @@ def test_live_viewer_server_holds_the_whole_scene(nine_bar_run):
         # meshcat's server re-emits every node it keeps as one command: all of ours arrived
         assert html.count("fetch(\"data:application/octet-binary;base64,") == len(scene.recorder.packed())
     finally:
-        proc = getattr(scene.live.window, "server_proc", None)
-        if proc is not None:
-            proc.kill()
-            proc.wait()
+        scene.close()
 
 
 def test_urdf_visuals_and_automatic_primitives_have_the_model_sizes():

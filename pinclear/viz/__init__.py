@@ -3,7 +3,8 @@
 Headless by default: nothing opens a browser or blocks unless asked.
 
 >>> scene = pinclear.viz.show(mech, traj, html="out/run.html")     # file only, no server
->>> scene = pinclear.viz.show(mech, traj)          # meshcat server on localhost, prints URL
+>>> scene = pinclear.viz.show(mech, traj)          # meshcat server on 127.0.0.1, prints URL
+>>> scene.close()                                   # stops that server
 >>> pinclear.viz.plots.save_all(traj, "out/plots")
 """
 from __future__ import annotations
@@ -15,10 +16,12 @@ import numpy as np
 
 from .animate import animate, resample
 from .html import export_html, scene_html, screenshot
-from .scene import MechanismScene, SceneRecorder, active_clearances
+from .elements import active_clearances
+from .scene import MechanismScene, SceneRecorder
+from .server import LocalServer
 
 __all__ = ["show", "build_scene", "animate", "resample", "export_html", "scene_html", "screenshot",
-           "MechanismScene", "SceneRecorder", "active_clearances", "start_viewer"]
+           "MechanismScene", "SceneRecorder", "active_clearances", "start_viewer", "LocalServer"]
 
 
 def _assembled(mech, q=None):
@@ -35,29 +38,48 @@ def _assembled(mech, q=None):
 
 def build_scene(mech, traj=None, *, q=None, fps: float = 30.0, slowdown: float | None = None,
                 max_frames: int = 1500, ecc_scale: float | None = None, force_scale: float | None = None,
-                play: bool = True, loop: bool = False, use_urdf_visuals: bool = True) -> MechanismScene:
+                play: bool = True, loop: bool = False, use_urdf_visuals: bool = True,
+                trust: bool | None = None) -> MechanismScene:
     """Scene of ``mech`` (at q, or assembled from q0), animated with ``traj`` if given.
 
     slowdown: playback seconds per simulated second; None = real time, or slowed by a round
     factor so that runs shorter than 5 s play for 5 s (:func:`pinclear.viz.animate.auto_slowdown`).
     ecc_scale: eccentricity magnification (None = a 1-2-5 factor drawing the clearance at
     most 8 % of the mechanism); force_scale: metres of arrow per newton (None = longest force
-    arrow a quarter of the mechanism).  Both are stated in the page's legend."""
+    arrow a quarter of the mechanism).  Both are stated in the page's legend.
+    trust: URDF meshes may come from anywhere (default: only from the mechanism's folders,
+    pinclear's models and example-robot-data; see :class:`MechanismScene`)."""
     q0 = traj.q[0] if (traj is not None and q is None) else _assembled(mech, q)
     scene = MechanismScene(mech, q0, ecc_scale=ecc_scale, force_scale=force_scale,
-                           use_urdf_visuals=use_urdf_visuals)
+                           use_urdf_visuals=use_urdf_visuals, trust=trust)
     if traj is not None:
         animate(scene, traj, fps=fps, slowdown=slowdown, max_frames=max_frames, play=play, loop=loop)
     return scene
 
 
 def start_viewer(scene: MechanismScene, zmq_url: str | None = None, open_browser: bool = False):
-    """Push a scene to a meshcat server (started on localhost unless ``zmq_url`` names a
-    running one); returns the live ``meshcat.Visualizer``."""
+    """Push a scene to a meshcat server and return the live ``meshcat.Visualizer``.
+
+    Without ``zmq_url`` a server is started that listens on 127.0.0.1 only and stops with
+    this process (SIGINT, SIGTERM, exit) or with :meth:`MechanismScene.close`; it is kept in
+    ``scene.server``.  ``zmq_url`` names a server that is already running (not stopped here)."""
     import meshcat
 
-    vis = meshcat.Visualizer(zmq_url=zmq_url)
-    scene.push(vis)
+    server = None
+    if zmq_url is None:
+        server = LocalServer()
+        zmq_url = server.zmq_url
+    try:
+        vis = meshcat.Visualizer(zmq_url=zmq_url)
+        scene.push(vis)
+    except BaseException:
+        if server is not None:
+            server.close()
+        raise
+    if server is not None:
+        # meshcat's own attribute for the process behind a visualizer
+        vis.window.server_proc = server.proc
+    scene.server, scene.live = server, vis
     if open_browser:
         vis.open()
     return vis
@@ -68,18 +90,21 @@ def show(mech, traj=None, *, html=None, open_browser: bool = False, block: bool 
     """Show a mechanism (and animate a trajectory).
 
     html: write a standalone page there and start no server.  Otherwise a meshcat server is
-    started on localhost (or ``zmq_url`` is used), its URL printed; ``open_browser`` opens it,
-    ``block`` waits until Ctrl-C.  The live visualizer is ``scene.live``.
-    Scene options (fps, slowdown, ecc_scale, force_scale, ...): see :func:`build_scene`.
+    started on 127.0.0.1 (or ``zmq_url`` is used), its URL printed; ``open_browser`` opens it,
+    ``block`` waits until Ctrl-C (then stops the server).  The live visualizer is
+    ``scene.live``; ``scene.close()`` stops the server.
+    Scene options (fps, slowdown, ecc_scale, force_scale, trust, ...): see :func:`build_scene`.
     """
     scene = build_scene(mech, traj, **scene_kw)
-    scene.live = None
     if html is not None:
         scene.html_path = export_html(scene, html)
         return scene
-    scene.live = start_viewer(scene, zmq_url=zmq_url, open_browser=open_browser)
+    start_viewer(scene, zmq_url=zmq_url, open_browser=open_browser)
     if block:
-        wait_forever()
+        try:
+            wait_forever()
+        finally:
+            scene.close()
     return scene
 
 

@@ -18,6 +18,8 @@ import pinocchio as pin
 from meshcat.animation import Animation, AnimationClip, AnimationTrack
 from scipy.spatial.transform import Rotation
 
+from pinclear.kinematics import frame_motion
+
 from .scene import MechanismScene, arrow_matrix
 
 
@@ -101,11 +103,7 @@ def platform_positions(scene: MechanismScene, qs: np.ndarray) -> np.ndarray | No
     fid = getattr(scene.mech, "platform_frame", None)
     if fid is None:
         return None
-    out = np.empty((len(qs), 3))
-    for k, q in enumerate(qs):
-        pin.framesForwardKinematics(scene.model, scene.data, q)
-        out[k] = scene.data.oMf[fid].translation
-    return out
+    return frame_motion(scene.model, [fid], qs).p[:, 0]
 
 
 def prescribed_positions(mech, times: np.ndarray) -> np.ndarray | None:

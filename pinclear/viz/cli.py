@@ -7,53 +7,83 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-import yaml
+from .elements import active_clearances, recorded_clearances
 
 
-def _overrides(pairs, file="--set"):
-    from pinclear.cli import parse_kv
-
-    return parse_kv(pairs, file)
-
-
-def _sidecar_clearances(path) -> list[str]:
-    try:
-        sc = yaml.safe_load(Path(path).read_text(encoding="utf-8")) or {}
-    except (OSError, yaml.YAMLError):
-        return []
-    return [c.get("name") for c in (sc.get("clearances") or []) if isinstance(c, dict)]
+def _trust(flag: bool):
+    """--trust given: trust; absent: defer to PINCLEAR_TRUST (pinclear.load's own default)."""
+    return True if flag else None
 
 
-def load_run(npz, mech_path=None):
-    """A saved trajectory and the mechanism it was run on (same options and active clearances
-    as recorded in its metadata)."""
-    import pinclear
+def _recorded_load_args(traj) -> dict:
+    """How the run's mechanism was loaded (options, overrides, active clearances), from its
+    metadata; runs saved before pinclear recorded ``load_args`` give their options and the
+    clearance joints their description lists."""
+    la = traj.meta.get("load_args")
+    if isinstance(la, dict):
+        return {"options": la.get("options") or None, "overrides": la.get("overrides") or None,
+                "clearances": la.get("clearances") or None}
+    return {"options": traj.meta.get("options") or None, "overrides": None,
+            "clearances": list(recorded_clearances(traj.meta)) or None}
+
+
+def check_run_mechanism(traj, mech, file):
+    """Refuse to show or plot a run with a mechanism other than the one it was made with:
+    the description recorded in the run (name, sizes, closures, drives, joint names when
+    recorded, active clearances) must match; equal sizes are not enough."""
     from pinclear.errors import ModelFileError
+
+    traj.check_mechanism(mech, str(file))
+    rec = traj.meta.get("mechanism") or {}
+    was = f"the run was made with mechanism {rec.get('name')!r} ({rec.get('path')})"
+    if "name" in rec and rec["name"] != mech.name:
+        raise ModelFileError(str(file), "mechanism", f"{was}, not {mech.name!r} ({mech.path}); pass --mech "
+                             "with the run's own mechanism file")
+    if "joints" in rec and list(rec["joints"]) != list(mech.model.names)[1:]:
+        raise ModelFileError(str(file), "mechanism", f"{was}; {mech.path} has other joints")
+    have = {el.name: el.kind for el in active_clearances(mech)}
+    recorded = {n: f["type"] for n, f in recorded_clearances(traj.meta).items()}
+    if have != recorded:
+        raise ModelFileError(str(file), "mechanism", f"{was} with clearance joints {recorded or 'none'}; "
+                             f"{mech.path} has {have or 'none'}")
+
+
+def load_run(npz, mech_path=None, trust=None):
+    """A saved trajectory and the mechanism it was run on (same options and active clearances
+    as recorded in its metadata), checked to be that mechanism (:func:`check_run_mechanism`).
+
+    Without ``mech_path`` the recorded mechanism file is loaded again (also from beside the
+    .npz when the run's folder was moved).  A mechanism file that names Python code outside
+    pinclear is refused unless ``trust`` (see pinclear.load)."""
+    import pinclear
+    from pinclear.errors import ModelFileError, PinclearError
 
     npz = Path(npz)
     if not npz.exists():
         raise ModelFileError(str(npz), "path", "no such file")
     try:
         traj = pinclear.Trajectory.load(npz)
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
-        raise ModelFileError(str(npz), "npz", f"not a pinclear trajectory ({type(exc).__name__}: {exc})") from None
-    meta = traj.meta or {}
-    recorded = mech_path or traj.mech_path
-    if not recorded:
-        raise ModelFileError(str(npz), "mech_path", "the run does not name its mechanism file; pass --mech FILE.yaml")
-    cand = [Path(recorded), npz.parent / recorded, npz.parent / Path(recorded).name]
-    path = next((p for p in cand if p.exists()), None)
-    if path is None:
-        raise ModelFileError(str(npz), "mech_path", f"mechanism file {recorded!r} not found "
-                             f"(looked at {', '.join(map(str, cand))}); pass --mech FILE.yaml")
-    la = meta.get("load_args")
-    if la:                                   # recorded by pinclear.load: reload the same variant
-        mech = pinclear.load(path, options=la.get("options") or None, overrides=la.get("overrides") or None,
-                             clearances=la.get("clearances") or None)
+    except (PinclearError, OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+        why = str(exc).removeprefix(f"{npz}: ")
+        raise ModelFileError(str(npz), "npz", f"not a pinclear trajectory ({why})") from None
+    la = _recorded_load_args(traj)
+    if mech_path is not None:
+        mech = pinclear.load(mech_path, **la, trust=trust)
     else:
-        forces = {f.get("name") for f in meta.get("mechanism", {}).get("forces", []) if isinstance(f, dict)}
-        active = [n for n in _sidecar_clearances(path) if n in forces]
-        mech = pinclear.load(path, options=meta.get("options") or None, clearances=active or None)
+        recorded = (traj.meta.get("load_args") or {}).get("path") or traj.mech_path
+        if not recorded:
+            raise ModelFileError(str(npz), "mech_path", "the run does not name its mechanism file; "
+                                 "pass --mech FILE.yaml")
+        if Path(recorded).exists():
+            mech = traj.load_mechanism(trust=trust)
+        else:
+            cand = [npz.parent / recorded, npz.parent / Path(recorded).name]
+            path = next((p for p in cand if p.exists()), None)
+            if path is None:
+                raise ModelFileError(str(npz), "mech_path", f"mechanism file {recorded!r} not found "
+                                     f"(looked at {', '.join(map(str, [recorded, *cand]))}); pass --mech FILE.yaml")
+            mech = pinclear.load(path, **la, trust=trust)
+    check_run_mechanism(traj, mech, npz)
     traj.mech = mech
     return traj, mech
 
@@ -70,6 +100,25 @@ def _scene_args(ap):
     ap.add_argument("--force-scale", type=float, default=None,
                     help="metres of arrow per newton (default: longest force arrow = 1/4 of the mechanism)")
     ap.add_argument("--no-urdf-visuals", action="store_true", help="automatic primitives even if the URDF has visuals")
+
+
+def _checked_scene_args(a):
+    """Refuse scene options the animation cannot use, as one line, before anything is loaded;
+    returns the screenshot size (width, height)."""
+    import math
+
+    from pinclear.errors import InputError
+
+    for name in ("slowdown", "fps", "ecc_scale", "force_scale"):
+        v = getattr(a, name)
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"--{name.replace('_', '-')} must be a positive number, got {v:g}")
+    if a.max_frames < 2:
+        raise InputError(f"--max-frames must be at least 2, got {a.max_frames}")
+    w, x, h = a.size.lower().partition("x")
+    if not (x and w.isdigit() and h.isdigit() and int(w) > 0 and int(h) > 0):
+        raise InputError(f"--size expects WIDTHxHEIGHT in pixels (e.g. 960x720), got {a.size!r}")
+    return int(w), int(h)
 
 
 def view_main(argv: list[str]) -> int:
@@ -89,24 +138,31 @@ def view_main(argv: list[str]) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="NAME.key=value (clearance key) or option=value (scene option)")
     ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE", help="set a scene option")
+    ap.add_argument("--trust", action="store_true",
+                    help="trust the mechanism file (and a run's recorded one): allow its Python functions "
+                         "outside pinclear and URDF meshes outside its folders (README: trust)")
     _scene_args(ap)
     a = ap.parse_args(argv)
 
     import pinclear
     from pinclear.errors import PinclearError
+    from pinclear.sidecar import parse_assignments
 
     from . import build_scene, export_html, screenshot, start_viewer, wait_forever
 
+    trust = _trust(a.trust)
     try:
+        size = _checked_scene_args(a)
         traj = None
         if a.file.lower().endswith(".npz"):
-            traj, mech = load_run(a.file, a.mech)
+            traj, mech = load_run(a.file, a.mech, trust=trust)
         else:
-            mech = pinclear.load(a.file, options=_overrides(a.option, "--option") or None,
-                                 overrides=_overrides(a.set) or None, clearances=a.clearance or None)
+            mech = pinclear.load(a.file, options=parse_assignments(a.option, "--option") or None,
+                                 overrides=parse_assignments(a.set, "--set") or None,
+                                 clearances=a.clearance or None, trust=trust)
         scene = build_scene(mech, traj, fps=a.fps, slowdown=a.slowdown, max_frames=a.max_frames,
                             ecc_scale=a.ecc_scale, force_scale=a.force_scale,
-                            use_urdf_visuals=not a.no_urdf_visuals)
+                            use_urdf_visuals=not a.no_urdf_visuals, trust=trust)
     except PinclearError as exc:
         print(f"pinclear: error: {exc}", file=sys.stderr)
         return 2
@@ -117,17 +173,23 @@ def view_main(argv: list[str]) -> int:
         if a.html:
             print(f"wrote {html}")
         if a.screenshot:
-            w, h = (int(x) for x in a.size.lower().split("x"))
             try:
-                png = screenshot(html, a.screenshot, t=a.t, size=(w, h))
+                png = screenshot(html, a.screenshot, t=a.t, size=size)
             except (FileNotFoundError, RuntimeError) as exc:
                 print(f"pinclear: error: screenshot: {exc}", file=sys.stderr)
                 return 2
             print(f"wrote {png}")
         return 0
-    start_viewer(scene, zmq_url=a.zmq_url, open_browser=a.open)
-    if not a.no_block:
-        wait_forever()
+    try:
+        vis = start_viewer(scene, zmq_url=a.zmq_url, open_browser=a.open)
+        print(f"viewer at {vis.url()}", flush=True)
+        if not a.no_block:
+            wait_forever()
+    except RuntimeError as exc:          # the server did not start (LocalServer says why)
+        print(f"pinclear: error: viewer: {exc}", file=sys.stderr)
+        return 2
+    finally:
+        scene.close()
     return 0
 
 
@@ -154,6 +216,8 @@ def plot_main(argv: list[str]) -> int:
     ap.add_argument("--frame", default=None,
                     help="frame plotted as the platform (default: the sidecar's platform frame)")
     ap.add_argument("--format", default="png", choices=["png", "pdf", "svg"], help="image format")
+    ap.add_argument("--trust", action="store_true",
+                    help="trust the run's mechanism file (allow its Python functions outside pinclear)")
     a = ap.parse_args(argv)
 
     from pinclear.errors import PinclearError
@@ -161,8 +225,8 @@ def plot_main(argv: list[str]) -> int:
     from .plots import save_all
 
     try:
-        traj, mech = load_run(a.file, a.mech)
-        ref = load_run(a.ref, a.mech)[0] if a.ref else None
+        traj, mech = load_run(a.file, a.mech, trust=_trust(a.trust))
+        ref = load_run(a.ref, a.mech, trust=_trust(a.trust))[0] if a.ref else None
         written, skipped = save_all(traj, a.out, mech=mech, ref=ref, fmt=a.format, frame=a.frame)
     except PinclearError as exc:
         print(f"pinclear: error: {exc}", file=sys.stderr)

@@ -21,17 +21,28 @@ Automatic primitives, per moving body (= Pinocchio joint ``j``):
 
 The ground gets a plate under its anchors when they span a plane, and a small block at
 each anchor.  Sizes scale with the mechanism's extent at the configuration given.
+
+URDF meshes are confined: an untrusted URDF's mesh must lie in the sidecar's or the URDF's
+folder, pinclear's bundled models or example-robot-data's robots; anything else is refused
+before it is opened.  A mesh reaches a page only as the triangles Pinocchio's mesh loader
+parsed from it, never as the file's bytes.
 """
 from __future__ import annotations
 
 import colorsys
 import warnings
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import meshcat.geometry as mg
 import numpy as np
 import pinocchio as pin
+
+from pinclear.errors import ModelFileError
+from pinclear.models import example_robot_data_dir
+from pinclear.sidecar import allowed_roots
+from pinclear.timelaws import TRUST_ENV, trusted
 
 GROUND_COLOR = 0x8A8F98
 _EPS = 1e-9
@@ -276,58 +287,168 @@ def automatic_primitives(model: pin.Model, q: np.ndarray, size: float | None = N
     return out
 
 
-def urdf_primitives(model: pin.Model, urdf_path=None, package_dirs=None,
+def viewer_trust(mech=None, trust=None) -> bool:
+    """Whether the viewer may read files outside a mechanism's folders: ``trust`` if given,
+    else yes when the mechanism was loaded trusted or PINCLEAR_TRUST is set."""
+    if trust is not None:
+        return bool(trust)
+    return bool((getattr(mech, "load_args", None) or {}).get("trust")) or trusted(None)
+
+
+def mesh_roots(urdf_path, sidecar_path=None) -> list[Path]:
+    """Folders an untrusted URDF's meshes may come from: the sidecar's and the URDF's folders,
+    pinclear's bundled models and example-robot-data's robots (see pinclear.sidecar)."""
+    roots = allowed_roots(sidecar_path if sidecar_path is not None else urdf_path)
+    own = Path(urdf_path).resolve().parent
+    return roots if own in roots else roots + [own]
+
+
+def mesh_package_dirs(urdf_path) -> list[Path]:
+    """Where ``package://PKG/...`` mesh names are looked up: the URDF's folder and
+    example-robot-data's share folder (``package://example-robot-data/robots/...``)."""
+    dirs = [Path(urdf_path).resolve().parent]
+    erd = example_robot_data_dir()
+    if erd is not None:
+        dirs.append(Path(erd).parents[1])
+    return dirs
+
+
+def resolve_mesh(filename: str, urdf_path, package_dirs) -> Path | None:
+    """The file a URDF ``<mesh filename>`` names (as Pinocchio reads it: ``package://`` in the
+    package folders, ``file://`` and absolute paths as they are, others beside the URDF),
+    with symbolic links and ``..`` resolved; None for a package mesh found nowhere.  Nothing
+    is opened."""
+    if filename.startswith("package://"):
+        rest = filename[len("package://"):]
+        for d in package_dirs:
+            p = Path(d) / rest
+            if p.exists():
+                return p.resolve()
+        return None
+    if filename.startswith("file://"):
+        filename = filename[len("file://"):]
+    p = Path(filename)
+    return (p if p.is_absolute() else Path(urdf_path).resolve().parent / p).resolve()
+
+
+def _outside(path: Path, roots) -> bool:
+    return not any(path.is_relative_to(r) for r in roots)
+
+
+def _refuse(urdf_path, key, shown, path, roots):
+    raise ModelFileError(str(urdf_path), key,
+                         f"mesh {shown!r} resolves to {str(path)!r}, outside the folders a mechanism file may "
+                         f"read ({', '.join(map(str, roots))}); keep meshes beside the URDF or sidecar, or "
+                         f"trust the file (trust=True, --trust, {TRUST_ENV}=1)")
+
+
+def _read_urdf(path) -> str:
+    try:
+        return Path(path).read_text(encoding="utf-8")
+    except UnicodeDecodeError as exc:
+        raise ModelFileError(str(path), "urdf", f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
+    except OSError as exc:
+        raise ModelFileError(str(path), "urdf", f"cannot be read: {exc.strerror}") from None
+
+
+def confined_visual_model(model: pin.Model, urdf_path, roots, trust: bool = False) -> pin.GeometryModel:
+    """The URDF's <visual> geometry, every mesh name resolved and checked before anything
+    reads it: a mesh outside ``roots`` raises ModelFileError unless ``trust``.  Pinocchio then
+    gets the checked absolute paths, so it never searches folders of its own (ROS_PACKAGE_PATH)."""
+    text = _read_urdf(urdf_path)
+    try:
+        tree = ET.fromstring(text)
+    except ET.ParseError as exc:
+        raise ModelFileError(str(urdf_path), "xml", f"not valid XML ({exc})") from None
+    dirs = mesh_package_dirs(urdf_path)
+    for link in tree.iter("link"):
+        for k, vis in enumerate(link.findall("visual")):
+            for mesh in vis.iter("mesh"):
+                name = mesh.get("filename") or ""
+                key = f"link {link.get('name')!r} visual {k} mesh"
+                path = resolve_mesh(name, urdf_path, dirs)
+                if path is None:
+                    raise ValueError(f"mesh {name!r} not found in {', '.join(map(str, dirs))}")
+                if not trust and _outside(path, roots):
+                    _refuse(urdf_path, key, name, path, roots)
+                mesh.set("filename", str(path))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return pin.buildGeomFromUrdfString(model, ET.tostring(tree, encoding="unicode"),
+                                           pin.GeometryType.VISUAL, package_dirs=[str(d) for d in dirs])
+
+
+def mesh_geometry(go) -> mg.Geometry | None:
+    """A mesh as meshcat triangles, from the vertices and faces Pinocchio's mesh loader parsed
+    (scale applied): the file's own bytes are never passed on, so a text that is not a mesh
+    cannot reach a page.  None when the object holds no parsed mesh."""
+    import coal
+    from pinocchio.visualize.meshcat_visualizer import loadMesh
+
+    if not isinstance(go.geometry, (coal.BVHModelBase, coal.Convex)):
+        return None
+    obj = loadMesh(go.geometry)
+    return obj if isinstance(obj, mg.TriangularMeshGeometry) else None
+
+
+def urdf_primitives(model: pin.Model, urdf_path=None, roots=None, trust: bool = False,
                     visual_model: pin.GeometryModel | None = None) -> dict[int, list[Primitive]]:
     """The URDF's <visual> elements as primitives (joint id -> list); empty if it has none.
 
     ``visual_model``: an already built ``pin.GeometryModel`` (e.g. ``mech.visual_model``);
-    otherwise it is built from ``urdf_path`` with ``pin.buildGeomFromUrdf``.  Shapes and
-    meshes are converted by Pinocchio's own meshcat bridge so that every shape type it knows
-    is supported the same way as in ``pin.visualize.MeshcatVisualizer``.
+    otherwise it is built from ``urdf_path`` (:func:`confined_visual_model`).  ``roots``: the
+    folders meshes may come from unless ``trust`` (default :func:`mesh_roots` of the URDF).
+    Shapes are converted by Pinocchio's meshcat bridge; meshes are embedded as the triangles
+    Pinocchio parsed (:func:`mesh_geometry`), never as the file's text.
     """
     from pinocchio.visualize import MeshcatVisualizer
     from pinocchio.visualize.meshcat_visualizer import hasMeshFileInfo
 
+    if roots is None and urdf_path is not None:
+        roots = mesh_roots(urdf_path)
     if visual_model is None:
         if urdf_path is None:
             return {}
-        text = Path(urdf_path).read_text(encoding="utf-8")
+        text = _read_urdf(urdf_path)
         if "<visual" not in text:
             return {}
         # without any <material> every visual would be Pinocchio's default grey: body colours
         own_colors = "<material" in text
-        dirs = package_dirs if package_dirs is not None else [str(Path(urdf_path).parent)]
         try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                vmodel = pin.buildGeomFromUrdf(model, str(urdf_path), pin.GeometryType.VISUAL,
-                                               package_dirs=dirs)
+            vmodel = confined_visual_model(model, urdf_path, roots, trust)
         except (ValueError, RuntimeError) as exc:
-            # e.g. a package:// mesh outside package_dirs: draw the automatic primitives instead
-            warnings.warn(f"{urdf_path}: URDF visuals not used ({str(exc).strip()}); "
+            if isinstance(exc, ModelFileError):
+                raise
+            # e.g. a package:// mesh found nowhere, or a file that is not a mesh: draw the
+            # automatic primitives instead
+            warnings.warn(f"{urdf_path}: URDF visuals not used ({' '.join(str(exc).split())}); "
                           "showing automatic primitives", stacklevel=2)
             return {}
     else:
         vmodel = visual_model
         cols = {tuple(np.round(go.meshColor, 6)) for go in vmodel.geometryObjects}
         own_colors = len(cols) > 1
+        for go in vmodel.geometryObjects:
+            if hasMeshFileInfo(go) and not trust and roots is not None:
+                path = Path(go.meshPath).resolve()
+                if _outside(path, roots):
+                    _refuse(urdf_path or "<visual model>", f"visual {go.name!r}", go.meshPath, path, roots)
     bridge = MeshcatVisualizer(model, None, vmodel)
     out: dict[int, list[Primitive]] = {}
     for k, go in enumerate(vmodel.geometryObjects):
-        obj = None
+        scale = np.asarray(go.meshScale, float).copy()
         try:
             if hasMeshFileInfo(go):
-                obj = bridge.loadMeshFromFile(go)
+                obj = mesh_geometry(go)
+                scale = np.ones(3)            # the parsed vertices are already scaled
             else:
                 obj = bridge.loadPrimitive(go)
-        except Exception as exc:  # an unreadable mesh must not stop the viewer
+        except Exception as exc:  # an unreadable shape must not stop the viewer
             warnings.warn(f"{urdf_path}: visual '{go.name}' not shown: {exc}", stacklevel=2)
-        if obj is None:
             continue
         if not isinstance(obj, mg.Geometry):
-            # Pinocchio sends Collada meshes by file reference, which a standalone page cannot load
-            warnings.warn(f"{urdf_path}: visual '{go.name}' ({go.meshPath}) not shown: only shapes, "
-                          "STL and OBJ meshes are embedded", stacklevel=2)
+            warnings.warn(f"{urdf_path}: visual '{go.name}' ({go.meshPath}) not shown: no triangles "
+                          "parsed from it", stacklevel=2)
             continue
         rgba = np.asarray(go.meshColor, float)
         if own_colors:
@@ -336,21 +457,20 @@ def urdf_primitives(model: pin.Model, urdf_path=None, package_dirs=None,
             color = body_color(go.parentJoint - 1, model.njoints - 1) if go.parentJoint else GROUND_COLOR
             rgba[3] = 1.0
         out.setdefault(go.parentJoint, []).append(
-            Primitive(f"urdf{k}", obj, color, go.placement, "urdf", opacity=float(rgba[3]),
-                      scale=np.asarray(go.meshScale, float).copy()))
+            Primitive(f"urdf{k}", obj, color, go.placement, "urdf", opacity=float(rgba[3]), scale=scale))
     return out
 
 
 def mechanism_primitives(model: pin.Model, q: np.ndarray, urdf_path=None, size=None,
                          extra_points=None, use_urdf_visuals=True, ground_plate=True,
-                         visual_model=None) -> dict[int, list[Primitive]]:
+                         visual_model=None, roots=None, trust: bool = False) -> dict[int, list[Primitive]]:
     """URDF visuals for the bodies that have them (plus the joint markers), automatic
     primitives for the others."""
     auto = automatic_primitives(model, q, size=size, extra_points=extra_points,
                                 ground_plate=ground_plate)
     if not use_urdf_visuals or (urdf_path is None and visual_model is None):
         return auto
-    urdf = urdf_primitives(model, urdf_path, visual_model=visual_model)
+    urdf = urdf_primitives(model, urdf_path, roots=roots, trust=trust, visual_model=visual_model)
     out = {}
     for j, prims in auto.items():
         if urdf.get(j):

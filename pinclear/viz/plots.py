@@ -25,6 +25,11 @@ import numpy as np
 import pinocchio as pin
 from matplotlib.figure import Figure
 
+from pinclear.kinematics import frame_motion
+
+from .elements import active_clearances, recorded_clearances, run_clearances
+from .elements import clearance_size as element_clearance
+
 AXES = "xyz"
 
 
@@ -33,18 +38,10 @@ def _subplots(nrows=1, ncols=1, figsize=(8, 4), **kw):
     return fig, fig.subplots(nrows, ncols, **kw)
 
 
-def platform_kinematics(model: pin.Model, fid: int, q, v, a):
-    """World position, linear velocity and classical linear acceleration of frame ``fid``
-    (origin), per sample: three (N, 3) arrays."""
-    data = model.createData()
-    n = len(q)
-    P, V, A = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
-    for k in range(n):
-        pin.forwardKinematics(model, data, q[k], v[k], a[k])
-        P[k] = pin.updateFramePlacement(model, data, fid).translation
-        V[k] = pin.getFrameVelocity(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
-        A[k] = pin.getFrameClassicalAcceleration(model, data, fid, pin.LOCAL_WORLD_ALIGNED).linear
-    return P, V, A
+def _frame_pva(model: pin.Model, fid: int, traj):
+    """World position, velocity and classical acceleration of frame ``fid`` along a run."""
+    fm = frame_motion(model, [fid], traj.q, traj.v, traj.a)
+    return fm.p[:, 0], fm.v[:, 0], fm.a[:, 0]
 
 
 def _moving(X: np.ndarray, rel: float = 1e-3) -> list[int]:
@@ -55,45 +52,28 @@ def _moving(X: np.ndarray, rel: float = 1e-3) -> list[int]:
 
 
 def clearance_names(traj) -> list[str]:
-    """Clearance joints recorded in a run: elements with an eccentricity or normal force."""
-    names = []
-    for key in getattr(traj, "outputs", {}) or {}:
-        name, _, what = key.rpartition(".")
-        if what in ("eccentricity", "normal_force", "fn") and name not in names:
-            names.append(name)
-    return names
+    """Clearance joints of a run (its mechanism's, or those recorded in its metadata)."""
+    return list(run_clearances(traj))
 
 
 def clearance_type(traj, name: str) -> str | None:
     """Kind of clearance joint ``name`` (spherical, revolute, planar_revolute, prismatic)."""
-    for el in getattr(getattr(traj, "mech", None), "forces", []) or []:
-        if getattr(el, "name", None) == name and getattr(el, "kind", None):
-            return el.kind
-    for f in (getattr(traj, "meta", {}) or {}).get("mechanism", {}).get("forces", []):
-        if f.get("name") == name:
-            return f.get("type")
-    return None
+    return run_clearances(traj).get(name)
 
 
 def clearance_size(traj, name: str):
     """Clearance of joint ``name``: radial c (float) of a ball or journal, or the gaps
-    (c1, c2) across a slider's guide; from the element's description in the run's metadata,
-    else from the outputs (|e| - penetration = c wherever both are recorded)."""
-    def conv(v):
-        if isinstance(v, (list, tuple, np.ndarray)):
-            return tuple(float(x) for x in v) if len(v) > 1 else float(v[0])
-        return float(v)
-
-    for el in getattr(getattr(traj, "mech", None), "forces", []) or []:
-        if getattr(el, "name", None) == name:
-            if hasattr(el, "c"):
-                return float(el.c)
-            if hasattr(el, "c1") and hasattr(el, "c2"):
-                return (float(el.c1), float(el.c2))
-    meta = getattr(traj, "meta", {}) or {}
-    for f in meta.get("mechanism", {}).get("forces", []):
-        if f.get("name") == name and "clearance" in f:
-            return conv(f["clearance"])
+    (c1, c2) across a slider's guide; from the element (or its description in the run's
+    metadata), else from the outputs (|e| - penetration = c wherever both are recorded)."""
+    mech = getattr(traj, "mech", None)
+    if mech is not None:
+        for el in active_clearances(mech):
+            if el.name == name:
+                return element_clearance(el)
+    rec = recorded_clearances(traj.meta).get(name, {})
+    if "clearance" in rec:
+        c = np.ravel(np.asarray(rec["clearance"], float))
+        return tuple(map(float, c)) if c.size > 1 else float(c[0])
     e = traj.outputs.get(f"{name}.eccentricity")
     d = traj.outputs.get(f"{name}.penetration")
     if e is not None and d is not None and np.ndim(e) == 2 and clearance_type(traj, name) != "prismatic":
@@ -104,13 +84,13 @@ def clearance_size(traj, name: str):
 # ------------------------------------------------------------------------------ figures
 def fig_platform(traj, model: pin.Model, fid: int, ref=None, label=None,
                  ref_label="ideal joints"):
-    P, V, A = platform_kinematics(model, fid, traj.q, traj.v, traj.a)
+    P, V, A = _frame_pva(model, fid, traj)
     comps = _moving(P)
     if label is None:
         label = "with clearance" if clearance_names(traj) else "run"
     fig, axs = _subplots(3, 1, sharex=True, figsize=(8, 8))
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
-    R = platform_kinematics(model, fid, ref.q, ref.v, ref.a) if ref is not None else None
+    R = _frame_pva(model, fid, ref) if ref is not None else None
     for ax, X, k, unit, title in zip(axs, (P, V, A), range(3), ("m", "m/s", "m/s²"),
                                      ("position", "velocity", "acceleration")):
         for c in comps:

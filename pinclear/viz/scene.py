@@ -29,6 +29,7 @@ the HTML legend and printed by the CLI.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import meshcat
 import meshcat.geometry as mg
@@ -37,8 +38,9 @@ import pinocchio as pin
 import umsgpack
 from meshcat.commands import SetAnimation, SetObject, SetProperty, SetTransform, Delete
 
-from .geometry import (body_names, mechanism_extent, mechanism_primitives,
-                       rotation_y_to)
+from .elements import active_clearances, clearance_size
+from .geometry import (body_names, mechanism_extent, mechanism_primitives, mesh_roots,
+                       rotation_y_to, viewer_trust)
 
 ROOT = "pinclear"
 ECC_COLOR = 0xE0218A     # magenta: eccentricity
@@ -113,27 +115,9 @@ def recording_visualizer() -> tuple[meshcat.Visualizer, SceneRecorder]:
 
 
 # --------------------------------------------------------------------------- helpers
-def _is_clearance(el) -> bool:
-    try:
-        from pinclear.contact.base import ClearanceJoint
-        if isinstance(el, ClearanceJoint):
-            return True
-    except ImportError:      # contact package absent: fall back to the documented shape
-        pass
-    cl = getattr(el, "closure", None)
-    return cl is not None and hasattr(cl, "f1") and hasattr(cl, "f2")
-
-
 def clearance_frames(el) -> tuple[int, int]:
     """(socket/bearing/guide frame, ball/journal/slider frame) of a clearance element."""
-    if hasattr(el, "f1") and hasattr(el, "f2"):
-        return int(el.f1), int(el.f2)
-    return int(el.closure.f1), int(el.closure.f2)
-
-
-def active_clearances(mech) -> list:
-    """Force elements of ``mech`` that are clearance joints (docs/design.md 'Clearances')."""
-    return [el for el in (getattr(mech, "forces", []) or []) if _is_clearance(el)]
+    return int(el.f1), int(el.f2)
 
 
 def round_125(x: float) -> float:
@@ -197,11 +181,17 @@ class MechanismScene:
         factor that draws the largest clearance at most 8 % of the mechanism's size
     force_scale : metres of arrow per newton; None = chosen from the run (longest arrow =
         a quarter of the mechanism's size) and stated
+    trust : read URDF meshes from anywhere (None: as the mechanism was loaded, else the
+        PINCLEAR_TRUST environment variable); untrusted meshes must lie in the sidecar's or
+        URDF's folder, pinclear's models or example-robot-data's (:func:`geometry.mesh_roots`)
     """
 
     def __init__(self, mech, q=None, *, ecc_scale: float | None = None, force_scale: float | None = None,
-                 show_closure_frames: bool = True, use_urdf_visuals: bool = True):
+                 show_closure_frames: bool = True, use_urdf_visuals: bool = True, trust: bool | None = None):
         self.mech = mech
+        self.trust = viewer_trust(mech, trust)
+        self.live = None           # meshcat.Visualizer of a running viewer (see pinclear.viz.show)
+        self.server = None         # its LocalServer, when the viewer started one
         self.model: pin.Model = mech.model
         self.data = self.model.createData()
         self.q = np.array(mech.q0 if q is None else q, dtype=float)
@@ -215,8 +205,7 @@ class MechanismScene:
         self.body_paths = [f"bodies/{n}" for n in self.names]
         self.clearances = active_clearances(mech)
         if ecc_scale is None:
-            cs = [float(getattr(el, "c", 0.0) or max(getattr(el, "c1", 0.0), getattr(el, "c2", 0.0)))
-                  for el in self.clearances]
+            cs = [float(np.max(clearance_size(el))) for el in self.clearances]
             ecc_scale = round_125(0.08 * self.size / max(cs)) if cs and max(cs) > 0 else 100.0
         self.info = {"name": getattr(mech, "name", "mechanism"), "ecc_scale": float(ecc_scale),
                      "force_scale": force_scale, "size": self.size}
@@ -230,11 +219,14 @@ class MechanismScene:
 
     # ---------------- construction
     def _build_bodies(self, use_urdf_visuals):
-        urdf = _urdf_path(self.mech)
+        urdf = urdf_path(self.mech)
+        side = getattr(self.mech, "path", None)
+        roots = mesh_roots(urdf, side) if urdf is not None else None
         # a base plate behind a planar mechanism would hide it
         prims = mechanism_primitives(self.model, self.q, urdf_path=urdf, size=self.size,
                                      use_urdf_visuals=use_urdf_visuals, ground_plate=not self.planar,
-                                     visual_model=getattr(self.mech, "visual_model", None))
+                                     visual_model=getattr(self.mech, "visual_model", None),
+                                     roots=roots, trust=self.trust)
         for j, path in enumerate(self.body_paths):
             node = self.root[path]
             for p in prims.get(j, []):
@@ -321,7 +313,7 @@ class MechanismScene:
             f1, f2 = clearance_frames(el)
             p1 = self.data.oMf[f1].translation.copy()
             e = self.data.oMf[f2].translation - p1
-            if getattr(el, "kind", None) == "prismatic":
+            if el.kind == "prismatic":
                 # a slider's travel along the guide (z of the guide frame) is motion, not play
                 z1 = self.data.oMf[f1].rotation[:, 2]
                 e = e - (e @ z1) * z1
@@ -369,6 +361,11 @@ class MechanismScene:
         for cmd in self.recorder.commands():
             vis.window.send(cmd)
 
+    def close(self):
+        """Stop the meshcat server this scene's viewer started (if any)."""
+        if self.server is not None:
+            self.server.close()
+
 
 def _unique_names(names):
     seen: dict[str, int] = {}
@@ -384,23 +381,15 @@ def _unique_names(names):
     return out
 
 
-def _urdf_path(mech):
-    """URDF file of a mechanism (attribute if the Mechanism has it, else from its sidecar)."""
-    for attr in ("urdf_path", "urdf"):
-        p = getattr(mech, attr, None)
-        if isinstance(p, (str, bytes)) or hasattr(p, "__fspath__"):
-            return str(p)
-    side = getattr(mech, "path", None)
-    if side:
-        import pathlib
-
-        import yaml
-        try:
-            spec = yaml.safe_load(pathlib.Path(side).read_text(encoding="utf-8"))
-            if isinstance(spec, dict) and spec.get("urdf"):
-                return str(pathlib.Path(side).parent / spec["urdf"])
-        except OSError:
-            return None
+def urdf_path(mech):
+    """URDF file of a mechanism: its ``urdf_path`` attribute if it has one, else the sidecar's
+    ``urdf:`` beside the sidecar (``mech.path``; a mechanism loaded from a .urdf names itself)."""
+    p = getattr(mech, "urdf_path", None)
+    if isinstance(p, str) or hasattr(p, "__fspath__"):
+        return str(p)
+    side, sc = getattr(mech, "path", None), getattr(mech, "sidecar", None)
+    if side and isinstance(sc, dict) and isinstance(sc.get("urdf"), str):
+        return str(Path(side).parent / sc["urdf"])
     return None
 
 
