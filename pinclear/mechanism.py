@@ -116,6 +116,7 @@ class Mechanism:
     def describe(self) -> dict:
         return {
             "name": self.name, "path": str(self.path) if self.path else None, "nq": self.nq, "nv": self.nv,
+            "joints": list(self.model.names)[1:],
             "closures": [{"name": c.name, "type": c.type, "frame1": c.frame1, "frame2": c.frame2,
                           "rows": c.nrows} for c in self.closures],
             "drives": [{"name": d.name, "joint": d.joint, "law": d.law.describe()} for d in self.drives],

@@ -317,8 +317,14 @@ class Trajectory:
 
         rec = self.meta.get("mechanism") or {}
         have = mech.describe()
-        for key in ("nq", "nv", "closures", "drives"):
-            if key in rec and _jsonable(rec[key]) != _jsonable(have[key]):
+        def kinds(forces):           # force elements and active clearances by name and type
+            return sorted((str(f.get("name")), str(f.get("type"))) for f in forces or [])
+        for key in ("name", "nq", "nv", "joints", "closures", "drives", "forces"):
+            if key not in rec:
+                continue
+            a, b = (kinds(rec[key]), kinds(have[key])) if key == "forces" else (_jsonable(rec[key]),
+                                                                                  _jsonable(have[key]))
+            if a != b:
                 raise InputError(f"{path}: the run was made with mechanism {rec.get('name')!r} "
                                  f"({rec.get('path')}); {mech.path or mech.name} differs in {key!r}")
         if self.q.ndim == 2 and self.q.shape[1] != mech.nq:

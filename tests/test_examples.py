@@ -53,3 +53,9 @@ def test_four_ups_upr_inverse_dynamics(tmp_path):
         assert re.search(rf"\({lay}\) rank 5 ", text), text
     assert number(text, r"\(f\) rank 6 cond") < 1e3
     assert (tmp_path / "four_ups_upr_inverse_dynamics.png").stat().st_size > 10_000
+
+
+def test_view_mechanism(tmp_path):
+    """The standalone page embeds meshcat's viewer (three.js included) and the scene."""
+    run_example("view_mechanism.py", tmp_path, "nine_bar")
+    assert (tmp_path / "nine_bar.html").stat().st_size > 100_000

@@ -7,7 +7,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from .elements import active_clearances, recorded_clearances
+from .elements import recorded_clearances
 
 
 def _trust(flag: bool):
@@ -28,24 +28,10 @@ def _recorded_load_args(traj) -> dict:
 
 
 def check_run_mechanism(traj, mech, file):
-    """Refuse to show or plot a run with a mechanism other than the one it was made with:
-    the description recorded in the run (name, sizes, closures, drives, joint names when
-    recorded, active clearances) must match; equal sizes are not enough."""
-    from pinclear.errors import ModelFileError
-
+    """Refuse to show or plot a run with a mechanism other than the one it was made with: the
+    description recorded in the run (name, sizes, joints, closures, drives, force elements and
+    active clearances) must match; equal sizes are not enough."""
     traj.check_mechanism(mech, str(file))
-    rec = traj.meta.get("mechanism") or {}
-    was = f"the run was made with mechanism {rec.get('name')!r} ({rec.get('path')})"
-    if "name" in rec and rec["name"] != mech.name:
-        raise ModelFileError(str(file), "mechanism", f"{was}, not {mech.name!r} ({mech.path}); pass --mech "
-                             "with the run's own mechanism file")
-    if "joints" in rec and list(rec["joints"]) != list(mech.model.names)[1:]:
-        raise ModelFileError(str(file), "mechanism", f"{was}; {mech.path} has other joints")
-    have = {el.name: el.kind for el in active_clearances(mech)}
-    recorded = {n: f["type"] for n, f in recorded_clearances(traj.meta).items()}
-    if have != recorded:
-        raise ModelFileError(str(file), "mechanism", f"{was} with clearance joints {recorded or 'none'}; "
-                             f"{mech.path} has {have or 'none'}")
 
 
 def load_run(npz, mech_path=None, trust=None):
