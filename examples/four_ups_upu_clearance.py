@@ -1,7 +1,7 @@
 """Paper 000 4UPS-UPU with the spherical clearance at S2 (c = 0.5 mm, mu = 0.1) against the ideal run.
 
     python examples/four_ups_upu_clearance.py [--out DIR] [--t-end 4] [--rtol 1e-6] [--integrator RK45]
-                                              [--set S2.mu=0.05 ...]
+                                              [--quick] [--set S2.mu=0.05 ...]
 
 Writes DIR/four_ups_upu_clearance.png: platform displacement, velocity and acceleration with and
 without clearance, the S2 contact and friction forces and the ball-centre position in the socket frame; prints impacts, peak force and CPU per simulated second.
@@ -17,7 +17,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from pinclear.contact import scenes  # noqa: E402
+from pinclear.kinematics import frame_motion  # noqa: E402
+from pinclear.mechanisms import clearance_scenes as scenes  # noqa: E402
+from pinclear.sidecar import parse_assignments  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -27,16 +29,18 @@ def main(argv=None) -> int:
     ap.add_argument("--rtol", type=float, default=1e-6)
     ap.add_argument("--integrator", default="RK45")
     ap.add_argument("--max-cpu", type=float, default=None, help="stop the clearance run after this many CPU s")
+    ap.add_argument("--quick", action="store_true", help="smoke run: 0.05 s simulated")
     ap.add_argument("--set", action="append", default=[], metavar="S2.KEY=VALUE", help="override a clearance key")
     a = ap.parse_args(argv)
     Path(a.out).mkdir(parents=True, exist_ok=True)
-    overrides = dict(s.split("=", 1) for s in a.set)
-    res = scenes.run("four_ups_upu_S2", t_end=a.t_end, rtol=a.rtol, integrator=a.integrator, overrides=overrides,
+    overrides = parse_assignments(a.set, "--set")
+    t_end = a.t_end or (0.05 if a.quick else None)          # None: the scene's own duration
+    res = scenes.run("four_ups_upu_S2", t_end=t_end, rtol=a.rtol, integrator=a.integrator, overrides=overrides,
                      max_cpu=a.max_cpu)
     print(scenes.summary(res))
     tr, tri, mech = res["clearance"], res["ideal"], res["mech"]
-    p = scenes.frame_positions(mech, tr.q, mech.platform_frame)
-    pi = scenes.frame_positions(res["mech_ideal"], tri.q, res["mech_ideal"].platform_frame)
+    p = frame_motion(mech.model, [mech.platform_frame], tr.q).p[:, 0]
+    pi = frame_motion(res["mech_ideal"].model, [res["mech_ideal"].platform_frame], tri.q).p[:, 0]
     fig, ax = plt.subplots(3, 2, figsize=(11, 9))
     for k, lab in enumerate("XYZ"):
         ax[0, 0].plot(tri.t, pi[:, k] * 1e3, "k--", lw=0.8)

@@ -1,7 +1,7 @@
 """Paper 002 nine-bar with revolute clearances at A, B or both (0.5 mm) against the ideal run.
 
     python examples/nine_bar_clearance.py [--joints A|B|AB] [--out DIR] [--t-end 1] [--rtol 1e-6]
-                                          [--integrator RK45] [--set A.mu=0.3 ...]
+                                          [--integrator RK45] [--quick] [--set A.mu=0.3 ...]
 
 Writes DIR/nine_bar_clearance_<joints>.png: slider 9 displacement, velocity and acceleration with
 and without clearance (paper 002 Figs. 5-7), the impact force (Fig. 8) and the journal-centre
@@ -18,7 +18,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from pinclear.contact import scenes  # noqa: E402
+from pinclear.mechanisms import clearance_scenes as scenes  # noqa: E402
+from pinclear.sidecar import parse_assignments  # noqa: E402
 
 SLIDER_JOINT = "guide"          # slider 9 in its fixed guide (urdf/nine_bar.urdf)
 
@@ -31,11 +32,13 @@ def main(argv=None) -> int:
     ap.add_argument("--rtol", type=float, default=1e-6)
     ap.add_argument("--integrator", default="RK45")
     ap.add_argument("--max-cpu", type=float, default=None, help="stop the clearance run after this many CPU s")
+    ap.add_argument("--quick", action="store_true", help="smoke run: 0.05 s simulated")
     ap.add_argument("--set", action="append", default=[], metavar="A.KEY=VALUE")
     a = ap.parse_args(argv)
     Path(a.out).mkdir(parents=True, exist_ok=True)
-    overrides = dict(s.split("=", 1) for s in a.set)
-    res = scenes.run(f"nine_bar_{a.joints}", t_end=a.t_end, rtol=a.rtol, integrator=a.integrator, overrides=overrides,
+    overrides = parse_assignments(a.set, "--set")
+    t_end = a.t_end or (0.05 if a.quick else None)          # None: the scene's own duration
+    res = scenes.run(f"nine_bar_{a.joints}", t_end=t_end, rtol=a.rtol, integrator=a.integrator, overrides=overrides,
                      max_cpu=a.max_cpu)
     print(scenes.summary(res))
     tr, tri, mech = res["clearance"], res["ideal"], res["mech"]

@@ -2,7 +2,7 @@
 against the ideal run.
 
     python examples/three_upru_up_clearance.py [--out DIR] [--t-end 0.3] [--rtol 1e-6]
-                                               [--integrator RK45] [--set P_UP.clearance=2e-4 ...]
+                                               [--integrator RK45] [--quick] [--set P_UP.clearance=2e-4 ...]
 
 Writes DIR/three_upru_up_clearance.png: platform position deviation from the ideal run
 (paper 003 Figs. 9-10), contact and friction forces (Fig. 11), and the contact mode of Table 1
@@ -20,7 +20,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from pinclear.contact import scenes  # noqa: E402
+from pinclear.kinematics import frame_motion  # noqa: E402
+from pinclear.mechanisms import clearance_scenes as scenes  # noqa: E402
+from pinclear.sidecar import parse_assignments  # noqa: E402
 from pinclear.contact.prismatic import MODE_NAMES  # noqa: E402
 
 
@@ -31,16 +33,18 @@ def main(argv=None) -> int:
     ap.add_argument("--rtol", type=float, default=1e-6)
     ap.add_argument("--integrator", default="RK45")
     ap.add_argument("--max-cpu", type=float, default=None, help="stop the clearance run after this many CPU s")
+    ap.add_argument("--quick", action="store_true", help="smoke run: 0.005 s simulated")
     ap.add_argument("--set", action="append", default=[], metavar="P_UP.KEY=VALUE")
     a = ap.parse_args(argv)
     Path(a.out).mkdir(parents=True, exist_ok=True)
-    overrides = dict(s.split("=", 1) for s in a.set)
-    res = scenes.run("three_upru_up_P", t_end=a.t_end, rtol=a.rtol, integrator=a.integrator, overrides=overrides,
+    overrides = parse_assignments(a.set, "--set")
+    t_end = a.t_end or (0.005 if a.quick else None)          # None: the scene's own duration
+    res = scenes.run("three_upru_up_P", t_end=t_end, rtol=a.rtol, integrator=a.integrator, overrides=overrides,
                      max_cpu=a.max_cpu)
     print(scenes.summary(res))
     tr, tri, mech = res["clearance"], res["ideal"], res["mech"]
-    p = scenes.frame_positions(mech, tr.q, mech.platform_frame)
-    pi = scenes.frame_positions(res["mech_ideal"], tri.q[: len(tr.t)], res["mech_ideal"].platform_frame)
+    p = frame_motion(mech.model, [mech.platform_frame], tr.q).p[:, 0]
+    pi = frame_motion(res["mech_ideal"].model, [res["mech_ideal"].platform_frame], tri.q[: len(tr.t)]).p[:, 0]
     modes = tr.outputs["P_UP.mode"].astype(int)
     used = sorted(set(modes))
     print("contact modes seen (paper 003 Table 1):", ", ".join(f"{m} {MODE_NAMES[m]}" for m in used))

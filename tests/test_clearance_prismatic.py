@@ -1,7 +1,5 @@
 """Prismatic clearance joint (paper 003): the 15 contact modes of its Table 1, each produced by a
 slider pose built for it, the force law of each contact kind, and the static plane contact."""
-from pathlib import Path
-
 import numpy as np
 import pytest
 from scipy.optimize import linprog
@@ -9,8 +7,9 @@ from scipy.optimize import linprog
 import pinclear
 from pinclear import kinematics
 from pinclear.contact.prismatic import MODE_NAMES, classify
+from pinclear.models import model_path
 
-SLIDER = Path(__file__).resolve().parents[1] / "urdf" / "clr_slider.yaml"
+SLIDER = model_path("clr_slider")
 A_, B_, L_, C_ = 0.05, 0.05, 0.1, 1e-4          # section, length and clearance of clr_slider.yaml
 
 
@@ -82,49 +81,56 @@ def build_pose(touch, depth=2e-5):
 @pytest.fixture(scope="module")
 def slider():
     mech = pinclear.load(SLIDER, clearances=["P"])
-    return mech, mech.forces[-1], mech.workspace()
+    ws = mech.workspace()
+    return mech, mech.forces[-1], ws, ws.force_data[-1]
+
+
+def penetrations(mech, el, ws, d, q):
+    """Per-channel penetration at pose q (the event values are the channels' penetrations)."""
+    kinematics.update(mech, ws, q, np.zeros(6))
+    return el.event_values(mech, ws, d, 0.0, q, np.zeros(6), np.zeros(el.nz))
 
 
 @pytest.mark.parametrize("mode", sorted(MODES))
 def test_each_contact_mode_is_produced_and_classified(slider, mode):
-    mech, el, ws = slider
+    mech, el, ws, d = slider
     touch = [channel(*c) for c in MODES[mode]]
     q = build_pose(touch)
-    kinematics.update(mech, ws, q, np.zeros(6))
-    out = el.outputs(mech, ws, 0.0, q, np.zeros(6), np.zeros(el.nz))
-    touched = set(np.flatnonzero(el.delta > 0).tolist())
+    delta = penetrations(mech, el, ws, d, q)
+    out = el.outputs(mech, ws, d, 0.0, q, np.zeros(6), np.zeros(el.nz))
+    touched = set(np.flatnonzero(delta > 0).tolist())
     assert touched == set(touch)
     assert int(out["mode"]) == mode, MODE_NAMES[mode]
-    assert classify(el.delta > 0)[0] == mode
+    assert classify(delta > 0)[0] == mode
+    # the mode is part of the workspace's data, not of the (shared, immutable) element
+    assert d.mode == mode and not hasattr(el, "mode")
 
 
 def test_free_slider_is_mode_zero(slider):
-    mech, el, ws = slider
+    mech, el, ws, d = slider
     q = np.array([3e-5, -2e-5, 0.01, 1e-4, -1e-4, 2e-4])
-    kinematics.update(mech, ws, q, np.zeros(6))
-    el._geometry(ws.data)
-    assert classify(el.delta > 0)[0] == 0
-    assert el.delta.max() < 0
+    delta = penetrations(mech, el, ws, d, q)
+    assert classify(delta > 0)[0] == 0
+    assert delta.max() < 0
+    assert int(el.outputs(mech, ws, d, 0.0, q, np.zeros(6), np.zeros(el.nz))["mode"]) == 0
 
 
 def test_force_laws_per_contact_kind(slider):
-    mech, el, ws = slider
+    mech, el, ws, dat = slider
     v = np.zeros(6)
     z = np.zeros(el.nz)
     d = 3e-6
     # plane: the slider pressed flat onto the bottom face: F = E A d / l, paper 003 eq. 4
     q = np.array([-(C_ + d), 0, 0, 0, 0, 0])
     kinematics.update(mech, ws, q, v)
-    out = el.outputs(mech, ws, 0.0, q, v, z)
+    out = el.outputs(mech, ws, dat, 0.0, q, v, z)
     assert out["normal_force"] == pytest.approx([200e9 * (L_ * B_) * d / A_, 0, 0], rel=1e-9)
     assert int(out["mode"]) == 14
     # single point: corner of radius r on a flat, Lankarani-Nikravesh with Hertz K = 4/3 E* sqrt(r)
     q = build_pose([channel(M, M, M, "x")], depth=d)
-    kinematics.update(mech, ws, q, v)
-    el._geometry(ws.data)
-    dk = el.delta[channel(M, M, M, "x")]
+    dk = penetrations(mech, el, ws, dat, q)[channel(M, M, M, "x")]
     Es = 1.0 / (2 * (1 - 0.3 ** 2) / 200e9)
-    out = el.outputs(mech, ws, 0.0, q, v, z)
+    out = el.outputs(mech, ws, dat, 0.0, q, v, z)
     assert out["fn"] == pytest.approx(4 / 3 * Es * np.sqrt(1e-3) * dk ** 1.5, rel=1e-9)
 
 

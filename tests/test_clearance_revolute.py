@@ -1,7 +1,5 @@
 """Revolute clearance joints: planar journal in bearing (paper 002) and the spatial radial
 clearance, against Hertz statics, the 1-DOF impact, energy balance and the ideal hinge."""
-from pathlib import Path
-
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -9,9 +7,9 @@ import pytest
 import pinclear
 from pinclear.contact import restitution_1dof
 from pinclear.errors import ContactSetupError
+from pinclear.models import model_path
 
-URDF = Path(__file__).resolve().parents[1] / "urdf"
-PLANAR, HINGE = URDF / "clr_planar_pendulum.yaml", URDF / "clr_hinge.yaml"
+PLANAR, HINGE = model_path("clr_planar_pendulum"), model_path("clr_hinge")
 
 
 def test_journal_settles_at_hertz_deflection():
@@ -103,9 +101,9 @@ def test_bad_revolute_input():
 
 
 def test_nine_bar_scene_journal_stays_in_its_bearing():
-    from pinclear.contact import scenes
+    from pinclear.mechanisms import clearance_scenes
 
-    res = scenes.run("nine_bar_AB", t_end=0.05, ideal=False)
+    res = clearance_scenes.run("nine_bar_AB", t_end=0.05, ideal=False)
     tr = res["clearance"]
     assert tr.status == "success"
     for name in ("A", "B"):

@@ -157,3 +157,139 @@ def test_bad_law_parameters_name_key_and_choices():
         make_friction_law({"type": "viscous"})
     with pytest.raises(ContactSetupError, match=r"normal_law.Kx: unknown key"):
         make_normal_law({"type": "hertz", "Kx": 1e9})
+
+
+# ---------------------------------------------------------------- each law written once, checked
+# against the formulas written out here (random penetrations, rates, onset speeds, slip velocities)
+CHI = {"hertz": lambda ce: 0.0, "lankarani_nikravesh": lambda ce: 0.75 * (1 - ce ** 2),
+       "flores": lambda ce: 1.6 * (1 - ce) / ce, "hunt_crossley": lambda ce: 1.5 * (1 - ce),
+       "gonthier": lambda ce: (1 - ce ** 2) / ce}
+
+
+def random_contacts(rng, k=2000):
+    """Penetrations across the whole range (separated, grazing, deep, beyond the 0.1 m cap),
+    approach and separation rates, onset speeds from the floor up."""
+    d = np.concatenate([-rng.uniform(0, 1e-3, k // 4), 10 ** rng.uniform(-12, -3, k // 2),
+                        rng.uniform(0.05, 0.3, k - k // 4 - k // 2)])
+    dd = rng.uniform(-3, 3, k) * 10 ** rng.uniform(-4, 0, k)
+    dd0 = 10 ** rng.uniform(-4, 0.5, k)
+    return d, dd, dd0
+
+
+def random_slips(rng, k=2000):
+    vt = rng.normal(size=(k, 3)) * 10 ** rng.uniform(-7, 0.5, (k, 1))
+    vt[: k // 20] = 0.0                                  # sticking contacts
+    return vt
+
+
+def damped_reference(fe, dd, dd0, chi):
+    return np.maximum(fe * (1 + chi * np.clip(dd / dd0, -1e6, 1e6)), 0.0)
+
+
+@pytest.mark.parametrize("name", ["hertz", "lankarani_nikravesh", "flores", "hunt_crossley", "gonthier", "plane"])
+def test_power_laws_equal_their_formula_on_random_inputs(name):
+    rng = np.random.default_rng(7)
+    d, dd, dd0 = random_contacts(rng)
+    for ce, K, n in ((0.35, 3.2e9, 1.5), (0.8, 7.0e10, 1.23), (0.97, 1.0e6, 1.0)):
+        if name == "plane":
+            E, A, thick = 2.0e11, 5e-3, 0.05
+            law = make_normal_law({"type": "plane", "ce": ce}, plane=(E, A, thick))
+            K, n, chi = E * A / thick, 1.0, CHI["lankarani_nikravesh"](ce)
+        else:
+            law = make_normal_law({"type": name, "ce": ce, "K": K, "n": n})
+            chi = CHI[name](ce)
+        assert law.chi == pytest.approx(chi, rel=1e-15, abs=0)
+        fe = np.where(d > 0, K * np.minimum(np.maximum(d, 0), 0.1) ** n, 0.0)
+        F, Fel = law.force_and_elastic(d, dd, dd0)
+        np.testing.assert_allclose(Fel, fe, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(law.elastic(d), fe, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(F, damped_reference(fe, dd, dd0, chi), rtol=1e-12, atol=0)
+        np.testing.assert_allclose(law.force(d, dd, dd0), F, rtol=1e-12, atol=0)
+        assert np.all(F[d <= 0] == 0.0) and np.all(F >= 0.0)
+        np.testing.assert_allclose(law.energy(d), K * np.maximum(d, 0) ** (n + 1) / (n + 1), rtol=1e-12, atol=0)
+        # the compiled channel loop of the joints takes exactly these parameters
+        assert law.kernel_params() == (K, n, pytest.approx(chi, rel=1e-15))
+
+
+def test_line_law_equals_eq6_root_and_hysteresis_on_random_inputs():
+    from scipy.optimize import brentq
+
+    Es, l, R = laws.effective_modulus(200e9, 0.3, 200e9, 0.3), 0.04, 3e-3
+    rng = np.random.default_rng(11)
+    d, dd, dd0 = random_contacts(rng, 300)
+    d = np.where(d > 1e-4, d * 1e-3, d)                  # eq. 6 holds below pi E* l^3 / R
+    for ce in (0.4, 0.9):
+        law = make_normal_law({"type": "line", "ce": ce}, line=(Es, l, R))
+        c, a = 1 / (np.pi * Es * l), R / (np.pi * Es * l ** 3)
+        P = np.array([brentq(lambda x: c * np.exp(x) * (1 - np.log(a * np.exp(x))) - di, -60.0, np.log(1 / a) - 1e-9,
+                             xtol=1e-15, rtol=1e-15) if di > 0 else -np.inf for di in d])
+        P = np.where(d > 0, np.exp(P), 0.0)
+        F, Fel = law.force_and_elastic(d, dd, dd0)
+        np.testing.assert_allclose(Fel, P, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(F, damped_reference(P, dd, dd0, CHI["lankarani_nikravesh"](ce)), rtol=1e-12, atol=0)
+        assert law.kernel_params() is None               # no compiled form: the joint calls force()
+
+
+def friction_reference(spec, s):
+    t = spec["type"]
+    if t == "none":
+        return np.zeros_like(s)
+    if t == "coulomb":
+        return spec["mu"] * s / np.sqrt(s ** 2 + spec["v_eps"] ** 2)
+    if t == "modified_coulomb":
+        return spec["mu"] * np.clip((s - spec["v0"]) / (spec["v1"] - spec["v0"]), 0, 1)
+    mu_s, mu_d, Vs, Vd = spec["mu_s"], spec["mu_d"], spec["Vs"], spec["Vd"]
+    mid = (mu_s + mu_d) / 2 + (mu_s - mu_d) / 2 * np.cos(np.pi * (s - Vs) / (Vd - Vs))
+    return np.where(s < Vs, mu_s * np.sin(np.pi * s / (2 * Vs)), np.where(s > Vd, mu_d, mid))
+
+
+@pytest.mark.parametrize("spec", [
+    {"type": "none"},
+    {"type": "coulomb", "mu": 0.3, "v_eps": 2e-4},
+    {"type": "modified_coulomb", "mu": 0.15, "v0": 1e-4, "v1": 5e-3},
+    {"type": "stick_slip", "mu_s": 0.8, "mu_d": 0.16, "Vs": 1e-3, "Vd": 5e-3},
+])
+def test_memoryless_friction_equals_its_formula_on_random_inputs(spec):
+    rng = np.random.default_rng(3)
+    vt = random_slips(rng)
+    Fn = rng.uniform(0, 5e3, len(vt))
+    law = make_friction_law(spec)
+    s = np.sqrt((vt ** 2).sum(axis=1))
+    mu = friction_reference(spec, s)
+    np.testing.assert_allclose(law.coefficient(s), mu, rtol=1e-12, atol=0)
+    ref = np.zeros_like(vt)
+    m = s > 0
+    ref[m] = -(mu[m] * Fn[m] / s[m])[:, None] * vt[m]
+    np.testing.assert_allclose(law.force(Fn, vt), ref, rtol=1e-12, atol=0)
+    assert law.nstate == 0 and law.kernel_params() is not None
+
+
+def test_lugre_equals_its_formula_on_random_inputs():
+    spec = {"type": "lugre", "mu_s": 0.5, "mu_c": 0.3, "vs": 2e-3, "s0": 1e5, "s1": 300.0, "s2": 0.02}
+    law = make_friction_law(spec)
+    rng = np.random.default_rng(5)
+    vt = random_slips(rng, 500)
+    Fn = rng.uniform(0, 5e3, len(vt))
+    z = rng.normal(size=vt.shape) * 1e-6
+    dz = np.empty_like(z)
+    Ft = law.force(Fn, vt, z, dz)
+    s = np.sqrt((vt ** 2).sum(axis=1))
+    g = 0.3 + 0.2 * np.exp(-(s / 2e-3) ** 2)
+    dz_ref = vt - (1e5 * s / g)[:, None] * z
+    np.testing.assert_allclose(dz, dz_ref, rtol=1e-12, atol=1e-300)
+    np.testing.assert_allclose(Ft, -Fn[:, None] * (1e5 * z + 300.0 * dz_ref + 0.02 * vt), rtol=1e-12, atol=1e-300)
+    assert law.nstate == 3 and law.kernel_params() is None
+
+
+def test_laws_are_immutable_abstract_classes():
+    law = make_normal_law({"type": "flores", "ce": 0.5, "K": 1e9})
+    fr = make_friction_law({"type": "coulomb", "mu": 0.2})
+    with pytest.raises(AttributeError, match="immutable"):
+        law.K = 2e9
+    with pytest.raises(AttributeError, match="immutable"):
+        fr.mu = 0.5
+    assert isinstance(law, laws.NormalLaw) and isinstance(fr, laws.FrictionLaw)
+    with pytest.raises(TypeError):
+        laws.NormalLaw()                                 # the contract has abstract methods
+    with pytest.raises(TypeError):
+        laws.FrictionLaw()

@@ -18,19 +18,22 @@ best for soft, low-restitution impacts. Hertz is the undamped reference.
 """
 from __future__ import annotations
 
+from types import MappingProxyType
+
 from pinclear.errors import ContactSetupError
 
 from . import prismatic, revolute, spherical
-from .laws import FRICTION_LAWS, NORMAL_LAWS, make_friction_law, make_normal_law, restitution_1dof
+from .base import ClearanceJoint
+from .laws import FRICTION_LAWS, NORMAL_LAWS, FrictionLaw, NormalLaw, make_friction_law, make_normal_law, restitution_1dof
 from .spec import Spec
 
 #: clearance type -> (allowed extra keys, closure types it may replace)
-TYPES = {
+TYPES = MappingProxyType({
     "spherical": (spherical.KEYS, ("spherical",)),
     "planar_revolute": (revolute.KEYS_PLANAR, ("revolute", "planar_point", "spherical")),
     "revolute": (revolute.KEYS_SPATIAL, ("revolute",)),
     "prismatic": (prismatic.KEYS, ("prismatic",)),
-}
+})
 
 
 def build(spec: dict, mech, sidecar_path):
@@ -42,15 +45,15 @@ def build(spec: dict, mech, sidecar_path):
     """
     file = str(sidecar_path)
     if not isinstance(spec, dict) or "name" not in spec:
-        raise ContactSetupError(f"{file}: clearances: each entry is a mapping with a 'name'")
+        raise ContactSetupError("each entry is a mapping with a 'name'", file=file, key="clearances")
     typ = spec.get("type")
     if typ not in TYPES:
-        raise ContactSetupError(f"{file}: clearances.{spec['name']}.type: unknown clearance type {typ!r} "
-                                f"(valid: {', '.join(sorted(TYPES))})")
+        raise ContactSetupError(f"unknown clearance type {typ!r}", file=file, key=f"clearances.{spec['name']}.type",
+                                choices=TYPES)
     keys, closure_types = TYPES[typ]
     sp = Spec(spec, file, set(keys))
     target = spec.get("closure")
-    closures = {**{c.name: c for c in mech.closures}, **dict(getattr(mech, "replaced_closures", {}) or {})}
+    closures = {**{c.name: c for c in mech.closures}, **dict(mech.replaced_closures or {})}
     if target not in closures:
         raise sp.error("closure", f"no closure named {target!r}", sorted(closures))
     closure = closures[target]
@@ -64,20 +67,5 @@ def build(spec: dict, mech, sidecar_path):
     return prismatic.from_spec(sp, mech, closure)
 
 
-__all__ = ["build", "with_clearance", "TYPES", "NORMAL_LAWS", "FRICTION_LAWS", "make_normal_law", "make_friction_law",
-           "restitution_1dof"]
-
-
-def with_clearance(mech, spec: dict, file=None):
-    """The mechanism with the closure ``spec['closure']`` replaced by the clearance joint ``spec``
-    (the Python route to what a sidecar ``clearances:`` entry with ``active: true`` does)."""
-    target = spec.get("closure")
-    match = [c for c in mech.closures if c.name == target]
-    file = file or mech.path or mech.name
-    if not match:
-        raise ContactSetupError(f"{file}: clearances.{spec.get('name', '?')}.closure: no closure named "
-                                f"{target!r} (valid: {', '.join(c.name for c in mech.closures)})")
-    replaced = {**mech.replaced_closures, target: match[0]}
-    base = mech.replace(closures=[c for c in mech.closures if c.name != target], replaced_closures=replaced)
-    el = build(spec, base, file)
-    return base.replace(forces=base.forces + [el])
+__all__ = ["build", "TYPES", "NORMAL_LAWS", "FRICTION_LAWS", "make_normal_law", "make_friction_law",
+           "restitution_1dof", "ClearanceJoint", "NormalLaw", "FrictionLaw"]

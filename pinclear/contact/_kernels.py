@@ -1,6 +1,7 @@
 """Compiled inner loops of the clearance joints (numba), for the same reason as
 pinclear._kernels: the arithmetic per contact channel is a handful of flops, and ~30 small numpy
-calls per right-hand side cost far more than the work. The maths is in pinclear.contact.base.
+calls per right-hand side cost far more than the work. The maths is in pinclear.contact.base and
+pinclear.contact.laws.
 """
 from __future__ import annotations
 
@@ -70,13 +71,43 @@ def add_wrenches(J, idx1, idx2, F2, p1, p2, tau):
 #: penetration (m) and rate ratio dd/dd0 beyond which the laws are held constant (never physical)
 DELTA_CAP, RATE_CAP = 0.1, 1e6
 
-#: friction codes of contact_forces (memoryless laws of pinclear.contact.laws)
+#: friction codes (``FrictionLaw.kernel_params()``) of the memoryless laws of pinclear.contact.laws
 F_NONE, F_COULOMB, F_MODIFIED, F_STICKSLIP = 0, 1, 2, 3
+
+# The laws below exist once: pinclear.contact.laws calls them through the vectorised wrappers
+# (power_law_forces, damped_forces, friction_coefficients, memoryless_friction) and the joints
+# through the fused channel loop (contact_forces). Formulas and sources: laws.py.
+
+
+@njit(cache=True)
+def damped(fe, dd, dd0, chi):
+    """Hysteresis of the damped family: fe (1 + chi dd/dd0), clipped at zero (never pulls)."""
+    f = fe * (1.0 + chi * min(max(dd / dd0, -RATE_CAP), RATE_CAP))
+    return f if f > 0.0 else 0.0
+
+
+@njit(cache=True)
+def power_elastic(d, K, expo):
+    """Elastic part K d^e of the power laws (zero out of contact)."""
+    if d <= 0.0:
+        return 0.0
+    # trial stages of an explicit step may propose absurd states; keep the force finite so
+    # the step is rejected by its error estimate rather than poisoned by inf/NaN
+    return K * min(d, DELTA_CAP) ** expo
+
+
+@njit(cache=True)
+def power_law(d, dd, dd0, K, expo, chi):
+    """(F, F_elastic) of the damped power law F = K d^e (1 + chi dd/dd0), clipped at zero."""
+    if d <= 0.0:
+        return 0.0, 0.0
+    fe = power_elastic(d, K, expo)
+    return damped(fe, dd, dd0, chi), fe
 
 
 @njit(cache=True)
 def friction_coefficient(code, par, s):
-    """mu(|vt|) of the memoryless friction laws (see laws.py for the formulas and sources)."""
+    """mu(|vt|) of the memoryless friction laws."""
     if code == F_COULOMB:
         return par[0] * s / (s * s + par[1] * par[1]) ** 0.5
     if code == F_MODIFIED:
@@ -93,33 +124,65 @@ def friction_coefficient(code, par, s):
 
 
 @njit(cache=True)
+def friction_scale(code, par, s, fn):
+    """g with Ft = -g vt for slip speed s = |vt| under the normal force fn (mu(s)/s stays finite
+    at s = 0 for every law here, since mu ~ s near 0; s = 0 gives no force)."""
+    if s > 0.0 and code != F_NONE:
+        return friction_coefficient(code, par, s) * fn / s
+    return 0.0
+
+
+@njit(cache=True)
+def power_law_forces(d, dd, dd0, K, expo, chi, F, Fe):
+    for k in range(d.shape[0]):
+        F[k], Fe[k] = power_law(d[k], dd[k], dd0[k], K, expo, chi)
+
+
+@njit(cache=True)
+def power_law_elastic(d, K, expo, Fe):
+    for k in range(d.shape[0]):
+        Fe[k] = power_elastic(d[k], K, expo)
+
+
+@njit(cache=True)
+def damped_forces(fe, dd, dd0, chi, F):
+    for k in range(fe.shape[0]):
+        F[k] = damped(fe[k], dd[k], dd0[k], chi)
+
+
+@njit(cache=True)
+def friction_coefficients(code, par, s, mu):
+    for k in range(s.shape[0]):
+        mu[k] = friction_coefficient(code, par, s[k])
+
+
+@njit(cache=True)
+def memoryless_friction(code, par, Fn, vt, Ft):
+    for k in range(vt.shape[0]):
+        t0, t1, t2 = vt[k, 0], vt[k, 1], vt[k, 2]
+        g = friction_scale(code, par, (t0 * t0 + t1 * t1 + t2 * t2) ** 0.5, Fn[k])
+        Ft[k, 0] = -g * t0
+        Ft[k, 1] = -g * t1
+        Ft[k, 2] = -g * t2
+
+
+@njit(cache=True)
 def contact_forces(delta, dd, vt, n, dd0, K, expo, chi, fcode, fpar, Fn, Fel, F2):
-    """Damped power law F = K d^e (1 + chi dd/dd0) clipped at zero (per channel K, e, chi) and a
-    memoryless friction law; fills Fn, Fel, F2 (force on body 2) and returns the dissipated power
-    (Fn - Fel) dd - Ft . vt."""
+    """Per channel a damped power law (its own K, e, chi) and one memoryless friction law: fills
+    Fn, Fel, F2 (force on body 2) and returns the dissipated power (Fn - Fel) dd - Ft . vt."""
     loss = 0.0
     for k in range(delta.shape[0]):
-        d = delta[k]
-        if d <= 0.0:
-            Fn[k] = 0.0
-            Fel[k] = 0.0
+        f, fe = power_law(delta[k], dd[k], dd0[k], K[k], expo[k], chi[k])
+        Fn[k] = f
+        Fel[k] = fe
+        if delta[k] <= 0.0:
             F2[k, 0] = 0.0
             F2[k, 1] = 0.0
             F2[k, 2] = 0.0
             continue
-        # trial stages of an explicit step may propose absurd states; keep the force finite so
-        # the step is rejected by its error estimate rather than poisoned by inf/NaN
-        fe = K[k] * min(d, DELTA_CAP) ** expo[k]
-        f = fe * (1.0 + chi[k] * min(max(dd[k] / dd0[k], -RATE_CAP), RATE_CAP))
-        if f < 0.0:
-            f = 0.0
-        Fn[k] = f
-        Fel[k] = fe
         t0, t1, t2 = vt[k, 0], vt[k, 1], vt[k, 2]
         s = (t0 * t0 + t1 * t1 + t2 * t2) ** 0.5
-        g = 0.0
-        if s > 0.0 and fcode != F_NONE:
-            g = friction_coefficient(fcode, fpar, s) * f / s
+        g = friction_scale(fcode, fpar, s, f)
         F2[k, 0] = -g * t0 - f * n[k, 0]
         F2[k, 1] = -g * t1 - f * n[k, 1]
         F2[k, 2] = -g * t2 - f * n[k, 2]

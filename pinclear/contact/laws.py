@@ -1,7 +1,11 @@
 """Normal-force and friction laws for clearance contacts.
 
 All laws are vectorised over the contacts of one joint (numpy arrays of equal length) and
-never allocate more than their result. Sign conventions:
+never allocate more than their result. ``NormalLaw`` and ``FrictionLaw`` state the contract.
+Each law is written once: the damped power laws, the hysteresis term and the memoryless friction
+laws are the compiled functions of ``contact/_kernels.py``, which these classes call and the
+joints' channel loop calls too (the line law and LuGre are plain NumPy, evaluated here only).
+Sign conventions:
 
 * ``delta`` penetration (m), > 0 in contact; ``ddelta`` its rate (m/s), > 0 while
   approaching; ``ddelta0`` the approach speed recorded at contact onset (> 0).
@@ -42,23 +46,27 @@ lugre                LuGre bristle model with internal state (Canudas de Wit et 
 """
 from __future__ import annotations
 
+import abc
 import math
+from types import MappingProxyType
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from pinclear.errors import ContactSetupError
 
+from . import _kernels
+
 # ============================================================================ materials
 #: a few engineering materials (E in Pa, Poisson ratio), for ``material: steel`` in sidecars
-MATERIALS = {
+MATERIALS = MappingProxyType({
     "steel": (207e9, 0.30),
     "steel_200": (200e9, 0.30),      # paper 003, Table 3
     "aluminium": (70e9, 0.33),
     "bronze": (110e9, 0.34),
     "cast_iron": (120e9, 0.26),
     "titanium": (110e9, 0.32),
-}
+})
 
 
 def effective_modulus(E1, nu1, E2, nu2):
@@ -80,46 +88,124 @@ def hertz_stiffness(Estar, R_inner, R_outer, geometry="conformal"):
     elif geometry == "printed":
         Reff = R_inner * R_outer / (R_outer + R_inner)
     else:
-        raise ContactSetupError(f"stiffness geometry {geometry!r} unknown (valid: conformal, printed)")
+        raise ContactSetupError(f"stiffness geometry {geometry!r} unknown", key="stiffness",
+                                choices=["conformal", "printed"])
     return 4.0 / 3.0 * Estar * math.sqrt(Reff)
 
 
 # ============================================================================ normal laws
 #: hysteresis factor chi(ce) of the damped Hertz family F = K d^n (1 + chi dd/dd0)
-HYSTERESIS = {
+HYSTERESIS = MappingProxyType({
     "hertz": lambda ce: 0.0,
     "lankarani_nikravesh": lambda ce: 3.0 * (1.0 - ce * ce) / 4.0,
     "flores": lambda ce: 8.0 * (1.0 - ce) / (5.0 * ce),
     "hunt_crossley": lambda ce: 1.5 * (1.0 - ce),
     "gonthier": lambda ce: (1.0 - ce * ce) / ce,
-}
+})
 NORMAL_LAWS = tuple(HYSTERESIS) + ("plane", "line")
 
 
-class NormalLaw:
-    """Damped power law F = K d^n (1 + chi dd/dd0), clipped at zero.
+class _Immutable:
+    """Laws are shared by every workspace of a mechanism: writing to one after ``__init__``
+    raises (a law has no per-evaluation state; LuGre's bristles live in the joint's z)."""
 
-    ``elastic(d)`` is the conservative part, ``energy(d)`` its potential; the dissipated
-    power of a contact is (F - elastic(d)) * dd >= 0, whatever the clipping did.
+    def __setattr__(self, key, value):
+        if getattr(self, "_frozen", False):
+            raise AttributeError(f"{type(self).__name__} is immutable (tried to set {key!r})")
+        object.__setattr__(self, key, value)
+
+    def _freeze(self):
+        object.__setattr__(self, "_frozen", True)
+
+
+def _vec(*arrays):
+    """Float, C-contiguous 1-D copies of broadcast inputs (one compiled signature per kernel)."""
+    out = np.broadcast_arrays(*[np.atleast_1d(np.asarray(a, float)) for a in arrays])
+    return [np.ascontiguousarray(a.ravel()) for a in out]
+
+
+class NormalLaw(_Immutable, abc.ABC):
+    """Normal-force law of one contact channel (the joint applies it to each of its channels).
+
+    The contract (the clearance joints rely on nothing else):
+
+    1. Inputs are 1-D float arrays of equal length k (one entry per contact channel), in SI units:
+       penetration ``d`` (m, > 0 in contact), its rate ``dd`` (m/s, > 0 while the bodies
+       approach) and ``dd0`` the approach speed recorded at contact onset (m/s, > 0; the joint
+       floors it at ``v_impact_min``).
+    2. :meth:`force` returns the normal force F (N, shape (k,)), ``F >= 0`` pushing the bodies
+       apart and exactly 0 where ``d <= 0``. A law that would pull (the damping term dominating
+       while the bodies separate) is clipped to zero.
+    3. The energy split: :meth:`elastic` is the conservative part F_el(d) (N, (k,), zero for
+       d <= 0) and :meth:`energy` its potential, int_0^d F_el (J, (k,)). The power
+       (F - F_el) dd is what the law dissipates; the joint integrates it, so the energy balance
+       of a run closes whatever the clipping did.
+    4. ``chi`` is the hysteresis factor of the damped family F = F_el (1 + chi dd/dd0): with it
+       alone the effective restitution of an impact follows (``restitution_1dof``).
+    5. A law has no internal state and is immutable after ``__init__``.
+    6. :meth:`kernel_params` declares whether the joints' compiled channel loop can evaluate the
+       law: ``(K, n, chi)`` for a damped power law K d^n (1 + chi dd/dd0), None otherwise (the
+       joint then calls :meth:`force` and :meth:`elastic`).
     """
 
-    def __init__(self, name, K, n=1.5, ce=1.0):
+    name: str = ""
+    ce: float = 1.0
+    chi: float = 0.0
+
+    @abc.abstractmethod
+    def elastic(self, d) -> np.ndarray:
+        """Conservative force F_el(d), N."""
+
+    @abc.abstractmethod
+    def energy(self, d) -> np.ndarray:
+        """Potential of :meth:`elastic`, J."""
+
+    def force(self, d, dd, dd0) -> np.ndarray:
+        """Normal force; zero where d <= 0."""
+        fe, dd, dd0 = _vec(self.elastic(d), dd, dd0)
+        F = np.empty_like(fe)
+        _kernels.damped_forces(fe, dd, dd0, float(self.chi), F)
+        return F
+
+    def force_and_elastic(self, d, dd, dd0):
+        """(F, F_el) in one call (the joints need both)."""
+        return self.force(d, dd, dd0), self.elastic(d)
+
+    def kernel_params(self):
+        return None
+
+
+class PowerLaw(NormalLaw):
+    """Damped power law F = K d^n (1 + chi dd/dd0), clipped at zero; chi from the ``damping``
+    hysteresis (default: the law's own name) and ce. ``plane`` is this law with n = 1 and
+    K = E A / l. The elastic force is held constant beyond 0.1 m (never physical) so trial
+    stages of a step stay finite."""
+
+    def __init__(self, name, K, n=1.5, ce=1.0, damping=None):
         self.name, self.K, self.n, self.ce = name, float(K), float(n), float(ce)
-        self.chi = HYSTERESIS.get(name, HYSTERESIS["lankarani_nikravesh"])(self.ce)
+        self.chi = float(HYSTERESIS[damping or name](self.ce))
+        self._freeze()
 
     def elastic(self, d):
-        # held constant beyond 0.1 m (never physical) so trial stages of a step stay finite
-        return self.K * np.clip(d, 0.0, 0.1) ** self.n
+        (d,) = _vec(d)
+        Fe = np.empty_like(d)
+        _kernels.power_law_elastic(d, self.K, self.n, Fe)
+        return Fe
 
     def energy(self, d):
         return self.K * np.maximum(d, 0.0) ** (self.n + 1.0) / (self.n + 1.0)
 
     def force(self, d, dd, dd0):
-        """Normal force; zero where d <= 0; dd0 the onset speeds (> 0)."""
-        fe = self.elastic(d)
-        if self.chi == 0.0:
-            return fe
-        return np.maximum(fe * (1.0 + self.chi * np.clip(dd / dd0, -1e6, 1e6)), 0.0)
+        return self.force_and_elastic(d, dd, dd0)[0]
+
+    def force_and_elastic(self, d, dd, dd0):
+        d, dd, dd0 = _vec(d, dd, dd0)
+        F, Fe = np.empty_like(d), np.empty_like(d)
+        _kernels.power_law_forces(d, dd, dd0, self.K, self.n, self.chi, F, Fe)
+        return F, Fe
+
+    def kernel_params(self):
+        return self.K, self.n, self.chi
 
     def __repr__(self):
         return f"{self.name}(K={self.K:.4g}, n={self.n}, ce={self.ce}, chi={self.chi:.4g})"
@@ -137,12 +223,13 @@ class LineLaw(NormalLaw):
     """
 
     def __init__(self, Estar, length, radius, ce=1.0, damping="lankarani_nikravesh"):
-        super().__init__(damping, K=0.0, n=1.0, ce=ce)
-        self.name = "line"
+        self.name, self.ce = "line", float(ce)
+        self.chi = float(HYSTERESIS[damping](self.ce))
         self.Estar, self.l, self.R = float(Estar), float(length), float(radius)
         self.c = 1.0 / (math.pi * self.Estar * self.l)          # d = c P (1 - ln(a P))
         self.a = self.R / (math.pi * self.Estar * self.l ** 3)
         self.Pmax = 1.0 / self.a                                 # d'(P) = -c ln(aP) > 0 below
+        self._freeze()
 
     def deflection(self, P):
         P = np.asarray(P, float)
@@ -181,6 +268,15 @@ class LineLaw(NormalLaw):
         out[m] = Pm * d[m] - comp
         return out
 
+    def force_and_elastic(self, d, dd, dd0):
+        fe, dd, dd0 = _vec(self.elastic(d), dd, dd0)
+        F = np.empty_like(fe)
+        _kernels.damped_forces(fe, dd, dd0, self.chi, F)
+        return F, fe
+
+    def force(self, d, dd, dd0):
+        return self.force_and_elastic(d, dd, dd0)[0]
+
     def __repr__(self):
         return f"line(E*={self.Estar:.4g}, l={self.l}, R={self.R}, chi={self.chi:.4g})"
 
@@ -213,9 +309,7 @@ def make_normal_law(spec, *, file="<spec>", key="normal_law", K=None, line=None,
             raise _err(file, f"{key}.type", "the plane law needs a face geometry (prismatic joint)")
         E, A, thick = plane
         _no_extra(spec, file, key)
-        law = NormalLaw(damping, K=E * A / thick, n=1.0, ce=ce)
-        law.name = "plane"
-        return law
+        return PowerLaw("plane", K=E * A / thick, n=1.0, ce=ce, damping=damping)
     Kv = spec.pop("K", K)
     n = float(spec.pop("n", 1.5))
     _no_extra(spec, file, key)
@@ -223,47 +317,104 @@ def make_normal_law(spec, *, file="<spec>", key="normal_law", K=None, line=None,
         raise _err(file, f"{key}.K", f"contact stiffness must be > 0, got {Kv}")
     if not n > 0:
         raise _err(file, f"{key}.n", f"exponent must be > 0, got {n}")
-    return NormalLaw(typ, K=float(Kv), n=n, ce=ce)
+    return PowerLaw(typ, K=float(Kv), n=n, ce=ce)
 
 
 # ============================================================================ friction laws
 FRICTION_LAWS = ("none", "coulomb", "modified_coulomb", "stick_slip", "lugre")
 
 
-class FrictionLaw:
-    """Memoryless law: coefficient(|vt|) -> mu_eff; force = -mu_eff Fn vt/|vt|."""
+class FrictionLaw(_Immutable, abc.ABC):
+    """Tangential force law of the contact channels of one joint.
 
-    name = "none"
-    nstate = 0                       # internal states per contact (LuGre: 3, a tangent vector)
+    The contract (the clearance joints rely on nothing else):
+
+    1. :meth:`force` takes the normal forces ``Fn`` (N, shape (k,), >= 0) and the slip
+       velocities ``vt`` (m/s, (k, 3), world axes: velocity of the body-2 contact point relative
+       to the body-1 point, tangent to the contact) and returns the friction forces on body 2
+       (N, (k, 3), world); body 1 gets their opposite.
+    2. Friction opposes the slip: ``Ft . vt <= 0`` for the memoryless laws, which have the form
+       ``Ft = -mu(|vt|) Fn vt/|vt|`` (:meth:`coefficient` is mu). The joint integrates the
+       power -Ft . vt as dissipated energy.
+    3. ``nstate`` internal states per contact (0 for memoryless laws, 3 for LuGre: a bristle
+       deflection vector in world axes, m). For such a law :meth:`force` receives ``state``
+       (k, nstate) and WRITES its rate into ``dstate`` (k, nstate); the states are integrated with
+       q and v in the joint's z. The joint projects them and their force onto the tangent plane
+       of each contact and resets them to zero at contact onset. For LuGre the power -Ft . vt then
+       includes the bristles' elastic energy rate: the balance still closes.
+    4. A law is immutable after ``__init__``: every evolving quantity lives in the states of 3.
+    5. :meth:`kernel_params` declares whether the joints' compiled channel loop can evaluate the
+       law: ``(code, parameters)`` for the memoryless laws (codes of contact._kernels), None
+       otherwise.
+    """
+
+    name: str = ""
+    nstate: int = 0
+
+    @abc.abstractmethod
+    def force(self, Fn, vt, state=None, dstate=None) -> np.ndarray:
+        """Friction forces (k, 3) on body 2."""
+
+    def kernel_params(self):
+        return None
+
+
+class MemorylessFriction(FrictionLaw):
+    """Ft = -mu(|vt|) Fn vt/|vt|, mu given by the compiled coefficient of ``kernel_params()``."""
+
+    @abc.abstractmethod
+    def kernel_params(self):
+        """(friction code, float parameter array)."""
 
     def coefficient(self, s):
-        return np.zeros_like(s)
+        code, par = self.kernel_params()
+        (s,) = _vec(s)
+        mu = np.empty_like(s)
+        _kernels.friction_coefficients(code, par, s, mu)
+        return mu
 
     def force(self, Fn, vt, state=None, dstate=None):
-        """Friction forces (k, 3) for normal forces Fn (k,) and slip velocities vt (k, 3)."""
-        s = np.sqrt(np.einsum("ki,ki->k", vt, vt))
-        mu = self.coefficient(s)
-        # mu(s)/s stays finite at s = 0 for every law here (mu ~ s near 0); guard the division
-        scale = np.where(s > 0.0, mu / np.where(s > 0.0, s, 1.0), 0.0)
-        return -(Fn * scale)[:, None] * vt
+        code, par = self.kernel_params()
+        vt = np.ascontiguousarray(vt, dtype=float).reshape(-1, 3)
+        (Fn,) = _vec(Fn)
+        Ft = np.empty_like(vt)
+        _kernels.memoryless_friction(code, par, np.ascontiguousarray(np.broadcast_to(Fn, len(vt))), vt, Ft)
+        return Ft
 
 
-class NoFriction(FrictionLaw):
-    def force(self, Fn, vt, state=None, dstate=None):
-        return np.zeros_like(vt)
+def _params(*values):
+    """Read-only parameter array of a compiled friction law (never empty: numba needs a dtype)."""
+    par = np.array(list(values) + [0.0], float)
+    par.flags.writeable = False
+    return par
 
 
-class Coulomb(FrictionLaw):
+class NoFriction(MemorylessFriction):
+    name = "none"
+
+    def __init__(self):
+        self._par = _params()
+        self._freeze()
+
+    def kernel_params(self):
+        return _kernels.F_NONE, self._par
+
+
+class Coulomb(MemorylessFriction):
+    """Regularised Coulomb: mu |vt| / sqrt(|vt|^2 + v_eps^2)."""
+
     name = "coulomb"
 
     def __init__(self, mu, v_eps=1e-4):
         self.mu, self.v_eps = float(mu), float(v_eps)
+        self._par = _params(self.mu, self.v_eps)
+        self._freeze()
 
-    def coefficient(self, s):
-        return self.mu * s / np.sqrt(s * s + self.v_eps ** 2)
+    def kernel_params(self):
+        return _kernels.F_COULOMB, self._par
 
 
-class ModifiedCoulomb(FrictionLaw):
+class ModifiedCoulomb(MemorylessFriction):
     """Papers 000 eqs. 18-19 and 002 eq. 10: no friction below v0 (numerical dead band),
     linear ramp of the correction cd between v0 and v1, full Coulomb above v1."""
 
@@ -271,12 +422,14 @@ class ModifiedCoulomb(FrictionLaw):
 
     def __init__(self, mu, v0=1e-4, v1=1e-2):
         self.mu, self.v0, self.v1 = float(mu), float(v0), float(v1)
+        self._par = _params(self.mu, self.v0, self.v1)
+        self._freeze()
 
-    def coefficient(self, s):
-        return self.mu * np.clip((s - self.v0) / (self.v1 - self.v0), 0.0, 1.0)
+    def kernel_params(self):
+        return _kernels.F_MODIFIED, self._par
 
 
-class StickSlip(FrictionLaw):
+class StickSlip(MemorylessFriction):
     """Paper 003 eq. 3 (after Mostaghel & Davis): static peak mu_s reached at Vs along a sine,
     cosine blend down to the sliding value mu_d at Vd."""
 
@@ -284,12 +437,11 @@ class StickSlip(FrictionLaw):
 
     def __init__(self, mu_s, mu_d, Vs=1e-3, Vd=1e-2):
         self.mu_s, self.mu_d, self.Vs, self.Vd = float(mu_s), float(mu_d), float(Vs), float(Vd)
+        self._par = _params(self.mu_s, self.mu_d, self.Vs, self.Vd)
+        self._freeze()
 
-    def coefficient(self, s):
-        lo = self.mu_s * np.sin(0.5 * np.pi * np.minimum(s, self.Vs) / self.Vs)
-        mid = 0.5 * (self.mu_s + self.mu_d) + 0.5 * (self.mu_s - self.mu_d) * np.cos(
-            np.pi * (np.clip(s, self.Vs, self.Vd) - self.Vs) / (self.Vd - self.Vs))
-        return np.where(s < self.Vs, lo, np.where(s > self.Vd, self.mu_d, mid))
+    def kernel_params(self):
+        return _kernels.F_STICKSLIP, self._par
 
 
 class LuGre(FrictionLaw):
@@ -311,6 +463,7 @@ class LuGre(FrictionLaw):
         # Canudas de Wit et al.'s example (unit Coulomb force) pairs s0 with s1 = sqrt(s0)
         self.s1 = float(s1) if s1 is not None else math.sqrt(self.s0)
         self.s2 = float(s2)
+        self._freeze()
 
     def force(self, Fn, vt, state=None, dstate=None):
         s = np.sqrt(np.einsum("ki,ki->k", vt, vt))
@@ -405,10 +558,7 @@ def max_penetration(law, energy):
 
 # ============================================================================ helpers
 def _err(file, key, message, choices=None):
-    text = f"{file}: {key}: {message}"
-    if choices is not None:
-        text += f" (valid: {', '.join(sorted(map(str, choices)))})"
-    return ContactSetupError(text)
+    return ContactSetupError(message, file=file, key=key, choices=choices)
 
 
 def _no_extra(spec, file, key):

@@ -25,30 +25,32 @@ changes with the mode, every channel raises an event at contact onset and at sep
 from __future__ import annotations
 
 import math
+from types import MappingProxyType
 
 import numpy as np
 
-from .base import ClearanceJoint
+from .base import ClearanceData, ClearanceJoint, _readonly
 
-KEYS = {"section", "length", "edge_radius", "point_law", "line_law", "plane_law"}
+KEYS = frozenset({"section", "length", "edge_radius", "point_law", "line_law", "plane_law"})
 
 #: paper 003 Table 1: (points, lines, planes) -> mode number
-MODES = {
+MODES = MappingProxyType({
     (1, 0, 0): 1, (2, 0, 0): 2, (3, 0, 0): 3, (4, 0, 0): 4,
     (1, 1, 0): 5, (1, 2, 0): 6, (2, 1, 0): 7,
     (0, 1, 0): 8, (0, 2, 0): 9, (0, 3, 0): 10, (0, 4, 0): 11,
     (0, 1, 1): 12, (0, 2, 1): 13, (0, 0, 1): 14, (0, 0, 2): 15,
-}
-MODE_NAMES = {
+})
+MODE_NAMES = MappingProxyType({
     0: "free", 1: "single point", 2: "double points", 3: "three points", 4: "four points",
     5: "single point and single line", 6: "single point and double lines",
     7: "double points and single line", 8: "single line", 9: "double lines", 10: "three lines",
     11: "four lines", 12: "single line and single plane", 13: "double lines and single plane",
     14: "one plane", 15: "two planes", 16: "other combination",
-}
+})
 
 # corner k has signs S[k] = (s1, s2, s3) (bit 2 -> s1, bit 1 -> s2, bit 0 -> s3)
 SIGNS = np.array([[1 if k & 4 else -1, 1 if k & 2 else -1, 1 if k & 1 else -1] for k in range(8)], float)
+SIGNS.flags.writeable = False
 
 
 def _faces():
@@ -65,7 +67,12 @@ def _faces():
             f = (0 if s1 > 0 else 1) if d == 0 else (2 if s2 > 0 else 3)
             face_of[2 * k + d] = f
             members[f].append(2 * k + d)
-    return face_of, [np.array(m) for m in members]
+    out = []
+    for m in members:
+        m = np.array(m)
+        m.flags.writeable = False
+        out.append(m)
+    return face_of, tuple(out)
 
 
 _, FACE_MEMBERS = _faces()
@@ -105,6 +112,16 @@ def classify(touch):
     return MODES.get(counts, 16), counts, kinds
 
 
+class PrismaticData(ClearanceData):
+    """ClearanceData plus the contact mode of the evaluated state (paper 003 Table 1)."""
+
+    def __init__(self, *args):
+        super().__init__(*args)
+        self.mode = 0                       # Table 1 number (0 free, 16 other)
+        self.counts = (0, 0, 0)             # (points, lines, planes)
+        self.kinds = [""] * 4               # contact kind per face
+
+
 class PrismaticClearance(ClearanceJoint):
     kind = "prismatic"
     event_direction = 0
@@ -116,36 +133,34 @@ class PrismaticClearance(ClearanceJoint):
         self.L = float(length)
         self.ha = 0.5 * self.a + self.c1           # a'/2
         self.hb = 0.5 * self.b + self.c2           # b'/2
-        self.corners = SIGNS * np.array([0.5 * self.a, 0.5 * self.b, 0.5 * self.L])   # in frame 2
-        self.laws = laws            # dict: point, line_long, line_short, plane_x, plane_y
-        self.mode = 0
-        self.counts = (0, 0, 0)
+        self.corners = _readonly(SIGNS * np.array([0.5 * self.a, 0.5 * self.b, 0.5 * self.L]))   # in frame 2
+        # point, line_long, line_x, line_y, plane_x, plane_y
+        self.laws = MappingProxyType(dict(laws))
+        self._freeze()
+
+    def create_data(self, mech):
+        return PrismaticData(self.nc, self.nfs)
 
     # geometry -----------------------------------------------------------------
-    def _geometry(self, data):
+    def _geometry(self, data, dat):
         M1, M2 = data.oMf[self.f1], data.oMf[self.f2]
         R1, o1 = M1.rotation, M1.translation
         P = M2.translation + self.corners @ M2.rotation.T          # (8, 3) world corners
         r = (P - o1) @ R1                                           # paper 003 eq. 1, guide frame
-        d = self.delta.reshape(8, 2)
+        d = dat.delta.reshape(8, 2)
         d[:, 0] = SIGNS[:, 0] * r[:, 0] - self.ha
         d[:, 1] = SIGNS[:, 1] * r[:, 1] - self.hb
-        n = self.n.reshape(8, 2, 3)
+        n = dat.n.reshape(8, 2, 3)
         n[:, 0] = SIGNS[:, 0:1] * R1[:, 0]
         n[:, 1] = SIGNS[:, 1:2] * R1[:, 1]
-        self.p1.reshape(8, 2, 3)[:] = P[:, None, :]
-        self.p2.reshape(8, 2, 3)[:] = P[:, None, :]
+        dat.p1.reshape(8, 2, 3)[:] = P[:, None, :]
+        dat.p2.reshape(8, 2, 3)[:] = P[:, None, :]
+        # the touching corners decide each face's force law: the mode belongs to this pose
+        dat.mode, dat.counts, dat.kinds = classify(dat.delta > 0.0)
 
-    def _scales(self, delta):
-        """Per-channel law name and weight for the current set of touching channels."""
-        mode, counts, kinds = classify(delta > 0.0)
-        self.mode, self.counts = mode, counts
-        return kinds
-
-    def _apply(self, delta, fn):
-        """Sum over faces of fn(law, weight, channel indices)."""
-        kinds = self._scales(delta)
-        for f, kind in enumerate(kinds):
+    def _apply(self, dat, fn):
+        """Sum over faces of fn(law, weight, channel indices), for the mode of ``dat``'s pose."""
+        for f, kind in enumerate(dat.kinds):
             if not kind:
                 continue
             ch = FACE_MEMBERS[f]
@@ -160,32 +175,31 @@ class PrismaticClearance(ClearanceJoint):
             else:
                 fn(self.laws["plane_x" if f < 2 else "plane_y"], 0.25, ch)
 
-    def _normal(self, delta, dd, dd0):
+    def _normal(self, dat, delta, dd, dd0):
         Fn = np.zeros(16)
         Fel = np.zeros(16)
 
         def fn(law, w, ch):
-            Fn[ch] = w * law.force(delta[ch], dd[ch], dd0[ch])
-            Fel[ch] = w * law.elastic(delta[ch])
+            F, Fe = law.force_and_elastic(delta[ch], dd[ch], dd0[ch])
+            Fn[ch] = w * F
+            Fel[ch] = w * Fe
 
-        self._apply(delta, fn)
+        self._apply(dat, fn)
         return Fn, Fel
 
-    def _energy(self, delta):
+    def _energy(self, dat, delta):
         E = np.zeros(16)
 
         def fn(law, w, ch):
             E[ch] = w * law.energy(delta[ch])
 
-        self._apply(delta, fn)
+        self._apply(dat, fn)
         return E
 
-    def outputs(self, mech, ws, t, q, v, z):
-        out = super().outputs(mech, ws, t, q, v, z)
-        c = self._eval(mech, ws, t, q, v, z)
-        mode, counts, _ = classify(c["delta"] > 0.0)
-        out["mode"] = np.array(float(mode))
-        out["kinds"] = np.array(counts, float)
+    def outputs(self, mech, ws, d, t, q, v, z):
+        out = super().outputs(mech, ws, d, t, q, v, z)
+        out["mode"] = np.array(float(d.mode))
+        out["kinds"] = np.array(d.counts, float)
         return out
 
     def describe(self):

@@ -20,10 +20,10 @@ from __future__ import annotations
 import numpy as np
 
 from . import _kernels
-from .base import ClearanceJoint
+from .base import ClearanceJoint, _readonly
 from .spherical import stiffness
 
-KEYS_PLANAR = {"radius", "bearing_radius", "length"}
+KEYS_PLANAR = frozenset({"radius", "bearing_radius", "length"})
 KEYS_SPATIAL = KEYS_PLANAR | {"axial_clearance"}
 
 
@@ -31,7 +31,7 @@ class RevoluteClearance(ClearanceJoint):
     """Planar (``spatial=False``, one radial channel at the journal centre) or spatial."""
 
     def __init__(self, name, model, f1, f2, clearance, R_journal, law, friction, *, spatial=False,
-                 length=None, axial_clearance=None, **kw):
+                 length=None, axial_clearance=None, stiffness_note="given", **kw):
         nc = 4 if spatial else 1
         super().__init__(name, model, f1, f2, nc, friction, **kw)
         self.kind = "revolute" if spatial else "planar_revolute"
@@ -42,27 +42,29 @@ class RevoluteClearance(ClearanceJoint):
         self.law = law
         self.L = float(length) if length is not None else 2.0 * self.R2
         self.ca = float(axial_clearance) if axial_clearance is not None else self.c
-        self._ends = np.array([[0.5], [-0.5]]) * self.L      # axial stations of the journal ends
-        self._d2, self._n2, self._q1, self._q2 = np.zeros(2), np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((2, 3))
+        self.stiffness_note = stiffness_note
+        self._ends = _readonly(np.array([[0.5], [-0.5]]) * self.L)      # axial stations of the journal ends
+        self._freeze()
 
-    def _geometry(self, data):
+    def _channel_laws(self):
+        return (self.law,) * self.nc
+
+    def _geometry(self, data, d):
         M1, M2 = data.oMf[self.f1], data.oMf[self.f2]
         s, a = M1.translation, M1.rotation[:, 2].copy()
         j = M2.translation
         if not self.spatial:
-            _kernels.radial_geometry(s, a, j.reshape(1, 3), self.c, self.R1, self.R2,
-                                     self.delta, self.n, self.p1, self.p2)
+            _kernels.radial_geometry(s, a, j.reshape(1, 3), self.c, self.R1, self.R2, d.delta, d.n, d.p1, d.p2)
             return
         # journal ends against the bearing cylinder (channels 0, 1)
         pts = j + self._ends * M2.rotation[:, 2]
-        _kernels.radial_geometry(s, a, pts, self.c, self.R1, self.R2, self._d2, self._n2, self._q1, self._q2)
-        self.delta[:2], self.n[:2], self.p1[:2], self.p2[:2] = self._d2, self._n2, self._q1, self._q2
+        _kernels.radial_geometry(s, a, pts, self.c, self.R1, self.R2, d.delta[:2], d.n[:2], d.p1[:2], d.p2[:2])
         # journal centre against the two thrust faces (channels 2, 3), forces at the centre
         u = float((j - s) @ a)
-        self.delta[2], self.delta[3] = u - self.ca, -u - self.ca
-        self.n[2], self.n[3] = a, -a
-        self.p1[2:] = j
-        self.p2[2:] = j
+        d.delta[2], d.delta[3] = u - self.ca, -u - self.ca
+        d.n[2], d.n[3] = a, -a
+        d.p1[2:] = j
+        d.p2[2:] = j
 
     def describe(self):
         return {**super().describe(), "clearance": self.c, "R_journal": self.R2, "R_bearing": self.R1,
@@ -85,7 +87,6 @@ def from_spec(sp, mech, closure, spatial):
     Reff = R2 * R1 / c
     law = sp.normal_law(K=K, line=(sp.estar(), L, Reff))
     ca = sp.number("axial_clearance", c) if spatial else None
-    el = RevoluteClearance(sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(),
-                           spatial=spatial, length=L, axial_clearance=ca, **sp.common(min(c, ca or c)))
-    el.stiffness_note = note
-    return el
+    return RevoluteClearance(sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(),
+                             spatial=spatial, length=L, axial_clearance=ca, stiffness_note=note,
+                             **sp.common(min(c, ca or c)))

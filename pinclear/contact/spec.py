@@ -7,9 +7,9 @@ from pinclear.errors import ContactSetupError
 
 from .laws import MATERIALS, effective_modulus, make_friction_law, make_normal_law
 
-COMMON_KEYS = {"name", "type", "closure", "active", "notes", "clearance", "mu", "ce",
-               "normal_law", "friction_law", "material", "material1", "material2", "stiffness",
-               "v_impact_min", "max_initial_penetration"}
+COMMON_KEYS = frozenset({"name", "type", "closure", "active", "notes", "clearance", "mu", "ce",
+                         "normal_law", "friction_law", "material", "material1", "material2", "stiffness",
+                         "v_impact_min", "max_initial_penetration"})
 
 
 class Spec:
@@ -24,10 +24,7 @@ class Spec:
             raise self.error(bad[0], "unknown key", sorted(allowed | COMMON_KEYS))
 
     def error(self, key, message, choices=None):
-        text = f"{self.file}: clearances.{self.name}.{key}: {message}"
-        if choices is not None:
-            text += f" (valid: {', '.join(sorted(map(str, choices)))})"
-        return ContactSetupError(text)
+        return ContactSetupError(message, file=self.file, key=f"clearances.{self.name}.{key}", choices=choices)
 
     def number(self, key, default=None, *, positive=True, allow_zero=False):
         v = self.d.get(key, default)

@@ -11,28 +11,33 @@ from __future__ import annotations
 import numpy as np
 
 from . import _kernels
-from .base import ClearanceJoint
+from .base import ClearanceJoint, _readonly
 from .laws import hertz_stiffness
 
-KEYS = {"radius", "socket_radius"}
+KEYS = frozenset({"radius", "socket_radius"})
 
 
 class SphericalClearance(ClearanceJoint):
     kind = "spherical"
 
-    def __init__(self, name, model, f1, f2, clearance, R_ball, law, friction, **kw):
+    def __init__(self, name, model, f1, f2, clearance, R_ball, law, friction, *, stiffness_note="given", **kw):
         super().__init__(name, model, f1, f2, 1, friction, **kw)
         self.c = float(clearance)
         self.R2 = float(R_ball)
         self.R1 = self.R2 + self.c
         self.law = law
-        self._noaxis = np.zeros(3)
+        self.stiffness_note = stiffness_note
+        self._noaxis = _readonly(np.zeros(3))
+        self._freeze()
 
-    def _geometry(self, data):
+    def _channel_laws(self):
+        return (self.law,)
+
+    def _geometry(self, data, d):
         # the socket has no axis: radial_geometry with a = 0 is paper 000 eqs. 3-9 as they stand
         _kernels.radial_geometry(data.oMf[self.f1].translation, self._noaxis,
                                  data.oMf[self.f2].translation.reshape(1, 3), self.c, self.R1, self.R2,
-                                 self.delta, self.n, self.p1, self.p2)
+                                 d.delta, d.n, d.p1, d.p2)
 
     def describe(self):
         return {**super().describe(), "clearance": self.c, "R_ball": self.R2, "R_socket": self.R1,
@@ -51,10 +56,8 @@ def from_spec(sp, mech, closure):
     R1 = R2 + c
     K, note = stiffness(sp, R2, R1)
     law = sp.normal_law(K=K)
-    el = SphericalClearance(sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(),
-                            **sp.common(c))
-    el.stiffness_note = note
-    return el
+    return SphericalClearance(sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(),
+                              stiffness_note=note, **sp.common(c))
 
 
 def stiffness(sp, R_in, R_out):

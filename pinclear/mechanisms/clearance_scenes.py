@@ -6,47 +6,49 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
-import pinocchio as pin
 
 import pinclear
 from pinclear.errors import InputError
+from pinclear.models import model_path
 
 
-URDF = Path(__file__).resolve().parents[2] / "urdf"
-
-
-@dataclass
+@dataclass(frozen=True)
 class Scene:
-    sidecar: str
-    clearances: list
+    mechanism: str              # bundled model name (pinclear.models)
+    clearances: tuple
     t_end: float
     source: str
-    overrides: dict = field(default_factory=dict)
+    overrides: MappingProxyType = field(default_factory=lambda: MappingProxyType({}))
 
 
-SCENES = {
-    "four_ups_upu_S2": Scene("four_ups_upu.yaml", ["S2"], 4.0,
+SCENES = MappingProxyType({
+    "four_ups_upu_S2": Scene("four_ups_upu", ("S2",), 4.0,
                              "paper 000, sec. 4: clearance at S2, c = 0.5 mm, mu = 0.1 (two periods)"),
-    "nine_bar_A": Scene("nine_bar.yaml", ["A"], 1.0, "paper 002, sec. 3.1: clearance at A, 0.5 mm (one crank turn)"),
-    "nine_bar_B": Scene("nine_bar.yaml", ["B"], 1.0, "paper 002, sec. 3.1: clearance at B, 0.5 mm"),
-    "nine_bar_AB": Scene("nine_bar.yaml", ["A", "B"], 1.0, "paper 002, sec. 3.3: clearances at A and B, 0.5 mm"),
-    "three_upru_up_P": Scene("three_upru_up.yaml", ["P_UP"], 0.3,
+    "nine_bar_A": Scene("nine_bar", ("A",), 1.0, "paper 002, sec. 3.1: clearance at A, 0.5 mm (one crank turn)"),
+    "nine_bar_B": Scene("nine_bar", ("B",), 1.0, "paper 002, sec. 3.1: clearance at B, 0.5 mm"),
+    "nine_bar_AB": Scene("nine_bar", ("A", "B"), 1.0, "paper 002, sec. 3.3: clearances at A and B, 0.5 mm"),
+    "three_upru_up_P": Scene("three_upru_up", ("P_UP",), 0.3,
                              "paper 003, sec. 4: prismatic clearance of the UP branch, 0.1 mm, eq. 3 friction"),
-}
+})
+
+
+def scene(name) -> Scene:
+    if name not in SCENES:
+        raise InputError(f"unknown clearance scene {name!r}", key="scene", choices=SCENES)
+    return SCENES[name]
 
 
 def load(name, overrides=None):
-    """(ideal mechanism, clearance mechanism) of a scene."""
-    if name not in SCENES:
-        raise InputError(f"unknown clearance scene {name!r} (valid: {', '.join(SCENES)})")
-    sc = SCENES[name]
-    path = URDF / sc.sidecar
+    """(ideal mechanism, clearance mechanism) of a scene; ``overrides`` as pinclear.load takes them
+    (``{"S2.mu": 0.05}``)."""
+    sc = scene(name)
+    path = model_path(sc.mechanism)
     ideal = pinclear.load(path)
     overrides = {**sc.overrides, **(overrides or {})}
-    return ideal, pinclear.load(path, clearances=sc.clearances, overrides=overrides)
+    return ideal, pinclear.load(path, clearances=list(sc.clearances), overrides=overrides)
 
 
 def run(name, *, t_end=None, integrator="RK45", rtol=1e-6, dt_out=None, max_cpu=None, overrides=None,
@@ -57,7 +59,7 @@ def run(name, *, t_end=None, integrator="RK45", rtol=1e-6, dt_out=None, max_cpu=
     ``max_step`` (s) optionally bounds the steps (the simulator restarts after every impact with
     a step the integrator chooses afresh, and rejects trial stages that overflow inside a stiff
     contact, so no bound is needed)."""
-    sc = SCENES[name]
+    sc = scene(name)
     t_end = sc.t_end if t_end is None else t_end
     dt_out = dt_out or t_end / 1000
     m_ideal, m_clr = load(name, overrides)
@@ -73,17 +75,6 @@ def run(name, *, t_end=None, integrator="RK45", rtol=1e-6, dt_out=None, max_cpu=
     return out
 
 
-def frame_positions(mech, q, frame):
-    """World positions (N, 3) of a frame along a trajectory."""
-    data = mech.model.createData()
-    fid = frame if isinstance(frame, (int, np.integer)) else mech.frame_id(frame)
-    out = np.empty((len(q), 3))
-    for i, qi in enumerate(q):
-        pin.framesForwardKinematics(mech.model, data, qi)
-        out[i] = data.oMf[fid].translation
-    return out
-
-
 def summary(res):
     """One line per clearance: peak contact force, impacts, CPU per simulated second."""
     tr = res["clearance"]
@@ -92,7 +83,7 @@ def summary(res):
              f"= {res['cpu'] / max(tr.t[-1], 1e-12):.2f} s per simulated s; rhs {tr.stats['rhs_evals']}, "
              f"steps {tr.stats['steps']}, events {len(tr.stats['events'])}"]
     for el in res["mech"].forces:
-        if not hasattr(el, "nc"):
+        if not el.is_clearance:
             continue
         fn = tr.outputs[f"{el.name}.fn"]
         pen = tr.outputs[f"{el.name}.penetration"]
