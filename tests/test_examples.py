@@ -59,3 +59,11 @@ def test_view_mechanism(tmp_path):
     """The standalone page embeds meshcat's viewer (three.js included) and the scene."""
     run_example("view_mechanism.py", tmp_path, "nine_bar")
     assert (tmp_path / "nine_bar.html").stat().st_size > 100_000
+
+
+@pytest.mark.parametrize("script", ["four_ups_upu_clearance.py", "nine_bar_clearance.py",
+                                    "three_upru_up_clearance.py"])
+def test_clearance_examples(tmp_path, script):
+    text = run_example(script, tmp_path)
+    assert "status success" in text
+    assert list(tmp_path.glob("*.png"))
