@@ -96,6 +96,7 @@ def test_two_threads_give_bit_identical_trajectories(name, kw):
     if kw:        # the ball thrown around its socket, so the runs contain impacts
         start = dict(q0=np.zeros(mech.nq), v0=np.array([0.5, 0.3, -0.2, 3, -2, 1]), assemble=False,
                      max_step=2e-5, rtol=1e-6)
+        t_end = 0.03
 
     def run(_):
         return pinclear.simulate(mech, t_end, **{"rtol": 1e-8, **start})
