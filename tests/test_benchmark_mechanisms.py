@@ -271,29 +271,15 @@ def test_ideal_slider_crank_follows_the_closed_form(slider_crank):
     assert x.max() == pytest.approx(r + l, abs=1e-8) and x.min() == pytest.approx(l - r, abs=1e-6)
 
 
-def _signature_in_flux(text):
-    """The lead is changing the force-element call signature (an element-data argument); until
-    contact/ follows, a clearance run fails with a TypeError naming a ClearanceJoint method."""
-    return "ClearanceJoint." in text and "positional argument" in text
-
-
 def test_piston_pin_clearance_journal_stays_in_its_bearing(slider_crank):
     """One crank turn at 5000 rpm with the 0.5 mm clearance (LN law, ce 0.9, steel, rtol 1e-8):
-    measured with the new signature emulated: ~30 impacts, largest penetration 5.7e-5 m,
-    eccentricity <= 5.57e-4 m, 3.3 s CPU."""
+    measured: ~30 impacts, largest penetration 5.7e-5 m, eccentricity <= 5.57e-4 m, 3.3 s CPU."""
     mech = pinclear.load("slider_crank_clearance", clearances=["P"])
     el = next(f for f in mech.forces if f.name == "P")
-    assert el.kind == "planar_revolute" and el.c == pytest.approx(5e-4)
+    assert el.is_clearance and el.kind == "planar_revolute" and el.c == pytest.approx(5e-4)
     assert not any(c.name == "P" for c in mech.closures)
     t_end = 2 * math.pi / B.crank_rate()
-    try:
-        traj = _simulate(mech, t_end, integrator="DOP853", rtol=1e-8, dt_out=t_end / 400, max_cpu=60)
-    except TypeError as exc:
-        if _signature_in_flux(str(exc)):
-            pytest.skip(f"pinclear/contact not yet on the new force-element signature: {exc}")
-        raise
-    if traj.status != "success" and _signature_in_flux(traj.message):
-        pytest.skip(f"pinclear/contact not yet on the new force-element signature: {traj.message}")
+    traj = _simulate(mech, t_end, integrator="DOP853", rtol=1e-8, dt_out=t_end / 400, max_cpu=60)
     assert traj.status == "success", traj.message
     ecc = np.linalg.norm(traj.outputs["P.eccentricity"][:, :2], axis=1)
     pen = traj.outputs["P.penetration"]
