@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import copy
+import re
 from pathlib import Path
 
 import numpy as np
@@ -237,6 +238,59 @@ def _parse_value(text):
     return yaml.safe_load(text) if isinstance(text, str) else text
 
 
+_TOKEN = re.compile(r"([^.\[\]]+)|\[([^\]]*)\]")
+
+
+def parse_key_path(path: str):
+    """'drives[crank1_drive].law.coeffs[1]' -> [('key','drives'), ('sel','crank1_drive'), ...]."""
+    toks, pos = [], 0
+    for m in _TOKEN.finditer(path):
+        gap = path[pos:m.start()]
+        if gap not in ("", "."):
+            raise ModelFileError("<override>", path, f"cannot parse parameter path {path!r} at {gap!r}")
+        toks.append(("key", m.group(1)) if m.group(1) is not None else ("sel", m.group(2)))
+        pos = m.end()
+    if path[pos:] or not toks:
+        raise ModelFileError("<override>", path, f"cannot parse parameter path {path!r}")
+    return toks
+
+
+def set_key_path(doc, toks, value, file, path):
+    """Set ``value`` at the token path inside the sidecar mapping ``doc``, checking every step:
+    a missing key, a list index out of range or an entry name that does not exist is an error
+    naming the path and the valid choices."""
+    cur = doc
+    for i, (kind, tok) in enumerate(toks):
+        last = i == len(toks) - 1
+        where = path if last else "".join(f".{t}" if k == "key" else f"[{t}]" for k, t in toks[:i + 1]).lstrip(".")
+        if kind == "key":
+            if not isinstance(cur, dict):
+                raise ModelFileError(file, where, f"{tok!r} indexes a {type(cur).__name__}, not a mapping")
+            if last:
+                cur[tok] = value
+                return
+            if tok not in cur:
+                raise ModelFileError(file, where, "no such key", choices=list(cur))
+            cur = cur[tok]
+        else:
+            if not isinstance(cur, list):
+                raise ModelFileError(file, where, f"[{tok}] selects from a list, found a {type(cur).__name__}")
+            if re.fullmatch(r"-?\d+", tok):
+                j = int(tok)
+                if not -len(cur) <= j < len(cur):
+                    raise ModelFileError(file, where, f"index {j} out of range (list of {len(cur)})")
+            else:
+                names = [e.get("name") for e in cur if isinstance(e, dict)]
+                if tok not in names:
+                    raise ModelFileError(file, where, f"no entry named {tok!r}", choices=[n for n in names if n])
+                j = names.index(tok)
+            if last:
+                cur[j] = value
+                return
+            cur = cur[j]
+
+
+
 def parse_assignments(items, what="--set") -> dict:
     """['KEY=VALUE', ...] -> {KEY: value parsed as a YAML scalar}: the command-line spelling of
     load()'s ``options`` / ``overrides`` (the one parameter language of pinclear)."""
@@ -289,6 +343,12 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
         sc = read_yaml(path)
     sc = copy.deepcopy(sc)
     _check_keys(sc, TOP_KEYS, file, "")
+    # overrides that name a sidecar key path ("forces[spring].k", "drives[0].law.terms[0].amp")
+    # patch the file's mapping before anything is built from it
+    all_overrides = dict(overrides or {})
+    overrides = dict(all_overrides)
+    for k in [k for k in overrides if isinstance(k, str) and re.split(r"[.\[]", k, 1)[0] in TOP_KEYS]:
+        set_key_path(sc, parse_key_path(k), _parse_value(overrides.pop(k)), file, k)
     if "urdf" not in sc:
         raise ModelFileError(file, "urdf", "missing: the URDF file of the spanning tree")
     if not isinstance(sc["urdf"], str):
@@ -496,7 +556,7 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
         mech = mech.replace(forces=list(mech.forces) + elems)
     # how to load this variant again (saved with every trajectory)
     mech.load_args = {"path": str(path.resolve()), "options": dict(options or {}),
-                      "overrides": {k: _parse_value(v) for k, v in dict(overrides or {}).items()},
+                      "overrides": {k: _parse_value(v) for k, v in all_overrides.items()},
                       "clearances": [c["name"] for _, c in chosen],
                       # read by plug-ins that resolve functions later (screw); never by a reload
                       "trust": trust}

@@ -149,3 +149,18 @@ def test_numba_cache_is_outside_the_package(tmp_path):
     assert list((tmp_path / "cache" / "numba").rglob("*.nbi")), "no compiled kernel was cached"
     pkg = Path(pinclear.__file__).parent
     assert not [p for p in pkg.rglob("*.nbi") if tmp_path not in p.parents]
+
+
+def test_one_parameter_language_reaches_any_sidecar_value(tmp_path, capsys):
+    """load()'s overrides take sidecar key paths too, so sweeps, the CLI's --set and Python all
+    speak one language (no rewritten copies of the file)."""
+    osc = ROOT / "tests" / "data" / "analysis_oscillator.yaml"
+    mech = pinclear.load(osc, overrides={"forces[spring].k": 7.5})
+    assert {f.name: getattr(f, "k", None) for f in mech.forces}["spring"] == 7.5
+    assert mech.path == str(osc) and mech.load_args["overrides"] == {"forces[spring].k": 7.5}
+    with pytest.raises(pinclear.ModelFileError, match=r"forces\[sprung\].*valid: push, spring"):
+        pinclear.load(osc, overrides={"forces[sprung].k": 1.0})
+    from pinclear import cli
+
+    assert cli.main(["info", str(osc), "--set", "forces[spring].k=2.5"]) == 0
+    assert '"k": 2.5' in capsys.readouterr().out
