@@ -396,8 +396,9 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
         elif k in opts:
             opts[k] = val
         else:
-            raise ModelFileError(file, k, "unknown override (use NAME.key for clearances or an option name)",
-                                 choices=list(opts) + [f"{c}.<key>" for c in clr_names])
+            raise ModelFileError(file, k, "unknown override (a sidecar key path such as forces[NAME].k, NAME.key for "
+                                 "a clearance joint, or a scene option)",
+                                 choices=list(opts) + [f"{c}.<key>" for c in clr_names] + sorted(TOP_KEYS))
     for k, val in opts.items():
         choices = declared[k].get("choices")
         if choices is not None and val not in choices:

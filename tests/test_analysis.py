@@ -235,7 +235,7 @@ def test_relative_rate_in_rotating_frame():
     for i, q in enumerate(tr.q):
         pin.framesForwardKinematics(model, data, q)
         e[i] = data.oMf[f1].rotation.T @ (data.oMf[f2].translation - data.oMf[f1].translation)
-    rate = an._relative_rate(model, f1, f2, tr)
+    rate = an.relative_rate(model, f1, f2, tr)
     from scipy.interpolate import CubicSpline
 
     fd = CubicSpline(tr.t, e)(tr.t, 1)

@@ -1,0 +1,156 @@
+"""Classification of a Poincaré sequence: period-k detection and the 0-1 test for chaos."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError
+from .poincare import PoincareSection
+
+
+
+def detect_period(points, rtol=1e-4, atol=0.0, scale=None, max_period=16):
+    """Period of a Poincaré sequence and its number of distinct clusters.
+
+    points: (n,) or (n, d). Two points are "the same" when every coordinate differs by at most
+    ``atol + rtol * scale`` (scale per coordinate: the given ``scale``, default max |points|).
+    The period is the smallest p <= max_period with |s[i+p] - s[i]| within tolerance for all i
+    (at least p such comparisons are required, so n >= 2p); None if there is none.
+    Returns (period, n_clusters); clusters are counted greedily against cluster seeds.
+    """
+    P = np.asarray(points, float)
+    if P.ndim == 1:
+        P = P[:, None]
+    n = len(P)
+    if n == 0:
+        return None, 0
+    if scale is None:
+        scale = np.max(np.abs(P), axis=0)
+    tol = atol + rtol * np.broadcast_to(np.asarray(scale, float), (P.shape[1],))
+    tol = np.where(tol > 0, tol, np.finfo(float).tiny)
+    S = P / tol                                   # equal within tolerance <=> |dS|_inf <= 1
+    seeds = []
+    for p in S:
+        if not seeds or np.min(np.max(np.abs(np.asarray(seeds) - p), axis=1)) > 1.0:
+            seeds.append(p)
+    period = None
+    for p in range(1, min(max_period, n // 2) + 1):
+        if np.max(np.abs(S[p:] - S[:-p])) <= 1.0:
+            period = p
+            break
+    return period, len(seeds)
+
+
+def chaos_01(phi, n_c=100, n_cut=None, seed=0, flat_tol=None, return_all=False):
+    """0-1 test for chaos (Gottwald & Melbourne 2004; 2009 modified mean-square displacement,
+    correlation method) on a scalar sequence phi(j), e.g. Poincaré samples.
+
+    For n_c frequencies c drawn uniformly in (pi/5, 4pi/5) (away from resonances):
+    p_c(n) = sum_j phi(j) cos(j c), q_c(n) = sum_j phi(j) sin(j c);
+    M_c(n) = <|p_c(j+n) - p_c(j)|^2 + |q_c(j+n) - q_c(j)|^2>_j, n <= n_cut (default N/10);
+    D_c(n) = M_c(n) - <phi>^2 (1 - cos nc)/(1 - cos c) (the bounded oscillatory part);
+    K_c = corr(n, D_c(n)); K = median over c.
+    K ~ 0: regular (periodic or quasi-periodic); K ~ 1: chaotic (diffusive growth of p, q).
+
+    Limitations: needs a long sequence (N >= ~100 for a hint, >= 1000 for a clear answer);
+    intermediate values appear for short series, for weak chaos, and for transients left in the
+    data; a continuous signal sampled far finer than its correlation time (oversampled) reads
+    as regular: feed it stroboscopic samples, not dense output; noise, and a slow drift (an
+    unfinished transient), read as chaos. A sequence whose standard deviation is at most
+    ``flat_tol`` (default 1e-6 max |phi|: integration noise around a fixed point) returns
+    K = 0, regular, by definition: D_c is then noise and its correlation with n meaningless.
+    """
+    phi = np.asarray(phi, float).ravel()
+    if not np.all(np.isfinite(phi)):
+        raise InputError("chaos_01: the sequence contains non-finite values")
+    N = len(phi)
+    if N < 20:
+        raise InputError(f"chaos_01 needs at least 20 samples, got {N}")
+    n_cut = max(N // 10, 2) if n_cut is None else int(n_cut)
+    if not 2 <= n_cut < N:
+        raise InputError(f"n_cut must be in [2, {N - 1}], got {n_cut}")
+    flat = 1e-6 * float(np.max(np.abs(phi))) if flat_tol is None else float(flat_tol)
+    if np.std(phi) <= flat:
+        return (0.0, np.zeros(n_c)) if return_all else 0.0
+    c = np.random.default_rng(seed).uniform(np.pi / 5, 4 * np.pi / 5, n_c)
+    arg = np.outer(c, np.arange(1, N + 1))
+    Pc = np.cumsum(phi * np.cos(arg), axis=1)
+    Qc = np.cumsum(phi * np.sin(arg), axis=1)
+    n = np.arange(1, n_cut + 1)
+    M = np.empty((n_c, n_cut))
+    for i, m in enumerate(n):
+        dP = Pc[:, m:] - Pc[:, :-m]
+        dQ = Qc[:, m:] - Qc[:, :-m]
+        M[:, i] = np.einsum("ij,ij->i", dP, dP) + np.einsum("ij,ij->i", dQ, dQ)
+        M[:, i] /= N - m
+    D = M - phi.mean() ** 2 * (1 - np.cos(np.outer(c, n))) / (1 - np.cos(c))[:, None]
+    nn = n - n.mean()
+    Dc = D - D.mean(axis=1, keepdims=True)
+    den = np.sqrt((nn @ nn) * np.einsum("ij,ij->i", Dc, Dc))
+    Kc = np.divide(Dc @ nn, den, out=np.zeros(n_c), where=den > 0)
+    K = float(np.median(Kc))
+    return (K, Kc) if return_all else K
+
+
+#: K above this is reported as chaotic; clear answers are K < 0.1 or K > 0.9 (see chaos_01)
+CHAOS_THRESHOLD = 0.5
+
+
+@dataclass
+class Classification:
+    kind: str                 # "period-k" | "quasi-periodic" | "chaotic" | "unresolved" | "empty"
+    period: int | None
+    clusters: int
+    K: float | None           # 0-1 test result (None when a period was found or too few samples)
+    n: int
+    note: str = ""
+
+    def as_dict(self):
+        return {"kind": self.kind, "period": self.period, "clusters": self.clusters, "K": self.K, "n": self.n,
+                "note": self.note}
+
+
+def classify(section, rtol=1e-4, atol=0.0, scale=None, max_period=16, min_samples_01=40, chaos_threshold=None):
+    """Classify a Poincaré section (PoincareSection or an (n,) / (n, d) array).
+
+    First the period (:func:`detect_period`): "period-k" if the sequence repeats with period
+    k <= max_period, points being equal within atol + rtol * scale (scale per coordinate:
+    default the section's ``scale``, the attractor's extent, so a point near x = 0 is judged
+    against the size of the orbit, not against itself). rtol must exceed the run-to-run
+    scatter the integration tolerance leaves in the section points. Otherwise, with at least
+    ``min_samples_01`` samples, the 0-1 test on each coordinate (the largest K counts):
+    K > chaos_threshold (default CHAOS_THRESHOLD = 0.5) "chaotic", else "quasi-periodic";
+    ``note`` says "ambiguous" when 0.1 <= K <= 0.9. With fewer samples: "unresolved".
+    A section whose rate is not exact (spline-differentiated output) is judged by x alone.
+    """
+    thr = CHAOS_THRESHOLD if chaos_threshold is None else float(chaos_threshold)
+    if isinstance(section, PoincareSection):
+        P = section.points
+        if scale is None and np.any(section.scale > 0):
+            scale = section.scale
+        if not section.exact_rate:
+            # a spline-differentiated rate carries end and sampling errors that differ from cycle
+            # to cycle: judge by x alone
+            P = P[:, :1]
+            scale = None if scale is None else np.broadcast_to(np.asarray(scale, float), (2,))[:1]
+    else:
+        P = np.asarray(section, float)
+    if P.ndim == 1:
+        P = P[:, None]
+    n = len(P)
+    if n == 0:
+        return Classification("empty", None, 0, None, 0, "no Poincaré samples")
+    period, clusters = detect_period(P, rtol=rtol, atol=atol, scale=scale, max_period=max_period)
+    if period is not None:
+        return Classification(f"period-{period}", period, clusters, None, n)
+    if n < min_samples_01:
+        return Classification("unresolved", None, clusters, None, n,
+                              f"no period <= {min(max_period, n // 2)} and too few samples ({n} < "
+                              f"{min_samples_01}) for the 0-1 test")
+    sc = np.broadcast_to(np.max(np.abs(P), axis=0) if scale is None else np.asarray(scale, float), (P.shape[1],))
+    # spread within the period tolerance is a fixed point to this resolution
+    K = max(chaos_01(P[:, j], flat_tol=atol + rtol * sc[j]) for j in range(P.shape[1]))
+    kind = "chaotic" if K > thr else "quasi-periodic"
+    note = "ambiguous (0.1 <= K <= 0.9): longer runs or a smaller tolerance may decide" if 0.1 <= K <= 0.9 else ""
+    return Classification(kind, None, clusters, K, n, note)

@@ -1,0 +1,83 @@
+"""Phase portraits, Poincaré maps and bifurcation diagrams on matplotlib Figures (no pyplot)."""
+from __future__ import annotations
+
+
+import numpy as np
+
+from ..errors import InputError
+from .poincare import PoincareSection
+from .signals import phase_portrait
+from .sweep import BifurcationResult, is_number
+
+
+
+def _figure(ax, figsize):
+    if ax is not None:
+        return ax.figure, ax
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots()
+
+
+def plot_phase_portrait(x, xdot=None, section=None, label="", ax=None, path=None, mech=None, t_min=None):
+    """Phase portrait (x, xdot); ``x`` may be a Trajectory with ``xdot`` the signal spec.
+    Poincaré samples (``section``) are overlaid as dots. Returns (figure, arrays plotted)."""
+    if hasattr(x, "t") and hasattr(x, "q"):
+        if xdot is None:
+            raise InputError("plot_phase_portrait(traj, signal): give the signal")
+        label = label or (xdot if isinstance(xdot, str) else "signal")
+        x, xdot = phase_portrait(x, xdot, mech=mech, t_min=t_min)
+    x, xdot = np.asarray(x, float), np.asarray(xdot, float)
+    fig, ax = _figure(ax, (5, 4.5))
+    ax.plot(x, xdot, lw=0.6, color="C0", gid="portrait")
+    data = {"x": x, "xdot": xdot}
+    if section is not None:
+        ax.plot(section.x, section.xdot, "o", ms=3, color="C3", gid="section", label="Poincaré")
+        data.update(section_x=section.x, section_xdot=section.xdot)
+        ax.legend(fontsize=8)
+    ax.set_xlabel(label or "x")
+    ax.set_ylabel(f"d/dt {label}" if label else "xdot")
+    ax.set_title("phase portrait")
+    ax.grid(alpha=0.3)
+    if path is not None:
+        fig.savefig(path, dpi=120, bbox_inches="tight")
+    return fig, data
+
+
+def plot_poincare(section: PoincareSection, ax=None, path=None):
+    """Poincaré map: (x, xdot) at the section times. Returns (figure, arrays plotted)."""
+    fig, ax = _figure(ax, (5, 4.5))
+    ax.plot(section.x, section.xdot, ".", ms=4, color="C3", gid="section")
+    ax.set_xlabel(section.label)
+    ax.set_ylabel(f"d/dt {section.label}")
+    ax.set_title(f"Poincaré map (T = {section.period:.6g} s, phase {section.phase:.3g} s, {len(section)} points)")
+    ax.grid(alpha=0.3)
+    if path is not None:
+        fig.savefig(path, dpi=120, bbox_inches="tight")
+    return fig, {"x": section.x, "xdot": section.xdot}
+
+
+def plot_bifurcation(result: BifurcationResult, coordinate="xdot", signal=None, ax=None, path=None, label=None):
+    """Bifurcation diagram: Poincaré samples of ``signal`` (default: the first recorded) of
+    every successful run against the parameter; failed values are marked with red crosses at
+    the bottom of the plot. Returns (figure, arrays plotted)."""
+    p, y = result.points(coordinate, signal=signal)
+    fig, ax = _figure(ax, (7, 4.5))
+    many = len(p) > 5000
+    ax.plot(p, y, "," if many else ".", ms=2, color="k", gid="bifurcation", rasterized=many)
+    failed = np.array([float(r.value) for r in result.runs if not r.ok and is_number(r.value)])
+    if len(failed):
+        ybase = np.full(len(failed), np.min(y) if len(y) else 0.0)
+        ax.plot(failed, ybase, "x", color="r", gid="failed", label="run failed")
+        ax.legend(fontsize=8)
+    name = label or (result.parameter if isinstance(result.parameter, str) else "parameter")
+    ax.set_xlabel(str(name))
+    sig = result._key(signal)
+    ax.set_ylabel(f"d/dt {sig}" if coordinate == "xdot" else sig)
+    ax.set_title("bifurcation diagram (Poincaré samples)")
+    ax.grid(alpha=0.3)
+    if path is not None:
+        fig.savefig(path, dpi=120, bbox_inches="tight")
+    return fig, {"p": p, "y": y, "failed": failed}
+

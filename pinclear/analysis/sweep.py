@@ -1,0 +1,398 @@
+"""Parameter sweeps and bifurcation diagrams over load()'s overrides, in worker processes."""
+from __future__ import annotations
+
+import json
+import math
+import os
+import pickle
+import sys
+import time
+import warnings
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError, ModelFileError
+from .classify import Classification, classify
+from .poincare import PoincareSection, poincare, section_times
+from .signals import series
+
+
+
+def _parameter_overrides(path, parameter, load_kw):
+    """The parameter spec as load() overrides: a key path, a clearance key NAME.key or a scene
+    option (pinclear's one parameter language), or a mapping of such keys to factors. Checked by
+    loading the mechanism once, which names the file, the key and the valid choices."""
+    from ..sidecar import load
+
+    items = parameter.items() if isinstance(parameter, dict) else [(parameter, 1.0)]
+    out = []
+    for spec, factor in items:
+        if not isinstance(spec, str):
+            raise InputError(f"parameter must be a string key or a mapping key -> factor, got {spec!r}")
+        out.append((spec, float(factor)))
+    probe = dict(load_kw.get("overrides") or {})
+    for spec, _ in out:
+        probe.setdefault(spec, _current_value(path, spec))
+    load(path, **{**load_kw, "overrides": probe})           # raises on an unknown or inactive key
+    return out
+
+
+def _current_value(path, spec):
+    """The value a key currently has (so the validating load changes nothing); None if unknown."""
+    from ..sidecar import parse_key_path, read_yaml
+
+    doc = read_yaml(path)
+    try:
+        cur = doc
+        for kind, tok in parse_key_path(spec):
+            if kind == "key":
+                cur = cur[tok]
+            elif tok.lstrip("-").isdigit():
+                cur = cur[int(tok)]
+            else:
+                cur = next(e for e in cur if isinstance(e, dict) and e.get("name") == tok)
+        return cur
+    except (KeyError, IndexError, TypeError, StopIteration, ModelFileError):
+        pass
+    name, _, key = spec.partition(".")
+    for c in doc.get("clearances") or []:
+        if isinstance(c, dict) and c.get("name") == name and key in c:
+            return c[key]
+    opt = (doc.get("options") or {}).get(spec)
+    return opt.get("default") if isinstance(opt, dict) else 0.0
+
+
+def _load_variant(path, overrides, value, load_kw):
+    """The mechanism of ``path`` with the parameter set to ``value`` (load()'s overrides)."""
+    from ..sidecar import load
+
+    ov = dict(load_kw.get("overrides") or {})
+    for spec, factor in overrides:
+        ov[spec] = value if factor == 1.0 else factor * value
+    return load(path, **{**load_kw, "overrides": ov or None})
+
+
+@dataclass
+class BifurcationRun:
+    """One parameter value: status 'success' | 'failed' (the simulation stopped early; the
+    samples computed so far are kept) | 'error' (no run: bad value, assembly failure...)."""
+
+    index: int
+    value: object
+    status: str
+    message: str
+    sections: dict = field(default_factory=dict)          # signal key -> PoincareSection
+    portraits: dict = field(default_factory=dict)         # signal key -> (t, x, xdot) after the transient
+    stats: dict = field(default_factory=dict)
+    classifications: dict = field(default_factory=dict)   # signal key -> Classification
+
+    @property
+    def ok(self):
+        return self.status == "success"
+
+    @property
+    def section(self):
+        """The section of the first signal (None if the run produced none)."""
+        return next(iter(self.sections.values()), None)
+
+    @property
+    def classification(self):
+        return next(iter(self.classifications.values()), None)
+
+
+@dataclass
+class BifurcationResult:
+    parameter: object
+    values: np.ndarray
+    runs: list
+    signals: list                         # signal keys, in the order given
+    period: np.ndarray                    # driving period per value
+
+    def _key(self, signal):
+        if signal is None:
+            return self.signals[0]
+        key = signal_key(signal)
+        if key not in self.signals:
+            raise InputError(f"signal {key!r} was not recorded (recorded: {', '.join(self.signals)})")
+        return key
+
+    def points(self, coordinate="xdot", include_failed=False, signal=None):
+        """(parameter, ordinate) pairs of all Poincaré samples of ``signal`` (default: the first),
+        ready for a scatter plot. coordinate: 'x' or 'xdot' (papers 000/002 plot the relative
+        velocity: 'xdot'). Failed runs' partial samples only with include_failed."""
+        if coordinate not in ("x", "xdot"):
+            raise InputError(f"coordinate must be 'x' or 'xdot', got {coordinate!r}")
+        key = self._key(signal)
+        ps, ys = [], []
+        for r in self.runs:
+            sec = r.sections.get(key)
+            if sec is None or (not r.ok and not include_failed):
+                continue
+            y = getattr(sec, coordinate)
+            ps.append(np.full(len(y), float(r.value)))
+            ys.append(y)
+        if not ps:
+            return np.zeros(0), np.zeros(0)
+        return np.concatenate(ps), np.concatenate(ys)
+
+    @property
+    def failures(self):
+        return [(r.value, r.status, r.message) for r in self.runs if not r.ok]
+
+    def table(self, signal=None):
+        """One dict per value: value, status, kind, period, K, samples, cpu_s, message."""
+        key = self._key(signal)
+        rows = []
+        for r in self.runs:
+            c, sec = r.classifications.get(key), r.sections.get(key)
+            rows.append({"value": r.value, "status": r.status, "kind": c.kind if c else None,
+                         "period": c.period if c else None, "K": c.K if c else None,
+                         "samples": len(sec) if sec is not None else 0,
+                         "cpu_s": r.stats.get("cpu_s"), "message": r.message})
+        return rows
+
+
+    # ------------------------------------------------------------------ I/O
+    def save(self, path):
+        """NPZ: every run's Poincaré samples (and portraits) + JSON metadata (statuses, messages,
+        classifications, stats). :meth:`load` reads it back for re-plotting."""
+        from ..trajectory import jsonable
+
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {"values": np.asarray(self.values, float) if all(is_number(v) for v in self.values)
+                  else np.zeros(0), "period": self.period}
+        runs = []
+        for r in self.runs:
+            for key, sec in r.sections.items():
+                for f in ("k", "t", "x", "xdot", "interpolated", "scale"):
+                    arrays[f"sec/{r.index}/{key}/{f}"] = getattr(sec, f)
+            for key, (t, x, xd) in r.portraits.items():
+                arrays[f"por/{r.index}/{key}/t"], arrays[f"por/{r.index}/{key}/x"] = t, x
+                arrays[f"por/{r.index}/{key}/xdot"] = xd
+            runs.append({"index": r.index, "value": r.value, "status": r.status, "message": r.message,
+                         "stats": r.stats, "sections": {k: {"period": sc.period, "phase": sc.phase, "label": sc.label,
+                                                            "exact_rate": sc.exact_rate}
+                                                        for k, sc in r.sections.items()},
+                         "classifications": {k: c.as_dict() for k, c in r.classifications.items()}})
+        meta = {"parameter": self.parameter if isinstance(self.parameter, (str, dict)) else repr(self.parameter),
+                "signals": self.signals, "runs": runs}
+        arrays["meta"] = np.array(json.dumps(jsonable(meta)))
+        np.savez_compressed(path, **arrays)
+        return path
+
+    @classmethod
+    def load(cls, path):
+        d = np.load(path, allow_pickle=False)
+        meta = json.loads(str(d["meta"]))
+        runs = []
+        for m in meta["runs"]:
+            i = m["index"]
+            secs = {}
+            for key, sm in m["sections"].items():
+                a = {f: d[f"sec/{i}/{key}/{f}"] for f in ("k", "t", "x", "xdot", "interpolated", "scale")}
+                secs[key] = PoincareSection(a["k"], a["t"], a["x"], a["xdot"], sm["period"], sm["phase"], sm["label"],
+                                            a["interpolated"], sm["exact_rate"], a["scale"])
+            pors = {key: tuple(d[f"por/{i}/{key}/{f}"] for f in ("t", "x", "xdot"))
+                    for key in meta["signals"] if f"por/{i}/{key}/t" in d.files}
+            cls_ = {k: Classification(**c) for k, c in m["classifications"].items()}
+            runs.append(BifurcationRun(i, m["value"], m["status"], m["message"], secs, pors, m["stats"], cls_))
+        values = np.array([r.value for r in runs], dtype=float if all(is_number(r.value) for r in runs) else object)
+        return cls(meta["parameter"], values, runs, meta["signals"], d["period"])
+
+
+def signal_key(signal) -> str:
+    """The name a signal is recorded under: the string itself, 'x|xdot' for a pair, the
+    callable's __name__."""
+    if callable(signal):
+        return getattr(signal, "__name__", repr(signal))
+    if isinstance(signal, (tuple, list)):
+        return "|".join(map(str, signal))
+    return str(signal)
+
+
+def _run_one(job):
+    """Worker: build the variant, simulate on the section grid, take the Poincaré samples."""
+    from ..simulate import simulate
+
+    t_start = time.perf_counter()
+    i, value = job["index"], job["value"]
+    if isinstance(value, (float, np.floating)) and not math.isfinite(value):
+        # a NaN/inf parameter only poisons the integrator (SciPy's first-step choice never ends)
+        return BifurcationRun(i, value, "error", f"parameter value {value!r} is not finite",
+                              stats={"wall_s": 0.0, "pid": os.getpid()})
+    try:
+        if job["factory"] is not None:
+            mech = job["factory"](value)
+        else:
+            mech = _load_variant(job["path"], job["overrides"], value, job["load_kw"])
+        T, cyc = job["period"], job["transient"] + job["cycles"]
+        t_eval = section_times(T, cyc, job["phase"], job["t0"], job["per_period"])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)     # a failed run is reported, not warned
+            traj = simulate(mech, float(t_eval[-1]), t_eval=t_eval, t0=job["t0"], **job["sim_kw"])
+        sections, portraits = {}, {}
+        for sig in job["signals"] if len(traj.t) else ():
+            key = signal_key(sig)
+            sections[key] = poincare(traj, T, sig, phase=job["phase"], skip_transient=job["transient"],
+                                     t0=job["t0"], mech=mech)
+            if job["keep_portrait"]:
+                s = series(traj, sig, mech)
+                keep = s.t >= job["t0"] + job["phase"] + job["transient"] * T - 1e-9 * T
+                portraits[key] = (s.t[keep], s.x[keep], s.xdot[keep])
+        stats = {k: traj.stats.get(k) for k in ("cpu_s", "rhs_evals", "steps") if k in traj.stats}
+        stats["events"] = len(traj.stats.get("events", []))
+        stats["wall_s"] = time.perf_counter() - t_start
+        stats["pid"] = os.getpid()
+        return BifurcationRun(i, value, "success" if traj.status == "success" else "failed", traj.message,
+                              sections, portraits, stats)
+    except Exception as exc:                  # every failure is a result, never a lost value
+        return BifurcationRun(i, value, "error", f"{type(exc).__name__}: {exc}",
+                              stats={"wall_s": time.perf_counter() - t_start, "pid": os.getpid()})
+
+
+def bifurcation(model, parameter, values, period, signal, cycles=100, transient=20, phase=0.0, t0=0.0,
+                per_period=8, keep_portrait=False, sim_options=None, load_options=None,
+                executor=None, max_workers=None, progress=None, classify_options=None) -> BifurcationResult:
+    """Poincaré samples of ``signal`` for each parameter value (a bifurcation diagram).
+
+    signal: one signal (see the module docstring) or a list of them, all sampled from the same
+        runs (e.g. platform x, y, z and clearance eccentricity components as in paper 000); a
+        tuple is one (x_spec, xdot_spec) pair, not a list of signals.
+
+    model: a sidecar path, or a factory ``f(value) -> Mechanism`` (module-level so it pickles
+        to worker processes; ``parameter`` is then only a label).
+    parameter (with a sidecar path):
+        * a clearance key ``"S2.mu"``, ``"S2.clearance"`` or a scene option (load() overrides);
+        * a key path inside the sidecar, list entries by name or index:
+          ``"forces[spring].k"``, ``"drives[crank1_drive].law.coeffs[1]"``, ``"gravity[2]"``;
+        * a mapping {path: factor}: every path set to factor*value, e.g. both cranks of paper
+          002 at +w and -w: ``{"drives[crank1_drive].law.coeffs[1]": 1,
+          "drives[crank4_drive].law.coeffs[1]": -1}``.
+    period: driving period (s), or ``f(value) -> period`` (evaluated here, e.g. 2 pi / w).
+    cycles, transient: periods recorded after ``transient`` periods are dropped
+        (paper 002: 100 cycles). Each run simulates (transient + cycles) periods with output
+        exactly on the section and ``per_period`` samples per period; those samples give the
+        attractor's extent (the scale of the period-detection tolerance, see :func:`classify`)
+        and, with keep_portrait, the phase portrait.
+    sim_options: keyword arguments of :func:`pinclear.simulate` (method, integrator, rtol,
+        max_cpu to bound a run...). load_options: of :func:`pinclear.load` (options,
+        clearances=[...], overrides for fixed keys).
+    executor: None -> a ProcessPoolExecutor(max_workers or os.cpu_count()) made and shut down
+        here; an Executor instance (kept open); or "serial" (in this process, for debugging or
+        unpicklable factories).
+    progress: None, True (one line per finished run on stderr) or f(done, total, run).
+    Every value yields a BifurcationRun: a run that stops early is 'failed' with its message and
+    partial samples, one that cannot start (bad value, assembly error) is 'error'.
+    """
+    # plain Python scalars: they go into YAML and pickles, and print readably
+    values = [v.item() if isinstance(v, np.generic) else v for v in values]
+    if not values:
+        raise InputError("bifurcation: no parameter values given")
+    sim_kw = dict(sim_options or {})
+    for k in ("t_end", "t_eval", "dt_out", "t0", "strict"):
+        if k in sim_kw:
+            raise InputError(f"sim_options may not set {k!r}: the bifurcation run chooses it")
+    load_kw = dict(load_options or {})
+    bad = set(load_kw) - {"options", "overrides", "clearances"}
+    if bad:
+        raise InputError(f"unknown load option {sorted(bad)[0]!r} (valid: clearances, options, overrides)")
+    signals = list(signal) if isinstance(signal, list) else [signal]
+    keys = [signal_key(sg) for sg in signals]
+    if len(set(keys)) != len(keys):
+        raise InputError(f"signals recorded twice: {keys}")
+    if int(transient) < 0 or int(cycles) < 1:
+        raise InputError(f"need transient >= 0 and cycles >= 1, got {transient}, {cycles}")
+    periods, bad_period = [], {}
+    for i, v in enumerate(values):
+        try:
+            T = float(period(v)) if callable(period) else float(period)
+        except Exception as exc:              # this value's fault: reported with its run
+            periods.append(float("nan"))
+            bad_period[i] = f"period({v!r}) failed: {type(exc).__name__}: {exc}"
+            continue
+        if not T > 0 or not math.isfinite(T):
+            if not callable(period):
+                raise InputError(f"period must be a positive number of seconds, got {period!r}")
+            bad_period[i] = f"period({v!r}) = {T!r}: must be a positive number of seconds"
+        periods.append(T)
+    base = dict(factory=None, path=None, patches=None, overrides=None, load_kw=load_kw, phase=float(phase),
+                t0=float(t0), transient=int(transient), cycles=int(cycles), per_period=int(per_period),
+                signals=signals, sim_kw=sim_kw, keep_portrait=bool(keep_portrait))
+    if callable(model):
+        base["factory"] = model
+    else:
+        path = Path(model)
+        if not path.exists():
+            raise ModelFileError(str(path), "path", "no such file")
+        if path.suffix.lower() == ".urdf":
+            raise InputError(f"bifurcation needs a sidecar (.yaml) whose parameter it can change, got {path}")
+        base.update(path=str(path), overrides=_parameter_overrides(path, parameter, load_kw))
+    jobs = [dict(base, index=i, value=v, period=T) for i, (v, T) in enumerate(zip(values, periods))
+            if i not in bad_period]
+
+    if progress is True:
+        def progress(done, total, run):   # noqa: F811 - the default reporter
+            why = "" if run.ok else f": {run.message}"
+            print(f"bifurcation {done}/{total}: {parameter} = {run.value!r} {run.status} "
+                  f"({run.stats.get('wall_s', 0):.1f} s){why}", file=sys.stderr, flush=True)
+
+    runs: list = [None] * len(values)
+    done = 0
+
+    def finish(run):
+        nonlocal done
+        runs[run.index] = run
+        done += 1
+        if progress:
+            progress(done, len(values), run)
+
+    for i, msg in bad_period.items():
+        finish(BifurcationRun(i, values[i], "error", msg))
+
+    if executor == "serial":
+        for job in jobs:
+            finish(_run_one(job))
+    else:
+        if executor is not None and not isinstance(executor, Executor):
+            raise InputError(f"executor must be None, 'serial' or a concurrent.futures.Executor, got {executor!r}")
+        try:
+            if executor is None or isinstance(executor, ProcessPoolExecutor):
+                pickle.dumps(jobs[0] if jobs else None)
+        except Exception as exc:
+            raise InputError(f"bifurcation: the job cannot be sent to worker processes ({exc}); use module-level "
+                             "functions for the factory, signal and laws, or executor='serial'") from None
+        own = executor is None
+        n_workers = max_workers or max(1, min(os.cpu_count() or 1, len(jobs)))
+        ex = ProcessPoolExecutor(max_workers=n_workers) if own else executor
+        try:
+            futs = {ex.submit(_run_one, job): job for job in jobs}
+            for fut in as_completed(futs):
+                job = futs[fut]
+                try:
+                    run = fut.result()
+                except Exception as exc:       # worker died (BrokenProcessPool, pickling of the result...)
+                    run = BifurcationRun(job["index"], job["value"], "error", f"{type(exc).__name__}: {exc}")
+                finish(run)
+        finally:
+            if own:
+                ex.shutdown(wait=True, cancel_futures=True)
+    copt = dict(classify_options or {})
+    fixed_scale = copt.pop("scale", None)
+    for r in runs:
+        for key in keys:
+            sec = r.sections.get(key)
+            r.classifications[key] = classify(sec if sec is not None else np.zeros((0, 2)),
+                                              scale=fixed_scale, **copt)
+    numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+    return BifurcationResult(parameter, np.asarray(values, dtype=float if numeric else object), runs, keys,
+                             np.asarray(periods))
+
+def is_number(v):
+    try:
+        return math.isfinite(float(v))
+    except (TypeError, ValueError):
+        return False
