@@ -38,7 +38,10 @@ def main(argv=None):
     ap.add_argument("--cycles", type=int, default=80, help="recorded forcing periods per value")
     ap.add_argument("--transient", type=int, default=60, help="periods dropped before recording")
     ap.add_argument("--workers", type=int, default=None)
+    ap.add_argument("--quick", action="store_true", help="smoke run: 2 amplitudes, 20 + 20 periods, 2 workers")
     args = ap.parse_args(argv)
+    if args.quick:
+        args.values, args.cycles, args.transient, args.workers = "0.2,1.4", 20, 20, 2
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
 

@@ -34,6 +34,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="analysis_out", help="directory for the figures")
     ap.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
+    ap.add_argument("--quick", action="store_true", help="smoke run: 4 frequencies, 2 workers")
     args = ap.parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -52,10 +53,10 @@ def main(argv=None):
     an.plot_poincare(sec, path=out / "oscillator_poincare.png")
 
     # bifurcation diagram over the driving frequency (through resonance at sqrt(k/m) = 5 rad/s)
-    ws = np.linspace(2.0, 8.0, 13)
+    ws = np.linspace(2.0, 8.0, 4 if args.quick else 13)
     res = an.bifurcation(SIDECAR, "forces[push].law.terms[0].omega", ws, period=period_of, signal="slide",
                          cycles=10, transient=20, sim_options=dict(integrator="DOP853", rtol=1e-10),
-                         max_workers=args.workers, progress=True)
+                         max_workers=2 if args.quick else args.workers, progress=True)
     worst = 0.0
     for r in res.runs:
         xs, vs = steady(r.value)

@@ -67,3 +67,17 @@ def test_clearance_examples(tmp_path, script):
     text = run_example(script, tmp_path)
     assert "status success" in text
     assert list(tmp_path.glob("*.png"))
+
+
+def test_analysis_oscillator(tmp_path):
+    """Sweep in 2 worker processes; the section velocities follow the driven oscillator's
+    closed-form steady state (transfer function) to integration accuracy."""
+    text = run_example("analysis_oscillator.py", tmp_path)
+    assert number(text, "from the closed form:") < 1e-6
+    assert (tmp_path / "oscillator_poincare.png").exists()
+
+
+def test_analysis_double_well(tmp_path):
+    """Weak forcing of the double-well oscillator is period-1 (small oscillation in one well)."""
+    text = run_example("analysis_double_well.py", tmp_path)
+    assert re.search(r"0\.200\s+success\s+period-1", text), text
