@@ -50,7 +50,12 @@ class DriveRows:
             else:
                 single.append((k, d.law))
         self.single = tuple(single)
-        self.groups = tuple((law, np.array(ks), np.array(ix)) for law, ks, ix in groups.values())
+        nd = len(drives)
+        # a group holding every drive, in the function's component order, whose function has a
+        # compiled twin writes straight into the values array: one compiled call per time
+        self.groups = tuple((law, np.array(ks), np.array(ix),
+                             law.fills and ks == list(range(nd)) and ix == list(range(nd)))
+                            for law, ks, ix in groups.values())
 
     def create_data(self) -> DriveData:
         return DriveData(len(self.drives), len(self.groups))
@@ -58,10 +63,13 @@ class DriveRows:
     def values(self, t, d: DriveData):
         """(3, nd) law values, first and second derivatives at t (written into ``d.f``)."""
         f = d.f
-        for g, (law, ks, ix) in enumerate(self.groups):
+        for g, (law, ks, ix, direct) in enumerate(self.groups):
             if d.t_group[g] != t:            # the same instant is asked for by many evaluations
-                y, yd, ydd = law.vector(t)
-                f[0, ks], f[1, ks], f[2, ks] = y[ix], yd[ix], ydd[ix]
+                if direct:
+                    law.vector_into(t, f)
+                else:
+                    y, yd, ydd = law.vector(t)
+                    f[0, ks], f[1, ks], f[2, ks] = y[ix], yd[ix], ydd[ix]
                 d.t_group[g] = t
         for k, law in self.single:
             f[:, k] = law.eval(t)

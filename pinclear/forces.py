@@ -38,6 +38,8 @@ class ForceElement(abc.ABC):
        values at once; the simulator locates crossings and calls :meth:`handle_event` with the
        channel index, which returns the new internal state.
     8. ``is_clearance`` is True for clearance joints: the one way code tells them apart.
+       ``kinematic_frames`` names the frames whose placements a compiled evaluation reads from
+       ``ws.fk`` (joint placements of the compiled chain times the frames' offsets).
     9. :meth:`outputs` returns the per-sample records (arrays) a trajectory keeps, named
        ``"<element>.<key>"`` there.
     """
@@ -47,6 +49,9 @@ class ForceElement(abc.ABC):
     conservative: bool = True
     events: tuple = ()
     is_clearance: bool = False
+    #: frames whose placements the element reads from the workspace's compiled frame kinematics
+    #: (``ws.fk``, from slot ``mech.force_frame_slot[i]`` on) instead of Pinocchio's data.oMf
+    kinematic_frames: tuple = ()
 
     def create_data(self, mech):
         """Per-workspace data of this element (None when it writes nothing)."""

@@ -189,9 +189,9 @@ def constraint_rows(mech, ws, t, q, v, baumgarte=None):
 def static_args(mech, ws):
     """The buffers the compiled constraint kernels read and write (see pinclear._kernels); all
     are views that stay valid for the workspace's life (data.J etc. view Pinocchio's memory)."""
-    fk, mc, dr, data = ws.fk, mech.compiled, mech.driverows, ws.data
-    nv = mech.nv     # Pinocchio hands back (6,) for a 1-dof tree: view it as (6, nv)
-    return (fk.Hj, fk.jidx, fk.jMf, fk.H, fk.mask, data.J.reshape(6, nv), data.dJ.reshape(6, nv), mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv, fk.Jw, fk.V, fk.W,
+    fk, mc, dr = ws.fk, mech.compiled, mech.driverows
+    # ws.J6: Pinocchio hands back (6,) for a 1-dof tree, the workspace views it as (6, nv)
+    return (fk.Hj, fk.jidx, fk.jMf, fk.H, fk.mask, ws.J6, ws.dJ6, mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv, fk.Jw, fk.V, fk.W,
             fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma)
 
 

@@ -48,6 +48,15 @@ class Mechanism:
             self.z_slices.append(slice(n, n + f.nz))
             n += f.nz
         self.nz = n
+        # frames whose placements the compiled kernels compute from the joint chain: the closures'
+        # frames, then those force elements evaluate in compiled code (``kinematic_frames``);
+        # element i's frames start at slot force_frame_slot[i] of the workspace's FrameKinematics
+        frames, slots = list(self.compiled.frames), []
+        for f in self.forces:
+            slots.append(len(frames))
+            frames.extend(int(x) for x in f.kinematic_frames)
+        self.kin_frames = tuple(frames)
+        self.force_frame_slot = tuple(slots)
         self.euclidean = _is_euclidean(model)
 
     # ------------------------------------------------------------------ queries
@@ -150,7 +159,11 @@ class Workspace:
         nv, m = mech.nv, mech.m
         self.data = mech.model.createData()
         self.parent = np.array(self.data.parents_fromRow, dtype=np.int64)   # parent dof, -1 at roots
-        self.fk = FrameKinematics(mech.model, mech.compiled.frames)
+        self.fk = FrameKinematics(mech.model, mech.kin_frames)
+        # (6, nv) views of Pinocchio's joint Jacobian and its rate, valid for the data's life
+        # (each attribute access builds a new view: ~1 us, so the hot path keeps these)
+        self.J6 = self.data.J.reshape(6, nv)
+        self.dJ6 = self.data.dJ.reshape(6, nv)
         self.phi = np.zeros(m)
         self.dphi = np.zeros(m)
         self.bias = np.zeros(m)

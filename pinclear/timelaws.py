@@ -142,6 +142,19 @@ class Callable(TimeLaw):
         """All components of the shared function at t (three float arrays)."""
         return [np.asarray(x, float) for x in self.func(t, **self.args)]
 
+    @property
+    def fills(self) -> bool:
+        """Whether the function declares a compiled twin ``func.into(t, out, **args)`` that writes
+        its components' values and derivatives into out (3, n) without allocating."""
+        return callable(getattr(self.func, "into", None))
+
+    def vector_into(self, t, out):
+        """All components at t written into out (3, n): the compiled twin when there is one."""
+        if self.fills:
+            self.func.into(t, out, **self.args)
+        else:
+            out[0], out[1], out[2] = self.vector(t)
+
     def eval(self, t):
         if self.index is not None:
             y, yd, ydd = self.vector(t)

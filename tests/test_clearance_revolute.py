@@ -132,3 +132,74 @@ def test_journal_with_line_law_settles_at_paper_003_eq6_deflection():
     ref = W / (np.pi * Es * l) * (1 - np.log(W * R / (np.pi * Es * l ** 3)))
     assert law.R == pytest.approx(R)
     assert tr.outputs["A.penetration"][-1] == pytest.approx(ref, rel=1e-2)
+
+
+# ------------------------------------------------------------ the element against plain NumPy
+def _reference_journal(mech, el, q, v, z, mu, v_eps):
+    """Generalized force and dissipated power of a journal in its bearing, written out from paper
+    002 eqs. 1-10 (spatial: both journal ends on the cylinder, the centre against the thrust
+    faces) with Pinocchio's frame Jacobians, Lankarani-Nikravesh and regularised Coulomb."""
+    model = mech.model
+    data = model.createData()
+    pin.computeJointJacobians(model, data, q)
+    pin.updateFramePlacements(model, data)
+    M1, M2 = data.oMf[el.f1], data.oMf[el.f2]
+    J1 = pin.getFrameJacobian(model, data, el.f1, pin.LOCAL_WORLD_ALIGNED)
+    J2 = pin.getFrameJacobian(model, data, el.f2, pin.LOCAL_WORLD_ALIGNED)
+    s, a, j = M1.translation, M1.rotation[:, 2], M2.translation
+    channels = []                                          # (delta, n, p1, p2)
+    ends = [j + h * M2.rotation[:, 2] for h in (0.5 * el.L, -0.5 * el.L)] if el.spatial else [j]
+    for p in ends:
+        u = (p - s) @ a
+        e = p - s - u * a
+        n = e / np.linalg.norm(e)
+        channels.append((np.linalg.norm(e) - el.c, n, s + u * a + el.R1 * n, p + el.R2 * n))
+    if el.spatial:
+        u = (j - s) @ a
+        channels += [(u - el.ca, a, j, j), (-u - el.ca, -a, j, j)]
+    chi = 0.75 * (1 - el.law.ce ** 2)
+    tau, loss = np.zeros(mech.nv), 0.0
+    for k, (delta, n, p1, p2) in enumerate(channels):
+        if delta <= 0:
+            continue
+        vel = [J[:3] @ v + np.cross(J[3:] @ v, p - M.translation) for J, M, p in ((J1, M1, p1), (J2, M2, p2))]
+        dv = vel[1] - vel[0]
+        dd = n @ dv
+        vt = dv - dd * n
+        Fel = el.law.K * delta ** el.law.n
+        Fn = max(Fel * (1 + chi * dd / max(z[k], el.v_impact_min)), 0.0)
+        sl = np.linalg.norm(vt)
+        Ft = -mu * sl / np.sqrt(sl ** 2 + v_eps ** 2) * Fn * vt / sl if sl > 0 else np.zeros(3)
+        F = Ft - Fn * n                                    # on the journal, at p2; reaction at p1
+        for J, M, p, sign in ((J2, M2, p2, 1.0), (J1, M1, p1, -1.0)):
+            tau += sign * (J[:3].T @ F + J[3:].T @ np.cross(p - M.translation, F))
+        loss += (Fn - Fel) * dd - Ft @ vt
+    return tau, loss, sum(c[0] > 0 for c in channels)
+
+
+@pytest.mark.parametrize("scene, name", [("clr_planar_pendulum", "A"), ("clr_hinge", "R"), ("nine_bar", "A")])
+def test_journal_force_equals_plain_numpy_evaluation(scene, name):
+    """The compiled right-hand-side path of the revolute clearances (planar, spatial, and one whose
+    bearing moves) against an independent evaluation at random states, to 1e-12."""
+    mu, v_eps = 0.3, 1e-4
+    mech = pinclear.load(scene, clearances=[name], overrides={f"{name}.friction_law":
+                                                             {"type": "coulomb", "mu": mu, "v_eps": v_eps}})
+    el = next(f for f in mech.forces if f.name == name)
+    i = mech.forces.index(el)
+    mu = el.friction.mu         # a joint-level ``mu`` (nine_bar's A) sets the law's coefficient
+    ws = mech.workspace()
+    rng = np.random.default_rng(7)
+    touching = 0
+    for _ in range(40):
+        q = pin.integrate(mech.model, mech.q0, rng.normal(size=mech.nv) * 3e-3)
+        v = rng.normal(size=mech.nv)
+        z = np.r_[10 ** rng.uniform(-4, 0, el.nc), 0.0]
+        pinclear.kinematics.update(mech, ws, q, v)
+        tau, zdot = np.zeros(mech.nv), np.zeros(el.nz)
+        el.add_force(mech, ws, ws.force_data[i], 0.0, q, v, z, tau, zdot)
+        ref_tau, ref_loss, on = _reference_journal(mech, el, q, v, z, mu, v_eps)
+        touching += on > 0
+        scale = max(np.abs(ref_tau).max(), 1.0)
+        np.testing.assert_allclose(tau, ref_tau, rtol=0, atol=1e-12 * scale)
+        assert zdot[el.nc] == pytest.approx(ref_loss, rel=1e-11, abs=1e-12 * scale * np.abs(v).max())
+    assert touching >= 10

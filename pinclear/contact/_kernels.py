@@ -224,3 +224,82 @@ def radial_geometry(s, a, pts, c, R1, R2, delta, n, p1, p2):
         p2[k, 0] = pts[k, 0] + R2 * n0
         p2[k, 1] = pts[k, 1] + R2 * n1
         p2[k, 2] = pts[k, 2] + R2 * n2
+
+
+#: geometry codes of the fused channel evaluation (``ClearanceJoint.geometry_code``)
+G_SPHERICAL, G_PLANAR_REVOLUTE, G_REVOLUTE = 0, 1, 2
+
+
+@njit(cache=True)
+def channel_geometry(code, gpar, M1, M2, scratch, delta, n, p1, p2):
+    """The geometry hooks of the spherical and revolute joints (``_geometry``) from the frame
+    placements M1 (socket/bearing) and M2 (ball/journal) as 4x4 homogeneous matrices.
+    gpar = (c, R1, R2, ca, L); scratch is a (4, 3) work array: s, a, and two journal points."""
+    c, R1, R2 = gpar[0], gpar[1], gpar[2]
+    s, a, pts = scratch[0], scratch[1], scratch[2:4]
+    for i in range(3):
+        s[i] = M1[i, 3]
+        a[i] = 0.0 if code == G_SPHERICAL else M1[i, 2]
+        pts[0, i] = M2[i, 3]
+    if code != G_REVOLUTE:
+        radial_geometry(s, a, pts[0:1], c, R1, R2, delta, n, p1, p2)
+        return
+    # journal ends against the bearing cylinder (channels 0, 1), centre against the thrust faces
+    ca, half = gpar[3], 0.5 * gpar[4]
+    u = 0.0
+    for i in range(3):
+        j = M2[i, 3]
+        pts[0, i] = j + half * M2[i, 2]
+        pts[1, i] = j - half * M2[i, 2]
+        u += (j - s[i]) * a[i]
+    radial_geometry(s, a, pts, c, R1, R2, delta[:2], n[:2], p1[:2], p2[:2])
+    delta[2], delta[3] = u - ca, -u - ca
+    for i in range(3):
+        n[2, i], n[3, i] = a[i], -a[i]
+        p1[2, i] = p1[3, i] = p2[2, i] = p2[3, i] = M2[i, 3]
+
+
+@njit(cache=True)
+def frame_placement(Hj, jidx, jMf, k, M):
+    """M = oMi[parent of frame k] * jMf[k] (4x4), frame k of a FrameKinematics."""
+    Hp = Hj[jidx[k]]
+    for r in range(3):
+        for col in range(4):
+            acc = Hp[r, 3] if col == 3 else 0.0
+            for i in range(3):
+                acc += Hp[r, i] * jMf[k, i, col]
+            M[r, col] = acc
+    M[3, 0] = M[3, 1] = M[3, 2] = 0.0
+    M[3, 3] = 1.0
+
+
+@njit(cache=True)
+def clearance_force(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, J, idx1, idx2, v, z, vmin, K, expo, chi,
+                    fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
+    """One clearance joint's whole right-hand-side contribution in one call, the same steps as
+    ClearanceJoint._compute + add_force: frame placements (slots ``slot``, ``slot + 1`` of the
+    workspace's frame kinematics), geometry, relative velocity, normal and memoryless friction
+    laws, wrenches into tau; zdot = (0 per channel, dissipated power). Returns the number of
+    touching channels (0: free flight, no velocities computed, as in the Python path)."""
+    frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
+    frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
+    channel_geometry(code, gpar, Mbuf[0], Mbuf[1], scratch, delta, n, p1, p2)
+    nc = delta.shape[0]
+    on = 0
+    for k in range(nc):
+        zdot[k] = 0.0
+        if delta[k] > 0.0:
+            on += 1
+    zdot[nc] = 0.0
+    if on == 0:
+        for k in range(nc):
+            Fn[k] = 0.0
+            Fel[k] = 0.0
+            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+        return 0
+    relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt)
+    for k in range(nc):
+        dd0[k] = max(z[k], vmin)
+    zdot[nc] = contact_forces(delta, dd, vt, n, dd0, K, expo, chi, fcode, fpar, Fn, Fel, F2)
+    add_wrenches(J, idx1, idx2, F2, p1, p2, tau)
+    return on

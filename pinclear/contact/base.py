@@ -75,6 +75,9 @@ class ClearanceData:
         self.loss = 0.0                      # dissipated power, W
         self.moving = False
         self.ft_ready = False
+        self.scratch = np.zeros((4, 3))      # work arrays of the fused compiled evaluation
+        self.M = np.zeros((2, 4, 4))         # placements of frame1 and frame2 (compiled path)
+        self.slot = -1                       # their slot in ws.fk (compiled path)
         self.key = None                      # (t, q, v, z bytes) the quantities belong to
         self.q_key = None                    # q bytes the geometry belongs to
 
@@ -90,6 +93,9 @@ class ClearanceJoint(ForceElement):
     event_direction = 1
     #: penetrations closer to zero than this (m) count as exactly zero for event detection
     event_snap = 1e-13
+    #: geometry code of contact._kernels.channel_geometry when the subclass's ``_geometry`` has a
+    #: compiled twin (None: Python geometry only)
+    geometry_code = None
 
     def __init__(self, name, model, f1, f2, nc, friction, *, v_impact_min=1e-4,
                  max_initial_penetration=None, file="<spec>"):
@@ -108,7 +114,16 @@ class ClearanceJoint(ForceElement):
 
     def _freeze(self):
         self._kernel = self._kernel_params()
+        # the right-hand side's one compiled call per joint, when geometry and laws allow it
+        self._fused = None
+        if self._kernel is not None and self.geometry_code is not None:
+            self._fused = (int(self.geometry_code), _readonly(self._geometry_params())) + self._kernel
+            self.kinematic_frames = (self.f1, self.f2)
         super()._freeze()
+
+    def _geometry_params(self):
+        """gpar of contact._kernels.channel_geometry (subclasses with a ``geometry_code``)."""
+        raise NotImplementedError
 
     # ------------------------------------------------------------------ subclass hooks
     def _geometry(self, data, d):
@@ -142,7 +157,10 @@ class ClearanceJoint(ForceElement):
 
     # ------------------------------------------------------------------ evaluation
     def create_data(self, mech):
-        return ClearanceData(self.nc, self.nfs)
+        d = ClearanceData(self.nc, self.nfs)
+        if self._fused is not None:
+            d.slot = mech.force_frame_slot[[f is self for f in mech.forces].index(True)]
+        return d
 
     def _eval(self, ws, d, t, q, v, z, full=False):
         """All channel quantities at the state (t, q, v, z) in ``d``; ``full`` insists on the
@@ -219,6 +237,16 @@ class ClearanceJoint(ForceElement):
         return z
 
     def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
+        f = self._fused
+        if f is not None:
+            # the hot path: one compiled call (same kernels as _compute); nothing is cached, so
+            # later calls at this state (outputs, events) evaluate afresh through _eval
+            d.key = d.q_key = None
+            fk = ws.fk
+            _kernels.clearance_force(f[0], f[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, ws.J6, self.idx1,
+                                     self.idx2, v, z, self.v_impact_min, f[2], f[3], f[4], f[5], f[6], d.delta,
+                                     d.n, d.p1, d.p2, d.dd, d.vt, d.dd0, d.Fn, d.Fel, d.F2, tau, zdot)
+            return
         self._eval(ws, d, t, q, v, z)
         nc = self.nc
         zdot[:nc] = 0.0

@@ -35,6 +35,7 @@ class RevoluteClearance(ClearanceJoint):
         nc = 4 if spatial else 1
         super().__init__(name, model, f1, f2, nc, friction, **kw)
         self.kind = "revolute" if spatial else "planar_revolute"
+        self.geometry_code = _kernels.G_REVOLUTE if spatial else _kernels.G_PLANAR_REVOLUTE
         self.spatial = spatial
         self.c = float(clearance)
         self.R2 = float(R_journal)
@@ -48,6 +49,9 @@ class RevoluteClearance(ClearanceJoint):
 
     def _channel_laws(self):
         return (self.law,) * self.nc
+
+    def _geometry_params(self):
+        return np.array([self.c, self.R1, self.R2, self.ca, self.L])
 
     def _geometry(self, data, d):
         M1, M2 = data.oMf[self.f1], data.oMf[self.f2]

@@ -19,6 +19,7 @@ KEYS = frozenset({"radius", "socket_radius"})
 
 class SphericalClearance(ClearanceJoint):
     kind = "spherical"
+    geometry_code = _kernels.G_SPHERICAL
 
     def __init__(self, name, model, f1, f2, clearance, R_ball, law, friction, *, stiffness_note="given", **kw):
         super().__init__(name, model, f1, f2, 1, friction, **kw)
@@ -32,6 +33,9 @@ class SphericalClearance(ClearanceJoint):
 
     def _channel_laws(self):
         return (self.law,)
+
+    def _geometry_params(self):
+        return np.array([self.c, self.R1, self.R2, 0.0, 0.0])
 
     def _geometry(self, data, d):
         # the socket has no axis: radial_geometry with a = 0 is paper 000 eqs. 3-9 as they stand

@@ -188,20 +188,34 @@ def limb_lengths(t):
 
 @njit(cache=True)
 def _limb_lengths(t, offsets, x0, amp, w):
+    out = np.empty((3, offsets.shape[0]))
+    _limb_lengths_into(t, offsets, x0, amp, w, out)
+    return out[0], out[1], out[2]
+
+
+@njit(cache=True)
+def _limb_lengths_into(t, offsets, x0, amp, w, out):
     s, c = math.sin(w * t), math.cos(w * t)
     p = (x0, amp * s, amp * c)              # platform_position(t)
     v = (0.0, amp * w * c, -amp * w * s)
     a = (0.0, -amp * w * w * s, -amp * w * w * c)
-    n = offsets.shape[0]
-    L, Ld, Ldd = np.empty(n), np.empty(n), np.empty(n)
     vv = v[1] * v[1] + v[2] * v[2]
-    for i in range(n):
+    for i in range(offsets.shape[0]):
         d0, d1, d2 = p[0] + offsets[i, 0], p[1] + offsets[i, 1], p[2] + offsets[i, 2]
         li = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
         dv = d1 * v[1] + d2 * v[2]
         da = d1 * a[1] + d2 * a[2]
-        L[i], Ld[i], Ldd[i] = li, dv / li, (vv + da) / li - dv * dv / li**3
-    return L, Ld, Ldd
+        out[0, i], out[1, i], out[2, i] = li, dv / li, (vv + da) / li - dv * dv / li**3
+
+
+def _limb_lengths_fill(t, out):
+    """limb_lengths(t) written into out (3, 5): the drives' compiled path (timelaws.Callable)."""
+    if out.shape != (3, _OFFSETS.shape[0]):
+        raise ValueError(f"limb_lengths fills (3, {_OFFSETS.shape[0]}) values, got an array of shape {out.shape}")
+    _limb_lengths_into(float(t), _OFFSETS, X0, AMPLITUDE, OMEGA, out)
+
+
+limb_lengths.into = _limb_lengths_fill
 
 
 def limb_law(t, limb):

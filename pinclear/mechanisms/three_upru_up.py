@@ -286,15 +286,30 @@ def limb_lengths(t):
 
 @njit(cache=True)
 def _limb_lengths(p, plat_xy, base):
+    out = np.empty((3, plat_xy.shape[0]))
+    _limb_lengths_into(p, plat_xy, base, out)
+    return out[0], out[1], out[2]
+
+
+@njit(cache=True)
+def _limb_lengths_into(p, plat_xy, base, out):
     cols, _ = _pose_jet_of(p)
     c1, c2 = cols[0], cols[1]
-    out = np.empty((3, plat_xy.shape[0]))
     for k in range(plat_xy.shape[0]):
         B = _add(_add(p, _scale(c1, plat_xy[k, 0])), _scale(c2, plat_xy[k, 1]))
         d = (B[0] - base[k], B[1], B[2])
         L = _sqrt(_dot(d, d))
         out[0, k], out[1, k], out[2, k] = L[0], L[1], L[2]
-    return out[0], out[1], out[2]
+
+
+def _limb_lengths_fill(t, out):
+    """limb_lengths(t) written into out (3, 3): the drives' compiled path (timelaws.Callable)."""
+    if out.shape != (3, _BASE.shape[0]):
+        raise ValueError(f"limb_lengths fills (3, {_BASE.shape[0]}) values, got an array of shape {out.shape}")
+    _limb_lengths_into(platform_position(t), _PLATFORM_XY, _BASE, out)
+
+
+limb_lengths.into = _limb_lengths_fill
 
 
 def limb_law(t, limb):
