@@ -6,7 +6,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .timelaws import TimeLaw
+from .timelaws import TimeLaw, eval_laws
+
+
+def _readonly(a):
+    a.flags.writeable = False
+    return a
 
 
 @dataclass(frozen=True)
@@ -49,7 +54,18 @@ class DriveRows:
                 g[2].append(d.law.index)
             else:
                 single.append((k, d.law))
-        self.single = tuple(single)
+        # laws with a compiled form (constant, sines, polynomial) are evaluated in one call
+        compiled = [(k, law, law.kernel_params()) for k, law in single if law.kernel_params() is not None]
+        self.single = tuple((k, law) for k, law in single if law.kernel_params() is None)
+        P, starts = [], [0]
+        for _, _, (code, par) in compiled:
+            P.extend(float(x) for x in par)
+            starts.append(len(P))
+        self.law_table = None
+        if compiled:
+            self.law_table = tuple(_readonly(x) for x in (
+                np.array([c[2][0] for c in compiled], dtype=np.int64), np.array(starts, dtype=np.int64),
+                np.array(P + [0.0], float), np.array([c[0] for c in compiled], dtype=np.int64)))
         nd = len(drives)
         # a group holding every drive, in the function's component order, whose function has a
         # compiled twin writes straight into the values array: one compiled call per time
@@ -71,6 +87,9 @@ class DriveRows:
                     y, yd, ydd = law.vector(t)
                     f[0, ks], f[1, ks], f[2, ks] = y[ix], yd[ix], ydd[ix]
                 d.t_group[g] = t
+        lt = self.law_table
+        if lt is not None:
+            eval_laws(lt[0], lt[1], lt[2], float(t), lt[3], f)
         for k, law in self.single:
             f[:, k] = law.eval(t)
         return f

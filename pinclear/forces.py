@@ -36,12 +36,17 @@ class ForceElement(abc.ABC):
     7. Events: ``events`` is a tuple of ``(name, direction)`` channels (direction +1: rising
        zero crossings only, -1 falling, 0 both). :meth:`event_values` returns all channels'
        values at once; the simulator locates crossings and calls :meth:`handle_event` with the
-       channel index, which returns the new internal state.
+       channel index, which returns the new internal state. Event values are functions of
+       position: before :meth:`event_values` the caller runs only
+       ``kinematics.update_positions`` (placements, frame placements, joint Jacobians), or,
+       when the element declares ``event_level = "placements"``, only
+       ``kinematics.update_placements`` (the placements of its ``kinematic_frames`` in ``ws.fk``).
     8. ``is_clearance`` is True for clearance joints: the one way code tells them apart.
        ``kinematic_frames`` names the frames whose placements a compiled evaluation reads from
        ``ws.fk`` (joint placements of the compiled chain times the frames' offsets).
     9. :meth:`outputs` returns the per-sample records (arrays) a trajectory keeps, named
-       ``"<element>.<key>"`` there.
+       ``"<element>.<key>"`` there. A trajectory asks for a sample's potential, power loss and
+       outputs in one :meth:`record` call, which may reuse what :meth:`add_force` left in ``d``.
     """
 
     name: str = ""
@@ -52,6 +57,8 @@ class ForceElement(abc.ABC):
     #: frames whose placements the element reads from the workspace's compiled frame kinematics
     #: (``ws.fk``, from slot ``mech.force_frame_slot[i]`` on) instead of Pinocchio's data.oMf
     kinematic_frames: tuple = ()
+    #: what event_values needs (contract 7): "positions" or "placements"
+    event_level: str = "positions"
 
     def create_data(self, mech):
         """Per-workspace data of this element (None when it writes nothing)."""
@@ -72,6 +79,13 @@ class ForceElement(abc.ABC):
 
     def outputs(self, mech, ws, d, t, q, v, z) -> dict:
         return {}
+
+    def record(self, mech, ws, d, t, q, v, z, after_rhs) -> tuple:
+        """(potential, power_loss, outputs) of one output sample. ``after_rhs``: the formulation
+        has just evaluated the right-hand side at this very state (so :meth:`add_force` ran
+        there and whatever it left in ``d`` may be reused)."""
+        return (self.potential(mech, ws, d, q), self.power_loss(mech, ws, d, t, q, v, z),
+                self.outputs(mech, ws, d, t, q, v, z))
 
     def event_values(self, mech, ws, d, t, q, v, z) -> np.ndarray:
         return np.zeros(0)

@@ -7,6 +7,7 @@ import abc
 import numpy as np
 from scipy import integrate as spi
 
+from ._jit import njit
 from .errors import InputError
 
 
@@ -60,6 +61,88 @@ class ScipyIntegrator(Integrator):
         if first_step is not None:
             kw["first_step"] = min(first_step, t_bound - t0)
         return self.cls(fun, t0, y0, t_bound, rtol=rtol, atol=atol, **kw)
+
+
+@njit(cache=True)
+def _rk_stage(y, K, a, s, h, out):
+    """out = y + (sum_{j<s} a_j K_j) h: the state of Runge-Kutta stage s."""
+    for i in range(y.shape[0]):
+        acc = 0.0
+        for j in range(s):
+            acc += K[j, i] * a[j]
+        out[i] = y[i] + acc * h
+
+
+@njit(cache=True)
+def _rk_error_norm(y, y_new, K, E, h, atol, rtol):
+    """RMS over the components of (sum_j E_j K_j) h / (atol + max(|y|, |y_new|) rtol)."""
+    acc = 0.0
+    for i in range(y.shape[0]):
+        e = 0.0
+        for j in range(K.shape[0]):
+            e += K[j, i] * E[j]
+        e = e * h / (atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol)
+        acc += e * e
+    return (acc / y.shape[0]) ** 0.5
+
+
+class CompiledRK45(spi.RK45):
+    """SciPy's RK45 (Dormand-Prince 5(4), the same tableau, error norm and step-size control,
+    its dense output) with the per-step vector arithmetic in two compiled calls and the
+    right-hand side called directly. SciPy's step costs ~0.1 ms of Python and NumPy calls on top
+    of the six evaluations, as much as the evaluations of a small tree; here it is a few
+    microseconds. Results equal SciPy's up to the summation order of the stage sums."""
+
+    def __init__(self, fun, t0, y0, t_bound, **kw):
+        super().__init__(fun, t0, y0, t_bound, **kw)
+        self._rhs = fun                      # bypass SciPy's asarray wrapper (fun returns float arrays)
+        self._atol = np.ascontiguousarray(np.broadcast_to(np.asarray(self.atol, float), (self.n,)))
+        self._A = np.ascontiguousarray(self.A, float)
+
+    def _step_impl(self):
+        t, y = self.t, self.y
+        max_step, rtol = self.max_step, self.rtol
+        min_step = 10 * abs(np.nextafter(t, self.direction * np.inf) - t)
+        if self.h_abs > max_step:
+            h_abs = max_step
+        elif self.h_abs < min_step:
+            h_abs = min_step
+        else:
+            h_abs = self.h_abs
+        K, A, C, fun = self.K, self._A, self.C, self._rhs
+        ns = self.n_stages
+        accepted = rejected = False
+        while not accepted:
+            if h_abs < min_step:
+                return False, self.TOO_SMALL_STEP
+            t_new = t + h_abs * self.direction
+            if self.direction * (t_new - self.t_bound) > 0:
+                t_new = self.t_bound
+            h = t_new - t
+            h_abs = abs(h)
+            K[0] = self.f
+            for s in range(1, ns):
+                ys = np.empty_like(y)        # a fresh array per stage, as SciPy passes
+                _rk_stage(y, K, A[s], s, h, ys)
+                K[s] = fun(t + C[s] * h, ys)
+            y_new = np.empty_like(y)
+            _rk_stage(y, K, self.B, ns, h, y_new)
+            f_new = fun(t + h, y_new)
+            K[-1] = f_new
+            err = _rk_error_norm(y, y_new, K, self.E, h, self._atol, rtol)
+            if err < 1:
+                factor = 10.0 if err == 0 else min(10.0, 0.9 * err ** self.error_exponent)
+                if rejected:
+                    factor = min(1.0, factor)
+                h_abs *= factor
+                accepted = True
+            else:
+                h_abs *= max(0.2, 0.9 * err ** self.error_exponent)
+                rejected = True
+        self.h_previous = h
+        self.y_old = y
+        self.t, self.y, self.h_abs, self.f = t_new, y_new, h_abs, f_new
+        return True, None
 
 
 class _BDF(ScipyIntegrator):
@@ -119,7 +202,7 @@ class RK4(Integrator):
 
 
 INTEGRATORS = {
-    "RK45": ScipyIntegrator("RK45", spi.RK45),
+    "RK45": ScipyIntegrator("RK45", CompiledRK45),
     "DOP853": ScipyIntegrator("DOP853", spi.DOP853),
     "Radau": ScipyIntegrator("Radau", spi.Radau),
     "BDF": _BDF("BDF", spi.BDF),

@@ -166,6 +166,15 @@ def update(mech, ws, q, v):
     ws.fk.load_placements(data, q)
 
 
+def update_placements(mech, ws, q):
+    """The placements of ``ws.fk``'s frames at q, nothing else: one compiled call for trees of
+    1-dof joints (no Pinocchio call), else a position-level update."""
+    if ws.fk.chain is not None:
+        ws.fk.load_placements(ws.data, q)
+    else:
+        update_positions(mech, ws, q)
+
+
 def update_positions(mech, ws, q):
     """Position-level update for assembly: placements and Jacobians only."""
     model, data = mech.model, ws.data

@@ -76,11 +76,7 @@ class OdeSystem:
                                          "stiffness, and that the mass matrix is positive definite)")
         else:
             self.bad = 0
-        out = np.empty_like(x)
-        out[:n] = dq
-        out[n:n + nv] = a
-        out[n + nv:] = form.ws.zdot
-        return out
+        return np.concatenate((dq, a, form.ws.zdot))
 
 
 def _check_inputs(t_end, t0, rtol, atol, integ, h, max_step, first_step, t_eval, dt_out):
@@ -216,10 +212,13 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
     nfev0, cpu_prior = stats["rhs_evals"], stats["cpu_s"]
     # event channels per force element, evaluated together (one kinematics pass per element)
     events = [(fi, f, np.array([e[1] for e in f.events])) for fi, f in enumerate(mech.forces) if f.events]
+    # event values depend on position only (ForceElement contract 7)
+    update_for_events = (kinematics.update_placements if all(f.event_level == "placements" for _, f, _ in events)
+                         else kinematics.update_positions)
 
     def event_vals(fi, f, t, x):
         q_, v_, z_ = sysf.split(x)
-        kinematics.update(mech, ws, q_, v_)
+        update_for_events(mech, ws, q_)
         return np.array(f.event_values(mech, ws, ws.force_data[fi], t, q_, v_, z_[mech.z_slices[fi]]), float)
 
     def all_events(t, x):
@@ -243,9 +242,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
     good = None     # (t, q, v, z, next step, samples, events) after the last completed step
 
     def mark_good(solver):
+        # every step: keep it cheap (the state is split only when a checkpoint is written)
         nonlocal good
-        q_, v_, z_ = sysf.split(solver.y)
-        good = (float(solver.t), np.array(q_), np.array(v_), np.array(z_), _next_step(solver), len(samples),
+        good = (float(solver.t), solver.y.copy(), sysf.anchor, _next_step(solver), len(samples),
                 len(stats["events"]))
 
     def save_checkpoint():
@@ -253,7 +252,10 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
         events recorded past it (an interrupt inside a step) are dropped so a resume redoes them."""
         if good is None:
             return
-        tg, qg, vg, zg, hg, ns, ne = good
+        tg, xg, anchor, hg, ns, ne = good
+        saved, sysf.anchor = sysf.anchor, anchor
+        qg, vg, zg = (np.array(a) for a in sysf.split(xg))
+        sysf.anchor = saved
         del samples[ns:]
         del stats["events"][ne:]
         if checkpoint is None:
@@ -297,7 +299,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
             if not np.all(np.isfinite(solver.y)):
                 status, message = "failed", f"non-finite state at t = {t_new:.9g} s"
                 break
-            dense = solver.dense_output() if (out_i < len(t_eval) or events) else None
+            # built on first use: most steps neither cross an event nor reach an output time
+            dense = _LazyDense(solver)
             # ---- events: earliest sign change in this step
             hit = None
             if events:
@@ -397,6 +400,20 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
         warnings.warn(f"pinclear.simulate: {message} ({len(samples)} of {len(t_eval)} samples kept)",
                       RuntimeWarning, stacklevel=2)
     return traj
+
+
+class _LazyDense:
+    """The solver's dense output of its last step, interpolated on first call."""
+
+    __slots__ = ("solver", "interp")
+
+    def __init__(self, solver):
+        self.solver, self.interp = solver, None
+
+    def __call__(self, t):
+        if self.interp is None:
+            self.interp = self.solver.dense_output()
+        return self.interp(t)
 
 
 def _next_step(solver):

@@ -8,6 +8,7 @@ import os
 
 import numpy as np
 
+from ._jit import njit
 from .errors import ModelFileError
 
 
@@ -38,6 +39,48 @@ class TimeLaw(abc.ABC):
     def describe(self) -> dict:
         return {"type": self.kind}
 
+    def kernel_params(self):
+        """(code, parameters) when :func:`eval_laws` evaluates this law in compiled code (the
+        drive rows then fill all such laws in one call); None: Python ``eval`` only."""
+        return None
+
+
+#: codes of the compiled time laws (TimeLaw.kernel_params)
+L_CONSTANT, L_SINES, L_POLYNOMIAL = 0, 1, 2
+
+
+@njit(cache=True)
+def eval_laws(codes, starts, P, t, cols, f):
+    """f[:, cols[k]] = (y, y', y'') of law k at t, for the laws of this module with a compiled
+    form; law k's parameters are P[starts[k]:starts[k + 1]] (see each law's kernel_params)."""
+    for k in range(codes.shape[0]):
+        a, b = starts[k], starts[k + 1]
+        code = codes[k]
+        y = yd = ydd = 0.0
+        if code == L_CONSTANT:
+            y = P[a]
+        elif code == L_SINES:
+            y = P[a]
+            for i in range(a + 1, b, 3):
+                amp, w, ph = P[i], P[i + 1], P[i + 2]
+                s, c = math.sin(w * t + ph), math.cos(w * t + ph)
+                y += amp * s
+                yd += amp * w * c
+                ydd -= amp * w * w * s
+        else:
+            # P = (len c, len d, len dd, c..., d..., dd...): Horner on each, as Polynomial.eval
+            c0 = a + 3
+            d0 = c0 + int(P[a])
+            e0 = d0 + int(P[a + 1])
+            for i in range(d0 - 1, c0 - 1, -1):
+                y = y * t + P[i]
+            for i in range(e0 - 1, d0 - 1, -1):
+                yd = yd * t + P[i]
+            for i in range(b - 1, e0 - 1, -1):
+                ydd = ydd * t + P[i]
+        j = cols[k]
+        f[0, j], f[1, j], f[2, j] = y, yd, ydd
+
 
 class Constant(TimeLaw):
     kind = "constant"
@@ -47,6 +90,9 @@ class Constant(TimeLaw):
 
     def eval(self, t):
         return self.value, 0.0, 0.0
+
+    def kernel_params(self):
+        return L_CONSTANT, [self.value]
 
     def describe(self):
         return {"type": self.kind, "value": self.value}
@@ -75,6 +121,9 @@ class Sines(TimeLaw):
             ydd -= a * w * w * s
         return y, yd, ydd
 
+    def kernel_params(self):
+        return L_SINES, [self.offset] + [x for term in self._t for x in term]
+
     def describe(self):
         return {"type": self.kind, "offset": self.offset, "terms": self.terms}
 
@@ -100,6 +149,10 @@ class Polynomial(TimeLaw):
     def eval(self, t):
         h = self._horner
         return h(self.coeffs, t), h(self._d, t), h(self._dd, t)
+
+    def kernel_params(self):
+        c, d, dd = self.coeffs, self._d, self._dd
+        return L_POLYNOMIAL, [len(c), len(d), len(dd)] + c + d + dd
 
     def describe(self):
         return {"type": self.kind, "coeffs": self.coeffs}

@@ -175,10 +175,12 @@ class Trajectory:
             try:
                 self.a[i] = form.accelerations(t, q, v, z)
                 lam[i] = ws.lam
+                fresh = True
             except Exception:               # a failed sample keeps NaN, the run's message says why
                 self.a[i] = np.nan
                 lam[i] = np.nan
                 kinematics.update(mech, ws, q, v)
+                fresh = False
             # accelerations() ran the kinematics pass at (q, v): only the cheap rows are redone
             # (a formulation may have left Baumgarte terms or a subset of rows in the buffers)
             kinematics.constraint_rows(mech, ws, t, q, v)
@@ -189,9 +191,10 @@ class Trajectory:
             E["kinetic"][i] = pin.computeKineticEnergy(model, ws.data)
             E["potential"][i] = pin.computePotentialEnergy(model, ws.data)
             for f, d, sl in zip(mech.forces, ws.force_data, mech.z_slices):
-                E["spring"][i] += f.potential(mech, ws, d, q)
-                E["dissipated_power"][i] += f.power_loss(mech, ws, d, t, q, v, z[sl])
-                for k, val in f.outputs(mech, ws, d, t, q, v, z[sl]).items():
+                pot, loss, rec = f.record(mech, ws, d, t, q, v, z[sl], fresh)
+                E["spring"][i] += pot
+                E["dissipated_power"][i] += loss
+                for k, val in rec.items():
                     outs.setdefault(f"{f.name}.{k}", []).append(np.asarray(val, float))
         names = mech.row_names()
         self.lam = {nm: lam[:, k] for k, nm in enumerate(names)}

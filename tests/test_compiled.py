@@ -62,3 +62,116 @@ def test_proximal_filter_is_k_proximal_iterations():
     for _ in range(k):
         lam = np.linalg.solve(S + rho * np.eye(6), r + rho * lam)
     np.testing.assert_allclose(proximal_multipliers(S, r, rho, k), lam, rtol=1e-9, atol=1e-12)
+
+
+# ------------------------------------------------------------------ drive laws
+def test_compiled_time_laws_equal_their_python_eval():
+    """Constant, sines and polynomial laws filled by one compiled call equal each law's own
+    ``eval`` (the formulas written in Python) bit for bit, at random times."""
+    from pinclear import timelaws as T
+    from pinclear.drives import Drive, DriveRows
+
+    laws = [T.Constant(0.3), T.Sines(0.1, [{"amp": 0.2, "omega": 3.0, "phase": 0.4},
+                                           {"amp": -1.1, "omega": 7.0, "kind": "cos"}]),
+            T.Polynomial([1.0, -2.0, 0.5, 0.25]), T.Polynomial([2.0]), T.Polynomial([1.0, 3.0]),
+            T.Sines(0.0, [])]
+    rows = DriveRows([Drive(f"d{i}", "j", i, i, law) for i, law in enumerate(laws)], len(laws))
+    assert rows.law_table is not None and not rows.single        # all compiled
+    d = rows.create_data()
+    for t in np.random.default_rng(0).uniform(-5.0, 5.0, 200):
+        np.testing.assert_array_equal(rows.values(t, d), np.array([law.eval(t) for law in laws]).T)
+    # and the sines' derivatives are the derivatives (central differences, error O(h^2))
+    h = 1e-5
+    for t in (0.3, 1.7):
+        (y0, _, _), (y1, yd1, ydd1), (y2, _, _) = (laws[1].eval(t + s) for s in (-h, 0.0, h))
+        assert (y2 - y0) / (2 * h) == pytest.approx(yd1, abs=1e-8)
+        assert (y2 - 2 * y1 + y0) / h ** 2 == pytest.approx(ydd1, abs=1e-4)
+
+
+@pytest.mark.parametrize("name", ["four_ups_upu", "three_upru_up"])
+def test_ik_drive_laws_written_in_place_equal_the_allocating_ik(name):
+    """The seed mechanisms' inverse kinematics fills the drive values in place (one compiled call
+    per time); it equals the function that returns new arrays, component by component."""
+    mech = pinclear.load(name)
+    law = mech.drives[0].law
+    assert law.fills and mech.driverows.groups[0][3]            # the direct, in-place path is taken
+    d = mech.driverows.create_data()
+    for t in np.random.default_rng(1).uniform(0.0, 4.0, 50):
+        np.testing.assert_array_equal(mech.driverows.values(t, d), np.array(law.vector(t)))
+
+
+# ------------------------------------------------------------------ integrator
+def test_compiled_rk45_takes_scipys_steps():
+    """The RK45 integrator (compiled step arithmetic) against SciPy's RK45 on a damped
+    oscillator: the same accepted times and states to rounding, and the closed form to rtol."""
+    from scipy.integrate import RK45
+
+    from pinclear.integrators import CompiledRK45
+
+    w, zeta = 3.0, 0.1
+    wd = w * np.sqrt(1 - zeta ** 2)
+
+    def f(t, y):
+        return np.array([y[1], -2 * zeta * w * y[1] - w * w * y[0]])
+
+    runs = []
+    for cls in (RK45, CompiledRK45):
+        s = cls(f, 0.0, np.array([1.0, 0.0]), 10.0, rtol=1e-8, atol=1e-10)
+        ts, ys = [], []
+        while s.status == "running":
+            s.step()
+            ts.append(s.t)
+            ys.append(s.y.copy())
+        runs.append((np.array(ts), np.array(ys), s))
+    (t1, y1, s1), (t2, y2, s2) = runs
+    # The error estimate sum_j E_j K_j cancels to ~rtol of its terms, so the two summation orders
+    # (BLAS vs a plain loop) give error norms that differ by ~eps/rtol relative and step sizes
+    # that differ as much: the same steps, times within 1e-7 relative, and states that differ by
+    # far less than the error both runs are allowed (rtol).
+    assert len(t1) == len(t2) > 50
+    np.testing.assert_allclose(t2, t1, rtol=1e-7, atol=0)
+    np.testing.assert_allclose(y2, y1, rtol=0, atol=1e-8)
+    exact = np.exp(-zeta * w * t2) * (np.cos(wd * t2) + zeta * w / wd * np.sin(wd * t2))
+    assert np.max(np.abs(y2[:, 0] - exact)) < 1e-6
+    # its dense output is SciPy's interpolant: over the same step from the same state, equal
+    s3 = CompiledRK45(f, s1.t_old, s1.y_old.copy(), 10.0, rtol=1e-8, atol=1e-10, first_step=s1.h_previous)
+    s3.step()
+    assert s3.t == s1.t
+    tm = 0.5 * (s1.t_old + s1.t)
+    np.testing.assert_allclose(s3.dense_output()(tm), s1.dense_output()(tm), rtol=0, atol=1e-12)
+
+
+# ------------------------------------------------------------------ fused clearance path
+@pytest.mark.parametrize("scene, name", [("clr_ball", "S"), ("nine_bar", "A"), ("clr_hinge", "R")])
+def test_fused_clearance_events_and_records_equal_the_python_path(scene, name):
+    """The compiled right-hand-side path of a clearance joint (placements from the joint chain)
+    leaves the same penetrations, forces and outputs as the element's Python path (Pinocchio's
+    frame placements, law by law), at random states."""
+    mech = pinclear.load(scene, clearances=[name])
+    i = [f.name for f in mech.forces].index(name)
+    el, sl = mech.forces[i], mech.z_slices[i]
+    assert el.event_level == "placements" and el.kinematic_frames == (el.f1, el.f2)
+    ws = mech.workspace()
+    d = ws.force_data[i]
+    rng = np.random.default_rng(3)
+    seen_contact = 0
+    for _ in range(30):
+        q = pin.integrate(mech.model, mech.q0, rng.normal(size=mech.nv) * 2e-3)
+        v = rng.normal(size=mech.nv)
+        z = np.r_[10 ** rng.uniform(-4, 0, el.nc), 0.0]
+        kinematics.update(mech, ws, q, v)
+        tau, zdot = np.zeros(mech.nv), np.zeros(el.nz)
+        el.add_force(mech, ws, d, 0.0, q, v, z, tau, zdot)
+        pot, loss, rec = el.record(mech, ws, d, 0.0, q, v, z, True)
+        ev = el.event_values(mech, ws, d, 0.0, q, v, z)
+        # the Python path, from Pinocchio's data.oMf
+        py = el.outputs(mech, ws, d, 0.0, q, v, z)
+        seen_contact += py["contact"] > 0
+        scale = max(float(py["fn"]), 1.0)
+        for k, val in py.items():
+            tol = 1e-12 * (scale if k.endswith("force") or k == "fn" else 1.0)
+            np.testing.assert_allclose(rec[k], val, rtol=1e-12, atol=tol, err_msg=k)
+        assert pot == pytest.approx(el.potential(mech, ws, d, q), rel=1e-12, abs=1e-15)
+        assert loss == pytest.approx(el.power_loss(mech, ws, d, 0.0, q, v, z), rel=1e-11, abs=1e-12 * scale)
+        np.testing.assert_allclose(ev, d.delta, rtol=0, atol=1e-15)
+    assert seen_contact >= 5

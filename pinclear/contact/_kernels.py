@@ -274,6 +274,17 @@ def frame_placement(Hj, jidx, jMf, k, M):
 
 
 @njit(cache=True)
+def channel_penetrations(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, delta, n, p1, p2, snap):
+    """Penetration of every channel (the event values), values within ``snap`` of zero set to 0."""
+    frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
+    frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
+    channel_geometry(code, gpar, Mbuf[0], Mbuf[1], scratch, delta, n, p1, p2)
+    for k in range(delta.shape[0]):
+        if abs(delta[k]) < snap:
+            delta[k] = 0.0
+
+
+@njit(cache=True)
 def clearance_force(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, J, idx1, idx2, v, z, vmin, K, expo, chi,
                     fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
     """One clearance joint's whole right-hand-side contribution in one call, the same steps as

@@ -119,6 +119,7 @@ class ClearanceJoint(ForceElement):
         if self._kernel is not None and self.geometry_code is not None:
             self._fused = (int(self.geometry_code), _readonly(self._geometry_params())) + self._kernel
             self.kinematic_frames = (self.f1, self.f2)
+            self.event_level = "placements"
         super()._freeze()
 
     def _geometry_params(self):
@@ -246,6 +247,7 @@ class ClearanceJoint(ForceElement):
             _kernels.clearance_force(f[0], f[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, ws.J6, self.idx1,
                                      self.idx2, v, z, self.v_impact_min, f[2], f[3], f[4], f[5], f[6], d.delta,
                                      d.n, d.p1, d.p2, d.dd, d.vt, d.dd0, d.Fn, d.Fel, d.F2, tau, zdot)
+            d.loss = zdot[self.nc]
             return
         self._eval(ws, d, t, q, v, z)
         nc = self.nc
@@ -273,6 +275,14 @@ class ClearanceJoint(ForceElement):
         Channels that touch together (a symmetric journal's two ends, a slider face's corners)
         cross zero at the same instant up to round-off; snapping keeps the restart after one of
         them from re-detecting the others (handle_event records them all at once)."""
+        f = self._fused
+        if f is not None:
+            # penetrations are geometry alone: the compiled placements and channel geometry
+            fk = ws.fk
+            d.key = d.q_key = None
+            _kernels.channel_penetrations(f[0], f[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, d.delta, d.n,
+                                          d.p1, d.p2, self.event_snap)
+            return d.delta.copy()
         val = self._eval(ws, d, t, q, v, z).delta.copy()
         val[np.abs(val) < self.event_snap] = 0.0
         return val
@@ -293,23 +303,35 @@ class ClearanceJoint(ForceElement):
 
     def outputs(self, mech, ws, d, t, q, v, z):
         self._eval(ws, d, t, q, v, z)
+        M1, M2 = ws.data.oMf[self.f1], ws.data.oMf[self.f2]
+        return self._outputs(d, z, M1.rotation, M1.translation, M2.translation, d.on.any())
+
+    def _outputs(self, d, z, R1, p1, p2, touching):
         Fn, n = d.Fn, d.n
         if not d.ft_ready:
             np.add(d.F2, Fn[:, None] * n, out=d.Ft)
             d.ft_ready = True
-        out = {
+        return {
             "penetration": np.array(float(d.delta.max())),
             "normal_force": -(Fn[:, None] * n).sum(axis=0),       # on body 2, world
             "friction_force": d.Ft.sum(axis=0),
             "fn": np.array(float(Fn.sum())),
-            "contact": np.array(float(d.on.any())),
+            "contact": np.array(float(touching)),
             "dissipated": np.array(float(z[self.nc])),
+            # eccentricity: frame2's origin (ball / journal / slider centre) in frame1 (socket /
+            # bearing / guide) axes, paper 000 eq. 3
+            "eccentricity": R1.T @ (p2 - p1),
         }
-        # eccentricity: frame2's origin (ball / journal / slider centre) in frame1 (socket /
-        # bearing / guide) axes, paper 000 eq. 3
-        M1, M2 = ws.data.oMf[self.f1], ws.data.oMf[self.f2]
-        out["eccentricity"] = M1.rotation.T @ (M2.translation - M1.translation)
-        return out
+
+    def record(self, mech, ws, d, t, q, v, z, after_rhs):
+        f = self._fused
+        if f is None or not after_rhs:
+            return super().record(mech, ws, d, t, q, v, z, after_rhs)
+        # the fused add_force of this very evaluation left every channel quantity in d
+        d.ft_ready = False
+        M1, M2 = d.M[0], d.M[1]
+        out = self._outputs(d, z, M1[:3, :3], M1[:3, 3], M2[:3, 3], bool((d.delta > 0.0).any()))
+        return float(np.sum(self._energy(d, d.delta))), d.loss, out
 
     def describe(self):
         return {"name": self.name, "type": self.kind, "friction": self.friction.name}

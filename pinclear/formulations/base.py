@@ -114,7 +114,7 @@ class Formulation(abc.ABC):
 def apply_forces(mech, ws, t, q, v, z):
     """Sum every force element's generalized force into ws.tau and its state rates into ws.zdot
     (kinematics already updated at (q, v))."""
-    tau = ws.tau
-    tau[:] = 0.0
+    tau, zdot = ws.tau, ws.zdot
+    tau.fill(0.0)
     for f, d, sl in zip(mech.forces, ws.force_data, mech.z_slices):
-        f.add_force(mech, ws, d, t, q, v, z[sl], tau, ws.zdot[sl])
+        f.add_force(mech, ws, d, t, q, v, z[sl], tau, zdot[sl])

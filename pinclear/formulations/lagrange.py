@@ -21,6 +21,7 @@ class Lagrange(Formulation):
         nv, m = mech.nv, mech.m
         self._buf = {"Lm": np.zeros((nv, nv)), "Y": np.zeros((m, nv)), "S": np.zeros((m, m)),
                      "Ls": np.zeros((m, m)), "a": np.zeros(nv), "lam": np.zeros(m)}
+        self._a = self._buf["a"]
         self._args = None       # kernel arguments, bound once (rows may be reset by the simulator)
         self._bound_rows = None
         self._drive_values = mech.driverows.values
@@ -66,7 +67,7 @@ class Lagrange(Formulation):
         if self._bound_rows is not self.rows:
             self._bind()
         ratio = lagrange_accel(*self._args, q, v, self._drive_values(t, self._drive_data))
-        a = self._buf["a"].copy()
+        a = self._a.copy()
         self.nonfinite = ratio == -2.0        # read by finite() (trial stages may overflow)
         if ratio < self._ratio_floor:
             if self.nonfinite:
