@@ -231,6 +231,8 @@ def bench_runs(files=None, t_end=0.5, rtol=1e-6, integrator="RK45", max_cpu=120.
         mech = load(path, clearances=clr or None)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
+            # warm-up: compiled kernels load from the cache (or compile) on a scene's first run
+            simulate(mech, min(t_end, 1e-3), rtol=rtol, integrator=integrator, max_cpu=max_cpu)
             tr = simulate(mech, t_end, rtol=rtol, integrator=integrator, max_cpu=max_cpu, dt_out=t_end / 100)
         st = tr.stats
         row = {"scene": label, "nv": mech.nv, "closure_rows": mech.compiled.m, "drives": len(mech.drives),

@@ -6,6 +6,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,3 +85,12 @@ def kkt_singular_time(mech, a, b, law="high"):
         return np.linalg.svd(kinematics.jacobian(mech, ws, q, t, with_drives=True), compute_uv=False)[-1]
 
     return minimize_scalar(smin, bounds=(a, b), method="bounded", options={"xatol": 1e-12}).x
+
+
+def clearance_states(mech, el, count, seed, spread):
+    """Random (q, v, z) near the assembled pose (q moved by ``spread`` rad or m per coordinate on
+    the manifold), with impact speeds z spread over 1e-4..1 m/s: many states touch the clearance."""
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        q = pin.integrate(mech.model, mech.q0, rng.normal(size=mech.nv) * spread)
+        yield q, rng.normal(size=mech.nv), np.r_[10 ** rng.uniform(-4, 0, el.nc), 0.0]

@@ -5,6 +5,7 @@ import pinocchio as pin
 import pytest
 
 import pinclear
+from conftest import clearance_states
 from pinclear.contact import restitution_1dof
 from pinclear.errors import ContactSetupError
 from pinclear.models import model_path
@@ -188,12 +189,8 @@ def test_journal_force_equals_plain_numpy_evaluation(scene, name):
     i = mech.forces.index(el)
     mu = el.friction.mu         # a joint-level ``mu`` (nine_bar's A) sets the law's coefficient
     ws = mech.workspace()
-    rng = np.random.default_rng(7)
     touching = 0
-    for _ in range(40):
-        q = pin.integrate(mech.model, mech.q0, rng.normal(size=mech.nv) * 3e-3)
-        v = rng.normal(size=mech.nv)
-        z = np.r_[10 ** rng.uniform(-4, 0, el.nc), 0.0]
+    for q, v, z in clearance_states(mech, el, 40, seed=7, spread=3e-3):
         pinclear.kinematics.update(mech, ws, q, v)
         tau, zdot = np.zeros(mech.nv), np.zeros(el.nz)
         el.add_force(mech, ws, ws.force_data[i], 0.0, q, v, z, tau, zdot)

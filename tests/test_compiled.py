@@ -7,6 +7,7 @@ import pinocchio as pin
 import pytest
 
 import pinclear
+from conftest import clearance_states
 from pinclear import formulations, kinematics
 from pinclear.formulations.proximal import proximal_multipliers
 
@@ -149,16 +150,12 @@ def test_fused_clearance_events_and_records_equal_the_python_path(scene, name):
     frame placements, law by law), at random states."""
     mech = pinclear.load(scene, clearances=[name])
     i = [f.name for f in mech.forces].index(name)
-    el, sl = mech.forces[i], mech.z_slices[i]
+    el = mech.forces[i]
     assert el.event_level == "placements" and el.kinematic_frames == (el.f1, el.f2)
     ws = mech.workspace()
     d = ws.force_data[i]
-    rng = np.random.default_rng(3)
     seen_contact = 0
-    for _ in range(30):
-        q = pin.integrate(mech.model, mech.q0, rng.normal(size=mech.nv) * 2e-3)
-        v = rng.normal(size=mech.nv)
-        z = np.r_[10 ** rng.uniform(-4, 0, el.nc), 0.0]
+    for q, v, z in clearance_states(mech, el, 30, seed=3, spread=2e-3):
         kinematics.update(mech, ws, q, v)
         tau, zdot = np.zeros(mech.nv), np.zeros(el.nz)
         el.add_force(mech, ws, d, 0.0, q, v, z, tau, zdot)
