@@ -208,7 +208,7 @@ def test_power_laws_equal_their_formula_on_random_inputs(name):
         assert np.all(F[d <= 0] == 0.0) and np.all(F >= 0.0)
         np.testing.assert_allclose(law.energy(d), K * np.maximum(d, 0) ** (n + 1) / (n + 1), rtol=1e-12, atol=0)
         # the compiled channel loop of the joints takes exactly these parameters
-        assert law.kernel_params() == (K, n, pytest.approx(chi, rel=1e-15))
+        assert law.kernel_params() == (0, K, n, pytest.approx(chi, rel=1e-15))
 
 
 def test_line_law_equals_eq6_root_and_hysteresis_on_random_inputs():
@@ -227,7 +227,9 @@ def test_line_law_equals_eq6_root_and_hysteresis_on_random_inputs():
         F, Fel = law.force_and_elastic(d, dd, dd0)
         np.testing.assert_allclose(Fel, P, rtol=1e-12, atol=0)
         np.testing.assert_allclose(F, damped_reference(P, dd, dd0, CHI["lankarani_nikravesh"](ce)), rtol=1e-12, atol=0)
-        assert law.kernel_params() is None               # no compiled form: the joint calls force()
+        # the compiled channel loop takes the line law by its (c, a) and chi
+        assert law.kernel_params() == (1, pytest.approx(c, rel=1e-15), pytest.approx(a, rel=1e-15),
+                                       pytest.approx(CHI["lankarani_nikravesh"](ce), rel=1e-15))
 
 
 def friction_reference(spec, s):

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+import math
+
 from pinclear._jit import njit
 
 
@@ -105,6 +107,46 @@ def power_law(d, dd, dd0, K, expo, chi):
     return damped(fe, dd, dd0, chi), fe
 
 
+#: normal-law codes (``NormalLaw.kernel_params()``): damped power law K d^n; line law (paper 003 eq. 6)
+N_POWER, N_LINE = 0, 1
+
+
+@njit(cache=True)
+def line_elastic(d, c, a):
+    """Load P of a line contact at deflection d: the root of d = c P (1 - ln(a P)) (paper 003 eq.
+    6 with c = 1/(pi E* l), a = R/(pi E* l^3)), by Newton on x = ln P from the linear estimate
+    with the log at a typical load; steps clipped to +-2 in x."""
+    if d <= 0.0:
+        return 0.0
+    x = math.log(d / (c * 10.0))
+    for _ in range(60):
+        P = math.exp(x)
+        lg = math.log(a * P)
+        step = (c * P * (1.0 - lg) - d) / (-c * P * lg)          # f / (df/dx), df/dx = P d'(P)
+        x -= min(max(step, -2.0), 2.0)
+        if abs(step) < 1e-13:
+            break
+    return math.exp(x)
+
+
+@njit(cache=True)
+def line_elastic_all(d, c, a, P):
+    for k in range(d.shape[0]):
+        P[k] = line_elastic(d[k], c, a)
+
+
+@njit(cache=True)
+def normal_force(code, d, dd, dd0, p0, p1, chi):
+    """(F, F_elastic) of normal law ``code`` with parameters (p0, p1): (K, n) of a power law,
+    (c, a) of the line law; the same hysteresis factor chi for both."""
+    if code == N_LINE:
+        if d <= 0.0:
+            return 0.0, 0.0
+        fe = line_elastic(d, p0, p1)
+        return damped(fe, dd, dd0, chi), fe
+    return power_law(d, dd, dd0, p0, p1, chi)
+
+
 @njit(cache=True)
 def friction_coefficient(code, par, s):
     """mu(|vt|) of the memoryless friction laws."""
@@ -167,12 +209,15 @@ def memoryless_friction(code, par, Fn, vt, Ft):
 
 
 @njit(cache=True)
-def contact_forces(delta, dd, vt, n, dd0, K, expo, chi, fcode, fpar, Fn, Fel, F2):
-    """Per channel a damped power law (its own K, e, chi) and one memoryless friction law: fills
-    Fn, Fel, F2 (force on body 2) and returns the dissipated power (Fn - Fel) dd - Ft . vt."""
+def contact_forces(delta, dd, vt, n, dd0, code, P0, P1, chi, W, fcode, fpar, Fn, Fel, F2):
+    """Per channel a normal law (its own code, parameters and chi, times the weight W: the share
+    of a line or plane load a corner carries) and one memoryless friction law: fills Fn, Fel, F2
+    (force on body 2) and returns the dissipated power (Fn - Fel) dd - Ft . vt."""
     loss = 0.0
     for k in range(delta.shape[0]):
-        f, fe = power_law(delta[k], dd[k], dd0[k], K[k], expo[k], chi[k])
+        f, fe = normal_force(code[k], delta[k], dd[k], dd0[k], P0[k], P1[k], chi[k])
+        f *= W[k]
+        fe *= W[k]
         Fn[k] = f
         Fel[k] = fe
         if delta[k] <= 0.0:
@@ -227,7 +272,100 @@ def radial_geometry(s, a, pts, c, R1, R2, delta, n, p1, p2):
 
 
 #: geometry codes of the fused channel evaluation (``ClearanceJoint.geometry_code``)
-G_SPHERICAL, G_PLANAR_REVOLUTE, G_REVOLUTE = 0, 1, 2
+G_SPHERICAL, G_PLANAR_REVOLUTE, G_REVOLUTE, G_PRISMATIC = 0, 1, 2, 3
+
+
+@njit(cache=True)
+def prismatic_geometry(gpar, M1, M2, delta, n, p1, p2):
+    """Corners of the slider box (half sizes gpar[2:5] in frame 2) against the guide faces at
+    +-a'/2 (x1) and +-b'/2 (y1), gpar[0:2] = (a'/2, b'/2), paper 003 eq. 1: channel 2k + 0 is
+    corner k against its x face, 2k + 1 against its y face; corner k has the signs of its
+    bits (4: x, 2: y, 1: z). Contact points: the corner itself on both bodies."""
+    ha, hb = gpar[0], gpar[1]
+    for k in range(8):
+        s1 = 1.0 if k & 4 else -1.0
+        s2 = 1.0 if k & 2 else -1.0
+        s3 = 1.0 if k & 1 else -1.0
+        cx, cy, cz = s1 * gpar[2], s2 * gpar[3], s3 * gpar[4]
+        r0 = 0.0
+        r1 = 0.0
+        for i in range(3):
+            P = M2[i, 3] + (cx * M2[i, 0] + cy * M2[i, 1] + cz * M2[i, 2])
+            p1[2 * k, i] = p1[2 * k + 1, i] = p2[2 * k, i] = p2[2 * k + 1, i] = P
+            r0 += (P - M1[i, 3]) * M1[i, 0]
+            r1 += (P - M1[i, 3]) * M1[i, 1]
+            n[2 * k, i] = s1 * M1[i, 0]
+            n[2 * k + 1, i] = s2 * M1[i, 1]
+        delta[2 * k] = s1 * r0 - ha
+        delta[2 * k + 1] = s2 * r1 - hb
+
+
+#: contact kinds of a guide face (pinclear.contact.prismatic.classify names them)
+K_NONE, K_POINT, K_POINTS2, K_LINE_LONG, K_LINE_SHORT, K_PLANE = 0, 1, 2, 3, 4, 5
+
+
+@njit(cache=True)
+def prismatic_mode(delta, members, modes, info):
+    """Contact kind of each guide face from its touching corners and the paper's mode (paper 003
+    Table 1): info = (mode, points, lines, planes, kind of face 0..3). members[f] are the four
+    channels of face f (channel 2k + d: corner k)."""
+    pts = lines = planes = 0
+    for f in range(4):
+        m = 0
+        c0 = c1 = -1
+        for j in range(4):
+            ch = members[f, j]
+            if delta[ch] > 0.0:
+                if m == 0:
+                    c0 = ch
+                elif m == 1:
+                    c1 = ch
+                m += 1
+        kind = K_NONE
+        if m == 1:
+            kind = K_POINT
+            pts += 1
+        elif m == 2:
+            # corners differ in one sign: they share an edge, along the slide axis (bit 0) or across
+            x = (c0 // 2) ^ (c1 // 2)
+            if x == 1:
+                kind = K_LINE_LONG
+                lines += 1
+            elif x == 2 or x == 4:
+                kind = K_LINE_SHORT
+                lines += 1
+            else:
+                kind = K_POINTS2
+                pts += 2
+        elif m > 2:
+            kind = K_PLANE
+            planes += 1
+        info[4 + f] = kind
+    info[1], info[2], info[3] = pts, lines, planes
+    info[0] = modes[pts, lines, planes]
+
+
+@njit(cache=True)
+def prismatic_laws(info, members, table, code, P0, P1, chi, W):
+    """Each channel's normal law and weight for the face kinds in info: a point law per touching
+    corner, half a line load per edge end, a quarter of a plane load per corner (paper 003 sec.
+    2.2). table rows: point, line_long, line_x, line_y, plane_x, plane_y (code, p0, p1, chi)."""
+    for f in range(4):
+        kind = info[4 + f]
+        row, w = 0, 0.0
+        if kind == K_POINT or kind == K_POINTS2:
+            row, w = 0, 1.0
+        elif kind == K_LINE_LONG:
+            row, w = 1, 0.5
+        elif kind == K_LINE_SHORT:
+            row, w = (2 if f < 2 else 3), 0.5
+        elif kind == K_PLANE:
+            row, w = (4 if f < 2 else 5), 0.25
+        for j in range(4):
+            ch = members[f, j]
+            code[ch] = int(table[row, 0])
+            P0[ch], P1[ch], chi[ch] = table[row, 1], table[row, 2], table[row, 3]
+            W[ch] = w
 
 
 @njit(cache=True)
@@ -235,6 +373,9 @@ def channel_geometry(code, gpar, M1, M2, scratch, delta, n, p1, p2):
     """The geometry hooks of the spherical and revolute joints (``_geometry``) from the frame
     placements M1 (socket/bearing) and M2 (ball/journal) as 4x4 homogeneous matrices.
     gpar = (c, R1, R2, ca, L); scratch is a (4, 3) work array: s, a, and two journal points."""
+    if code == G_PRISMATIC:
+        prismatic_geometry(gpar, M1, M2, delta, n, p1, p2)
+        return
     c, R1, R2 = gpar[0], gpar[1], gpar[2]
     s, a, pts = scratch[0], scratch[1], scratch[2:4]
     for i in range(3):
@@ -285,8 +426,8 @@ def channel_penetrations(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, delta, 
 
 
 @njit(cache=True)
-def clearance_force(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, J, idx1, idx2, v, z, vmin, K, expo, chi,
-                    fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
+def clearance_force(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, J, idx1, idx2, v, z, vmin, lcode, P0, P1,
+                    chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
     """One clearance joint's whole right-hand-side contribution in one call, the same steps as
     ClearanceJoint._compute + add_force: frame placements (slots ``slot``, ``slot + 1`` of the
     workspace's frame kinematics), geometry, relative velocity, normal and memoryless friction
@@ -311,6 +452,38 @@ def clearance_force(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, J, idx1, idx
     relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt)
     for k in range(nc):
         dd0[k] = max(z[k], vmin)
-    zdot[nc] = contact_forces(delta, dd, vt, n, dd0, K, expo, chi, fcode, fpar, Fn, Fel, F2)
+    zdot[nc] = contact_forces(delta, dd, vt, n, dd0, lcode, P0, P1, chi, W, fcode, fpar, Fn, Fel, F2)
+    add_wrenches(J, idx1, idx2, F2, p1, p2, tau)
+    return on
+
+
+@njit(cache=True)
+def prismatic_force(gpar, Hj, jidx, jMf, slot, Mbuf, J, idx1, idx2, v, z, vmin, members, modes, table, info,
+                    lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
+    """The prismatic clearance's right-hand-side contribution in one call: placements, corner
+    geometry, the contact mode and each channel's law, then the same channel loop, friction and
+    wrenches as clearance_force. Returns the number of touching channels."""
+    frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
+    frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
+    prismatic_geometry(gpar, Mbuf[0], Mbuf[1], delta, n, p1, p2)
+    prismatic_mode(delta, members, modes, info)
+    nc = delta.shape[0]
+    on = 0
+    for k in range(nc):
+        zdot[k] = 0.0
+        if delta[k] > 0.0:
+            on += 1
+    zdot[nc] = 0.0
+    if on == 0:
+        for k in range(nc):
+            Fn[k] = 0.0
+            Fel[k] = 0.0
+            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+        return 0
+    prismatic_laws(info, members, table, lcode, P0, P1, chi, W)
+    relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt)
+    for k in range(nc):
+        dd0[k] = max(z[k], vmin)
+    zdot[nc] = contact_forces(delta, dd, vt, n, dd0, lcode, P0, P1, chi, W, fcode, fpar, Fn, Fel, F2)
     add_wrenches(J, idx1, idx2, F2, p1, p2, tau)
     return on

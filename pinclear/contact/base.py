@@ -114,13 +114,23 @@ class ClearanceJoint(ForceElement):
 
     def _freeze(self):
         self._kernel = self._kernel_params()
-        # the right-hand side's one compiled call per joint, when geometry and laws allow it
-        self._fused = None
-        if self._kernel is not None and self.geometry_code is not None:
-            self._fused = (int(self.geometry_code), _readonly(self._geometry_params())) + self._kernel
+        # compiled geometry (event values from the joint chain's placements) and, when the laws
+        # allow it too, the right-hand side's one compiled call per joint
+        self._geom = self._fused = None
+        if self.geometry_code is not None:
+            self._geom = (int(self.geometry_code), _readonly(self._geometry_params()))
             self.kinematic_frames = (self.f1, self.f2)
             self.event_level = "placements"
+            if self._kernel is not None:
+                self._fused = self._geom + self._kernel
+        self._rhs_compiled = self._compiled_rhs()
         super()._freeze()
+
+    def _compiled_rhs(self):
+        """Whether add_force runs one compiled call (and leaves everything record() reuses)."""
+        return self._fused is not None
+
+    _data_class = ClearanceData
 
     def _geometry_params(self):
         """gpar of contact._kernels.channel_geometry (subclasses with a ``geometry_code``)."""
@@ -143,9 +153,9 @@ class ClearanceJoint(ForceElement):
         return self.law.energy(delta)
 
     def _kernel_params(self):
-        """(K, e, chi, friction code, friction parameters) when every channel follows a damped power
-        law and the friction law is memoryless, as the laws declare (``kernel_params()``): the
-        compiled loop then does the channels. None otherwise."""
+        """(law code, p0, p1, chi, weight) per channel and (friction code, friction parameters)
+        when every channel's normal law and the friction law declare a compiled form
+        (``kernel_params()``): the compiled channel loop then does the channels. None otherwise."""
         laws = self._channel_laws()
         fr = self.friction.kernel_params()
         if laws is None or fr is None:
@@ -153,13 +163,14 @@ class ClearanceJoint(ForceElement):
         par = [law.kernel_params() for law in laws]
         if any(p is None for p in par):
             return None
-        K, e, chi = (_readonly(np.array(x, float)) for x in zip(*par))
-        return K, e, chi, int(fr[0]), fr[1]
+        code = _readonly(np.array([p[0] for p in par], dtype=np.int64))
+        P0, P1, chi = (_readonly(np.array(x, float)) for x in list(zip(*par))[1:])
+        return code, P0, P1, chi, _readonly(np.ones(len(par))), int(fr[0]), fr[1]
 
     # ------------------------------------------------------------------ evaluation
     def create_data(self, mech):
-        d = ClearanceData(self.nc, self.nfs)
-        if self._fused is not None:
+        d = self._data_class(self.nc, self.nfs)
+        if self._geom is not None:
             d.slot = mech.force_frame_slot[[f is self for f in mech.forces].index(True)]
         return d
 
@@ -196,8 +207,7 @@ class ClearanceJoint(ForceElement):
         d.moving = True
         np.maximum(z[:nc], self.v_impact_min, out=d.dd0)
         if self._kernel is not None:
-            K, e, chi, code, par = self._kernel
-            d.loss = _kernels.contact_forces(d.delta, dd, vt, n, d.dd0, K, e, chi, code, par, d.Fn, d.Fel, d.F2)
+            d.loss = _kernels.contact_forces(d.delta, dd, vt, n, d.dd0, *self._kernel, d.Fn, d.Fel, d.F2)
             d.ft_ready = False                        # Ft = F2 + Fn n, formed when outputs ask
             return
         Fn, Fel = self._normal(d, d.delta, dd, d.dd0)
@@ -245,8 +255,8 @@ class ClearanceJoint(ForceElement):
             d.key = d.q_key = None
             fk = ws.fk
             _kernels.clearance_force(f[0], f[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, ws.J6, self.idx1,
-                                     self.idx2, v, z, self.v_impact_min, f[2], f[3], f[4], f[5], f[6], d.delta,
-                                     d.n, d.p1, d.p2, d.dd, d.vt, d.dd0, d.Fn, d.Fel, d.F2, tau, zdot)
+                                     self.idx2, v, z, self.v_impact_min, f[2], f[3], f[4], f[5], f[6], f[7], f[8],
+                                     d.delta, d.n, d.p1, d.p2, d.dd, d.vt, d.dd0, d.Fn, d.Fel, d.F2, tau, zdot)
             d.loss = zdot[self.nc]
             return
         self._eval(ws, d, t, q, v, z)
@@ -275,12 +285,12 @@ class ClearanceJoint(ForceElement):
         Channels that touch together (a symmetric journal's two ends, a slider face's corners)
         cross zero at the same instant up to round-off; snapping keeps the restart after one of
         them from re-detecting the others (handle_event records them all at once)."""
-        f = self._fused
-        if f is not None:
+        g = self._geom
+        if g is not None:
             # penetrations are geometry alone: the compiled placements and channel geometry
             fk = ws.fk
             d.key = d.q_key = None
-            _kernels.channel_penetrations(f[0], f[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, d.delta, d.n,
+            _kernels.channel_penetrations(g[0], g[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, d.delta, d.n,
                                           d.p1, d.p2, self.event_snap)
             return d.delta.copy()
         val = self._eval(ws, d, t, q, v, z).delta.copy()
@@ -324,8 +334,7 @@ class ClearanceJoint(ForceElement):
         }
 
     def record(self, mech, ws, d, t, q, v, z, after_rhs):
-        f = self._fused
-        if f is None or not after_rhs:
+        if not (after_rhs and self._rhs_compiled):
             return super().record(mech, ws, d, t, q, v, z, after_rhs)
         # the fused add_force of this very evaluation left every channel quantity in d
         d.ft_ready = False

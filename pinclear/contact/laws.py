@@ -144,8 +144,9 @@ class NormalLaw(_Immutable, abc.ABC):
        alone the effective restitution of an impact follows (``restitution_1dof``).
     5. A law has no internal state and is immutable after ``__init__``.
     6. :meth:`kernel_params` declares whether the joints' compiled channel loop can evaluate the
-       law: ``(K, n, chi)`` for a damped power law K d^n (1 + chi dd/dd0), None otherwise (the
-       joint then calls :meth:`force` and :meth:`elastic`).
+       law: ``(code, p0, p1, chi)`` with the codes of contact._kernels (N_POWER: (K, n) of a
+       damped power law K d^n (1 + chi dd/dd0); N_LINE: (c, a) of the line law), None otherwise
+       (the joint then calls :meth:`force` and :meth:`elastic`).
     """
 
     name: str = ""
@@ -205,7 +206,7 @@ class PowerLaw(NormalLaw):
         return F, Fe
 
     def kernel_params(self):
-        return self.K, self.n, self.chi
+        return _kernels.N_POWER, self.K, self.n, self.chi
 
     def __repr__(self):
         return f"{self.name}(K={self.K:.4g}, n={self.n}, ce={self.ce}, chi={self.chi:.4g})"
@@ -239,23 +240,9 @@ class LineLaw(NormalLaw):
         return out
 
     def elastic(self, d):
-        d = np.atleast_1d(np.asarray(d, float))
-        P = np.zeros_like(d)
-        m = d > 0
-        if not m.any():
-            return P
-        dm = d[m]
-        # start from the linear estimate with the log at a typical load, then Newton on x = ln P
-        x = np.log(dm / (self.c * 10.0))
-        for _ in range(60):
-            Pm = np.exp(x)
-            f = self.c * Pm * (1.0 - np.log(self.a * Pm)) - dm
-            fp = -self.c * Pm * np.log(self.a * Pm)             # df/dx = P d'(P)
-            step = f / fp
-            x -= np.clip(step, -2.0, 2.0)
-            if np.all(np.abs(step) < 1e-13):
-                break
-        P[m] = np.exp(x)
+        (d,) = _vec(d)
+        P = np.empty_like(d)
+        _kernels.line_elastic_all(d, self.c, self.a, P)
         return P
 
     def energy(self, d):
@@ -276,6 +263,9 @@ class LineLaw(NormalLaw):
 
     def force(self, d, dd, dd0):
         return self.force_and_elastic(d, dd, dd0)[0]
+
+    def kernel_params(self):
+        return _kernels.N_LINE, self.c, self.a, self.chi
 
     def __repr__(self):
         return f"line(E*={self.Estar:.4g}, l={self.l}, R={self.R}, chi={self.chi:.4g})"

@@ -29,6 +29,7 @@ from types import MappingProxyType
 
 import numpy as np
 
+from . import _kernels
 from .base import ClearanceData, ClearanceJoint, _readonly
 
 KEYS = frozenset({"section", "length", "edge_radius", "point_law", "line_law", "plane_law"})
@@ -76,6 +77,16 @@ def _faces():
 
 
 _, FACE_MEMBERS = _faces()
+_MEMBERS = _readonly(np.array(FACE_MEMBERS, dtype=np.int64))
+#: mode number by (points, lines, planes) for the compiled classification (16: other)
+_MODE_TABLE = np.full((9, 5, 5), 16, dtype=np.int64)
+_MODE_TABLE[0, 0, 0] = 0
+for _c, _m in MODES.items():
+    _MODE_TABLE[_c] = _m
+_MODE_TABLE.flags.writeable = False
+_KINDS = ("", "point", "points2", "line_long", "line_short", "plane")      # by contact._kernels K_* code
+#: law slots of the compiled table, in contact._kernels.prismatic_laws' row order
+_LAW_ROWS = ("point", "line_long", "line_x", "line_y", "plane_x", "plane_y")
 
 
 def classify(touch):
@@ -120,11 +131,22 @@ class PrismaticData(ClearanceData):
         self.mode = 0                       # Table 1 number (0 free, 16 other)
         self.counts = (0, 0, 0)             # (points, lines, planes)
         self.kinds = [""] * 4               # contact kind per face
+        # compiled path: mode and face kinds as codes, each channel's law and weight
+        self.info = np.zeros(8, dtype=np.int64)
+        self.lcode = np.zeros(16, dtype=np.int64)
+        self.P0, self.P1, self.chi, self.W = (np.zeros(16) for _ in range(4))
+
+    def mode_from_info(self):
+        info = self.info
+        self.mode, self.counts = int(info[0]), (int(info[1]), int(info[2]), int(info[3]))
+        self.kinds = [_KINDS[k] for k in info[4:]]
 
 
 class PrismaticClearance(ClearanceJoint):
     kind = "prismatic"
     event_direction = 0
+    geometry_code = _kernels.G_PRISMATIC
+    _data_class = PrismaticData
 
     def __init__(self, name, model, f1, f2, section, clearance, length, laws, friction, **kw):
         super().__init__(name, model, f1, f2, 16, friction, **kw)
@@ -138,8 +160,38 @@ class PrismaticClearance(ClearanceJoint):
         self.laws = MappingProxyType(dict(laws))
         self._freeze()
 
-    def create_data(self, mech):
-        return PrismaticData(self.nc, self.nfs)
+    def _freeze(self):
+        # the mode-dependent laws go into the compiled call when each slot's law and the
+        # friction law have a compiled form
+        par = [self.laws[k].kernel_params() for k in _LAW_ROWS]
+        fr = self.friction.kernel_params()
+        self._pfused = None
+        if fr is not None and all(p is not None for p in par):
+            self._pfused = (_readonly(np.array(par, float)), int(fr[0]), fr[1])
+        super()._freeze()
+
+    def _compiled_rhs(self):
+        return self._pfused is not None
+
+    def _geometry_params(self):
+        return np.array([self.ha, self.hb, 0.5 * self.a, 0.5 * self.b, 0.5 * self.L])
+
+    def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
+        pf = self._pfused
+        if pf is None:
+            return super().add_force(mech, ws, d, t, q, v, z, tau, zdot)
+        d.key = d.q_key = None
+        fk = ws.fk
+        _kernels.prismatic_force(self._geom[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, ws.J6, self.idx1, self.idx2, v,
+                                 z, self.v_impact_min, _MEMBERS, _MODE_TABLE, pf[0], d.info, d.lcode, d.P0, d.P1,
+                                 d.chi, d.W, pf[1], pf[2], d.delta, d.n, d.p1, d.p2, d.dd, d.vt, d.dd0, d.Fn,
+                                 d.Fel, d.F2, tau, zdot)
+        d.loss = zdot[self.nc]
+
+    def record(self, mech, ws, d, t, q, v, z, after_rhs):
+        if after_rhs and self._rhs_compiled:
+            d.mode_from_info()
+        return super().record(mech, ws, d, t, q, v, z, after_rhs)
 
     # geometry -----------------------------------------------------------------
     def _geometry(self, data, dat):
@@ -196,8 +248,8 @@ class PrismaticClearance(ClearanceJoint):
         self._apply(dat, fn)
         return E
 
-    def outputs(self, mech, ws, d, t, q, v, z):
-        out = super().outputs(mech, ws, d, t, q, v, z)
+    def _outputs(self, d, z, R1, p1, p2, touching):
+        out = super()._outputs(d, z, R1, p1, p2, touching)
         out["mode"] = np.array(float(d.mode))
         out["kinds"] = np.array(d.counts, float)
         return out
