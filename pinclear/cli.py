@@ -235,6 +235,11 @@ def cmd_bench(args):
         for m in methods or []:
             formulations.get(m)         # an unknown name is an error, not skipped
         res = bench.bench_rhs(mech, methods=methods)
+        from .trajectory import atomic_write_text
+
+        out = Path(args.out)
+        _check_out_dir(out)
+        atomic_write_text(out / f"bench_rhs_{mech.name}.json", json.dumps(res, indent=2, default=str))
     else:
         res = bench.work_precision(mech, t_end=args.t_end, out_dir=args.out)
         res.pop("rows")
