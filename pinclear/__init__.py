@@ -7,8 +7,9 @@ from .errors import (AssemblyError, ContactSetupError, InputError, IntegrationEr
 from .mechanism import Mechanism, Workspace  # noqa: E402
 from .sidecar import load  # noqa: E402
 from .simulate import simulate  # noqa: E402
+from .sweeps import sweep  # noqa: E402
 from .trajectory import Trajectory  # noqa: E402
 
-__all__ = ["load", "simulate", "Trajectory", "Mechanism", "Workspace", "kinematics", "errors",
+__all__ = ["load", "simulate", "sweep", "Trajectory", "Mechanism", "Workspace", "kinematics", "errors",
            "PinclearError", "ModelFileError", "AssemblyError", "RankLossError", "IntegrationError",
            "ContactSetupError", "InputError"]

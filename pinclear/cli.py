@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 
-import yaml
 
 from .errors import InputError, PinclearError
 
@@ -247,6 +246,32 @@ def cmd_bench(args):
     return 0
 
 
+def cmd_sweep(args):
+    from .sweeps import parse_vary, sweep
+
+    vary = dict(parse_vary(v) for v in args.vary)
+    sim = {"method": args.method, "integrator": args.integrator, "rtol": args.rtol}
+    if args.dt_out is not None:
+        sim["dt_out"] = args.dt_out
+    if args.max_cpu is not None:
+        sim["max_cpu"] = args.max_cpu
+    load_kw = {"options": parse_kv(args.option, "--option"), "overrides": parse_kv(args.set, "--set"),
+               "clearances": args.clearance}
+    if args.trust:
+        load_kw["trust"] = True
+    show = args.progress == "on" or (args.progress == "auto" and sys.stderr.isatty() and not os.environ.get("CI"))
+    res = sweep(args.file, vary, args.t_end, args.out, sim_options=sim,
+                load_options={k: v for k, v in load_kw.items() if v}, workers=args.workers,
+                scheduler=args.scheduler, progress=True if show else None)
+    counts = {}
+    for p in res.points:
+        counts[p.status] = counts.get(p.status, 0) + 1
+    print(json.dumps({"folder": str(res.folder), "points": len(res.points), "computed_now": res.computed,
+                      "status": counts, "failures": [{"point": p.overrides, "status": p.status, "message": p.message}
+                                                     for p in res.failures]}, default=str))
+    return 0 if not res.failures else 1
+
+
 def _delegate(module, func):
     def run(args):
         import importlib
@@ -282,6 +307,24 @@ def build_parser():
     s.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
                    help="progress bar (auto: on an interactive terminal outside CI)")
     s.set_defaults(func=cmd_simulate)
+
+    s = sub.add_parser("sweep", help="one run per point of a parameter grid, resumable, local or on Dask")
+    _add_model_args(s)
+    s.add_argument("--vary", action="append", required=True, metavar="KEY=a:b:n",
+                   help="a load() key (NAME.key, a key path or a scene option) and its values: a:b:n "
+                        "(linear), a:b:n:log, or v1,v2,... (repeatable: the grid of all combinations)")
+    s.add_argument("--t-end", type=float, required=True, help="simulated time per point [s]")
+    s.add_argument("--out", required=True, help="sweep folder (rerun into it to resume)")
+    s.add_argument("--method", default="lagrange")
+    s.add_argument("--integrator", default="RK45")
+    s.add_argument("--rtol", type=float, default=1e-6)
+    s.add_argument("--dt-out", type=float, default=None, help="output interval [s]")
+    s.add_argument("--max-cpu", type=float, default=None, help="CPU budget per point [s]")
+    s.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per CPU)")
+    s.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="run the points on this Dask distributed cluster instead")
+    s.add_argument("--progress", choices=["auto", "on", "off"], default="auto")
+    s.set_defaults(func=cmd_sweep)
 
     s = sub.add_parser("info", help="assemble and print the mechanism: mobility, redundancy, parameters")
     _add_model_args(s)

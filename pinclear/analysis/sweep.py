@@ -8,13 +8,14 @@ import pickle
 import sys
 import time
 import warnings
-from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from concurrent.futures import Executor, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError, ModelFileError
+from ..sweeps import make_executor, run_jobs
 from .classify import Classification, classify
 from .poincare import PoincareSection, poincare, section_times
 from .signals import series
@@ -353,33 +354,25 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     for i, msg in bad_period.items():
         finish(BifurcationRun(i, values[i], "error", msg))
 
-    if executor == "serial":
-        for job in jobs:
-            finish(_run_one(job))
-    else:
-        if executor is not None and not isinstance(executor, Executor):
-            raise InputError(f"executor must be None, 'serial' or a concurrent.futures.Executor, got {executor!r}")
-        try:
-            if executor is None or isinstance(executor, ProcessPoolExecutor):
-                pickle.dumps(jobs[0] if jobs else None)
-        except Exception as exc:
-            raise InputError(f"bifurcation: the job cannot be sent to worker processes ({exc}); use module-level "
-                             "functions for the factory, signal and laws, or executor='serial'") from None
-        own = executor is None
-        n_workers = max_workers or max(1, min(os.cpu_count() or 1, len(jobs)))
-        ex = ProcessPoolExecutor(max_workers=n_workers) if own else executor
-        try:
-            futs = {ex.submit(_run_one, job): job for job in jobs}
-            for fut in as_completed(futs):
-                job = futs[fut]
-                try:
-                    run = fut.result()
-                except Exception as exc:       # worker died (BrokenProcessPool, pickling of the result...)
-                    run = BifurcationRun(job["index"], job["value"], "error", f"{type(exc).__name__}: {exc}")
-                finish(run)
-        finally:
-            if own:
-                ex.shutdown(wait=True, cancel_futures=True)
+    if executor is not None and executor != "serial" and not isinstance(executor, Executor):
+        raise InputError(f"executor must be None, 'serial' or a concurrent.futures.Executor, got {executor!r}")
+    try:
+        if executor is None or isinstance(executor, ProcessPoolExecutor):
+            pickle.dumps(jobs[0] if jobs else None)
+    except Exception as exc:
+        raise InputError(f"bifurcation: the job cannot be sent to worker processes ({exc}); use module-level "
+                         "functions for the factory, signal and laws, or executor='serial'") from None
+    close = None
+    ex = executor
+    if ex is None and jobs:
+        ex, close = make_executor(max_workers or max(1, min(os.cpu_count() or 1, len(jobs))))
+    try:
+        run_jobs(_run_one, jobs, ex, lambda job, run: finish(run),
+                 lambda job, exc: finish(BifurcationRun(job["index"], job["value"], "error",
+                                                        f"{type(exc).__name__}: {exc}")))
+    finally:
+        if close is not None:
+            close()
     copt = dict(classify_options or {})
     fixed_scale = copt.pop("scale", None)
     for r in runs:

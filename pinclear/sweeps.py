@@ -1,0 +1,326 @@
+"""Parameter sweeps: one simulation per point of a grid of load() overrides, on a local process
+pool or a Dask cluster, each finished point written to disk at once so a killed sweep resumes.
+
+A sweep folder holds
+  sweep.json          what was asked (model, the varied keys and values, t_end, options) and,
+                      per point, its overrides, status and message (rewritten as points finish);
+  points/NNNNN.npz    the point's trajectory (``Trajectory.load``), also for failed runs (the
+                      samples computed before the failure are kept);
+  points/NNNNN.json   a point that could not run at all (bad value, assembly error): its reason.
+Rerunning the same sweep into the same folder computes only the points without a file; a
+different sweep (other keys, values, t_end or options) is refused rather than mixed in.
+
+Workers return the saved file's bytes and the parent writes them, so a Dask cluster needs no
+shared file system. Each point's computation does not depend on where it runs: results are
+bit-identical whatever the executor and whatever was interrupted.
+"""
+from __future__ import annotations
+
+import itertools
+import json
+import math
+import os
+import sys
+import tempfile
+import time
+import warnings
+from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .trajectory import Trajectory, atomic_write_text, jsonable
+
+FORMAT = "pinclear-sweep/1"
+
+
+# ------------------------------------------------------------------------------- executors
+def make_executor(workers=None, scheduler=None):
+    """(executor, close) for ``workers`` local processes, or the Dask cluster at ``scheduler``
+    (``tcp://HOST:PORT``; dask.distributed is then required)."""
+    if scheduler is not None:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise InputError("--scheduler needs dask.distributed: pip install 'pinclear[cluster]'") from None
+        try:
+            client = Client(scheduler, timeout="20s")
+        except OSError as exc:
+            raise InputError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
+        return client.get_executor(), client.close
+    if workers is not None and int(workers) < 1:
+        raise InputError(f"workers must be a positive number of processes, got {workers!r}")
+    ex = ProcessPoolExecutor(max_workers=int(workers) if workers else os.cpu_count() or 1)
+    return ex, lambda: ex.shutdown(wait=True, cancel_futures=True)
+
+
+def run_jobs(fn, jobs, executor, on_result, on_error):
+    """fn(job) for every job on ``executor`` ('serial': in this process), calling on_result(job,
+    result) as each finishes; a job whose worker died is on_error(job, exc), never lost."""
+    if executor == "serial":
+        for job in jobs:
+            on_result(job, fn(job))
+        return
+    if not isinstance(executor, Executor):
+        raise InputError(f"executor must be 'serial' or a concurrent.futures.Executor, got {executor!r}")
+    futs = {executor.submit(fn, job): job for job in jobs}
+    for fut in as_completed(futs):
+        job = futs[fut]
+        try:
+            res = fut.result()
+        except Exception as exc:                  # BrokenProcessPool, a lost Dask worker...
+            on_error(job, exc)
+            continue
+        on_result(job, res)
+
+
+# ------------------------------------------------------------------------------- the grid
+def parse_vary(spec):
+    """``KEY=a:b:n`` (n values from a to b, linear), ``KEY=a:b:n:log`` (geometric) or
+    ``KEY=v1,v2,...`` -> (key, values)."""
+    if not isinstance(spec, str) or "=" not in spec:
+        raise InputError(f"--vary expects KEY=a:b:n or KEY=v1,v2,..., got {spec!r}")
+    key, _, rhs = spec.partition("=")
+    key = key.strip()
+    try:
+        if ":" in rhs:
+            parts = rhs.split(":")
+            if len(parts) not in (3, 4) or (len(parts) == 4 and parts[3] != "log"):
+                raise ValueError
+            a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
+            if n < 1:
+                raise ValueError
+            if len(parts) == 4:
+                if a <= 0 or b <= 0:
+                    raise InputError(f"--vary {spec!r}: a geometric range needs positive ends")
+                return key, np.geomspace(a, b, n).tolist()
+            return key, np.linspace(a, b, n).tolist()
+        return key, [_number(x) for x in rhs.split(",")]
+    except ValueError:
+        raise InputError(f"--vary {spec!r}: expected KEY=a:b:n[:log] (n >= 1) or KEY=v1,v2,...") from None
+
+
+def _number(text):
+    text = text.strip()
+    try:
+        v = float(text)
+    except ValueError:
+        return text                              # option values may be words (a law's name)
+    return int(v) if v.is_integer() and "." not in text and "e" not in text.lower() else v
+
+
+def grid(vary):
+    """Every combination of the varied keys' values, the last key fastest: a list of dicts."""
+    items = list(vary.items()) if isinstance(vary, dict) else [tuple(kv) for kv in vary]
+    if not items:
+        raise InputError("sweep: nothing to vary (give at least one KEY and its values)")
+    keys = [k for k, _ in items]
+    if len(set(keys)) != len(keys):
+        raise InputError(f"sweep: a key is varied twice: {keys}")
+    for k, vals in items:
+        if len(vals) == 0:
+            raise InputError(f"sweep: no values for {k!r}")
+    return [dict(zip(keys, combo)) for combo in itertools.product(*[list(v) for _, v in items])]
+
+
+def describe_point(overrides):
+    """The point in the user's terms: ``S2.mu = 0.1, S2.clearance = 0.0005``."""
+    return ", ".join(f"{k} = {v:.6g}" if isinstance(v, float) else f"{k} = {v}" for k, v in overrides.items())
+
+
+# ------------------------------------------------------------------------------- one point
+def _run_point(job):
+    """Worker: load the variant, simulate, return the saved trajectory's bytes and its summary
+    (or the reason the point could not run)."""
+    from .sidecar import load
+    from .simulate import simulate
+
+    t0 = time.perf_counter()
+    try:
+        for k, v in job["overrides"].items():
+            if isinstance(v, float) and not math.isfinite(v):
+                raise InputError(f"{k} = {v!r} is not a finite number")
+        mech = load(job["path"], **{**job["load_kw"], "overrides": {**job["fixed"], **job["overrides"]}})
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)      # a failed run is a result here
+            tr = simulate(mech, job["t_end"], **job["sim_kw"])
+        with tempfile.TemporaryDirectory() as tmp:
+            p = tr.save(Path(tmp) / "point.npz")
+            blob = Path(p).read_bytes()
+        return {"status": tr.status, "message": tr.message, "npz": blob,
+                "stats": {"cpu_s": tr.stats.get("cpu_s"), "rhs_evals": tr.stats.get("rhs_evals"),
+                          "steps": tr.stats.get("steps"), "events": len(tr.stats.get("events", [])),
+                          "wall_s": time.perf_counter() - t0}}
+    except Exception as exc:                     # the point's own fault: a result, not a crash
+        return {"status": "error", "message": f"{type(exc).__name__}: {exc}", "npz": None,
+                "stats": {"wall_s": time.perf_counter() - t0}}
+
+
+@dataclass
+class SweepPoint:
+    index: int
+    overrides: dict
+    status: str              # success | failed | error | pending
+    message: str
+    file: Path | None
+
+    @property
+    def ok(self):
+        return self.status == "success"
+
+    def trajectory(self) -> Trajectory:
+        if self.file is None or self.file.suffix != ".npz":
+            raise InputError(f"sweep point {self.index} ({describe_point(self.overrides)}) has no trajectory: "
+                             f"{self.status}: {self.message}")
+        return Trajectory.load(self.file)
+
+
+@dataclass
+class SweepResult:
+    folder: Path
+    keys: list
+    points: list
+    computed: int            # points computed by this call (the others were on disk already)
+
+    def table(self):
+        return [{"index": p.index, **p.overrides, "status": p.status, "message": p.message} for p in self.points]
+
+    @property
+    def failures(self):
+        return [p for p in self.points if not p.ok]
+
+
+def _point_files(folder, i):
+    return folder / "points" / f"{i:05d}.npz", folder / "points" / f"{i:05d}.json"
+
+
+def _status_from_file(npz, err):
+    if npz.exists():
+        meta = json.loads(str(np.load(npz, allow_pickle=False)["meta"]))
+        return meta["status"], meta["message"], npz
+    if err.exists():
+        d = json.loads(err.read_text(encoding="utf-8"))
+        return d["status"], d["message"], err
+    return "pending", "", None
+
+
+# ------------------------------------------------------------------------------- the sweep
+def sweep(model, vary, t_end, out, *, sim_options=None, load_options=None, workers=None, scheduler=None,
+          executor=None, progress=True) -> SweepResult:
+    """Simulate ``model`` (a sidecar path or a bundled model's name) at every point of the grid of
+    ``vary`` ({key: values}, load()'s override keys such as ``"S2.mu"``, ``"forces[spring].k"``
+    or a scene option), for ``t_end`` seconds each, writing each point into ``out`` as it
+    finishes. Points already in ``out`` from an earlier, interrupted call of the same sweep are
+    not computed again.
+
+    sim_options: keyword arguments of :func:`pinclear.simulate` (method, integrator, rtol, dt_out,
+    max_cpu...). load_options: of :func:`pinclear.load` (clearances, options, overrides for
+    keys that stay fixed). workers: local processes (default: one per CPU); scheduler: a Dask
+    scheduler address instead; executor: any concurrent.futures.Executor (e.g. a Dask client's
+    ``get_executor()``) or 'serial'. progress: a progress bar with ETA on stderr (True), None,
+    or f(done, total, point).
+    """
+    from .models import model_path
+
+    path = model_path(model)
+    if not path.exists():
+        raise InputError(f"sweep: no such mechanism file {str(path)!r}")
+    if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0):
+        raise InputError(f"sweep: t_end must be a positive number of seconds, got {t_end!r}")
+    sim_kw = dict(sim_options or {})
+    for k in ("t_end", "t0", "strict", "resume", "checkpoint", "progress"):
+        if k in sim_kw:
+            raise InputError(f"sweep: sim_options may not set {k!r}")
+    load_kw = dict(load_options or {})
+    bad = set(load_kw) - {"options", "overrides", "clearances", "trust"}
+    if bad:
+        raise InputError(f"sweep: unknown load option {sorted(bad)[0]!r} (valid: clearances, options, overrides, trust)")
+    fixed = dict(load_kw.pop("overrides", None) or {})
+    points = grid(vary)
+    keys = list(points[0])
+    # check every key once, at the first point, before any work: an unknown key names the valid ones
+    from .sidecar import load
+    load(path, **{**load_kw, "overrides": {**fixed, **points[0]}})
+
+    folder = Path(out)
+    spec = jsonable({"format": FORMAT, "model": str(path.resolve()), "keys": keys, "points": points,
+                     "t_end": float(t_end), "sim_options": sim_kw, "load_options": load_kw, "fixed": fixed})
+    index_path = folder / "sweep.json"
+    if index_path.exists():
+        try:
+            old = json.loads(index_path.read_text(encoding="utf-8"))
+        except (OSError, json.JSONDecodeError) as exc:
+            raise InputError(f"{index_path}: not a readable sweep index ({exc})") from None
+        diff = [k for k in spec if old.get(k) != spec[k]]
+        if diff:
+            raise InputError(f"{folder} holds a different sweep (it differs in {', '.join(diff)}); "
+                             "give another --out folder or delete this one")
+    elif folder.exists() and not folder.is_dir():
+        raise InputError(f"--out {str(folder)!r} is an existing file; give a folder")
+    (folder / "points").mkdir(parents=True, exist_ok=True)
+
+    state = []
+    for i, ov in enumerate(points):
+        st, msg, f = _status_from_file(*_point_files(folder, i))
+        state.append(SweepPoint(i, ov, st, msg, f))
+
+    def write_index():
+        doc = dict(spec, status=[{"index": p.index, "status": p.status, "message": p.message} for p in state])
+        atomic_write_text(index_path, json.dumps(doc, indent=1))
+
+    write_index()
+    todo = [p for p in state if p.status == "pending"]
+    jobs = [{"index": p.index, "overrides": p.overrides, "path": str(path), "load_kw": load_kw, "fixed": fixed,
+             "t_end": float(t_end), "sim_kw": sim_kw} for p in todo]
+
+    bar = None
+    if progress is True and todo:
+        from tqdm import tqdm
+        bar = tqdm(total=len(state), initial=len(state) - len(todo), desc="sweep", unit="point",
+                   file=sys.stderr, dynamic_ncols=True)
+
+    def on_result(job, res):
+        i = job["index"]
+        npz, err = _point_files(folder, i)
+        if res["npz"] is not None:
+            fd, tmp = tempfile.mkstemp(prefix=f".{npz.stem}.", suffix=".npz", dir=npz.parent)
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(res["npz"])
+            os.replace(tmp, npz)
+            file = npz
+        else:
+            atomic_write_text(err, json.dumps({"status": res["status"], "message": res["message"],
+                                               "overrides": jsonable(job["overrides"])}))
+            file = err
+        p = state[i]
+        p.status, p.message, p.file = res["status"], res["message"], file
+        write_index()
+        if bar is not None:
+            bar.set_postfix_str(f"{describe_point(p.overrides)}: {p.status}", refresh=False)
+            bar.update(1)
+        elif callable(progress):
+            progress(sum(q.status != "pending" for q in state), len(state), p)
+
+    def on_error(job, exc):
+        # the worker, not the point, failed: reported, and left without a file so a rerun retries it
+        p = state[job["index"]]
+        p.status, p.message = "error", f"worker lost: {type(exc).__name__}: {exc}"
+        write_index()
+        if bar is not None:
+            bar.update(1)
+
+    close = None
+    try:
+        if jobs:
+            ex = executor
+            if ex is None:
+                ex, close = make_executor(workers if workers else min(len(jobs), os.cpu_count() or 1), scheduler)
+            run_jobs(_run_point, jobs, ex, on_result, on_error)
+    finally:
+        if close is not None:
+            close()
+        if bar is not None:
+            bar.close()
+    return SweepResult(folder, keys, state, len(jobs))
