@@ -348,7 +348,8 @@ def build_parser():
             ("view", "pinclear.viz.cli", "view_main", "meshcat viewer / standalone HTML of a mechanism or a run"),
             ("plot", "pinclear.viz.cli", "plot_main", "standard figures of a saved trajectory"),
             ("inverse-dynamics", "pinclear.screw", "cli_main", "screw-theory inverse dynamics (paper 004)"),
-            ("analyse", "pinclear.analysis", "cli_main", "phase portraits, Poincare maps, bifurcation diagrams")):
+            ("analyse", "pinclear.analysis", "cli_main", "phase portraits, Poincare maps, bifurcation diagrams"),
+            ("reproduce", "pinclear.reproduce", "cli_main", "a source paper's study with its numbers beside ours")):
         s = sub.add_parser(name, help=helptext, add_help=False)
         s.add_argument("rest", nargs=argparse.REMAINDER)
         s.set_defaults(func=_delegate(module, func))
