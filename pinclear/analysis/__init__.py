@@ -9,6 +9,8 @@ coefficient, clearance size, driving speed). This module produces those three ob
 
 * :func:`detect_period`: the period k of the Poincaré sequence (smallest shift that maps it
   onto itself within a tolerance) and the number of distinct clusters;
+* :func:`largest_lyapunov` / :func:`mechanism_lyapunov`: the largest Lyapunov exponent by
+  Benettin's renormalised companion trajectory (lyapunov.py);
 * :func:`chaos_01`: the 0-1 test for chaos of Gottwald & Melbourne (Proc. R. Soc. A 460, 2004;
   correlation method and modified mean-square displacement of SIAM J. Appl. Dyn. Syst. 8, 2009):
   K ~ 0 for regular (periodic or quasi-periodic) motion, K ~ 1 for chaotic motion.
@@ -40,6 +42,7 @@ no GUI backend) and return the arrays they drew. Command line (:func:`cli_main`)
 """
 from .classify import CHAOS_THRESHOLD, Classification, chaos_01, classify, detect_period
 from .cli import cli_main
+from .lyapunov import LyapunovResult, largest_lyapunov, mechanism_lyapunov
 from .plots import plot_bifurcation, plot_phase_portrait, plot_poincare
 from .poincare import PoincareSection, poincare, section_times
 from .signals import Series, phase_portrait, relative_rate, series
@@ -48,4 +51,5 @@ from .sweep import BifurcationResult, BifurcationRun, bifurcation, signal_key
 __all__ = ["CHAOS_THRESHOLD", "Classification", "chaos_01", "classify", "detect_period", "cli_main",
            "plot_bifurcation", "plot_phase_portrait", "plot_poincare", "PoincareSection", "poincare",
            "section_times", "Series", "phase_portrait", "relative_rate", "series", "BifurcationResult",
-           "BifurcationRun", "bifurcation", "signal_key"]
+           "BifurcationRun", "bifurcation", "signal_key", "LyapunovResult", "largest_lyapunov",
+           "mechanism_lyapunov"]
