@@ -338,7 +338,7 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     if progress is True:
         def progress(done, total, run):   # noqa: F811 - the default reporter
             why = "" if run.ok else f": {run.message}"
-            print(f"bifurcation {done}/{total}: {parameter} = {run.value!r} {run.status} "
+            print(f"bifurcation {done}/{total}: {_label(parameter, run.value)}: {run.status} "
                   f"({run.stats.get('wall_s', 0):.1f} s){why}", file=sys.stderr, flush=True)
 
     runs: list = [None] * len(values)
@@ -383,6 +383,16 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
     return BifurcationResult(parameter, np.asarray(values, dtype=float if numeric else object), runs, keys,
                              np.asarray(periods))
+
+def _label(parameter, value):
+    """The point in the user's terms: ``A.clearance = 1e-05, B.clearance = 1e-05`` for a mapping
+    of keys to factors, ``S2.mu = 0.1`` for one key."""
+    from ..sweeps import describe_point
+
+    if isinstance(parameter, dict):
+        return describe_point({k: value if f == 1.0 else f * value for k, f in parameter.items()})
+    return describe_point({str(parameter): value})
+
 
 def is_number(v):
     try:
