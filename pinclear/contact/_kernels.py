@@ -487,3 +487,48 @@ def prismatic_force(gpar, Hj, jidx, jMf, slot, Mbuf, J, idx1, idx2, v, z, vmin, 
     zdot[nc] = contact_forces(delta, dd, vt, n, dd0, lcode, P0, P1, chi, W, fcode, fpar, Fn, Fel, F2)
     add_wrenches(J, idx1, idx2, F2, p1, p2, tau)
     return on
+
+
+#: layout of channel_record's output row: (name, start, size); potential last
+RECORD = (("penetration", 0, 1), ("normal_force", 1, 3), ("friction_force", 4, 3), ("fn", 7, 1),
+          ("contact", 8, 1), ("dissipated", 9, 1), ("eccentricity", 10, 3))
+RECORD_SIZE = 14
+
+
+@njit(cache=True)
+def law_energy(code, d, p0, p1):
+    """Elastic energy of normal law ``code`` at penetration d: K d^(n+1)/(n+1) for a power law,
+    P d - int_0^P d(P') dP' for the line law (see laws.LineLaw)."""
+    if d <= 0.0:
+        return 0.0
+    if code == N_LINE:
+        P = line_elastic(d, p0, p1)
+        if P <= 0.0:
+            return 0.0
+        return P * d - p0 * (0.75 * P * P - 0.5 * P * P * math.log(p1 * P))
+    return p0 * d ** (p1 + 1.0) / (p1 + 1.0)
+
+
+@njit(cache=True)
+def channel_record(delta, n, Fn, F2, M1, M2, dissipated, code, P0, P1, W, out):
+    """One output sample of a clearance joint (ClearanceJoint.outputs, in the RECORD layout) and
+    its elastic energy, from what the fused evaluation left: the deepest penetration, the normal
+    and friction resultants on body 2 (world), the total normal force, contact (0/1), the
+    dissipated energy, frame 2's origin in frame 1 axes (paper 000 eq. 3)."""
+    out[:] = 0.0
+    out[0] = delta[0]
+    for k in range(delta.shape[0]):
+        out[0] = max(out[0], delta[k])
+        for i in range(3):
+            out[1 + i] -= Fn[k] * n[k, i]
+            out[4 + i] += F2[k, i] + Fn[k] * n[k, i]
+        out[7] += Fn[k]
+        if delta[k] > 0.0:
+            out[8] = 1.0
+            out[13] += W[k] * law_energy(code[k], delta[k], P0[k], P1[k])
+    out[9] = dissipated
+    for i in range(3):
+        acc = 0.0
+        for j in range(3):
+            acc += M1[j, i] * (M2[j, 3] - M1[j, 3])
+        out[10 + i] = acc

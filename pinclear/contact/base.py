@@ -336,11 +336,19 @@ class ClearanceJoint(ForceElement):
     def record(self, mech, ws, d, t, q, v, z, after_rhs):
         if not (after_rhs and self._rhs_compiled):
             return super().record(mech, ws, d, t, q, v, z, after_rhs)
-        # the fused add_force of this very evaluation left every channel quantity in d
-        d.ft_ready = False
-        M1, M2 = d.M[0], d.M[1]
-        out = self._outputs(d, z, M1[:3, :3], M1[:3, 3], M2[:3, 3], bool((d.delta > 0.0).any()))
-        return float(np.sum(self._energy(d, d.delta))), d.loss, out
+        # the fused add_force of this very evaluation left every channel quantity in d: one
+        # compiled call forms the sample's outputs and elastic energy
+        d.key = None
+        row = np.empty(_kernels.RECORD_SIZE)
+        code, P0, P1, W = self._record_laws(d)
+        _kernels.channel_record(d.delta, d.n, d.Fn, d.F2, d.M[0], d.M[1], float(z[self.nc]), code, P0, P1, W, row)
+        out = {name: (row[a] if size == 1 else row[a:a + size]) for name, a, size in _kernels.RECORD}
+        return float(row[-1]), d.loss, out
+
+    def _record_laws(self, d):
+        """(law code, p0, p1, weight) per channel, as the fused evaluation used them."""
+        f = self._fused
+        return f[2], f[3], f[4], f[6]
 
     def describe(self):
         return {"name": self.name, "type": self.kind, "friction": self.friction.name}

@@ -189,9 +189,14 @@ class PrismaticClearance(ClearanceJoint):
         d.loss = zdot[self.nc]
 
     def record(self, mech, ws, d, t, q, v, z, after_rhs):
+        pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
         if after_rhs and self._rhs_compiled:
-            d.mode_from_info()
-        return super().record(mech, ws, d, t, q, v, z, after_rhs)
+            out["mode"] = np.array(float(d.info[0]))
+            out["kinds"] = d.info[1:4].astype(float)
+        return pot, loss, out
+
+    def _record_laws(self, d):
+        return d.lcode, d.P0, d.P1, d.W
 
     # geometry -----------------------------------------------------------------
     def _geometry(self, data, dat):
