@@ -18,17 +18,11 @@ from pinclear.forces import JointForce
 from pinclear.mechanisms import four_ups_upr as m
 
 from conftest import kkt_singular_time
+from pinclear.reproduce.paper004 import PAPER_G    # paper 004, sec. 4.1: G_q^p at the initial configuration
 from pinclear.timelaws import Callable
 
 SIDECAR = model_path("four_ups_upr")
 GENERIC = (0.12, -0.09, 0.04, 0.07)
-#: paper 004, sec. 4.1: G_q^p printed at the initial configuration (rows omega; v_o)
-PAPER_G = np.array([[0.8237, 0.8237, -0.8673, -0.8673, 0.0000, 0.4628],
-                    [-7.7204, 7.7204, -6.5346, 6.5346, 0.9231, 0.0],
-                    [0, 0, 0, 0, 1.0000, 0],
-                    [4.6366, -4.6366, 4.8741, -4.8741, -0.6544, 0.0],
-                    [0, 0, 0, 0, 0, 0.3800],
-                    [0.3066, 0.3066, 0.3229, 0.3229, 0.0, 0.0]])
 #: paper 004, sec. 4.2: peak drive forces (N): low speed platform only, high speed platform only,
 #: high speed with limbs
 PAPER_PEAKS = {"low": 85.0, "high": 2080.0, "high_limbs": 2560.0}

@@ -426,16 +426,11 @@ def channel_penetrations(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, delta, 
 
 
 @njit(cache=True)
-def clearance_force(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, J, idx1, idx2, v, z, vmin, lcode, P0, P1,
-                    chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
-    """One clearance joint's whole right-hand-side contribution in one call, the same steps as
-    ClearanceJoint._compute + add_force: frame placements (slots ``slot``, ``slot + 1`` of the
-    workspace's frame kinematics), geometry, relative velocity, normal and memoryless friction
-    laws, wrenches into tau; zdot = (0 per channel, dissipated power). Returns the number of
-    touching channels (0: free flight, no velocities computed, as in the Python path)."""
-    frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
-    frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
-    channel_geometry(code, gpar, Mbuf[0], Mbuf[1], scratch, delta, n, p1, p2)
+def channel_forces(J, idx1, idx2, v, z, vmin, lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0,
+                   Fn, Fel, F2, tau, zdot):
+    """After the geometry: relative velocity, normal and memoryless friction laws, wrenches into
+    tau; zdot = (0 per channel, dissipated power). Returns the number of touching channels (0:
+    free flight, no velocities computed, as in ClearanceJoint._compute)."""
     nc = delta.shape[0]
     on = 0
     for k in range(nc):
@@ -458,35 +453,30 @@ def clearance_force(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, J, idx1, idx
 
 
 @njit(cache=True)
+def clearance_force(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, J, idx1, idx2, v, z, vmin, lcode, P0, P1,
+                    chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
+    """One spherical or revolute clearance joint's whole right-hand-side contribution in one call,
+    the same steps as ClearanceJoint._compute + add_force: frame placements (slots ``slot``,
+    ``slot + 1`` of the workspace's frame kinematics), geometry, then channel_forces."""
+    frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
+    frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
+    channel_geometry(code, gpar, Mbuf[0], Mbuf[1], scratch, delta, n, p1, p2)
+    return channel_forces(J, idx1, idx2, v, z, vmin, lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt,
+                          dd0, Fn, Fel, F2, tau, zdot)
+
+
+@njit(cache=True)
 def prismatic_force(gpar, Hj, jidx, jMf, slot, Mbuf, J, idx1, idx2, v, z, vmin, members, modes, table, info,
                     lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
     """The prismatic clearance's right-hand-side contribution in one call: placements, corner
-    geometry, the contact mode and each channel's law, then the same channel loop, friction and
-    wrenches as clearance_force. Returns the number of touching channels."""
+    geometry, the contact mode and each channel's law, then channel_forces."""
     frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
     frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
     prismatic_geometry(gpar, Mbuf[0], Mbuf[1], delta, n, p1, p2)
     prismatic_mode(delta, members, modes, info)
-    nc = delta.shape[0]
-    on = 0
-    for k in range(nc):
-        zdot[k] = 0.0
-        if delta[k] > 0.0:
-            on += 1
-    zdot[nc] = 0.0
-    if on == 0:
-        for k in range(nc):
-            Fn[k] = 0.0
-            Fel[k] = 0.0
-            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
-        return 0
     prismatic_laws(info, members, table, lcode, P0, P1, chi, W)
-    relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt)
-    for k in range(nc):
-        dd0[k] = max(z[k], vmin)
-    zdot[nc] = contact_forces(delta, dd, vt, n, dd0, lcode, P0, P1, chi, W, fcode, fpar, Fn, Fel, F2)
-    add_wrenches(J, idx1, idx2, F2, p1, p2, tau)
-    return on
+    return channel_forces(J, idx1, idx2, v, z, vmin, lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt,
+                          dd0, Fn, Fel, F2, tau, zdot)
 
 
 #: layout of channel_record's output row: (name, start, size); potential last
