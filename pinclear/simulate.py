@@ -386,6 +386,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
                                      f"{_last_t(samples, t0):.9g} s: {exc}")
     stats["rhs_evals"] = nfev0 + sysf.nfev
     stats["cpu_s"] = cpu_prior + time.process_time() - cpu0
+    if form.row_changes:
+        stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in form.row_changes]
     traj.status, traj.message = status, message
     try:
         traj.fill(samples, form)

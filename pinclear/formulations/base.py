@@ -38,7 +38,8 @@ class Formulation(abc.ABC):
        - ``supports_projection``: :meth:`project` ``(t, q, v) -> (q, v)`` puts a state back on the
          constraint manifold; the simulator calls it after every accepted step and on samples.
        - :meth:`use_rows` receives the independent rows found at the initial configuration; a
-         formulation that needs a full-rank Schur complement keeps only those.
+         formulation that needs a full-rank Schur complement keeps only those, and may choose
+         them again during the run (recorded in ``row_changes``) when the kept rows lose rank.
        - :meth:`pivot_dip` / :meth:`reset_pivot_monitor`: a formulation that watches the pivots
          of its constraint solve reports when they dipped during a step, so the simulator can
          search the step for a singular configuration it may have jumped over.
@@ -57,6 +58,7 @@ class Formulation(abc.ABC):
         self.opts = {**self.options, **options}
         self.ws = mech.workspace()
         self.rows = np.arange(mech.m)      # constraint rows used (redundant ones may be dropped)
+        self.row_changes = []              # (t, names of the rows dropped from then on), when re-chosen
         self._last_finite = True
 
     # -------------------------------------------------------------- shared pieces

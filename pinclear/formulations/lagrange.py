@@ -11,6 +11,10 @@ from .. import kinematics
 from .._kernels import lagrange_accel
 from .base import RANK_COND, SINGULAR_DIP, Formulation
 
+#: pivot ratio of the kept rows, relative to its start, below which the independent rows are
+#: chosen again (before the singular-passage monitor's SINGULAR_DIP would stop the run)
+RESELECT_DIP = 1e-2
+
 
 class Lagrange(Formulation):
     name = "lagrange"
@@ -35,6 +39,22 @@ class Lagrange(Formulation):
         if self.opts["drop_redundant"]:
             self.rows = np.array(independent, dtype=int)
 
+    def _reselect_rows(self, t):
+        """The kept rows are losing rank while the full set may not be (a redundant row chosen at
+        t0 becomes the independent one, as in Bricard's linkage): choose the independent rows
+        again at this configuration. Consistent redundant rows give the same accelerations
+        whichever independent subset is solved, so the right-hand side stays continuous up to
+        the Baumgarte terms of the exchanged rows. Returns True when the rows changed."""
+        mech = self.mech
+        _, indep, _ = kinematics.rank_analysis(self.ws.J.copy(), mech.row_names())
+        if len(indep) != len(self.rows) or np.array_equal(indep, self.rows):
+            return False
+        self.rows = np.array(indep, dtype=int)
+        names = mech.row_names()
+        self.row_changes.append((float(t), [names[i] for i in range(mech.m) if i not in set(indep)]))
+        self._bind()
+        return True
+
     def finite(self, a):
         return not self.nonfinite
 
@@ -56,6 +76,7 @@ class Lagrange(Formulation):
         ws, mech, b = self.ws, self.mech, self._buf
         al, be = self.baumgarte()
         self._all_rows = len(self.rows) == mech.m
+        self._dropped = self.opts["drop_redundant"] and not self._all_rows
         lam = ws.lam if self._all_rows else b["lam"]
         self._bound_rows = self.rows
         self._args = kinematics.static_args(mech, ws) + (
@@ -67,6 +88,9 @@ class Lagrange(Formulation):
         if self._bound_rows is not self.rows:
             self._bind()
         ratio = lagrange_accel(*self._args, q, v, self._drive_values(t, self._drive_data))
+        if (self._dropped and self.ratio_ref is not None and 0.0 <= ratio < RESELECT_DIP * self.ratio_ref
+                and self._reselect_rows(t)):
+            ratio = lagrange_accel(*self._args, q, v, self._drive_values(t, self._drive_data))
         a = self._a.copy()
         self.nonfinite = ratio == -2.0        # read by finite() (trial stages may overflow)
         if ratio < self._ratio_floor:
