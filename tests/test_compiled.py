@@ -89,7 +89,7 @@ def test_compiled_time_laws_equal_their_python_eval():
         assert (y2 - 2 * y1 + y0) / h ** 2 == pytest.approx(ydd1, abs=1e-4)
 
 
-@pytest.mark.parametrize("name", ["four_ups_upu", "three_upru_up"])
+@pytest.mark.parametrize("name", ["four_ups_upu", "three_upru_up", "four_ups_upr"])
 def test_ik_drive_laws_written_in_place_equal_the_allocating_ik(name):
     """The seed mechanisms' inverse kinematics fills the drive values in place (one compiled call
     per time); it equals the function that returns new arrays, component by component."""

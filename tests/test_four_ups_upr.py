@@ -220,3 +220,18 @@ def test_forward_run_reports_the_singular_crossing_of_the_high_law(mech):
     assert rl["t"] == pytest.approx(kkt_singular_time(mech, 1.07, 1.11), abs=1e-5)
     res = screw.inverse_dynamics(mech, "high", np.linspace(1.085, 1.093, 17), limbs=False, gravity=False)
     assert res.crossings[0][0] == pytest.approx(rl["t"], abs=1e-5)
+
+
+def test_compiled_limb_lengths_equal_the_pose_written_out():
+    """The drives' compiled inverse kinematics against the platform pose built with NumPy
+    rotations (paper 004 eq. 3: p' = R(x, alpha) R(y', beta) [dx, 0, H + dz]): l_i = |p' + R b_i - a_i|;
+    its rates are checked by central differences in test_limb_law_derivatives."""
+    rng = np.random.default_rng(4)
+    for law in ("low", "high"):
+        for layout in ("a", "f"):
+            for t in rng.uniform(0.0, 6.0, 20):
+                x = m.motion_law(t, law)[0]
+                pose = m.coupled_pose(*x)
+                b = pose.translation + m.LAYOUTS[layout] @ pose.rotation.T
+                ref = np.linalg.norm(b - m.BASE_POINTS, axis=1)
+                np.testing.assert_allclose(m.limb_lengths(t, law, layout)[0], ref, rtol=1e-13, atol=0)

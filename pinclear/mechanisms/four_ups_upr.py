@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from .._jit import njit
 from ..errors import InputError
 from ._common import URDF_DIR
 
@@ -190,26 +191,48 @@ def coupled_twist(x, xd, H=H0):
 
 def coupled_accel(x, xd, xdd, H=H0):
     """(V, A): twist (omega; v_o) and its derivative (domega; a_o) (paper 004, eqs. 4-6)."""
-    a, b, dx, dz = x
-    ad, bd, dxd, dzd = xd
-    add, bdd, dxdd, dzdd = xdd
-    Rx = _rx(a)
-    R = Rx @ _ry(b)
+    out = np.empty((2, 6))
+    _coupled_accel(np.asarray(x, float), np.asarray(xd, float), np.asarray(xdd, float), float(H), np.empty((3, 3)),
+                   out)
+    return out[0].copy(), out[1].copy()
+
+
+@njit(cache=True)
+def _rotation(a, b, R):
+    """R = R(x, a) R(y', b) (paper 004, eq. 3)."""
+    ca, sa, cb, sb = math.cos(a), math.sin(a), math.cos(b), math.sin(b)
+    R[0, 0], R[0, 1], R[0, 2] = cb, 0.0, sb
+    R[1, 0], R[1, 1], R[1, 2] = sa * sb, ca, -sa * cb
+    R[2, 0], R[2, 1], R[2, 2] = -ca * sb, sa, ca * cb
+
+
+@njit(cache=True)
+def _c(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+
+
+@njit(cache=True)
+def _coupled_accel(x, xd, xdd, H, R, out):
+    """out[0] = V = (omega; v_o), out[1] = A = (domega; a_o); R receives the rotation."""
+    a, b = x[0], x[1]
+    ad, bd = xd[0], xd[1]
+    add, bdd = xdd[0], xdd[1]
+    _rotation(a, b, R)
     ex = np.array([1.0, 0.0, 0.0])
-    yp = Rx[:, 1]                                  # y' after the first rotation
+    yp = np.array([0.0, math.cos(a), math.sin(a)])          # y' after the first rotation
     w = ad * ex + bd * yp
-    dyp = _cross(ad * ex, yp)
+    dyp = _c(ad * ex, yp)
     dw = add * ex + bdd * yp + bd * dyp
-    p = np.array([dx, 0.0, H + dz])
-    pd = np.array([dxd, 0.0, dzd])
-    pdd = np.array([dxdd, 0.0, dzdd])
-    Rp, Rpd = R @ p, R @ pd
-    pp = Rp                                        # p'
-    ppd = _cross(w, Rp) + Rpd                    # eq. 4
-    ppdd = _cross(dw, Rp) + 2.0 * _cross(w, Rpd) + _cross(w, _cross(w, Rp)) + R @ pdd   # eq. 5
-    vo = ppd - _cross(w, pp)                     # eq. 6
-    ao = ppdd - _cross(dw, pp) - _cross(w, ppd)
-    return np.concatenate([w, vo]), np.concatenate([dw, ao])
+    p = np.array([x[2], 0.0, H + x[3]])
+    pd = np.array([xd[2], 0.0, xd[3]])
+    pdd = np.array([xdd[2], 0.0, xdd[3]])
+    Rp, Rpd, Rpdd = R @ p, R @ pd, R @ pdd
+    ppd = _c(w, Rp) + Rpd                                   # eq. 4
+    ppdd = _c(dw, Rp) + 2.0 * _c(w, Rpd) + _c(w, _c(w, Rp)) + Rpdd   # eq. 5
+    vo = ppd - _c(w, Rp)                                    # eq. 6
+    ao = ppdd - _c(dw, Rp) - _c(w, ppd)
+    out[0, :3], out[0, 3:] = w, vo
+    out[1, :3], out[1, 3:] = dw, ao
 
 
 def platform_motion(t, law="high", H=H0):
@@ -290,30 +313,64 @@ def limb_kinematics(pose, V=None, A=None, layout="f"):
     """Limb lengths l_i, rates and accelerations (4,) each, for a platform pose, twist and
     acceleration (paper order). Analytic: l = |b - a|, l' = n.b', l'' = n.b'' + (|b'|^2 - l'^2)/l."""
     bl = _check_layout(layout)
-    R, p = pose.rotation, pose.translation
-    b = p + bl @ R.T                              # (4, 3) world hinge points on the platform
-    d = b - BASE_POINTS
-    ell = np.linalg.norm(d, axis=1)
-    n = d / ell[:, None]
-    if V is None:
-        return ell, None, None
-    w, vo = V[:3], V[3:]
-    bd = vo + np.cross(w, b)                     # velocity field of the platform twist
-    ld = np.einsum("ij,ij->i", n, bd)
-    if A is None:
-        return ell, ld, None
-    dw, ao = A[:3], A[3:]
-    bdd = ao + np.cross(dw, b) + np.cross(w, bd)
-    ldd = np.einsum("ij,ij->i", n, bdd) + (np.einsum("ij,ij->i", bd, bd) - ld ** 2) / ell
-    return ell, ld, ldd
+    out = np.empty((3, 4))
+    zero = np.zeros(6)
+    _limb_kinematics(np.ascontiguousarray(pose.rotation), np.ascontiguousarray(pose.translation),
+                     zero if V is None else np.asarray(V, float), zero if A is None else np.asarray(A, float),
+                     bl, BASE_POINTS, out)
+    return out[0], (None if V is None else out[1]), (None if A is None else out[2])
+
+
+@njit(cache=True)
+def _limb_kinematics(R, p, V, A, bl, base, out):
+    w, vo, dw, ao = V[:3], V[3:], A[:3], A[3:]
+    for i in range(bl.shape[0]):
+        b = p + R @ bl[i]                                   # world hinge point on the platform
+        d = b - base[i]
+        ell = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        n = d / ell
+        bd = vo + _c(w, b)                                  # velocity field of the platform twist
+        ld = n[0] * bd[0] + n[1] * bd[1] + n[2] * bd[2]
+        bdd = ao + _c(dw, b) + _c(w, bd)
+        out[0, i] = ell
+        out[1, i] = ld
+        out[2, i] = (n[0] * bdd[0] + n[1] * bdd[1] + n[2] * bdd[2]
+                     + (bd[0] * bd[0] + bd[1] * bd[1] + bd[2] * bd[2] - ld * ld) / ell)
+
+
+@njit(cache=True)
+def _limb_lengths_into(t, amp, w, H, bl, base, out):
+    """limb_lengths at t written into out (3, 4): the motion law, the coupled motion and the
+    limb kinematics in one compiled call (the drives ask for it at every right-hand side)."""
+    x, xd, xdd = np.empty(4), np.empty(4), np.empty(4)
+    for k in range(4):
+        s, c = math.sin(w[k] * t), math.cos(w[k] * t)
+        x[k], xd[k], xdd[k] = amp[k] * s, amp[k] * w[k] * c, -amp[k] * w[k] * w[k] * s
+    R = np.empty((3, 3))
+    VA = np.empty((2, 6))
+    _coupled_accel(x, xd, xdd, H, R, VA)
+    p = R @ np.array([x[2], 0.0, H + x[3]])
+    _limb_kinematics(R, p, VA[0], VA[1], bl, base, out)
+
+
+def _limb_lengths_fill(t, out, law="high", layout="f"):
+    """limb_lengths(t, law, layout) written into out (3, 4) (timelaws.Callable's compiled path)."""
+    amp, w = _check_law(law)
+    if out.shape != (3, 4):
+        raise ValueError(f"limb_lengths fills (3, 4) values, got an array of shape {out.shape}")
+    _limb_lengths_into(float(t), amp, w, H0, _check_layout(layout), BASE_POINTS, out)
 
 
 def limb_lengths(t, law="high", layout="f"):
     """Lengths of the four UPS limbs and their first two time derivatives from the analytic IK of
     the coupled motion (three arrays). The sidecar's drives take one component each (``index``),
     so the IK runs once per time for all four, the cache in the run's workspace."""
-    M, V, A = platform_motion(t, law)
-    return limb_kinematics(M, V, A, layout)
+    out = np.empty((3, 4))
+    _limb_lengths_fill(t, out, law, layout)
+    return out[0], out[1], out[2]
+
+
+limb_lengths.into = _limb_lengths_fill
 
 
 def limb_law(t, limb, law="high", layout="f"):
