@@ -5,7 +5,7 @@ pyproject.toml), so a non-editable ``pip install .`` finds the models by name fr
 """
 from __future__ import annotations
 
-from importlib import resources
+import importlib.util
 from pathlib import Path
 
 from .errors import ModelFileError
@@ -13,12 +13,19 @@ from .errors import ModelFileError
 
 def models_dir() -> Path:
     """The folder holding the bundled URDF trees and sidecars."""
+    # pinclear.urdf is a data folder without __init__.py, i.e. a namespace package: its
+    # location comes from the import system's search locations (importlib.resources would hand
+    # back a MultiplexedPath, whose str() is not a path)
     try:
-        return Path(str(resources.files("pinclear.urdf")))
+        spec = importlib.util.find_spec("pinclear.urdf")
     except ModuleNotFoundError:
-        # an editable install maps the package folder only: the models are then the
-        # repository's own urdf/ beside it
-        return Path(__file__).resolve().parents[1] / "urdf"
+        spec = None
+    for loc in (spec.submodule_search_locations or []) if spec is not None else []:
+        if any(Path(loc).glob("*.yaml")):
+            return Path(loc)
+    # an editable install maps the package folder only: the models are then the repository's
+    # own urdf/ beside it
+    return Path(__file__).resolve().parents[1] / "urdf"
 
 
 def available() -> list[str]:

@@ -135,6 +135,27 @@ def test_models_load_by_name_from_another_directory(tmp_path):
     assert int(out.stdout.strip()) == len(list((ROOT / "urdf").glob("*.yaml")))
 
 
+def test_models_found_in_a_non_editable_install_layout(tmp_path):
+    """``pip install .`` puts urdf/ at site-packages/pinclear/urdf without __init__.py (a
+    namespace package, see setup.py). Laid out so here, with the repository out of reach, the
+    bundled models load by name (importlib.resources once handed back a MultiplexedPath here,
+    and no model was found)."""
+    import shutil
+
+    site = tmp_path / "site"
+    shutil.copytree(ROOT / "pinclear", site / "pinclear", ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(ROOT / "urdf", site / "pinclear" / "urdf")
+    code = ("import pinclear, pinclear.models as m; assert m.models_dir().parent == "
+            "__import__('pathlib').Path(pinclear.__file__).parent, m.models_dir(); "
+            "print(len(m.available())); pinclear.load('four_ups_upu', clearances=['S2'])")
+    env = {**__import__("os").environ, "PYTHONPATH": str(site)}
+    work = tmp_path / "work"
+    work.mkdir()
+    out = subprocess.run([sys.executable, "-c", code], cwd=work, env=env, capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr
+    assert int(out.stdout.strip()) == len(list((ROOT / "urdf").glob("*.yaml")))
+
+
 def test_numba_cache_is_outside_the_package(tmp_path):
     """Compiled caches go to the user cache folder (PINCLEAR_CACHE_DIR here), never next to the
     installed sources: a leftover __pycache__ there once shadowed a later install."""
