@@ -77,7 +77,15 @@ def plot_bifurcation(result: BifurcationResult, coordinate="xdot", signal=None, 
     ax.set_ylabel(f"d/dt {sig}" if coordinate == "xdot" else sig)
     ax.set_title("bifurcation diagram (Poincaré samples)")
     ax.grid(alpha=0.3)
+    lp, lam = result.lyapunov()
+    if len(lp):
+        # the largest Lyapunov exponent of each value on a second axis: > 0 where the motion is chaotic
+        ax2 = ax.twinx()
+        order = np.argsort(lp)
+        ax2.plot(lp[order], lam[order], "o-", color="tab:blue", ms=3, lw=1, gid="lyapunov")
+        ax2.axhline(0.0, color="tab:blue", lw=0.5, ls=":")
+        ax2.set_ylabel("largest Lyapunov exponent [1/s]", color="tab:blue")
     if path is not None:
         fig.savefig(path, dpi=120, bbox_inches="tight")
-    return fig, {"p": p, "y": y, "failed": failed}
+    return fig, {"p": p, "y": y, "failed": failed, "lyapunov": (lp, lam)}
 

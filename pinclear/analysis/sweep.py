@@ -143,6 +143,11 @@ class BifurcationResult:
     def failures(self):
         return [(r.value, r.status, r.message) for r in self.runs if not r.ok]
 
+    def lyapunov(self):
+        """(values, largest Lyapunov exponents) of the runs that estimated one."""
+        pts = [(float(r.value), r.stats["lyapunov"]) for r in self.runs if "lyapunov" in r.stats]
+        return (np.array([p for p, _ in pts]), np.array([x for _, x in pts])) if pts else (np.zeros(0), np.zeros(0))
+
     def table(self, signal=None):
         """One dict per value: value, status, kind, period, K, samples, cpu_s, message."""
         key = self._key(signal)
@@ -151,6 +156,7 @@ class BifurcationResult:
             c, sec = r.classifications.get(key), r.sections.get(key)
             rows.append({"value": r.value, "status": r.status, "kind": c.kind if c else None,
                          "period": c.period if c else None, "K": c.K if c else None,
+                         "lyapunov": r.stats.get("lyapunov"),
                          "samples": len(sec) if sec is not None else 0,
                          "cpu_s": r.stats.get("cpu_s"), "message": r.message})
         return rows
@@ -245,6 +251,16 @@ def _run_one(job):
                 keep = s.t >= job["t0"] + job["phase"] + job["transient"] * T - 1e-9 * T
                 portraits[key] = (s.t[keep], s.x[keep], s.xdot[keep])
         stats = {k: traj.stats.get(k) for k in ("cpu_s", "rhs_evals", "steps") if k in traj.stats}
+        if job["lyapunov"] and traj.status == "success":
+            # the same run's time span, the companion renormalised four times per period
+            from .lyapunov import mechanism_lyapunov
+
+            sim = {k: v for k, v in job["sim_kw"].items() if k not in ("max_cpu",)}
+            try:
+                stats["lyapunov"] = mechanism_lyapunov(mech, float(t_eval[-1]), renorm=T / 4, transient=job["transient"] * T,
+                                                       **sim).exponent
+            except Exception as exc:              # reported with the run, the sections are kept
+                stats["lyapunov_error"] = f"{type(exc).__name__}: {exc}"
         stats["events"] = len(traj.stats.get("events", []))
         stats["wall_s"] = time.perf_counter() - t_start
         stats["pid"] = os.getpid()
@@ -257,7 +273,8 @@ def _run_one(job):
 
 def bifurcation(model, parameter, values, period, signal, cycles=100, transient=20, phase=0.0, t0=0.0,
                 per_period=8, keep_portrait=False, sim_options=None, load_options=None,
-                executor=None, max_workers=None, progress=None, classify_options=None) -> BifurcationResult:
+                executor=None, max_workers=None, progress=None, classify_options=None,
+                lyapunov=False) -> BifurcationResult:
     """Poincaré samples of ``signal`` for each parameter value (a bifurcation diagram).
 
     signal: one signal (see the module docstring) or a list of them, all sampled from the same
@@ -286,6 +303,10 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
         here; an Executor instance (kept open); or "serial" (in this process, for debugging or
         unpicklable factories).
     progress: None, True (one line per finished run on stderr) or f(done, total, run).
+    lyapunov: also estimate the largest Lyapunov exponent of each value's motion over the same
+        span (analysis.mechanism_lyapunov, companion renormalised 4 times per period, the
+        transient left out; it costs about two more runs): ``run.stats["lyapunov"]`` (1/s),
+        drawn by plot_bifurcation beside the samples.
     Every value yields a BifurcationRun: a run that stops early is 'failed' with its message and
     partial samples, one that cannot start (bad value, assembly error) is 'error'.
     """
@@ -322,7 +343,7 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
         periods.append(T)
     base = dict(factory=None, path=None, patches=None, overrides=None, load_kw=load_kw, phase=float(phase),
                 t0=float(t0), transient=int(transient), cycles=int(cycles), per_period=int(per_period),
-                signals=signals, sim_kw=sim_kw, keep_portrait=bool(keep_portrait))
+                signals=signals, sim_kw=sim_kw, keep_portrait=bool(keep_portrait), lyapunov=bool(lyapunov))
     if callable(model):
         base["factory"] = model
     else:
