@@ -190,6 +190,9 @@ class Callable(TimeLaw):
         self.index = index
         # laws with equal keys are components of one vector function
         self.share_key = (func, repr(sorted(self.args.items()))) if index is not None else None
+        # the compiled twin, looked up once (vector_into runs at every right-hand side)
+        into = getattr(func, "into", None)
+        self._into = into if callable(into) else None
 
     def vector(self, t):
         """All components of the shared function at t (three float arrays)."""
@@ -199,12 +202,12 @@ class Callable(TimeLaw):
     def fills(self) -> bool:
         """Whether the function declares a compiled twin ``func.into(t, out, **args)`` that writes
         its components' values and derivatives into out (3, n) without allocating."""
-        return callable(getattr(self.func, "into", None))
+        return self._into is not None
 
     def vector_into(self, t, out):
         """All components at t written into out (3, n): the compiled twin when there is one."""
-        if self.fills:
-            self.func.into(t, out, **self.args)
+        if self._into is not None:
+            self._into(t, out, **self.args)
         else:
             out[0], out[1], out[2] = self.vector(t)
 

@@ -70,11 +70,9 @@ class ClearanceData:
         self.Fn = np.zeros(nc)
         self.Fel = np.zeros(nc)
         self.F2 = np.zeros((nc, 3))          # force on body 2 at p2 (body 1 gets -F2 at p1)
-        self.Ft = np.zeros((nc, 3))          # friction part of F2 (valid when ``ft_ready``)
         self.dzf = np.zeros(nfs)             # rates of the friction states
         self.loss = 0.0                      # dissipated power, W
         self.moving = False
-        self.ft_ready = False
         self.scratch = np.zeros((4, 3))      # work arrays of the fused compiled evaluation
         self.M = np.zeros((2, 4, 4))         # placements of frame1 and frame2 (compiled path)
         self.slot = -1                       # their slot in ws.fk (compiled path)
@@ -124,6 +122,8 @@ class ClearanceJoint(ForceElement):
             if self._kernel is not None:
                 self._fused = self._geom + self._kernel
         self._rhs_compiled = self._compiled_rhs()
+        zero = _readonly(np.zeros(self.nc))
+        self._no_laws = (_readonly(np.zeros(self.nc, dtype=np.int64)), zero, zero, zero)
         super()._freeze()
 
     def _compiled_rhs(self):
@@ -138,8 +138,11 @@ class ClearanceJoint(ForceElement):
 
     # ------------------------------------------------------------------ subclass hooks
     def _geometry(self, data, d):
-        """Fill d.delta, d.n, d.p1, d.p2 from the frame placements in ``data``."""
-        raise NotImplementedError
+        """Fill d.delta, d.n, d.p1, d.p2 from Pinocchio's frame placements in ``data``: the same
+        compiled geometry as the fused path, which takes its placements from the joint chain."""
+        g, oMf = self._geom, data.oMf
+        _kernels.channel_geometry(g[0], g[1], oMf[self.f1].homogeneous, oMf[self.f2].homogeneous, d.scratch,
+                                  d.delta, d.n, d.p1, d.p2)
 
     def _channel_laws(self):
         """The normal law of each channel when fixed (None when it changes with the contact mode)."""
@@ -197,9 +200,8 @@ class ClearanceJoint(ForceElement):
             d.Fn[:] = 0.0
             d.Fel[:] = 0.0
             d.F2[:] = 0.0
-            d.Ft[:] = 0.0
             d.loss = 0.0
-            d.moving, d.ft_ready = False, True
+            d.moving = False
             return
         n, dd, vt = d.n, d.dd, d.vt
         # v2(p2) - v1(p1), normal rate and slip velocity (paper 000 eqs. 10-15)
@@ -208,7 +210,6 @@ class ClearanceJoint(ForceElement):
         np.maximum(z[:nc], self.v_impact_min, out=d.dd0)
         if self._kernel is not None:
             d.loss = _kernels.contact_forces(d.delta, dd, vt, n, d.dd0, *self._kernel, d.Fn, d.Fel, d.F2)
-            d.ft_ready = False                        # Ft = F2 + Fn n, formed when outputs ask
             return
         Fn, Fel = self._normal(d, d.delta, dd, d.dd0)
         Fn = np.where(on, Fn, 0.0)
@@ -225,10 +226,9 @@ class ClearanceJoint(ForceElement):
             Ft -= (Ft * n).sum(axis=1)[:, None] * n
         else:
             Ft = self.friction.force(Fn, vt)
-        d.Fn[:], d.Fel[:], d.Ft[:] = Fn, Fel, Ft
+        d.Fn[:], d.Fel[:] = Fn, Fel
         np.subtract(Ft, Fn[:, None] * n, out=d.F2)
         d.loss = float((Fn - Fel) @ dd - (Ft * vt).sum())
-        d.ft_ready = True
 
     # ------------------------------------------------------------------ ForceElement API
     def z0(self, mech, ws, d, q, v):
@@ -313,37 +313,23 @@ class ClearanceJoint(ForceElement):
 
     def outputs(self, mech, ws, d, t, q, v, z):
         self._eval(ws, d, t, q, v, z)
-        M1, M2 = ws.data.oMf[self.f1], ws.data.oMf[self.f2]
-        return self._outputs(d, z, M1.rotation, M1.translation, M2.translation, d.on.any())
+        oMf = ws.data.oMf
+        return self._record(d, z, oMf[self.f1].homogeneous, oMf[self.f2].homogeneous, self._no_laws)[1]
 
-    def _outputs(self, d, z, R1, p1, p2, touching):
-        Fn, n = d.Fn, d.n
-        if not d.ft_ready:
-            np.add(d.F2, Fn[:, None] * n, out=d.Ft)
-            d.ft_ready = True
-        return {
-            "penetration": np.array(float(d.delta.max())),
-            "normal_force": -(Fn[:, None] * n).sum(axis=0),       # on body 2, world
-            "friction_force": d.Ft.sum(axis=0),
-            "fn": np.array(float(Fn.sum())),
-            "contact": np.array(float(touching)),
-            "dissipated": np.array(float(z[self.nc])),
-            # eccentricity: frame2's origin (ball / journal / slider centre) in frame1 (socket /
-            # bearing / guide) axes, paper 000 eq. 3
-            "eccentricity": R1.T @ (p2 - p1),
-        }
+    def _record(self, d, z, M1, M2, laws):
+        """(elastic energy, outputs) of the channel quantities in d, frames at M1 and M2, in one
+        compiled call; ``laws`` = (code, p0, p1, weight) per channel (zero weights: no energy)."""
+        row = np.empty(_kernels.RECORD_SIZE)
+        _kernels.channel_record(d.delta, d.n, d.Fn, d.F2, M1, M2, float(z[self.nc]), *laws, row)
+        return float(row[-1]), {name: (row[a] if size == 1 else row[a:a + size]) for name, a, size in _kernels.RECORD}
 
     def record(self, mech, ws, d, t, q, v, z, after_rhs):
         if not (after_rhs and self._rhs_compiled):
             return super().record(mech, ws, d, t, q, v, z, after_rhs)
-        # the fused add_force of this very evaluation left every channel quantity in d: one
-        # compiled call forms the sample's outputs and elastic energy
+        # the fused add_force of this very evaluation left every channel quantity in d
         d.key = None
-        row = np.empty(_kernels.RECORD_SIZE)
-        code, P0, P1, W = self._record_laws(d)
-        _kernels.channel_record(d.delta, d.n, d.Fn, d.F2, d.M[0], d.M[1], float(z[self.nc]), code, P0, P1, W, row)
-        out = {name: (row[a] if size == 1 else row[a:a + size]) for name, a, size in _kernels.RECORD}
-        return float(row[-1]), d.loss, out
+        pot, out = self._record(d, z, d.M[0], d.M[1], self._record_laws(d))
+        return pot, d.loss, out
 
     def _record_laws(self, d):
         """(law code, p0, p1, weight) per channel, as the fused evaluation used them."""

@@ -90,37 +90,19 @@ _LAW_ROWS = ("point", "line_long", "line_x", "line_y", "plane_x", "plane_y")
 
 
 def classify(touch):
-    """Contact kind per face and the paper's mode from a boolean per channel (16,).
+    """Contact kind per face and the paper's mode from a boolean per channel (16,), by the
+    compiled classification the joint uses (contact._kernels.prismatic_mode).
 
     Returns (mode, (points, lines, planes), kinds) with kinds[f] in
     {"", "point", "points2", "line_long", "line_short", "plane"}.
     """
-    counts = [0, 0, 0]
-    kinds = []
-    for f in range(4):
-        ch = FACE_MEMBERS[f][touch[FACE_MEMBERS[f]]]
-        m = len(ch)
-        if m == 0:
-            kinds.append("")
-        elif m == 1:
-            kinds.append("point")
-            counts[0] += 1
-        elif m == 2:
-            sa, sb = SIGNS[ch[0] // 2], SIGNS[ch[1] // 2]
-            diff = sa != sb                       # the face's own sign is shared
-            if diff.sum() == 1:
-                kinds.append("line_long" if diff[2] else "line_short")
-                counts[1] += 1
-            else:
-                kinds.append("points2")
-                counts[0] += 2
-        else:
-            kinds.append("plane")
-            counts[2] += 1
-    counts = tuple(counts)
-    if counts == (0, 0, 0):
-        return 0, counts, kinds
-    return MODES.get(counts, 16), counts, kinds
+    info = np.zeros(8, dtype=np.int64)
+    _kernels.prismatic_mode(np.where(np.asarray(touch, bool), 1.0, -1.0), _MEMBERS, _MODE_TABLE, info)
+    return _from_info(info)
+
+
+def _from_info(info):
+    return int(info[0]), (int(info[1]), int(info[2]), int(info[3])), [_KINDS[k] for k in info[4:]]
 
 
 class PrismaticData(ClearanceData):
@@ -137,9 +119,7 @@ class PrismaticData(ClearanceData):
         self.P0, self.P1, self.chi, self.W = (np.zeros(16) for _ in range(4))
 
     def mode_from_info(self):
-        info = self.info
-        self.mode, self.counts = int(info[0]), (int(info[1]), int(info[2]), int(info[3]))
-        self.kinds = [_KINDS[k] for k in info[4:]]
+        self.mode, self.counts, self.kinds = _from_info(self.info)
 
 
 class PrismaticClearance(ClearanceJoint):
@@ -155,7 +135,6 @@ class PrismaticClearance(ClearanceJoint):
         self.L = float(length)
         self.ha = 0.5 * self.a + self.c1           # a'/2
         self.hb = 0.5 * self.b + self.c2           # b'/2
-        self.corners = _readonly(SIGNS * np.array([0.5 * self.a, 0.5 * self.b, 0.5 * self.L]))   # in frame 2
         # point, line_long, line_x, line_y, plane_x, plane_y
         self.laws = MappingProxyType(dict(laws))
         self._freeze()
@@ -188,32 +167,15 @@ class PrismaticClearance(ClearanceJoint):
                                  d.Fel, d.F2, tau, zdot)
         d.loss = zdot[self.nc]
 
-    def record(self, mech, ws, d, t, q, v, z, after_rhs):
-        pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
-        if after_rhs and self._rhs_compiled:
-            out["mode"] = np.array(float(d.info[0]))
-            out["kinds"] = d.info[1:4].astype(float)
-        return pot, loss, out
-
     def _record_laws(self, d):
         return d.lcode, d.P0, d.P1, d.W
 
     # geometry -----------------------------------------------------------------
     def _geometry(self, data, dat):
-        M1, M2 = data.oMf[self.f1], data.oMf[self.f2]
-        R1, o1 = M1.rotation, M1.translation
-        P = M2.translation + self.corners @ M2.rotation.T          # (8, 3) world corners
-        r = (P - o1) @ R1                                           # paper 003 eq. 1, guide frame
-        d = dat.delta.reshape(8, 2)
-        d[:, 0] = SIGNS[:, 0] * r[:, 0] - self.ha
-        d[:, 1] = SIGNS[:, 1] * r[:, 1] - self.hb
-        n = dat.n.reshape(8, 2, 3)
-        n[:, 0] = SIGNS[:, 0:1] * R1[:, 0]
-        n[:, 1] = SIGNS[:, 1:2] * R1[:, 1]
-        dat.p1.reshape(8, 2, 3)[:] = P[:, None, :]
-        dat.p2.reshape(8, 2, 3)[:] = P[:, None, :]
+        super()._geometry(data, dat)
         # the touching corners decide each face's force law: the mode belongs to this pose
-        dat.mode, dat.counts, dat.kinds = classify(dat.delta > 0.0)
+        _kernels.prismatic_mode(dat.delta, _MEMBERS, _MODE_TABLE, dat.info)
+        dat.mode_from_info()
 
     def _apply(self, dat, fn):
         """Sum over faces of fn(law, weight, channel indices), for the mode of ``dat``'s pose."""
@@ -253,11 +215,11 @@ class PrismaticClearance(ClearanceJoint):
         self._apply(dat, fn)
         return E
 
-    def _outputs(self, d, z, R1, p1, p2, touching):
-        out = super()._outputs(d, z, R1, p1, p2, touching)
-        out["mode"] = np.array(float(d.mode))
-        out["kinds"] = np.array(d.counts, float)
-        return out
+    def _record(self, d, z, M1, M2, laws):
+        pot, out = super()._record(d, z, M1, M2, laws)
+        out["mode"] = np.array(float(d.info[0]))            # both paths leave the pose's mode in d.info
+        out["kinds"] = d.info[1:4].astype(float)
+        return pot, out
 
     def describe(self):
         return {**super().describe(), "section": [self.a, self.b], "clearance": [self.c1, self.c2],

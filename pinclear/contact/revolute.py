@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _kernels
-from .base import ClearanceJoint, _readonly
+from .base import ClearanceJoint
 from .spherical import stiffness
 
 KEYS_PLANAR = frozenset({"radius", "bearing_radius", "length"})
@@ -44,7 +44,6 @@ class RevoluteClearance(ClearanceJoint):
         self.L = float(length) if length is not None else 2.0 * self.R2
         self.ca = float(axial_clearance) if axial_clearance is not None else self.c
         self.stiffness_note = stiffness_note
-        self._ends = _readonly(np.array([[0.5], [-0.5]]) * self.L)      # axial stations of the journal ends
         self._freeze()
 
     def _channel_laws(self):
@@ -52,23 +51,6 @@ class RevoluteClearance(ClearanceJoint):
 
     def _geometry_params(self):
         return np.array([self.c, self.R1, self.R2, self.ca, self.L])
-
-    def _geometry(self, data, d):
-        M1, M2 = data.oMf[self.f1], data.oMf[self.f2]
-        s, a = M1.translation, M1.rotation[:, 2].copy()
-        j = M2.translation
-        if not self.spatial:
-            _kernels.radial_geometry(s, a, j.reshape(1, 3), self.c, self.R1, self.R2, d.delta, d.n, d.p1, d.p2)
-            return
-        # journal ends against the bearing cylinder (channels 0, 1)
-        pts = j + self._ends * M2.rotation[:, 2]
-        _kernels.radial_geometry(s, a, pts, self.c, self.R1, self.R2, d.delta[:2], d.n[:2], d.p1[:2], d.p2[:2])
-        # journal centre against the two thrust faces (channels 2, 3), forces at the centre
-        u = float((j - s) @ a)
-        d.delta[2], d.delta[3] = u - self.ca, -u - self.ca
-        d.n[2], d.n[3] = a, -a
-        d.p1[2:] = j
-        d.p2[2:] = j
 
     def describe(self):
         return {**super().describe(), "clearance": self.c, "R_journal": self.R2, "R_bearing": self.R1,

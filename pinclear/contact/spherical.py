@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _kernels
-from .base import ClearanceJoint, _readonly
+from .base import ClearanceJoint
 from .laws import hertz_stiffness
 
 KEYS = frozenset({"radius", "socket_radius"})
@@ -28,7 +28,6 @@ class SphericalClearance(ClearanceJoint):
         self.R1 = self.R2 + self.c
         self.law = law
         self.stiffness_note = stiffness_note
-        self._noaxis = _readonly(np.zeros(3))
         self._freeze()
 
     def _channel_laws(self):
@@ -36,12 +35,6 @@ class SphericalClearance(ClearanceJoint):
 
     def _geometry_params(self):
         return np.array([self.c, self.R1, self.R2, 0.0, 0.0])
-
-    def _geometry(self, data, d):
-        # the socket has no axis: radial_geometry with a = 0 is paper 000 eqs. 3-9 as they stand
-        _kernels.radial_geometry(data.oMf[self.f1].translation, self._noaxis,
-                                 data.oMf[self.f2].translation.reshape(1, 3), self.c, self.R1, self.R2,
-                                 d.delta, d.n, d.p1, d.p2)
 
     def describe(self):
         return {**super().describe(), "clearance": self.c, "R_ball": self.R2, "R_socket": self.R1,
