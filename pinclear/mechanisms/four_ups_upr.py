@@ -206,9 +206,24 @@ def _rotation(a, b, R):
     R[2, 0], R[2, 1], R[2, 2] = -ca * sb, sa, ca * cb
 
 
+# 3-vectors as tuples in the compiled kernels below: no allocation per call (the drives ask
+# for them at every right-hand side)
 @njit(cache=True)
 def _c(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
+
+
+@njit(cache=True)
+def _sum(a, b, kb=1.0):
+    """a + kb b."""
+    return a[0] + kb * b[0], a[1] + kb * b[1], a[2] + kb * b[2]
+
+
+@njit(cache=True)
+def _mv(R, x, y, z):
+    """R (x, y, z)."""
+    return (R[0, 0] * x + R[0, 1] * y + R[0, 2] * z, R[1, 0] * x + R[1, 1] * y + R[1, 2] * z,
+            R[2, 0] * x + R[2, 1] * y + R[2, 2] * z)
 
 
 @njit(cache=True)
@@ -218,21 +233,20 @@ def _coupled_accel(x, xd, xdd, H, R, out):
     ad, bd = xd[0], xd[1]
     add, bdd = xdd[0], xdd[1]
     _rotation(a, b, R)
-    ex = np.array([1.0, 0.0, 0.0])
-    yp = np.array([0.0, math.cos(a), math.sin(a)])          # y' after the first rotation
-    w = ad * ex + bd * yp
-    dyp = _c(ad * ex, yp)
-    dw = add * ex + bdd * yp + bd * dyp
-    p = np.array([x[2], 0.0, H + x[3]])
-    pd = np.array([xd[2], 0.0, xd[3]])
-    pdd = np.array([xdd[2], 0.0, xdd[3]])
-    Rp, Rpd, Rpdd = R @ p, R @ pd, R @ pdd
-    ppd = _c(w, Rp) + Rpd                                   # eq. 4
-    ppdd = _c(dw, Rp) + 2.0 * _c(w, Rpd) + _c(w, _c(w, Rp)) + Rpdd   # eq. 5
-    vo = ppd - _c(w, Rp)                                    # eq. 6
-    ao = ppdd - _c(dw, Rp) - _c(w, ppd)
-    out[0, :3], out[0, 3:] = w, vo
-    out[1, :3], out[1, 3:] = dw, ao
+    ca, sa = math.cos(a), math.sin(a)
+    w = (ad, bd * ca, bd * sa)                              # ad e_x + bd y', y' = (0, cos a, sin a)
+    dw = (add, bdd * ca - bd * ad * sa, bdd * sa + bd * ad * ca)   # + bd d(y')/dt, d(y')/dt = ad e_x x y'
+    Rp = _mv(R, x[2], 0.0, H + x[3])
+    Rpd = _mv(R, xd[2], 0.0, xd[3])
+    Rpdd = _mv(R, xdd[2], 0.0, xdd[3])
+    wRp = _c(w, Rp)
+    ppd = _sum(wRp, Rpd)                                    # eq. 4
+    ppdd = _sum(_sum(_sum(_c(dw, Rp), _c(w, Rpd), 2.0), _c(w, wRp)), Rpdd)   # eq. 5
+    vo = _sum(ppd, wRp, -1.0)                               # eq. 6
+    ao = _sum(_sum(ppdd, _c(dw, Rp), -1.0), _c(w, ppd), -1.0)
+    for i in range(3):
+        out[0, i], out[0, 3 + i] = w[i], vo[i]
+        out[1, i], out[1, 3 + i] = dw[i], ao[i]
 
 
 def platform_motion(t, law="high", H=H0):
@@ -323,15 +337,15 @@ def limb_kinematics(pose, V=None, A=None, layout="f"):
 
 @njit(cache=True)
 def _limb_kinematics(R, p, V, A, bl, base, out):
-    w, vo, dw, ao = V[:3], V[3:], A[:3], A[3:]
+    w, vo, dw, ao = (V[0], V[1], V[2]), (V[3], V[4], V[5]), (A[0], A[1], A[2]), (A[3], A[4], A[5])
     for i in range(bl.shape[0]):
-        b = p + R @ bl[i]                                   # world hinge point on the platform
-        d = b - base[i]
+        b = _sum(p, _mv(R, bl[i, 0], bl[i, 1], bl[i, 2]))    # world hinge point on the platform
+        d = (b[0] - base[i, 0], b[1] - base[i, 1], b[2] - base[i, 2])
         ell = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        n = d / ell
-        bd = vo + _c(w, b)                                  # velocity field of the platform twist
+        n = (d[0] / ell, d[1] / ell, d[2] / ell)
+        bd = _sum(vo, _c(w, b))                             # velocity field of the platform twist
         ld = n[0] * bd[0] + n[1] * bd[1] + n[2] * bd[2]
-        bdd = ao + _c(dw, b) + _c(w, bd)
+        bdd = _sum(_sum(ao, _c(dw, b)), _c(w, bd))
         out[0, i] = ell
         out[1, i] = ld
         out[2, i] = (n[0] * bdd[0] + n[1] * bdd[1] + n[2] * bdd[2]
@@ -342,15 +356,15 @@ def _limb_kinematics(R, p, V, A, bl, base, out):
 def _limb_lengths_into(t, amp, w, H, bl, base, out):
     """limb_lengths at t written into out (3, 4): the motion law, the coupled motion and the
     limb kinematics in one compiled call (the drives ask for it at every right-hand side)."""
-    x, xd, xdd = np.empty(4), np.empty(4), np.empty(4)
-    for k in range(4):
-        s, c = math.sin(w[k] * t), math.cos(w[k] * t)
-        x[k], xd[k], xdd[k] = amp[k] * s, amp[k] * w[k] * c, -amp[k] * w[k] * w[k] * s
+    x = (amp[0] * math.sin(w[0] * t), amp[1] * math.sin(w[1] * t), amp[2] * math.sin(w[2] * t),
+         amp[3] * math.sin(w[3] * t))
+    xd = (amp[0] * w[0] * math.cos(w[0] * t), amp[1] * w[1] * math.cos(w[1] * t),
+          amp[2] * w[2] * math.cos(w[2] * t), amp[3] * w[3] * math.cos(w[3] * t))
+    xdd = (-w[0] * w[0] * x[0], -w[1] * w[1] * x[1], -w[2] * w[2] * x[2], -w[3] * w[3] * x[3])
     R = np.empty((3, 3))
     VA = np.empty((2, 6))
     _coupled_accel(x, xd, xdd, H, R, VA)
-    p = R @ np.array([x[2], 0.0, H + x[3]])
-    _limb_kinematics(R, p, VA[0], VA[1], bl, base, out)
+    _limb_kinematics(R, _mv(R, x[2], 0.0, H + x[3]), VA[0], VA[1], bl, base, out)
 
 
 def _limb_lengths_fill(t, out, law="high", layout="f"):
