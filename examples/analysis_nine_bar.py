@@ -14,7 +14,8 @@ velocity the paper plots. Each run simulates transient + cycles crank periods; w
 
 Needs the clearance entries A and B in urdf/nine_bar.yaml (issue 4); the script says so if
 they are missing. Writes PNG figures and bifurcation_<study>.npz to --out, prints a table of
-the motion per value (period-k / quasi-periodic / chaotic, with the 0-1 test K).
+the motion per value and joint (period-k / quasi-periodic / chaotic, with the 0-1 test K;
+"unresolved" when no period shows and fewer than 40 cycles were recorded).
 """
 import argparse
 import math
@@ -25,6 +26,7 @@ import numpy as np
 import yaml
 
 from pinclear import analysis as an
+from pinclear.analysis.classify import classify_state
 
 ROOT = Path(__file__).resolve().parents[1]
 SIDECAR = ROOT / "urdf" / "nine_bar.yaml"
@@ -104,13 +106,20 @@ def main(argv=None):
                 an.plot_phase_portrait(x, xd, section=r.sections[sig], label=sig,
                                        path=out / f"phase_{args.study}_{r.value:.6g}_{tag}.png")
     res.save(out / f"bifurcation_{args.study}.npz")
-    print(f"{'value':>12} {'status':8} " + " ".join(f"{s:>20}" for s in SIGNALS))
+    # one classification per joint from both eccentricity components, the "same point" tolerance
+    # derived from the run's rtol and steps per period (classify.integration_rtol)
+    periods = args.transient + args.cycles
+    print(f"{'value':>12} {'status':8} " + " ".join(f"{'joint ' + j:>40}" for j in JOINTS))
     for r in res.runs:
         kinds = []
-        for s in SIGNALS:
-            c = r.classifications[s]
+        for j in JOINTS:
+            secs = [r.sections.get(s) for s in SIGNALS if s.startswith(j + ".")]
+            if not r.stats.get("steps"):
+                kinds.append("no run")
+                continue
+            c = classify_state(secs, sim_rtol=args.rtol, steps_per_period=r.stats["steps"] / periods)
             kinds.append(c.kind + (f" K={c.K:.2f}" if c.K is not None else ""))
-        print(f"{r.value:12.6g} {r.status:8} " + " ".join(f"{k:>20}" for k in kinds)
+        print(f"{r.value:12.6g} {r.status:8} " + " ".join(f"{k:>40}" for k in kinds)
               + ("" if r.ok else f"  ({r.message})"))
     print(f"figures and bifurcation_{args.study}.npz in {out}/")
     return 0

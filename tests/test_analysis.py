@@ -329,3 +329,108 @@ def test_bifurcation_draws_the_largest_lyapunov_exponent(tmp_path):
     assert [row["lyapunov"] for row in res.table()] == [regular, chaotic]
     _, drawn = an.plot_bifurcation(res, path=tmp_path / "b.png")
     np.testing.assert_array_equal(drawn["lyapunov"][1], [regular, chaotic])
+
+
+# --------------------------------------------------------------------------------------------
+# Classification on known systems sampled like the papers' runs: RK45 at rtol 1e-6 (integrator
+# noise), a few cycles after a short transient, one stroboscopic point per forcing period.
+SIM_RTOL = 1e-6
+from pinclear.analysis.classify import classify_state, integration_rtol  # noqa: E402
+
+KW0, KW = 1.0, 1.3                       # natural and forcing frequency of the linear oscillator
+KT = 2 * np.pi / KW
+KZ = np.pi / KT                          # damping zeta*w0: the transient shrinks by e^-pi per period
+
+
+def _strobe(rhs, period, cycles, y0, skip=2):
+    """Section points (cycles + 1 - skip, 2) of a SciPy RK45 run at SIM_RTOL and its accepted
+    + rejected steps per period (RK45: 6 evaluations a step)."""
+    from scipy.integrate import solve_ivp
+
+    te = np.arange(cycles + 1) * period
+    s = solve_ivp(rhs, (0.0, te[-1]), y0, t_eval=te, rtol=SIM_RTOL, method="RK45")
+    assert s.success
+    return s.y.T[skip:], s.nfev / 6 / cycles
+
+
+def _linear(force):
+    return lambda t, y: [y[1], force(t) - 2 * KZ * y[1] - KW0 ** 2 * y[0]]
+
+
+def test_integration_tolerance_covers_the_scatter_of_a_period_one_orbit():
+    """Forced damped linear oscillator x'' + 2 z x' + w0^2 x = cos(w t): period-1 within the
+    tolerance derived from the solver's rtol, at the analytic steady state; the scatter the
+    integrator leaves is real (a tolerance at round-off would miss the period) and inside
+    the one-period error bound sim_rtol * steps_per_period."""
+    P, spp = _strobe(_linear(lambda t: np.cos(KW * t)), KT, 12, [0.0, 0.0])
+    c = an.classify(P, sim_rtol=SIM_RTOL, steps_per_period=spp)
+    assert (c.kind, c.period, c.clusters) == ("period-1", 1, 1)
+    H = complex(KW0 ** 2 - KW ** 2, 2 * KZ * KW)             # x = Re(e^{i w t} / H)
+    x_ss, v_ss = (1 / H).real, (1j * KW / H).real
+    settled = P[4:]                                           # transient below e^-6pi ~ 1e-8
+    scale = np.max(np.abs(P), axis=0)
+    assert np.max(np.abs(settled - [x_ss, v_ss]) / scale) < integration_rtol(SIM_RTOL, spp)
+    scatter = np.max(np.abs(np.diff(settled, axis=0)) / scale)
+    assert 0 < scatter < integration_rtol(SIM_RTOL, spp)
+    assert an.detect_period(settled, rtol=1e-13)[0] is None   # round-off tolerance: integrator noise shows
+
+
+def test_period_two_and_quasi_periodic_forcing():
+    """The same oscillator forced at w and w/2 repeats every second period (period-2); forced at
+    w and an incommensurate g w (g = golden mean) its section fills a closed curve: never
+    periodic; with few cycles that is 'unresolved' (not a false period-k), with 150 the 0-1
+    test finds it regular."""
+    P2, spp = _strobe(_linear(lambda t: np.cos(KW * t) + 0.5 * np.cos(KW * t / 2)), KT, 12, [0.0, 0.0])
+    c2 = an.classify(P2, sim_rtol=SIM_RTOL, steps_per_period=spp)
+    assert (c2.kind, c2.clusters) == ("period-2", 2)
+    g = (np.sqrt(5) - 1) / 2
+    quasi = _linear(lambda t: np.cos(KW * t) + 0.5 * np.cos(g * KW * t))
+    Pq, spp = _strobe(quasi, KT, 12, [0.0, 0.0])
+    cq = an.classify(Pq, sim_rtol=SIM_RTOL, steps_per_period=spp)
+    assert cq.kind == "unresolved" and cq.period is None and "do not shrink" in cq.note
+    Pq, spp = _strobe(quasi, KT, 150, [0.0, 0.0])
+    cq = an.classify(Pq, sim_rtol=SIM_RTOL, steps_per_period=spp)
+    assert cq.kind == "quasi-periodic" and cq.K < 0.1
+
+
+def test_duffing_chaos_and_a_decaying_transient():
+    """Ueda's forced Duffing oscillator x'' + 0.05 x' + x^3 = 7.5 cos t (chaotic attractor):
+    no period in 11 cycles ('unresolved'), chaotic by the 0-1 test in 200. A weakly damped
+    Duffing oscillator whose transient shrinks by e^(-0.1*2pi) = 0.53 per period is not yet
+    periodic after 12 and the note says the differences shrink (run more cycles); after 40 it
+    is period-1."""
+    ueda = lambda t, y: [y[1], 7.5 * np.cos(t) - 0.05 * y[1] - y[0] ** 3]  # noqa: E731
+    P, spp = _strobe(ueda, 2 * np.pi, 12, [3.0, 4.0])
+    c = an.classify(P, sim_rtol=SIM_RTOL, steps_per_period=spp)
+    assert c.kind == "unresolved" and c.clusters == len(P)
+    P, spp = _strobe(ueda, 2 * np.pi, 200, [3.0, 4.0], skip=20)
+    c = an.classify(P, sim_rtol=SIM_RTOL, steps_per_period=spp)
+    assert c.kind == "chaotic" and c.K > 0.9
+    weak = lambda t, y: [y[1], 0.3 * np.cos(t) - 0.2 * y[1] - y[0] - y[0] ** 3]  # noqa: E731
+    P, spp = _strobe(weak, 2 * np.pi, 12, [0.0, 0.0])
+    c = an.classify(P, sim_rtol=SIM_RTOL, steps_per_period=spp)
+    assert c.kind == "unresolved" and "shrink by about 0.5" in c.note
+    P, spp = _strobe(weak, 2 * np.pi, 40, [0.0, 0.0])
+    assert an.classify(P, sim_rtol=SIM_RTOL, steps_per_period=spp).kind == "period-1"
+
+
+def test_settled_period_and_joint_classification():
+    """A transient in the first points does not hide the period of the rest (at least half the
+    sequence must repeat); a drifting coordinate makes the joint state non-periodic even when
+    another coordinate is constant."""
+    k = np.arange(12)
+    seq = np.where(k < 4, 1.0 + 0.5 ** k, 1.0)
+    assert an.detect_period(seq, rtol=1e-6, scale=[2.0]) == (None, 5)
+    assert an.detect_period(seq, rtol=1e-6, scale=[2.0], settle=True) == (1, 1)
+    assert an.classify(seq, rtol=1e-6, scale=[2.0]).note == "after a transient of 4 section points"
+    late = np.where(k < 7, 1.0 + 0.5 ** k, 1.0)                 # settled over only 5 of 12 points
+    assert an.detect_period(late, rtol=1e-6, scale=[2.0], settle=True)[0] is None
+    mk = lambda x, xd: an.PoincareSection(k, k * 1.0, x, xd, 1.0, 0.0, "s", np.zeros(12, bool),  # noqa: E731
+                                          scale=np.array([1.0, 1.0]))
+    still = mk(np.full(12, 0.5), np.zeros(12))
+    drift = mk(0.1 * np.cos(2.4 * k), 0.1 * np.sin(2.4 * k))
+    assert an.classify(still).kind == "period-1"
+    assert classify_state([still, drift]).kind == "unresolved"
+    assert classify_state([still, still]).kind == "period-1"
+    with pytest.raises(InputError):
+        an.classify(seq, sim_rtol=1e-6)

@@ -40,7 +40,8 @@ failure as a result, and classifies each value; :func:`plot_phase_portrait`,
 no GUI backend) and return the arrays they drew. Command line (:func:`cli_main`):
 ``pinclear analyse bifurcation|poincare ...``.
 """
-from .classify import CHAOS_THRESHOLD, Classification, chaos_01, classify, detect_period
+from .classify import (CHAOS_THRESHOLD, Classification, chaos_01, classify, classify_state, detect_period,
+                       integration_rtol, settled_period)
 from .cli import cli_main
 from .lyapunov import LyapunovResult, largest_lyapunov, mechanism_lyapunov
 from .plots import plot_bifurcation, plot_phase_portrait, plot_poincare
@@ -48,7 +49,8 @@ from .poincare import PoincareSection, poincare, section_times
 from .signals import Series, phase_portrait, relative_rate, series
 from .sweep import BifurcationResult, BifurcationRun, bifurcation, signal_key
 
-__all__ = ["CHAOS_THRESHOLD", "Classification", "chaos_01", "classify", "detect_period", "cli_main",
+__all__ = ["CHAOS_THRESHOLD", "Classification", "chaos_01", "classify", "classify_state", "detect_period",
+           "integration_rtol", "settled_period", "cli_main",
            "plot_bifurcation", "plot_phase_portrait", "plot_poincare", "PoincareSection", "poincare",
            "section_times", "Series", "phase_portrait", "relative_rate", "series", "BifurcationResult",
            "BifurcationRun", "bifurcation", "signal_key", "LyapunovResult", "largest_lyapunov",

@@ -1,6 +1,7 @@
 """Classification of a Poincaré sequence: period-k detection and the 0-1 test for chaos."""
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -10,36 +11,75 @@ from .poincare import PoincareSection
 
 
 
-def detect_period(points, rtol=1e-4, atol=0.0, scale=None, max_period=16):
+def detect_period(points, rtol=1e-4, atol=0.0, scale=None, max_period=16, settle=False):
     """Period of a Poincaré sequence and its number of distinct clusters.
 
     points: (n,) or (n, d). Two points are "the same" when every coordinate differs by at most
     ``atol + rtol * scale`` (scale per coordinate: the given ``scale``, default max |points|).
     The period is the smallest p <= max_period with |s[i+p] - s[i]| within tolerance for all i
     (at least p such comparisons are required, so n >= 2p); None if there is none.
-    Returns (period, n_clusters); clusters are counted greedily against cluster seeds.
+    settle=True allows a transient: the comparisons must hold from some index i0 on, and the
+    settled tail s[i0:] must hold at least half the sequence (and 2p points), so a run whose
+    first cycles still carry the start-up transient is judged by the cycles after it.
+    Returns (period, n_clusters); clusters are counted greedily against cluster seeds (over the
+    settled tail when a period was found with settle=True). :func:`settled_period` also returns i0.
     """
+    period, clusters, _ = settled_period(points, rtol, atol, scale, max_period, settle)
+    return period, clusters
+
+
+def settled_period(points, rtol=1e-4, atol=0.0, scale=None, max_period=16, settle=True):
+    """(period, n_clusters, i0) as :func:`detect_period`; i0 is the first section point of the
+    settled tail (0 when every comparison holds)."""
     P = np.asarray(points, float)
     if P.ndim == 1:
         P = P[:, None]
     n = len(P)
     if n == 0:
-        return None, 0
+        return None, 0, 0
     if scale is None:
         scale = np.max(np.abs(P), axis=0)
     tol = atol + rtol * np.broadcast_to(np.asarray(scale, float), (P.shape[1],))
     tol = np.where(tol > 0, tol, np.finfo(float).tiny)
     S = P / tol                                   # equal within tolerance <=> |dS|_inf <= 1
-    seeds = []
-    for p in S:
-        if not seeds or np.min(np.max(np.abs(np.asarray(seeds) - p), axis=1)) > 1.0:
-            seeds.append(p)
-    period = None
+    period, i0 = None, 0
     for p in range(1, min(max_period, n // 2) + 1):
-        if np.max(np.abs(S[p:] - S[:-p])) <= 1.0:
+        bad = np.flatnonzero(np.max(np.abs(S[p:] - S[:-p]), axis=1) > 1.0)
+        if not len(bad):
             period = p
             break
-    return period, len(seeds)
+        if settle:
+            start = int(bad[-1]) + 1              # every comparison s[i+p] ~ s[i] holds for i >= start
+            if n - start >= max(2 * p, (n + 1) // 2):
+                period, i0 = p, start
+                break
+    seeds = []
+    for p in S[i0:]:
+        if not seeds or np.min(np.max(np.abs(np.asarray(seeds) - p), axis=1)) > 1.0:
+            seeds.append(p)
+    return period, len(seeds), i0
+
+
+def integration_rtol(sim_rtol, steps_per_period):
+    """Relative tolerance for "the same Poincaré point" in a run integrated with relative
+    tolerance ``sim_rtol`` taking ``steps_per_period`` steps per driving period.
+
+    The solver bounds each step's local error by about sim_rtol times the state's size; one
+    period's global error, and so the part of it that differs from one cycle to the next (the
+    step sequence is chosen afresh each cycle), is at most the sum over its steps:
+    sim_rtol * steps_per_period of the signal's scale. A periodic orbit's section points
+    scatter well inside this bound (tests/test_analysis.py measures it on a forced linear
+    oscillator; the nine-bar with 0.01 mm clearances at rtol 1e-6 scatters by 1e-6 of its
+    scale against a bound of 4e-3); points further apart than it are not resolved as
+    different by the integration. The bound grows with the step count: a run with many steps
+    per period (hard impacts) resolves only coarser structure; tighten rtol to see finer.
+    """
+    sim_rtol, steps = float(sim_rtol), float(steps_per_period)
+    if not (math.isfinite(sim_rtol) and sim_rtol > 0):
+        raise InputError(f"sim_rtol must be a positive number, got {sim_rtol!r}")
+    if not (math.isfinite(steps) and steps > 0):
+        raise InputError(f"steps_per_period must be a positive number, got {steps_per_period!r}")
+    return sim_rtol * max(1.0, steps)
 
 
 def chaos_01(phi, n_c=100, n_cut=None, seed=0, flat_tol=None, return_all=False):
@@ -111,20 +151,37 @@ class Classification:
                 "note": self.note}
 
 
-def classify(section, rtol=1e-4, atol=0.0, scale=None, max_period=16, min_samples_01=40, chaos_threshold=None):
+def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_samples_01=40, chaos_threshold=None,
+             sim_rtol=None, steps_per_period=None):
     """Classify a Poincaré section (PoincareSection or an (n,) / (n, d) array).
 
-    First the period (:func:`detect_period`): "period-k" if the sequence repeats with period
-    k <= max_period, points being equal within atol + rtol * scale (scale per coordinate:
-    default the section's ``scale``, the attractor's extent, so a point near x = 0 is judged
-    against the size of the orbit, not against itself). rtol must exceed the run-to-run
-    scatter the integration tolerance leaves in the section points. Otherwise, with at least
-    ``min_samples_01`` samples, the 0-1 test on each coordinate (the largest K counts):
-    K > chaos_threshold (default CHAOS_THRESHOLD = 0.5) "chaotic", else "quasi-periodic";
-    ``note`` says "ambiguous" when 0.1 <= K <= 0.9. With fewer samples: "unresolved".
+    First the period (:func:`detect_period` with settle=True): "period-k" if the sequence
+    repeats with period k <= max_period from some section point on, over at least its second
+    half (the first points may still carry the start-up transient; ``note`` then says how
+    many), points being equal within atol + rtol * scale (scale per coordinate: default the
+    section's ``scale``, the attractor's extent, so a point near x = 0 is judged against the
+    size of the orbit, not against itself).
+
+    rtol must exceed the cycle-to-cycle scatter the integration leaves in the section points.
+    Give the run's integration tolerance ``sim_rtol`` and its ``steps_per_period`` (accepted
+    steps over the run / periods simulated) and rtol is derived from them
+    (:func:`integration_rtol`: sim_rtol * steps_per_period, the bound of one period's global
+    error); without them rtol defaults to 1e-4. Otherwise, with at least ``min_samples_01``
+    samples, the 0-1 test on each coordinate (the largest K counts): K > chaos_threshold
+    (default CHAOS_THRESHOLD = 0.5) "chaotic", else "quasi-periodic"; ``note`` says "ambiguous"
+    when 0.1 <= K <= 0.9. With fewer samples: "unresolved", and ``note`` says whether the
+    cycle-to-cycle differences still shrink (a transient decaying towards a periodic orbit:
+    run more cycles) or not.
     A section whose rate is not exact (spline-differentiated output) is judged by x alone.
     """
     thr = CHAOS_THRESHOLD if chaos_threshold is None else float(chaos_threshold)
+    if (sim_rtol is None) != (steps_per_period is None):
+        raise InputError("classify: give sim_rtol and steps_per_period together (the tolerance is derived from both)")
+    if sim_rtol is not None:
+        derived = integration_rtol(sim_rtol, steps_per_period)
+        rtol = derived if rtol is None else max(float(rtol), derived)
+    elif rtol is None:
+        rtol = 1e-4
     if isinstance(section, PoincareSection):
         P = section.points
         if scale is None and np.any(section.scale > 0):
@@ -141,16 +198,63 @@ def classify(section, rtol=1e-4, atol=0.0, scale=None, max_period=16, min_sample
     n = len(P)
     if n == 0:
         return Classification("empty", None, 0, None, 0, "no Poincaré samples")
-    period, clusters = detect_period(P, rtol=rtol, atol=atol, scale=scale, max_period=max_period)
+    period, clusters, i0 = settled_period(P, rtol=rtol, atol=atol, scale=scale, max_period=max_period)
     if period is not None:
-        return Classification(f"period-{period}", period, clusters, None, n)
+        note = f"after a transient of {i0} section points" if i0 else ""
+        return Classification(f"period-{period}", period, clusters, None, n, note)
     if n < min_samples_01:
         return Classification("unresolved", None, clusters, None, n,
                               f"no period <= {min(max_period, n // 2)} and too few samples ({n} < "
-                              f"{min_samples_01}) for the 0-1 test")
+                              f"{min_samples_01}) for the 0-1 test{_trend(P, scale)}")
     sc = np.broadcast_to(np.max(np.abs(P), axis=0) if scale is None else np.asarray(scale, float), (P.shape[1],))
     # spread within the period tolerance is a fixed point to this resolution
     K = max(chaos_01(P[:, j], flat_tol=atol + rtol * sc[j]) for j in range(P.shape[1]))
     kind = "chaotic" if K > thr else "quasi-periodic"
     note = "ambiguous (0.1 <= K <= 0.9): longer runs or a smaller tolerance may decide" if 0.1 <= K <= 0.9 else ""
     return Classification(kind, None, clusters, K, n, note)
+
+
+def _trend(P, scale):
+    """'; ... shrink by about r per cycle' when the cycle-to-cycle differences decay (a transient
+    still decaying towards a periodic orbit: more cycles may find the period), judged by a
+    log-linear fit whose slope is negative by more than two standard errors."""
+    if len(P) < 5:
+        return ""
+    sc = np.broadcast_to(np.max(np.abs(P), axis=0) if scale is None else np.asarray(scale, float), (P.shape[1],))
+    d = np.max(np.abs(np.diff(P, axis=0)) / np.where(sc > 0, sc, 1.0), axis=1)
+    if np.any(d <= 0):
+        return ""
+    i = np.arange(len(d), dtype=float)
+    fit = np.polyfit(i, np.log(d), 1, full=True)
+    slope, res = fit[0][0], fit[1]
+    dof = len(d) - 2
+    resid = float(res[0]) if len(res) else 0.0
+    se = math.sqrt(resid / dof / np.sum((i - i.mean()) ** 2)) if dof > 0 else math.inf
+    r = math.exp(slope)
+    if slope + 2 * se < 0:
+        return (f"; the differences between consecutive section points shrink by about {r:.2g} per cycle "
+                f"(last {d[-1]:.2g} of the scale): a transient still decaying, more cycles may find a period")
+    return f"; the differences between consecutive section points do not shrink (about {r:.2g} per cycle)"
+
+
+def classify_state(sections, **options):
+    """Classify one run from several signals' Poincaré sections at once (e.g. both components of
+    two journals' eccentricities): the motion is period-k only if every coordinate repeats with
+    period k, as for the section of the full state; a coordinate that hardly moves (a journal
+    pressed against one side of its bearing) cannot make a drifting run look periodic. Points
+    are stacked coordinate by coordinate with each section's own scale; ``options`` as for
+    :func:`classify`. The 0-1 test's K is the largest over all coordinates."""
+    secs = [s for s in sections if s is not None and len(s)]
+    if not secs:
+        return classify(np.zeros((0, 2)), **options)
+    n = min(len(s) for s in secs)
+    cols, scales = [], []
+    for s in secs:
+        k = 2 if s.exact_rate else 1          # a spline-differentiated rate is judged by x alone
+        cols.append(s.points[-n:, :k])
+        sc = s.scale[:k] if np.any(s.scale > 0) else np.max(np.abs(s.points[-n:, :k]), axis=0)
+        scales.append(sc)
+    if "scale" in options and options["scale"] is not None:
+        raise InputError("classify_state takes each section's own scale; do not pass scale")
+    options.pop("scale", None)
+    return classify(np.hstack(cols), scale=np.concatenate(scales), **options)

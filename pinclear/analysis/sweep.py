@@ -396,11 +396,24 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
             close()
     copt = dict(classify_options or {})
     fixed_scale = copt.pop("scale", None)
+    # "the same point" within the run's own error bound (classify.integration_rtol) unless the
+    # caller fixed a tolerance; a fixed-step integrator has no rtol to derive it from
+    derive = (not {"rtol", "sim_rtol", "steps_per_period"} & set(copt)
+              and sim_kw.get("integrator", "RK45") != "RK4")
+    if derive:
+        import inspect
+
+        from ..simulate import simulate
+        rtol_default = inspect.signature(simulate).parameters["rtol"].default
     for r in runs:
+        opts = dict(copt)
+        if derive and r.stats.get("steps"):
+            opts.update(sim_rtol=float(sim_kw.get("rtol", rtol_default)),
+                        steps_per_period=r.stats["steps"] / (int(transient) + int(cycles)))
         for key in keys:
             sec = r.sections.get(key)
             r.classifications[key] = classify(sec if sec is not None else np.zeros((0, 2)),
-                                              scale=fixed_scale, **copt)
+                                              scale=fixed_scale, **opts)
     numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
     return BifurcationResult(parameter, np.asarray(values, dtype=float if numeric else object), runs, keys,
                              np.asarray(periods))
