@@ -119,25 +119,17 @@ def work_precision(mech, t_end=2.0, combos=None, tols=(1e-4, 1e-5, 1e-6, 1e-7, 1
     DOP853 reference (max abs over coordinates, on the manifold) vs CPU seconds. CSV + PNG."""
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    ref = simulate(mech, t_end, method="projection", integrator="DOP853", rtol=ref_rtol, atol=ref_rtol * 1e-2,
-                   t_eval=[0.0, t_end])
-    q_ref = ref.q[-1]
+    q_ref = reference_run(mech, t_end, rtol=ref_rtol).q[-1]
     rows = []
     for method, integ in combos or DEFAULT_COMBOS:
         ladder = rk4_steps if integ == "RK4" else tols
         for tol in ladder:
-            kw = {"h": tol, "rtol": 1e-6} if integ == "RK4" else {"rtol": tol, "atol": tol * 1e-2}
-            import warnings
-
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                tr = simulate(mech, t_end, method=method, integrator=integ, t_eval=[0.0, t_end], **kw)
+            tr = run_cell(mech, t_end, method, integ, tol, t_eval=[0.0, t_end])
             if tr.status != "success" or len(tr.t) < 2:
                 rows.append({"method": method, "integrator": integ, "tol": tol, "error": np.nan,
                              "cpu_s": tr.stats["cpu_s"], "rhs_evals": tr.stats["rhs_evals"], "status": tr.status})
                 continue
-            err = float(np.max(np.abs(pin.difference(mech.model, q_ref, tr.q[-1]))))
-            rows.append({"method": method, "integrator": integ, "tol": tol, "error": err,
+            rows.append({"method": method, "integrator": integ, "tol": tol, "error": q_error(mech.model, q_ref, tr.q[-1]),
                          "cpu_s": tr.stats["cpu_s"], "rhs_evals": tr.stats["rhs_evals"],
                          "max_residual": float(np.max(tr.residual)), "status": tr.status})
     csv_path = out_dir / f"work_precision_{mech.name}.csv"
@@ -158,28 +150,65 @@ def work_precision(mech, t_end=2.0, combos=None, tols=(1e-4, 1e-5, 1e-6, 1e-7, 1
     return {"csv": str(csv_path), "png": str(png_path), "best": best, "rows": rows}
 
 
-def _chart(rows, path, title):
+def reference_run(mech, t_end, rtol=1e-13, method="projection", integrator="DOP853", **kw):
+    """The tight reference of the work-precision chart and the atlas: a formulation that keeps q on
+    the manifold (projection), DOP853 at rtol 1e-13, atol 1e-2 rtol."""
+    kw.setdefault("t_eval", [0.0, t_end])
+    return simulate(mech, t_end, method=method, integrator=integrator, rtol=rtol, atol=rtol * 1e-2, **kw)
+
+
+def run_cell(mech, t_end, method, integrator, tol, **kw):
+    """One point of a tolerance ladder: ``tol`` is rtol (atol 1e-2 rtol) for adaptive integrators
+    and the fixed step h for RK4. A failed run is returned (status 'failed'), never raised."""
+    import warnings
+
+    kw = dict(kw, **({"h": tol, "rtol": 1e-6} if integrator == "RK4" else {"rtol": tol, "atol": tol * 1e-2}))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return simulate(mech, t_end, method=method, integrator=integrator, **kw)
+
+
+def q_error(model, q_ref, q):
+    """Largest coordinate of the Lie-group difference q - q_ref (rad or m)."""
+    return float(np.max(np.abs(pin.difference(model, np.asarray(q_ref, float), np.asarray(q, float)))))
+
+
+def _chart(rows, path, title, ax=None):
+    """Error vs CPU seconds, one line per (method, integrator) of ``rows`` (failed points, error
+    NaN, left out). With ``ax`` it draws there and the caller saves the figure."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(8, 6))
+    own = ax is None
+    if own:
+        fig, ax = plt.subplots(figsize=(8, 6))
     combos = sorted({(r["method"], r["integrator"]) for r in rows})
+    # colour = integrator, marker and line = formulation; a peer (method == integrator) in black
+    integs = sorted({i for m, i in combos if m != i})
+    methods = sorted({m for m, i in combos if m != i})
+    marks = ["o-", "s--", "^-.", "v:", "D-", "x--"]
     for m, i in combos:
         pts = [(r["cpu_s"], r["error"]) for r in rows if (r["method"], r["integrator"]) == (m, i)
                and np.isfinite(r["error"]) and r["error"] > 0]
         if pts:
             x, y = zip(*sorted(pts))
-            ax.loglog(x, y, "o-", label=f"{m} + {i}")
+            if m == i:
+                ax.loglog(x, y, "*-", color="black", ms=9, label=m)
+            else:
+                ax.loglog(x, y, marks[methods.index(m) % len(marks)], color=f"C{integs.index(i) % 10}",
+                          label=f"{m} + {i}")
     ax.set_xlabel("CPU time [s]")
     ax.set_ylabel("max |q(t_end) - q_ref| [rad or m]")
     ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(fontsize=7, ncol=2)
+    if own:
+        fig.tight_layout()
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
 
 
 # ---------------------------------------------------------------------- real runs

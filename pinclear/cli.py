@@ -198,6 +198,10 @@ def cmd_info(args):
     info.update({"mobility": mob["mobility"], "closure_rows": mob["rows"], "rank": mob["rank"],
                  "redundant_rows": mob["redundant_rows"], "condition": mob["condition"],
                  "parameters": mech.parameters, "q_assembled": q.tolist()})
+    from .economy import economy_report
+
+    info["economy"] = economy_report(mech, t_end=args.along, threshold=args.threshold)
+    info["redundant_rows_named"] = [r["name"] for r in info["economy"]["redundant_rows"]]
     print(json.dumps(info, indent=2, default=str))
     return 0
 
@@ -209,6 +213,19 @@ def cmd_bench(args):
         from .contact import bench as cbench
 
         return cbench.restitution_main(args.rest)
+    if args.what == "atlas":
+        from . import atlas
+
+        # the shared --out default names the benchmarks folder: the atlas gets its own sub-folder
+        out = Path("benchmarks/atlas" if args.out == "benchmarks" else args.out)
+        _check_out_dir(out)
+        files = [args.file] + list(args.rest or []) if args.file else None
+        res = atlas.run_atlas(files, out=out, quick=args.quick, budget=args.budget,
+                              progress=lambda s: print(f"bench atlas: {s}", file=sys.stderr, flush=True))
+        fails = sum(r["status"] != "success" for r in res["rows"])
+        print(f"atlas: {len(res['rows'])} cells over {len(res['scenes'])} scenes, {fails} failed; "
+              f"{out / 'atlas.json'}, {out / 'atlas.csv'}, heatmap_*.png, work_precision_*.png")
+        return 0
     if args.what == "runs":
         from .trajectory import atomic_write_text
 
@@ -328,11 +345,15 @@ def build_parser():
 
     s = sub.add_parser("info", help="assemble and print the mechanism: mobility, redundancy, parameters")
     _add_model_args(s)
+    s.add_argument("--along", type=float, default=None, metavar="T_END",
+                   help="also simulate to T_END [s] and test planarity and each body's inertia along the run")
+    s.add_argument("--threshold", type=float, default=0.01,
+                   help="relative drive-force change below which a body's inertia is droppable (default 0.01)")
     s.set_defaults(func=cmd_info)
 
     s = sub.add_parser("bench", help="bench rhs FILE | bench runs [FILES] | bench work-precision FILE | "
-                       "bench restitution")
-    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution"])
+                       "bench restitution | bench atlas [FILES] [--quick]")
+    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution", "atlas"])
     s.add_argument("file", nargs="?")
     s.add_argument("--clearance", action="append", metavar="NAME")
     s.add_argument("--set", action="append", metavar="NAME.KEY=VALUE")
@@ -341,6 +362,8 @@ def build_parser():
     s.add_argument("--methods", default=None, help="comma-separated formulations (default: all)")
     s.add_argument("--t-end", type=float, default=None, help="simulated time [s] (work-precision 2, runs 0.5)")
     s.add_argument("--out", default="benchmarks")
+    s.add_argument("--quick", action="store_true", help="atlas: reduced grid (few tolerances/integrators, short runs)")
+    s.add_argument("--budget", type=float, default=None, help="atlas: CPU seconds per cell (default 5 rigid, 4 clearance)")
     s.add_argument("rest", nargs="*", help=argparse.SUPPRESS)
     s.set_defaults(func=cmd_bench)
 
