@@ -12,7 +12,19 @@ import os
 from pathlib import Path
 
 import numba
-from numba import njit  # noqa: F401  (re-exported: kernels import it from here)
+
+
+#: bump when the compile options of the kernels change (names the cache folder, see below)
+KERNEL_OPTIONS = "npfloat1"
+
+
+def njit(*args, **options):
+    """numba.njit with NumPy's floating-point semantics (``error_model="numpy"``): x / 0 gives
+    inf or nan as in NumPy, which the formulations report as non-finite so the integrator
+    rejects the trial step. With numba's default ("python") a too-long trial step into a stiff
+    contact raised ZeroDivisionError from inside a kernel and ended the whole run at t = 0."""
+    options.setdefault("error_model", "numpy")
+    return numba.njit(*args, **options)
 
 
 def cache_dir() -> Path:
@@ -32,4 +44,6 @@ def cache_dir() -> Path:
 if not os.environ.get("NUMBA_CACHE_DIR"):
     # numba reads this setting when a cached function is first compiled, so setting it before
     # any kernel module is imported is enough
-    numba.config.CACHE_DIR = str(cache_dir() / "numba")
+    # numba's index keys a cached kernel on its source file, not on the compile options: a
+    # change of options (as error_model above) needs a new folder, or stale kernels load
+    numba.config.CACHE_DIR = str(cache_dir() / f"numba-{KERNEL_OPTIONS}")

@@ -166,8 +166,11 @@ def test_numba_cache_is_outside_the_package(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
                          timeout=600)
     assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == str(tmp_path / "cache" / "numba")
-    assert list((tmp_path / "cache" / "numba").rglob("*.nbi")), "no compiled kernel was cached"
+    from pinclear._jit import KERNEL_OPTIONS
+
+    folder = tmp_path / "cache" / f"numba-{KERNEL_OPTIONS}"
+    assert out.stdout.strip() == str(folder)
+    assert list(folder.rglob("*.nbi")), "no compiled kernel was cached"
     pkg = Path(pinclear.__file__).parent
     assert not [p for p in pkg.rglob("*.nbi") if tmp_path not in p.parents]
 
