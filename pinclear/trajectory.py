@@ -176,6 +176,8 @@ class Trajectory:
                 self.a[i] = form.accelerations(t, q, v, z)
                 lam[i] = ws.lam
                 fresh = True
+                if not form.fills_workspace:
+                    kinematics.update(mech, ws, q, v)
             except Exception:               # a failed sample keeps NaN, the run's message says why
                 self.a[i] = np.nan
                 lam[i] = np.nan

@@ -244,3 +244,19 @@ def test_pinocchio_closure_multipliers_in_world_axes(upu_runs):
         for ax in "xyz":
             ref = runs["lagrange"].lam[f"{c.name}.{ax}"]
             np.testing.assert_allclose(runs["pinocchio"].lam[f"{c.name}.{ax}"], ref, atol=1e-6 * (1 + np.abs(ref).max()))
+
+
+def test_pinocchio_method_records_energies_and_residuals_of_its_own_states():
+    """The 'pinocchio' method solves on Pinocchio's own data; the samples' energies must still
+    be those of the returned states (they were read from a workspace the method never updated:
+    kinetic energy 0). Reference: Pinocchio's energies recomputed at the returned states."""
+    mech = pinclear.load("clr_pendulum")
+    tr = pinclear.simulate(mech, 0.5, method="pinocchio", rtol=1e-8, dt_out=0.05)
+    assert tr.status == "success"
+    model, data = mech.model, mech.model.createData()
+    T = [pin.computeKineticEnergy(model, data, q, v) for q, v in zip(tr.q, tr.v)]
+    V = [pin.computePotentialEnergy(model, data, q) for q in tr.q]
+    E = tr.energy()
+    assert max(T) > 0.1                                   # it swings: the check is not vacuous
+    np.testing.assert_allclose(E["kinetic"], T, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(E["potential"], V, rtol=1e-12, atol=1e-14)

@@ -49,6 +49,10 @@ class Formulation(abc.ABC):
     name = "base"
     options: dict = {}                    # option name -> default
     supports_projection = False
+    #: whether accelerations() leaves the workspace's kinematics pass (kinematics.update) at
+    #: (q, v) in ws.data, which outputs, energies and residuals of the samples read; if not, the
+    #: trajectory runs that pass itself
+    fills_workspace = True
 
     def __init__(self, mech, **options):
         bad = set(options) - set(self.options)

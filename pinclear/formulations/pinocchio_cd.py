@@ -53,6 +53,12 @@ class PinocchioCD(Formulation):
         self.nd = len(mech.drives)
         self._tau = np.zeros(mech.nv)     # applied forces plus the drive forces being solved for
 
+    @property
+    def fills_workspace(self):
+        # Pinocchio's constraintDynamics runs on its own data; ws.data sees the state only
+        # through applied(), i.e. when there are force elements
+        return bool(self.mech.forces)
+
     def _cd(self, q, v, tau):
         return pin.constraintDynamics(self.mech.model, self.data, q, v, tau, self.cmodels, self.cdatas, self.prox)
 
