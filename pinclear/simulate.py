@@ -39,6 +39,7 @@ class OdeSystem:
         self.anchor = None
         self.nfev = 0
         self.bad = 0            # consecutive non-finite evaluations
+        self.rank_loss = None   # the RankLossError/LinAlgError of the last evaluation, if any
         self.strict = False     # raise on the first non-finite evaluation
 
     def q_of(self, x):
@@ -67,17 +68,28 @@ class OdeSystem:
             q = pin.integrate(self.mech.model, self.anchor, x[:n])
             dq = np.linalg.solve(pin.dIntegrate(self.mech.model, self.anchor, x[:n], pin.ARG1), v)
         form = self.form
-        a = form.accelerations(t, q, v, x[n + nv:])
+        try:
+            a = form.accelerations(t, q, v, x[n + nv:])
+        except (RankLossError, np.linalg.LinAlgError) as exc:
+            # a trial stage of a too-long step can land on a singular configuration (or a state
+            # so wrong its linear algebra fails) that the motion never reaches: reject the step
+            # like an overflow. One the steps keep meeting as they shrink is the motion's own;
+            # the run then ends with it (simulate).
+            self.bad += 1
+            self.rank_loss = exc
+            if self.strict or self.bad > MAX_NONFINITE:
+                raise
+            return np.full(len(x), np.nan)
         if not form.finite(a):
             # a too-long trial step into a stiff contact overflows; SciPy's RK solvers reject it
             # and shrink the step. At a solver's first evaluation, or when it keeps happening, stop
             # (SciPy's initial-step selection would loop forever on NaN).
             self.bad += 1
             if self.strict or self.bad > MAX_NONFINITE:
-                raise FloatingPointError(f"at t = {t:.9g} s: non-finite accelerations (check parameters, "
-                                         "stiffness, and that the mass matrix is positive definite)")
+                raise FloatingPointError(f"at t = {t:.9g} s: {NONFINITE_MESSAGE}")
         else:
             self.bad = 0
+            self.rank_loss = None
         return np.concatenate((dq, a, form.ws.zdot))
 
 
@@ -282,6 +294,10 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
             t_old = solver.t
             msg = solver.step()
             if solver.status == "failed":
+                if sysf.rank_loss is not None:      # the steps shrank onto a singular configuration
+                    raise sysf.rank_loss
+                if sysf.bad:                        # ... or onto non-finite accelerations
+                    raise FloatingPointError(f"at t = {solver.t:.9g} s: {NONFINITE_MESSAGE}")
                 status = "failed"
                 h_last = solver.step_size if solver.step_size is not None else float("nan")
                 message = (f"integrator {integrator} failed at t = {solver.t:.9g} s: {msg} "
@@ -441,6 +457,8 @@ def _next_step(solver):
 
 #: consecutive non-finite right-hand sides tolerated (rejected trial steps) before failing
 MAX_NONFINITE = 50
+NONFINITE_MESSAGE = ("non-finite accelerations (check parameters, stiffness, and that the mass matrix is "
+                     "positive definite)")
 
 
 def _locate_singular_passage(form, sysf, dense, t_old, t_new):
