@@ -32,7 +32,8 @@ WHY_PEAK = ("reconstructed limb geometry and centres of mass; both motion laws c
             f"so the peak is taken where the actuation map is well conditioned (cond < {COND_OK:g})")
 
 
-def run(out, quick=False):
+def run(out, quick=False, workers=None, scheduler=None):
+    # one inverse-dynamics pass per sample, no simulations to spread: workers/scheduler unused
     import matplotlib
 
     matplotlib.use("Agg")

@@ -1,0 +1,429 @@
+"""Paper 002 (Chen & Pan 2021: planar 2-DOF nine-bar with revolute clearances at A and B).
+
+Sec. 3: slider 9's displacement, velocity and acceleration, the impact force and the journal-centre
+trajectory for a 0.5 mm clearance at A or at B (3.2), 0.1 vs 0.5 mm at A (3.3) and none / one
+(B) / two clearances (3.4), over the first two crank turns. Sec. 4 (friction 0.3): phase
+portraits and Poincaré maps at 0.01 and 0.8 mm, the bifurcation diagram against the clearance
+(0.01-1 mm) and against the driving speed (pi-3 pi rad/s at 0.1 mm), 100 cycles each.
+
+The runs go through the sweep engine (pinclear.sweeps.sweep for sec. 3, analysis.bifurcation for
+sec. 4) on one executor: local processes (``workers``) or a Dask cluster (``scheduler``). Each
+bifurcation run is classified per joint from both eccentricity components at once
+(classify_state), with the "same point" tolerance derived from the run's rtol and steps per period.
+"""
+from __future__ import annotations
+
+import math
+import sys
+import time
+
+import numpy as np
+
+from .. import analysis as an
+from ..analysis.classify import classify_state
+from ..models import model_path
+from ..sweeps import make_executor, sweep
+from .report import compare
+
+SLIDER = "guide"                      # slider 9's prismatic joint (urdf/nine_bar.urdf)
+JOINTS = ("A", "B")
+SIGNALS = [f"{j}.eccentricity[{k}]" for j in JOINTS for k in (0, 1)]
+SPEED = {"drives[crank1_drive].law.coeffs[1]": 1.0, "drives[crank4_drive].law.coeffs[1]": -1.0}
+RTOL = 1e-6
+
+#: paper 002 sec. 3 (text under Figs. 5-19): (value, unit, time of the peak in s)
+PAPER = {
+    "ideal displacement peak": (0.115, "m", 0.616), "A displacement": (0.123, "m", 0.616),
+    "B displacement": (0.103, "m", 0.616), "AB displacement": (0.109, "m", 0.616),
+    "ideal velocity peak": (0.653, "m/s", 0.512), "A velocity": (0.712, "m/s", 0.512),
+    "B velocity": (0.586, "m/s", 0.512), "AB velocity": (0.636, "m/s", 0.512),
+    "A 0.5 mm acceleration peak": (76.2, "m/s^2", 0.64), "A 0.1 mm acceleration peak": (90.7, "m/s^2", 1.68),
+    "A 0.5 mm impact force peak": (289.0, "N", 0.018), "B 0.5 mm impact force peak": (581.0, "N", 0.037),
+    "A 0.1 mm impact force peak": (124.0, "N", 0.64), "AB impact force peak at B": (330.0, "N", 0.034),
+}
+#: sec. 4.1 / 4.2, read off the phase portraits and Poincaré maps (no numbers printed)
+PAPER_CHAOS = {1e-5: "quasi-periodic (a closed curve)", 8e-4: "chaotic (scattered points)"}
+
+WHY_KIN = ("every dimension is reconstructed (Tables 1-4 lost, SEEDS.md): the paper's linkage has the same "
+           "topology and drive law, not the same lengths, so stroke, speed and the instants differ")
+WHY_FORCE = ("journal radius 10 mm, length 20 mm, steel, ce 0.9, mu 0.1 are reconstructed (Table 3 lost); K as "
+             "printed in eq. 8 (R1 R2 / (R1 + R2), the external-contact form: 'stiffness: printed'); the start "
+             "state is the ideal mechanism's, journal centred (Table 4 lost), and the first impacts depend on it; "
+             "peaks sampled every 1e-4 s are within 1 % of those sampled every 2e-6 s (first impacts, measured)")
+WHY_ACC = ("the acceleration peaks are impact spikes: they scale with the reconstructed contact stiffness and "
+           "masses, and are sampled every {dt:g} s")
+
+
+def _settings(quick):
+    if quick:
+        return {"response t_end [s]": 2.0, "output step [s]": 1e-4, "clearances [mm]": [0.01, 0.1, 0.8],
+                "speeds [pi rad/s]": [2.0, 3.0], "cycles": 8, "transient cycles": 4, "rtol": RTOL,
+                "mu (sec. 4)": 0.3, "quick": True}
+    return {"response t_end [s]": 2.0, "output step [s]": 1e-4,
+            "clearances [mm]": [float(v) for v in np.round(np.linspace(0.01, 1.0, 25), 6)],
+            "speeds [pi rad/s]": [float(v) for v in np.round(np.linspace(1.0, 3.0, 21), 6)],
+            "cycles": 100, "transient cycles": 20, "rtol": RTOL, "mu (sec. 4)": 0.3, "quick": False}
+
+
+def _say(msg):
+    print(f"reproduce 002: {msg}", file=sys.stderr, flush=True)
+
+
+# --------------------------------------------------------------------------- sec. 3
+#: (label, active clearances, varied key and values, fixed overrides); the clearances are 0.5 mm
+#: unless varied
+RESPONSE_SWEEPS = [
+    ("A", ["A"], {"A.clearance": [0.5e-3, 0.1e-3]}, {}),
+    ("B", ["B"], {"B.clearance": [0.5e-3]}, {}),
+    ("AB", ["A", "B"], {"A.clearance": [0.5e-3]}, {"B.clearance": 0.5e-3}),
+]
+
+
+def _response_runs(out, s, executor):
+    """Trajectories of sec. 3: 'ideal', 'A 0.5', 'A 0.1', 'B 0.5', 'AB 0.5' (and the ideal start state)."""
+    import pinclear
+
+    path = model_path("nine_bar")
+    ideal = pinclear.load(path)
+    t_end, dt = s["response t_end [s]"], s["output step [s]"]
+    runs = {"ideal": pinclear.simulate(ideal, t_end, rtol=RTOL, dt_out=dt)}
+    # the clearance runs start where the ideal one does: journals centred, every body moving as in
+    # the ideal mechanism (the paper's Table 4 start state is lost; a journal at rest in a moving
+    # bearing would add a start-up impact of crank-tip speed)
+    q0, v0 = runs["ideal"].q[0].tolist(), runs["ideal"].v[0].tolist()
+    sim = dict(method="lagrange", integrator="RK45", rtol=RTOL, dt_out=dt, q0=q0, v0=v0)
+    for label, active, vary, fixed in RESPONSE_SWEEPS:
+        res = sweep(path, vary, t_end, out / "runs" / label, sim_options=sim,
+                    load_options={"clearances": active, "overrides": fixed}, executor=executor, progress=None)
+        for p in res.points:
+            c_mm = 1e3 * next(iter(p.overrides.values()))
+            key = f"{label} {c_mm:g}"
+            runs[key] = p.trajectory() if p.ok else None
+            if not p.ok:
+                _say(f"{key} mm: {p.status}: {p.message}")
+    return runs
+
+
+_SLIDER_INDEX = []
+
+
+def _slider(tr):
+    """Slider 9's displacement from its start, velocity and acceleration (every variant shares
+    the URDF tree, so the joint index is the ideal model's)."""
+    if not _SLIDER_INDEX:
+        import pinclear
+
+        model = pinclear.load(model_path("nine_bar")).model
+        j = model.joints[model.getJointId(SLIDER)]
+        _SLIDER_INDEX[:] = [j.idx_q, j.idx_v]
+    iq, iv = _SLIDER_INDEX
+    return tr.q[:, iq] - tr.q[0, iq], tr.v[:, iv], tr.a[:, iv]
+
+
+def _peak(t, y, t_max=None):
+    keep = np.ones(len(t), bool) if t_max is None else t <= t_max + 1e-12
+    i = int(np.argmax(np.abs(np.where(keep, y, 0.0))))
+    return float(abs(y[i])), float(t[i])
+
+
+def _response(runs, s, out, plt):
+    results, notes, table = [], [], {}
+    dt = s["output step [s]"]
+    ideal = runs["ideal"]
+    xi, vi, ai = _slider(ideal)
+    # the paper's peaks lie in the first crank turn
+    dpk, t_d = _peak(ideal.t, xi, 1.0)
+    vpk, t_v = _peak(ideal.t, vi, 1.0)
+    table["ideal"] = {"displacement peak [m]": dpk, "at [s]": t_d, "velocity peak [m/s]": vpk, "at (v) [s]": t_v,
+                      "acceleration peak [m/s^2]": _peak(ideal.t, ai)[0]}
+    results += [compare("ideal slider: displacement peak (first turn)", dpk, PAPER["ideal displacement peak"][0],
+                        "m", 0.2, WHY_KIN),
+                compare("ideal slider: instant of the displacement peak", t_d, 0.616, "s", 0.2, WHY_KIN),
+                compare("ideal slider: velocity peak (first turn)", vpk, PAPER["ideal velocity peak"][0], "m/s",
+                        0.2, WHY_KIN),
+                compare("ideal slider: instant of the velocity peak", t_v, 0.512, "s", 0.2, WHY_KIN)]
+    i_d, i_v = int(np.argmin(np.abs(ideal.t - t_d))), int(np.argmin(np.abs(ideal.t - t_v)))
+    shifts = {}
+    for key in ("A 0.5", "B 0.5", "AB 0.5", "A 0.1"):
+        tr = runs.get(key)
+        if tr is None:
+            notes.append(f"{key} mm: the run did not finish; its rows are missing")
+            continue
+        x, v, a = _slider(tr)
+        n = min(len(x), len(xi))
+        row = {"displacement at the ideal peak [m]": float(abs(x[i_d])), "velocity at the ideal peak [m/s]":
+               float(abs(v[i_v])), "max |x - x_ideal| [m]": float(np.max(np.abs(x[:n] - xi[:n])))}
+        row["acceleration peak [m/s^2]"], row["at (a) [s]"] = _peak(tr.t, a)
+        for j in JOINTS:
+            if f"{j}.fn" in tr.outputs:
+                row[f"{j} impact force peak [N]"], row[f"{j} at [s]"] = _peak(tr.t, tr.outputs[f"{j}.fn"])
+                e = tr.outputs[f"{j}.eccentricity"]
+                row[f"{j} max eccentricity [m]"] = float(np.max(np.hypot(e[:, 0], e[:, 1])))
+                row[f"{j} max penetration [m]"] = float(np.max(tr.outputs[f"{j}.penetration"]))
+        row["cpu_s"] = tr.stats.get("cpu_s")
+        table[key] = row
+        shifts[key] = row["max |x - x_ideal| [m]"]
+        name = key.split()[0]
+        if key != "A 0.1":
+            results.append(compare(f"{name} 0.5 mm: slider displacement at the ideal peak",
+                                   row["displacement at the ideal peak [m]"], PAPER[f"{name} displacement"][0], "m",
+                                   0.2, WHY_KIN))
+            results.append(compare(f"{name} 0.5 mm: slider velocity at the ideal peak",
+                                   row["velocity at the ideal peak [m/s]"], PAPER[f"{name} velocity"][0], "m/s",
+                                   0.2, WHY_KIN))
+        if name == "A":
+            c = key.split()[1]
+            results.append(compare(f"A {c} mm: slider acceleration peak", row["acceleration peak [m/s^2]"],
+                                   PAPER[f"A {c} mm acceleration peak"][0], "m/s^2", 0.5, WHY_ACC.format(dt=dt)))
+            results.append(compare(f"A {c} mm: impact force peak at A", row["A impact force peak [N]"],
+                                   PAPER[f"A {c} mm impact force peak"][0], "N", 0.5, WHY_FORCE))
+        elif name == "B":
+            results.append(compare("B 0.5 mm: impact force peak at B", row["B impact force peak [N]"],
+                                   PAPER["B 0.5 mm impact force peak"][0], "N", 0.5, WHY_FORCE))
+        else:
+            results.append(compare("AB 0.5 mm: impact force peak at B", row["B impact force peak [N]"],
+                                   PAPER["AB impact force peak at B"][0], "N", 0.5, WHY_FORCE))
+    if shifts:
+        notes.append("largest slider offset from the ideal run: " + ", ".join(
+            f"{k} mm {1e3 * sh:.3g} mm ({sh / (float(k.split()[1]) * 1e-3):.2g} clearances)" for k, sh in shifts.items())
+            + ". The paper's 0.5 mm clearances move the displacement peak by 8 mm (A, +7 %) and 12 mm (B, -10 %), "
+            "16 to 24 times the clearance: levers of order one from A or B to the slider cannot amplify the play "
+            "that much, so those shifts are not reproduced (nor the velocity changes of the same size)")
+    for key in ("A 0.5", "B 0.5", "AB 0.5", "A 0.1"):
+        row = table.get(key, {})
+        for j in JOINTS:
+            if f"{j} max eccentricity [m]" in row:
+                c = float(key.split()[1]) * 1e-3
+                notes.append(f"{key} mm, journal {j}: eccentricity at most {1e3 * row[f'{j} max eccentricity [m]']:.4g} mm "
+                             f"= clearance {1e3 * c:g} mm + max penetration "
+                             f"{1e6 * row[f'{j} max penetration [m]']:.3g} um")
+    a5, a1 = table.get("A 0.5", {}), table.get("A 0.1", {})
+    if a5 and a1:
+        notes.append(f"clearance size at A (paper: the larger clearance, the more violent; its own peaks say 76.2 vs "
+                     f"90.7 m/s^2 and 289 vs 124 N for 0.5 vs 0.1 mm): ours {a5['acceleration peak [m/s^2]']:.4g} vs "
+                     f"{a1['acceleration peak [m/s^2]']:.4g} m/s^2 and {a5['A impact force peak [N]']:.4g} vs "
+                     f"{a1['A impact force peak [N]']:.4g} N")
+    b, ab = table.get("B 0.5", {}), table.get("AB 0.5", {})
+    if b and ab:
+        notes.append(f"number of clearances (paper: the impact at B is weaker with two clearances, 581 -> 330 N): "
+                     f"ours {b['B impact force peak [N]']:.4g} N with B alone, {ab['B impact force peak [N]']:.4g} N "
+                     f"with A and B")
+    figs = []
+    for fig_name, keys, title in [("response_A_vs_B.png", ["A 0.5", "B 0.5"], "sec. 3.2: clearance at A vs B, 0.5 mm"),
+                                  ("response_size_A.png", ["A 0.5", "A 0.1"], "sec. 3.3: clearance size at A"),
+                                  ("response_number.png", ["B 0.5", "AB 0.5"], "sec. 3.4: one (B) vs two clearances")]:
+        fig, ax = plt.subplots(3, 2, figsize=(11, 9))
+        for col, (y, lab) in enumerate([(xi, "displacement [m]"), (vi, "velocity [m/s]"), (ai, "acceleration [m/s^2]")]):
+            ax[col, 0].plot(ideal.t, y, "k--", lw=0.8, label="no clearance")
+            ax[col, 0].set_ylabel(f"slider 9 {lab}")
+        for key in keys:
+            tr = runs.get(key)
+            if tr is None:
+                continue
+            for col, y in enumerate(_slider(tr)):
+                ax[col, 0].plot(tr.t, y, lw=0.6, label=f"{key} mm")
+            for j in JOINTS:
+                if f"{j}.fn" in tr.outputs:
+                    ax[0, 1].plot(tr.t, tr.outputs[f"{j}.fn"], lw=0.6, label=f"{key} mm, at {j}")
+            jj = "B" if key.startswith(("B", "AB")) else "A"
+            e = tr.outputs[f"{jj}.eccentricity"] * 1e3
+            a = ax[1 if keys.index(key) == 0 else 2, 1]
+            a.plot(e[:, 0], e[:, 1], lw=0.5)
+            th, c_mm = np.linspace(0, 2 * np.pi, 200), float(key.split()[1])
+            a.plot(c_mm * np.cos(th), c_mm * np.sin(th), "k:", lw=0.8)      # the clearance circle
+            a.set_title(f"journal centre at {jj}, {key} mm [mm] (dotted: clearance)", fontsize=9)
+            a.set_aspect("equal")
+        ax[0, 0].legend(fontsize=8)
+        ax[0, 1].legend(fontsize=8)
+        ax[0, 1].set_ylabel("impact force [N]")
+        ax[2, 0].set_xlabel("t [s]")
+        fig.suptitle(title)
+        fig.tight_layout()
+        fig.savefig(out / fig_name, dpi=90)
+        plt.close(fig)
+        figs.append(fig_name)
+    return results, notes, table, figs
+
+
+# --------------------------------------------------------------------------- sec. 4
+def crank_period(w):
+    """The mechanism repeats after one crank turn: T = 2 pi / |w| (module-level: it pickles)."""
+    return 2 * math.pi / abs(w)
+
+
+def _joint_kinds(res, s):
+    """{value: {joint: Classification}} from both eccentricity components of each joint."""
+    per = s["cycles"] + s["transient cycles"]
+    out = {}
+    for r in res.runs:
+        kinds = {}
+        for j in JOINTS:
+            secs = [r.sections.get(f"{j}.eccentricity[{k}]") for k in (0, 1)]
+            if r.ok and r.stats.get("steps"):
+                kinds[j] = classify_state(secs, sim_rtol=RTOL, steps_per_period=r.stats["steps"] / per)
+            else:
+                kinds[j] = None
+        out[round(float(r.value), 9)] = kinds
+    return out
+
+
+def _bifurcation(parameter, values, period, s, executor, overrides):
+    return an.bifurcation(model_path("nine_bar"), parameter, values, period=period, signal=SIGNALS,
+                          cycles=s["cycles"], transient=s["transient cycles"], per_period=100, keep_portrait=True,
+                          sim_options=dict(method="lagrange", integrator="RK45", rtol=RTOL),
+                          load_options=dict(clearances=list(JOINTS), overrides=overrides), executor=executor)
+
+
+def _chaos(s, out, executor, plt):
+    notes, figs, tables = [], [], {}
+    mu = {f"{j}.mu": s["mu (sec. 4)"] for j in JOINTS}
+    # --- against the clearance (sec. 4.1, Figs. 20-24)
+    values = sorted({round(v * 1e-3, 9) for v in s["clearances [mm]"]} | set(PAPER_CHAOS))
+    _say(f"bifurcation against the clearance: {len(values)} values x {s['transient cycles'] + s['cycles']} turns")
+    res = _bifurcation({f"{j}.clearance": 1.0 for j in JOINTS}, values, 1.0, s, executor, mu)
+    res.save(out / "bifurcation_clearance.npz")
+    kinds = _joint_kinds(res, s)
+    tables["clearance"] = _table(res, kinds, 1e3, "clearance [mm]")
+    for c, said in PAPER_CHAOS.items():
+        k = kinds.get(c, {})
+        ours = ", ".join(f"{j}: {_kind_text(k.get(j))}" for j in JOINTS)
+        r = next((r for r in res.runs if round(float(r.value), 9) == c), None)
+        ev = (f" ({r.stats['events'] / (s['cycles'] + s['transient cycles']):.3g} contact or separation events "
+              "per turn)") if r is not None and r.stats.get("events") is not None else ""
+        notes.append(f"clearance {1e3 * c:g} mm, mu 0.3: paper {said}; ours {ours}{ev}")
+    figs.append(_portraits(res, list(PAPER_CHAOS), "chaos_clearance.png", lambda v: f"c = {1e3 * v:g} mm", plt, out))
+    figs.append(_diagrams(res, "bifurcation_clearance.png", "clearance c [m]", plt, out))
+    notes.append(_spread_note(res, "clearance"))
+    # --- against the driving speed (sec. 4.2, Figs. 25-29), 0.1 mm
+    # exact multiples of pi (2 pi is then the same drive law as the clearance study's)
+    speeds = sorted({float(v) * math.pi for v in s["speeds [pi rad/s]"]} | {2 * math.pi, 3 * math.pi})
+    _say(f"bifurcation against the driving speed: {len(speeds)} values")
+    res_w = _bifurcation(SPEED, speeds, crank_period, s, executor,
+                         {**mu, **{f"{j}.clearance": 0.1e-3 for j in JOINTS}})
+    res_w.save(out / "bifurcation_speed.npz")
+    kinds_w = _joint_kinds(res_w, s)
+    tables["speed"] = _table(res_w, kinds_w, 1 / math.pi, "speed [pi rad/s]")
+    for w, said in ((2 * math.pi, "chaotic, small range of the points"), (3 * math.pi, "chaotic, wider range")):
+        k = kinds_w.get(round(w, 9), {})
+        notes.append(f"driving speed {w / math.pi:g} pi rad/s, 0.1 mm: paper {said}; ours "
+                     + ", ".join(f"{j}: {_kind_text(k.get(j))}" for j in JOINTS))
+    figs.append(_portraits(res_w, [2 * math.pi, 3 * math.pi], "chaos_speed.png",
+                           lambda v: f"w = {v / math.pi:g} pi rad/s", plt, out))
+    figs.append(_diagrams(res_w, "bifurcation_speed.png", "driving speed w [rad/s]", plt, out))
+    notes.append(_spread_note(res_w, "speed"))
+    fails = res.failures + res_w.failures
+    if fails:
+        notes.append("runs that did not finish (kept in the diagrams' npz files): "
+                     + "; ".join(f"{v}: {st}: {m}" for v, st, m in fails))
+    return notes, figs, tables
+
+
+def _kind_text(c):
+    if c is None:
+        return "no run"
+    if c.kind == "unresolved":
+        return f"unresolved (no period in {c.n} cycles, fewer than the 0-1 test's 40)"
+    return c.kind + (f" (K = {c.K:.2f})" if c.K is not None else "") + (f", {c.note}" if c.note and c.kind != "unresolved" else "")
+
+
+def _table(res, kinds, factor, label):
+    rows = []
+    for r in res.runs:
+        k = kinds.get(round(float(r.value), 9), {})
+        rows.append({label: float(r.value) * factor, "status": r.status,
+                     **{f"{j} kind": (k[j].kind if k.get(j) else None) for j in JOINTS},
+                     **{f"{j} K": (k[j].K if k.get(j) else None) for j in JOINTS},
+                     **{f"{j} note": (k[j].note if k.get(j) else None) for j in JOINTS},
+                     "contact events": r.stats.get("events"), "cpu_s": r.stats.get("cpu_s"), "steps": r.stats.get("steps")})
+    return rows
+
+
+def _spread(res, value):
+    """Standard deviation of each joint's Poincaré samples of the relative velocity (the larger
+    of the two eccentricity components) at ``value``; None where that run did not finish."""
+    r = next((r for r in res.runs if r.ok and abs(float(r.value) - value) <= 1e-9 * max(1.0, abs(value))), None)
+    if r is None:
+        return None
+    return {j: max(float(np.std(r.sections[f"{j}.eccentricity[{k}]"].xdot)) for k in (0, 1)) for j in JOINTS}
+
+
+def _spread_note(res, what):
+    if what == "clearance":
+        v = max(float(r.value) for r in res.runs)
+        sp = _spread(res, v)
+        if sp is None:
+            return f"clearance {1e3 * v:g} mm: the run did not finish"
+        return (f"clearance {1e3 * v:g} mm: spread (std) of the Poincaré samples of the relative velocity A "
+                f"{sp['A']:.3g} m/s, B {sp['B']:.3g} m/s (paper 4.1: the chaos at A is stronger than at B)")
+    a, b = _spread(res, 2 * math.pi), _spread(res, 3 * math.pi)
+    if a is None or b is None:
+        return "driving speed: the 2 pi or 3 pi run did not finish"
+    return (f"spread (std) of the Poincaré samples of the relative velocity at 2 pi vs 3 pi rad/s: A {a['A']:.3g} vs "
+            f"{b['A']:.3g} m/s, B {a['B']:.3g} vs {b['B']:.3g} m/s (paper 4.2: the points spread wider at 3 pi)")
+
+
+def _portraits(res, values, name, title, plt, out):
+    fig, ax = plt.subplots(2, len(values), figsize=(5 * len(values), 8), squeeze=False)
+    for col, v in enumerate(values):
+        r = next((r for r in res.runs if abs(float(r.value) - v) <= 1e-12 * max(1.0, abs(v))), None)
+        for row, j in enumerate(JOINTS):
+            sig = f"{j}.eccentricity[0]"
+            a = ax[row, col]
+            if r is None or sig not in r.portraits:
+                a.set_title(f"{title(v)}: no run")
+                continue
+            _, x, xd = r.portraits[sig]
+            an.plot_phase_portrait(x, xd, section=r.sections[sig], label=f"{sig} [m]", ax=a)
+            a.ticklabel_format(axis="x", style="sci", scilimits=(0, 0))
+            a.set_title(f"{title(v)}, joint {j}", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out / name, dpi=90)
+    plt.close(fig)
+    return name
+
+
+def _diagrams(res, name, label, plt, out):
+    fig, ax = plt.subplots(1, 2, figsize=(13, 4.5))
+    for a, j in zip(ax, JOINTS):
+        an.plot_bifurcation(res, signal=f"{j}.eccentricity[0]", ax=a, label=label)
+        a.set_title(f"joint {j}: Poincaré samples of the relative velocity", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out / name, dpi=90)
+    plt.close(fig)
+    return name
+
+
+# --------------------------------------------------------------------------- the study
+def run(out, quick=False, workers=None, scheduler=None, settings=None):
+    """Sec. 3 and 4 of paper 002 into ``out``; returns the report dict. ``settings`` replaces
+    entries of the study's settings (tests use it for a reduced run)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    s = {**_settings(quick), **(settings or {})}
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    ex, close = make_executor(workers, scheduler)
+    try:
+        _say("sec. 3 responses (ideal, A, B, A+B)")
+        runs = _response_runs(out, s, ex)
+        results, notes, table, figs = _response(runs, s, out, plt)
+        tables = {"response": table}
+        if s["cycles"] > 0:
+            n2, f2, t2 = _chaos(s, out, ex, plt)
+            notes += n2
+            figs += f2
+            tables.update(t2)
+    finally:
+        close()
+    cpu_runs = sum(v.get("cpu_s") or 0.0 for v in table.values())
+    for t in ("clearance", "speed"):
+        cpu_runs += sum(r["cpu_s"] or 0.0 for r in tables.get(t, []))
+    notes.append("the 'same point' tolerance of the classification is rtol x steps per period of each run (one "
+                 "period's global-error bound, pinclear.analysis.classify.integration_rtol); with fewer than 40 "
+                 "recorded cycles a motion without a period is 'unresolved' (the 0-1 test needs more samples)")
+    s = dict(s, **{"wall time [s]": round(time.perf_counter() - wall0, 1),
+                   "CPU of the simulations [s]": round(cpu_runs, 1)})
+    return {"title": "Paper 002: nine-bar with revolute clearances at A and B (responses, chaos, bifurcations)",
+            "paper": "002", "settings": s, "results": results, "notes": notes, "figures": figs, "tables": tables}
