@@ -22,11 +22,16 @@ class Integrator(abc.ABC):
        ``step_size``, ``dense_output()``) over ``fun(t, y)`` from (t0, y0) to ``t_bound``.
     3. ``corrects_state`` says whether a state changed between steps (projection) can be put
        into the running solver with :meth:`reset_state`; if not, the simulator restarts it.
+    4. ``rejects_nonfinite`` says whether a NaN right-hand side at a trial stage makes the solver
+       reject the step and retry smaller (explicit embedded Runge-Kutta pairs). Implicit solvers
+       carry it into their Newton iteration and Jacobian, and a fixed step cannot be retried, so
+       for them a failed evaluation (rank loss) ends the run at once.
     """
 
     name = ""
     adaptive = True
     corrects_state = True
+    rejects_nonfinite = False
 
     @abc.abstractmethod
     def start(self, fun, t0, y0, t_bound, *, rtol, atol, max_step, first_step, h):
@@ -51,8 +56,9 @@ class Integrator(abc.ABC):
 
 
 class ScipyIntegrator(Integrator):
-    def __init__(self, name, cls, corrects_state=True):
+    def __init__(self, name, cls, corrects_state=True, rejects_nonfinite=False):
         self.name, self.cls, self.corrects_state = name, cls, corrects_state
+        self.rejects_nonfinite = rejects_nonfinite
 
     def start(self, fun, t0, y0, t_bound, *, rtol, atol, max_step, first_step, h):
         kw = {}
@@ -202,8 +208,8 @@ class RK4(Integrator):
 
 
 INTEGRATORS = {
-    "RK45": ScipyIntegrator("RK45", CompiledRK45),
-    "DOP853": ScipyIntegrator("DOP853", spi.DOP853),
+    "RK45": ScipyIntegrator("RK45", CompiledRK45, rejects_nonfinite=True),
+    "DOP853": ScipyIntegrator("DOP853", spi.DOP853, rejects_nonfinite=True),
     "Radau": ScipyIntegrator("Radau", spi.Radau),
     "BDF": _BDF("BDF", spi.BDF),
     # LSODA keeps an internal history that a corrected state cannot enter

@@ -40,6 +40,7 @@ class OdeSystem:
         self.nfev = 0
         self.bad = 0            # consecutive non-finite evaluations
         self.rank_loss = None   # the RankLossError/LinAlgError of the last evaluation, if any
+        self.rejects_nonfinite = False   # the integrator rejects a step on NaN (Integrator contract 4)
         self.strict = False     # raise on the first non-finite evaluation
 
     def q_of(self, x):
@@ -75,6 +76,8 @@ class OdeSystem:
             # so wrong its linear algebra fails) that the motion never reaches: reject the step
             # like an overflow. One the steps keep meeting as they shrink is the motion's own;
             # the run then ends with it (simulate).
+            if not self.rejects_nonfinite:
+                raise
             self.bad += 1
             self.rank_loss = exc
             if self.strict or self.bad > MAX_NONFINITE:
@@ -190,6 +193,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=
     cpu0 = time.process_time()
     ws = form.ws
     sysf = OdeSystem(form)
+    sysf.rejects_nonfinite = integ.rejects_nonfinite
     if resume is not None:
         q, v, z = resume.q, resume.v, resume.z
         t0 = resume.t0
