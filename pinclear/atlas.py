@@ -229,17 +229,16 @@ def reclassify(res):
 def energy_error(traj, mech):
     """('drift', max |E - E0| / scale) for a conservative scene, else ('balance', max |E - E0 -
     int (P_drives - P_loss) dt| / scale). Kinetic and gravity energy are Pinocchio's at the returned
-    (q, v), not the formulation's buffers; spring energy and contact losses are the force elements'
+    (q, v) as the trajectory records them (every formulation fills the workspace it reads, see
+    Formulation.fills_workspace); spring energy and contact losses are the force elements'
     records. Drive power: drive multipliers times the drive rows' J v (closure rows do no work).
     Simpson's rule over the output samples: a quadrature floor where impacts are shorter than the
     sample interval. Scale: max(|E0|, max kinetic energy), as Trajectory.summary."""
     n = len(traj.t)
     if n < 2:
         return ("drift" if mech.conservative else "balance"), float("nan")
-    model, data = mech.model, mech.model.createData()
-    T = np.array([pin.computeKineticEnergy(model, data, q, v) for q, v in zip(traj.q, traj.v)])
-    V = np.array([pin.computePotentialEnergy(model, data, q) for q in traj.q])
-    tot = T + V + traj.energies["spring"]
+    T = traj.energies["kinetic"]
+    tot = T + traj.energies["potential"] + traj.energies["spring"]
     scale = max(abs(tot[0]), float(np.max(T)), 1e-300)
     if mech.conservative:
         return "drift", float(np.max(np.abs(tot - tot[0])) / scale)
@@ -258,11 +257,10 @@ def energy_error(traj, mech):
 
 
 def closure_residual(traj, mech):
-    """Largest closure residual over the returned states (recomputed, not the formulation's)."""
-    if not len(traj.t) or not mech.compiled.m:
-        return 0.0 if len(traj.t) else float("nan")
-    ws = mech.workspace()
-    return float(max(np.abs(kinematics.closure_residual(mech, ws, q, t)).max() for t, q in zip(traj.t, traj.q)))
+    """Largest closure residual over the returned states (the trajectory's own record)."""
+    if not len(traj.t):
+        return float("nan")
+    return float(np.nanmax(traj.residual)) if mech.compiled.m else 0.0
 
 
 def run_cell(mech, label, t_end, method, integrator, tol, h, q_ref, max_cpu):

@@ -24,6 +24,9 @@ from .trajectory import Checkpoint, Trajectory
 
 INTEGRATORS = tuple(integrators.INTEGRATORS)
 
+#: simulate()'s relative tolerance when none is given (bifurcation() derives its period tolerance from it)
+RTOL_DEFAULT = 1e-8
+
 #: largest number of output samples a run may ask for (each keeps q, v, a, multipliers, outputs)
 MAX_SAMPLES = 2_000_000
 
@@ -163,7 +166,7 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True):
     return q, v, z
 
 
-def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=1e-8, atol=None, t_eval=None,
+def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAULT, atol=None, t_eval=None,
              dt_out=None, q0=None, v0=None, t0=0.0, max_step=np.inf, h=None, first_step=None,
              assemble=True, strict=False, max_cpu=None, progress=None, checkpoint=None,
              checkpoint_every=None, resume=None, **method_options) -> Trajectory:

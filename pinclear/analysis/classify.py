@@ -206,12 +206,17 @@ def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_sample
         return Classification("unresolved", None, clusters, None, n,
                               f"no period <= {min(max_period, n // 2)} and too few samples ({n} < "
                               f"{min_samples_01}) for the 0-1 test{_trend(P, scale)}")
-    sc = np.broadcast_to(np.max(np.abs(P), axis=0) if scale is None else np.asarray(scale, float), (P.shape[1],))
+    sc = _coordinate_scale(P, scale)
     # spread within the period tolerance is a fixed point to this resolution
     K = max(chaos_01(P[:, j], flat_tol=atol + rtol * sc[j]) for j in range(P.shape[1]))
     kind = "chaotic" if K > thr else "quasi-periodic"
     note = "ambiguous (0.1 <= K <= 0.9): longer runs or a smaller tolerance may decide" if 0.1 <= K <= 0.9 else ""
     return Classification(kind, None, clusters, K, n, note)
+
+
+def _coordinate_scale(P, scale):
+    """Per-coordinate scale of an (n, d) sequence: the given ``scale``, default max |P|."""
+    return np.broadcast_to(np.max(np.abs(P), axis=0) if scale is None else np.asarray(scale, float), (P.shape[1],))
 
 
 def _trend(P, scale):
@@ -220,7 +225,7 @@ def _trend(P, scale):
     log-linear fit whose slope is negative by more than two standard errors."""
     if len(P) < 5:
         return ""
-    sc = np.broadcast_to(np.max(np.abs(P), axis=0) if scale is None else np.asarray(scale, float), (P.shape[1],))
+    sc = _coordinate_scale(P, scale)
     d = np.max(np.abs(np.diff(P, axis=0)) / np.where(sc > 0, sc, 1.0), axis=1)
     if np.any(d <= 0):
         return ""

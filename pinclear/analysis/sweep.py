@@ -401,10 +401,7 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     derive = (not {"rtol", "sim_rtol", "steps_per_period"} & set(copt)
               and sim_kw.get("integrator", "RK45") != "RK4")
     if derive:
-        import inspect
-
-        from ..simulate import simulate
-        rtol_default = inspect.signature(simulate).parameters["rtol"].default
+        from ..simulate import RTOL_DEFAULT as rtol_default
     for r in runs:
         opts = dict(copt)
         if derive and r.stats.get("steps"):
