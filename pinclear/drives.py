@@ -69,8 +69,9 @@ class DriveRows:
         nd = len(drives)
         # a group holding every drive, in the function's component order, whose function has a
         # compiled twin writes straight into the values array: one compiled call per time
+        # (its fill(t, f) bound once: this runs at every new time of a run)
         self.groups = tuple((law, np.array(ks), np.array(ix),
-                             law.fills and ks == list(range(nd)) and ix == list(range(nd)))
+                             law.filler() if ks == list(range(nd)) and ix == list(range(nd)) else None)
                             for law, ks, ix in groups.values())
 
     def create_data(self) -> DriveData:
@@ -81,8 +82,8 @@ class DriveRows:
         f = d.f
         for g, (law, ks, ix, direct) in enumerate(self.groups):
             if d.t_group[g] != t:            # the same instant is asked for by many evaluations
-                if direct:
-                    law.vector_into(t, f)
+                if direct is not None:
+                    direct(t, f)
                 else:
                     y, yd, ydd = law.vector(t)
                     f[0, ks], f[1, ks], f[2, ks] = y[ix], yd[ix], ydd[ix]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._bind import DYN, bind
 from ._kernels import J_PRISMATIC, J_REVOLUTE, constraint_rows_all, frame_kinematics, joint_placements
 import pinocchio as pin
 
@@ -130,15 +131,15 @@ class FrameKinematics:
 
         self.chain = joint_chain(model)
         if self.chain is not None:
-            self.chain_args = self.chain + (np.zeros((model.njoints, 4, 4)), np.array(self.joints, dtype=np.int64),
-                                            self.Hj)
+            a = self.chain + (np.zeros((model.njoints, 4, 4)), np.array(self.joints, dtype=np.int64), self.Hj)
+            self.chain_args = a
+            self._placements = bind(joint_placements, a[:5] + (DYN,) + a[5:])
 
     def load_placements(self, data, q):
         """Placements of the parent joints at q: computed in one compiled call for trees of
         1-dof joints, else copied out of data.oMi (one Python access per joint)."""
         if self.chain is not None and q is not None:
-            a = self.chain_args
-            joint_placements(a[0], a[1], a[2], a[3], a[4], q, a[5], a[6], a[7])
+            self._placements(q)
             return
         oMi, Hj = data.oMi, self.Hj
         for k, j in enumerate(self.joints):
@@ -191,8 +192,10 @@ def constraint_rows(mech, ws, t, q, v, baumgarte=None):
     gamma is the right-hand side of J a = gamma; with ``baumgarte=(alpha, beta)`` it includes
     -2 alpha dPhi - beta^2 Phi (the papers' stabilisation)."""
     alpha, beta = baumgarte if baumgarte is not None else (0.0, 0.0)
-    constraint_rows_all(*static_args(mech, ws), float(alpha), float(beta), q, v,
-                        mech.driverows.values(t, ws.drive_data))
+    kernel = ws.rows_kernel
+    if kernel is None:
+        kernel = ws.rows_kernel = bind(constraint_rows_all, static_args(mech, ws) + (DYN,) * 5)
+    kernel(float(alpha), float(beta), q, v, mech.driverows.values(t, ws.drive_data))
 
 
 def static_args(mech, ws):

@@ -177,3 +177,4 @@ class Workspace:
         self.lam = np.zeros(m)
         self.drive_data = mech.driverows.create_data()
         self.force_data = [f.create_data(mech) for f in mech.forces]
+        self.rows_kernel = None     # constraint_rows' compiled kernel bound to these buffers

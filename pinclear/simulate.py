@@ -290,6 +290,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
 
     status, message = "success", "reached t_end"
     last_ckpt = time.process_time()
+    stats["setup_cpu_s"] = last_ckpt - cpu0       # assembly, rank analysis, buffers (not integration)
     try:
         solver = make_solver(t_start, x, step_hint)
         while out_i < len(t_eval) and t_eval[out_i] <= t_start + 1e-15:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import abc
+import functools
 import importlib
 import math
 import os
@@ -190,7 +191,7 @@ class Callable(TimeLaw):
         self.index = index
         # laws with equal keys are components of one vector function
         self.share_key = (func, repr(sorted(self.args.items()))) if index is not None else None
-        # the compiled twin, looked up once (vector_into runs at every right-hand side)
+        # the compiled twin, looked up once (drives fill their values with it at every new time)
         into = getattr(func, "into", None)
         self._into = into if callable(into) else None
 
@@ -198,18 +199,13 @@ class Callable(TimeLaw):
         """All components of the shared function at t (three float arrays)."""
         return [np.asarray(x, float) for x in self.func(t, **self.args)]
 
-    @property
-    def fills(self) -> bool:
-        """Whether the function declares a compiled twin ``func.into(t, out, **args)`` that writes
-        its components' values and derivatives into out (3, n) without allocating."""
-        return self._into is not None
-
-    def vector_into(self, t, out):
-        """All components at t written into out (3, n): the compiled twin when there is one."""
-        if self._into is not None:
-            self._into(t, out, **self.args)
-        else:
-            out[0], out[1], out[2] = self.vector(t)
+    def filler(self):
+        """``fill(t, out)``: the function's compiled twin ``func.into(t, out, **args)``, which writes
+        its components' values and first and second derivatives into out (3, n) without
+        allocating; None when the function declares none."""
+        if self._into is None:
+            return None
+        return functools.partial(self._into, **self.args) if self.args else self._into
 
     def eval(self, t):
         if self.index is not None:

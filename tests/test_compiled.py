@@ -98,7 +98,7 @@ def test_ik_drive_laws_written_in_place_have_consistent_derivatives(name):
     each module's own geometry in test_four_ups_upu, test_three_upru_up and test_four_ups_upr."""
     mech = pinclear.load(name)
     law = mech.drives[0].law
-    assert law.fills and mech.driverows.groups[0][3]            # the direct, in-place path is taken
+    assert law.filler() is not None and mech.driverows.groups[0][3] is not None   # the direct, in-place path
     d = mech.driverows.create_data()
     h = 1e-5
     for t in np.random.default_rng(1).uniform(0.1, 4.0, 20):
@@ -180,3 +180,68 @@ def test_fused_clearance_events_and_records_equal_the_python_path(scene, name):
         assert loss == pytest.approx(el.power_loss(mech, ws, d, 0.0, q, v, z), rel=1e-11, abs=1e-12 * scale)
         np.testing.assert_allclose(ev, d.delta, rtol=0, atol=1e-15)
     assert seen_contact >= 5
+
+
+# ------------------------------------------------------------------ bound kernels
+@pytest.mark.parametrize("name,clearance", [("four_ups_upu", "S2"), ("nine_bar", "A"), ("parallelogram", None)])
+def test_bound_kernels_equal_the_direct_calls(name, clearance):
+    """pinclear._bind passes a kernel's buffers as addresses rebuilt into views inside compiled
+    code. Bound and direct calls run the same arithmetic on the same memory, so every output
+    buffer must be bitwise equal, at random states and times; a wrong address, shape or layout
+    (Pinocchio's M and J are column-major) would give different numbers or garbage."""
+    from pinclear._bind import DYN, bind
+    from pinclear._kernels import lagrange_accel, proximal_accel
+
+    mech = pinclear.load(name, clearances=[clearance] if clearance else None)
+    for method, kernel in (("lagrange", lagrange_accel), ("proximal", proximal_accel)):
+        form = formulations.get(method)(mech)
+        ws = form.ws
+        q0, v0 = _random_consistent_state(mech, 9)
+        form.accelerations(0.0, q0, v0, np.zeros(mech.nz))    # binds the kernel's buffers
+        bound = bind(kernel, form._args + (DYN, DYN, DYN))
+        assert hasattr(bound, "bound")                       # really bound, not the fallback
+        out = [ws.lam, ws.J, ws.gamma, ws.phi, form._buf["a"]]
+        for seed in range(3):
+            q, v = _random_consistent_state(mech, seed)
+            t = 0.37 * seed
+            form.applied(t, q, v, np.zeros(mech.nz))
+            f = mech.driverows.values(t, ws.drive_data)
+            r1 = kernel(*form._args, q, v, f)
+            first = [x.copy() for x in out]
+            for x in (ws.lam, ws.gamma, ws.phi, form._buf["a"]):   # J's drive rows are constant inputs
+                x[...] = np.nan
+            r2 = bound(q, v, f)
+            assert r1 == r2
+            for a, b in zip(first, out):
+                assert np.array_equal(a, b)
+
+
+def test_bound_kernel_falls_back_on_a_strided_view_and_lives_in_the_user_cache():
+    """A buffer that is not contiguous cannot be rebuilt from an address and a shape: bind then
+    calls the kernel directly (same result). Generated wrappers are written to the user cache
+    folder, never inside the installed package."""
+    from pinclear import _bind
+    from pinclear._jit import cache_dir
+    from pinclear._kernels import proximal_filter
+
+    rng = np.random.default_rng(3)
+    B = rng.standard_normal((4, 4))
+    S = B @ B.T
+    r = rng.standard_normal(4)
+    ref = np.zeros(4)
+    proximal_filter(S, r, 1e-3, 5.0, ref)
+    out = np.zeros(4)
+    bound = _bind.bind(proximal_filter, (S, _bind.DYN, 1e-3, 5.0, out))
+    bound(r)
+    assert hasattr(bound, "bound") and np.array_equal(out, ref)
+    big = np.zeros(8)
+    strided = big[::2]                                       # a view with stride 2: not bindable
+    direct = _bind.bind(proximal_filter, (S, _bind.DYN, 1e-3, 5.0, strided))
+    assert not hasattr(direct, "bound")
+    direct(r)
+    assert np.array_equal(strided, ref) and np.all(big[1::2] == 0.0)
+    import sys
+    from pathlib import Path
+    files = [Path(m.__file__).resolve() for k, m in sys.modules.items() if k.startswith("pinclear_bound_")]
+    assert files and all(cache_dir().resolve() in f.parents for f in files)
+    assert not any(Path(pinclear.__file__).resolve().parent in f.parents for f in files)

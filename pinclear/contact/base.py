@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from pinclear._bind import DYN, bind
 from pinclear.errors import ContactSetupError
 from pinclear.forces import ForceElement
 from pinclear.kinematics import supporting_dofs
@@ -76,6 +77,7 @@ class ClearanceData:
         self.scratch = np.zeros((4, 3))      # work arrays of the fused compiled evaluation
         self.M = np.zeros((2, 4, 4))         # placements of frame1 and frame2 (compiled path)
         self.slot = -1                       # their slot in ws.fk (compiled path)
+        self.kernel = None                   # the fused kernel bound to these buffers (compiled path)
         self.key = None                      # (t, q, v, z bytes) the quantities belong to
         self.q_key = None                    # q bytes the geometry belongs to
 
@@ -253,10 +255,14 @@ class ClearanceJoint(ForceElement):
             # the hot path: one compiled call (same kernels as _compute); nothing is cached, so
             # later calls at this state (outputs, events) evaluate afresh through _eval
             d.key = d.q_key = None
-            fk = ws.fk
-            _kernels.clearance_force(f[0], f[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, ws.J6, self.idx1,
-                                     self.idx2, v, z, self.v_impact_min, f[2], f[3], f[4], f[5], f[6], f[7], f[8],
-                                     d.delta, d.n, d.p1, d.p2, d.dd, d.vt, d.dd0, d.Fn, d.Fel, d.F2, tau, zdot)
+            if tau is ws.tau and zdot.base is ws.zdot:
+                # the simulator's call: the kernel is bound once to this workspace's buffers
+                kernel = d.kernel
+                if kernel is None:
+                    kernel = d.kernel = bind(_kernels.clearance_force, self._fused_args(ws, d, DYN, DYN, tau, zdot))
+                kernel(v, z)
+            else:
+                _kernels.clearance_force(*self._fused_args(ws, d, v, z, tau, zdot))
             d.loss = zdot[self.nc]
             return
         self._eval(ws, d, t, q, v, z)
@@ -266,6 +272,12 @@ class ClearanceJoint(ForceElement):
         zdot[nc + 1:] = d.dzf
         if d.on.any():
             _kernels.add_wrenches(ws.data.J, self.idx1, self.idx2, d.F2, d.p1, d.p2, tau)
+
+    def _fused_args(self, ws, d, v, z, tau, zdot):
+        f, fk = self._fused, ws.fk
+        return (f[0], f[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, ws.J6, self.idx1, self.idx2, v, z,
+                self.v_impact_min, f[2], f[3], f[4], f[5], f[6], f[7], f[8], d.delta, d.n, d.p1, d.p2, d.dd, d.vt,
+                d.dd0, d.Fn, d.Fel, d.F2, tau, zdot)
 
     def potential(self, mech, ws, d, q):
         # the geometry depends on q alone: an evaluation at this q already holds it

@@ -8,6 +8,7 @@ import numpy as np
 from scipy.linalg import cho_solve
 
 from .. import kinematics
+from .._bind import DYN, bind
 from .._kernels import lagrange_accel
 from .base import RANK_COND, SINGULAR_DIP, Formulation
 
@@ -82,15 +83,16 @@ class Lagrange(Formulation):
         self._args = kinematics.static_args(mech, ws) + (
             float(al), float(be), ws.data.M, ws.parent, ws.tau, ws.data.nle, self.rows,
             b["Lm"], b["Y"], b["S"], b["Ls"], b["a"], lam)
+        self._kernel = bind(lagrange_accel, self._args + (DYN, DYN, DYN))
 
     def accelerations(self, t, q, v, z):
         self.applied(t, q, v, z)
         if self._bound_rows is not self.rows:
             self._bind()
-        ratio = lagrange_accel(*self._args, q, v, self._drive_values(t, self._drive_data))
+        ratio = self._kernel(q, v, self._drive_values(t, self._drive_data))
         if (self._dropped and self.ratio_ref is not None and 0.0 <= ratio < RESELECT_DIP * self.ratio_ref
                 and self._reselect_rows(t)):
-            ratio = lagrange_accel(*self._args, q, v, self._drive_values(t, self._drive_data))
+            ratio = self._kernel(q, v, self._drive_values(t, self._drive_data))
         a = self._a.copy()
         self.nonfinite = ratio == -2.0        # read by finite() (trial stages may overflow)
         if ratio < self._ratio_floor:

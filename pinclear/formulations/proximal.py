@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import kinematics
+from .._bind import DYN, bind
 from .._kernels import proximal_accel
 from .base import Formulation
 from .projection import project_to_manifold
@@ -44,6 +45,7 @@ class Proximal(Formulation):
         self._args = kinematics.static_args(mech, ws) + (
             float(self.opts["alpha"]), float(self.opts["beta"]), ws.data.M, ws.parent, ws.tau, ws.data.nle,
             np.arange(m, dtype=np.int64), b["Lm"], b["Y"], b["S"], b["r"], b["a"], ws.lam, float(self.opts["rho"]), float(self.opts["max_iter"]))
+        self._kernel = bind(proximal_accel, self._args + (DYN, DYN, DYN))
         self._values = mech.driverows.values
         self._nonfinite = False
 
@@ -52,7 +54,7 @@ class Proximal(Formulation):
 
     def accelerations(self, t, q, v, z):
         self.applied(t, q, v, z)
-        code = proximal_accel(*self._args, q, v, self._values(t, self.ws.drive_data))
+        code = self._kernel(q, v, self._values(t, self.ws.drive_data))
         self._nonfinite = code == -2.0
         if code == -1.0:
             raise np.linalg.LinAlgError(f"{self.mech.name}: the mass matrix is not positive definite at "
