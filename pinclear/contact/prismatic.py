@@ -29,6 +29,8 @@ from types import MappingProxyType
 
 import numpy as np
 
+from pinclear._bind import DYN, bind
+
 from . import _kernels
 from .base import ClearanceData, ClearanceJoint, _readonly
 
@@ -160,12 +162,21 @@ class PrismaticClearance(ClearanceJoint):
         if pf is None:
             return super().add_force(mech, ws, d, t, q, v, z, tau, zdot)
         d.key = d.q_key = None
-        fk = ws.fk
-        _kernels.prismatic_force(self._geom[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, ws.J6, self.idx1, self.idx2, v,
-                                 z, self.v_impact_min, _MEMBERS, _MODE_TABLE, pf[0], d.info, d.lcode, d.P0, d.P1,
-                                 d.chi, d.W, pf[1], pf[2], d.delta, d.n, d.p1, d.p2, d.dd, d.vt, d.dd0, d.Fn,
-                                 d.Fel, d.F2, tau, zdot)
+        if tau is ws.tau and zdot.base is ws.zdot:
+            # the simulator's call: the kernel is bound once to this workspace's buffers
+            kernel = d.kernel
+            if kernel is None:
+                kernel = d.kernel = bind(_kernels.prismatic_force, self._prismatic_args(ws, d, DYN, DYN, tau, zdot))
+            kernel(v, z)
+        else:
+            _kernels.prismatic_force(*self._prismatic_args(ws, d, v, z, tau, zdot))
         d.loss = zdot[self.nc]
+
+    def _prismatic_args(self, ws, d, v, z, tau, zdot):
+        pf, fk = self._pfused, ws.fk
+        return (self._geom[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, ws.J6, self.idx1, self.idx2, v, z,
+                self.v_impact_min, _MEMBERS, _MODE_TABLE, pf[0], d.info, d.lcode, d.P0, d.P1, d.chi, d.W, pf[1],
+                pf[2], d.delta, d.n, d.p1, d.p2, d.dd, d.vt, d.dd0, d.Fn, d.Fel, d.F2, tau, zdot)
 
     def _record_laws(self, d):
         return d.lcode, d.P0, d.P1, d.W

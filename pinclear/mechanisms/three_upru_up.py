@@ -302,11 +302,17 @@ def _limb_lengths_into(p, plat_xy, base, out):
         out[0, k], out[1, k], out[2, k] = L[0], L[1], L[2]
 
 
+@njit(cache=True)
+def _limb_lengths_at(t, xc, yc, z0, radius, th0, w, plat_xy, base, out):
+    # the circle and the lengths in one compiled call: this runs at every new time of a run
+    _limb_lengths_into(_circle(t, xc, yc, z0, radius, th0, w), plat_xy, base, out)
+
+
 def _limb_lengths_fill(t, out):
     """limb_lengths(t) written into out (3, 3): the drives' compiled path (timelaws.Callable)."""
     if out.shape != (3, _BASE.shape[0]):
         raise ValueError(f"limb_lengths fills (3, {_BASE.shape[0]}) values, got an array of shape {out.shape}")
-    _limb_lengths_into(platform_position(t), _PLATFORM_XY, _BASE, out)
+    _limb_lengths_at(float(t), XC, YC, Z0, RADIUS, THETA0, OMEGA, _PLATFORM_XY, _BASE, out)
 
 
 limb_lengths.into = _limb_lengths_fill
