@@ -167,6 +167,7 @@ class Trajectory:
         self.fill_states(samples)
         n = len(samples)
         lam = np.zeros((n, mech.m))
+        phi = np.zeros((n, mech.m))
         E = {k: np.zeros(n) for k in ("kinetic", "potential", "spring", "dissipated_power")}
         outs: dict[str, list] = {}
         model = mech.model
@@ -183,12 +184,10 @@ class Trajectory:
                 lam[i] = np.nan
                 kinematics.update(mech, ws, q, v)
                 fresh = False
-            # accelerations() ran the kinematics pass at (q, v): only the cheap rows are redone
-            # (a formulation may have left Baumgarte terms or a subset of rows in the buffers)
-            kinematics.constraint_rows(mech, ws, t, q, v)
-            absphi = np.abs(ws.phi)
-            self.residual[i] = absphi[:mc].max() if mc else 0.0
-            self.drive_error[i] = absphi[mc:].max() if mech.drives else 0.0
+            # accelerations() ran the kinematics pass at (q, v); the rows only when it says so
+            if not (fresh and form.fills_rows):
+                kinematics.constraint_rows(mech, ws, t, q, v)
+            phi[i] = ws.phi
             # from the joint velocities and placements the kinematics pass left in data
             E["kinetic"][i] = pin.computeKineticEnergy(model, ws.data)
             E["potential"][i] = pin.computePotentialEnergy(model, ws.data)
@@ -198,6 +197,10 @@ class Trajectory:
                 E["dissipated_power"][i] += loss
                 for k, val in rec.items():
                     outs.setdefault(f"{f.name}.{k}", []).append(np.asarray(val, float))
+        absphi = np.abs(phi)
+        if n:
+            self.residual[:] = absphi[:, :mc].max(axis=1) if mc else 0.0
+            self.drive_error[:] = absphi[:, mc:].max(axis=1) if mech.drives else 0.0
         names = mech.row_names()
         self.lam = {nm: lam[:, k] for k, nm in enumerate(names)}
         self.outputs = {k: np.array(v) for k, v in outs.items()}

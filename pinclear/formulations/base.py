@@ -53,6 +53,9 @@ class Formulation(abc.ABC):
     #: (q, v) in ws.data, which outputs, energies and residuals of the samples read; if not, the
     #: trajectory runs that pass itself
     fills_workspace = True
+    #: whether accelerations() also leaves ws.phi, the residual of every closure and drive row at
+    #: (t, q), so outputs need not evaluate the rows again
+    fills_rows = False
 
     def __init__(self, mech, **options):
         bad = set(options) - set(self.options)

@@ -18,6 +18,7 @@ RESELECT_DIP = 1e-2
 
 
 class Lagrange(Formulation):
+    fills_rows = True       # the kernel evaluates every row before the solve
     name = "lagrange"
     options = {"alpha": 5.0, "beta": 5.0, "drop_redundant": True}
 

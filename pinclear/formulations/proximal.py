@@ -21,6 +21,7 @@ from .projection import project_to_manifold
 
 
 class Proximal(Formulation):
+    fills_rows = True       # the kernel evaluates every row before the solve
     name = "proximal"
     options = {"alpha": 5.0, "beta": 5.0, "rho": 1e-4, "max_iter": 30, "tol": 1e-12, "project": True}
 
