@@ -37,6 +37,8 @@ class OdeSystem:
         self.form = form
         mech = form.mech
         self.mech = mech
+        self.euclidean = mech.euclidean
+        self.zdot = form.ws.zdot
         self.nq_state = mech.nq if mech.euclidean else mech.nv
         self.nv, self.nz = mech.nv, mech.nz
         self.anchor = None
@@ -66,7 +68,7 @@ class OdeSystem:
         self.nfev += 1
         n, nv = self.nq_state, self.nv
         v = x[n:n + nv]
-        if self.mech.euclidean:
+        if self.euclidean:
             q, dq = x[:n], v
         else:
             q = pin.integrate(self.mech.model, self.anchor, x[:n])
@@ -93,10 +95,10 @@ class OdeSystem:
             self.bad += 1
             if self.strict or self.bad > MAX_NONFINITE:
                 raise FloatingPointError(f"at t = {t:.9g} s: {NONFINITE_MESSAGE}")
-        else:
+        elif self.bad:
             self.bad = 0
             self.rank_loss = None
-        return np.concatenate((dq, a, form.ws.zdot))
+        return np.concatenate((dq, a, self.zdot))
 
 
 def _check_inputs(t_end, t0, rtol, atol, integ, h, max_step, first_step, t_eval, dt_out):
