@@ -245,3 +245,29 @@ def test_bound_kernel_falls_back_on_a_strided_view_and_lives_in_the_user_cache()
     files = [Path(m.__file__).resolve() for k, m in sys.modules.items() if k.startswith("pinclear_bound_")]
     assert files and all(cache_dir().resolve() in f.parents for f in files)
     assert not any(Path(pinclear.__file__).resolve().parent in f.parents for f in files)
+
+
+@pytest.mark.parametrize("scene, name", [("four_ups_upu", "S2"), ("clr_hinge", "R"), ("clr_slider", "P")])
+def test_bound_clearance_kernels_equal_the_direct_calls(scene, name):
+    """Inside a run a clearance joint writes into the workspace's own tau and zdot through its
+    bound kernel; any other caller gets the direct call. Both must leave bitwise equal forces,
+    state rates and channel quantities (spherical, revolute and prismatic kernels)."""
+    mech = pinclear.load(scene, clearances=[name])
+    i = [f.name for f in mech.forces].index(name)
+    el, sl = mech.forces[i], mech.z_slices[i]
+    ws = mech.workspace()
+    d = ws.force_data[i]
+    seen_contact = 0
+    for q, v, z in clearance_states(mech, el, 20, seed=5, spread=2e-3):
+        kinematics.update(mech, ws, q, v)
+        tau, zdot = np.zeros(mech.nv), np.zeros(el.nz)
+        el.add_force(mech, ws, d, 0.0, q, v, z, tau, zdot)         # direct: not the workspace's buffers
+        direct = [x.copy() for x in (tau, zdot, d.Fn, d.F2, d.delta)]
+        ws.tau[:] = 0.0
+        ws.zdot[:] = np.nan
+        el.add_force(mech, ws, d, 0.0, q, v, z, ws.tau, ws.zdot[sl])
+        assert d.kernel is not None and hasattr(d.kernel, "bound")
+        for a, b in zip(direct, (ws.tau, ws.zdot[sl], d.Fn, d.F2, d.delta)):
+            assert np.array_equal(a, b)
+        seen_contact += bool((d.delta > 0).any())
+    assert seen_contact >= 3
