@@ -120,15 +120,20 @@ def _run_cli(args, **kw):
 def test_4_interrupt_keeps_samples_and_resume_completes_the_run(tmp_path, sig):
     """Interrupt a real CLI run; the saved trajectory has the samples up to the interrupt, and
     --resume completes it to the final state of an uninterrupted run."""
-    # 60 s at rtol 1e-11 is about 4 CPU s of integration. The signal goes when the first
-    # checkpoint (0.3 CPU s into the integration) exists, so it lands mid-run on a fast or a
-    # loaded machine alike (a fixed 3 s wait once missed the end of the run on a quick machine)
+    # 60 s at rtol 1e-11 is about 4 CPU s of integration. The signal goes when the second
+    # checkpoint (0.6 CPU s into the integration) is written, so it lands mid-run on a fast or a
+    # loaded machine alike (a fixed 3 s wait once missed the end of the run on a quick machine;
+    # the first checkpoint alone can come while a fresh process still loads compiled code)
     args = ["four_bar", "--t-end", "60", "--rtol", "1e-11", "--progress", "off", "--checkpoint-every", "0.3"]
     out = tmp_path / "run"
     proc = _run_cli(["simulate"] + args + ["--out", str(out)])
     deadline = time.time() + 120
-    while not (out / "checkpoint.npz").exists() and time.time() < deadline:
-        time.sleep(0.05)
+    ckpt = out / "checkpoint.npz"
+    while not ckpt.exists() and time.time() < deadline:
+        time.sleep(0.02)
+    first = ckpt.stat().st_mtime_ns if ckpt.exists() else None
+    while ckpt.exists() and ckpt.stat().st_mtime_ns == first and time.time() < deadline:
+        time.sleep(0.02)
     assert proc.poll() is None, "the run ended before it could be interrupted"
     proc.send_signal(sig)
     stdout, stderr = proc.communicate(timeout=300)
