@@ -221,6 +221,7 @@ def cmd_bench(args):
         _check_out_dir(out)
         files = [args.file] + list(args.rest or []) if args.file else None
         res = atlas.run_atlas(files, out=out, quick=args.quick, budget=args.budget,
+                              methods=args.methods.split(",") if args.methods else None,
                               progress=lambda s: print(f"bench atlas: {s}", file=sys.stderr, flush=True))
         fails = sum(r["status"] != "success" for r in res["rows"])
         print(f"atlas: {len(res['rows'])} cells over {len(res['scenes'])} scenes, {fails} failed; "
@@ -359,7 +360,7 @@ def build_parser():
     s.add_argument("--set", action="append", metavar="NAME.KEY=VALUE")
     s.add_argument("--option", action="append", metavar="KEY=VALUE")
     s.add_argument("--trust", action="store_true")
-    s.add_argument("--methods", default=None, help="comma-separated formulations (default: all)")
+    s.add_argument("--methods", default=None, help="comma-separated formulations (rhs: all; atlas: all but manifold)")
     s.add_argument("--t-end", type=float, default=None, help="simulated time [s] (work-precision 2, runs 0.5)")
     s.add_argument("--out", default="benchmarks")
     s.add_argument("--quick", action="store_true", help="atlas: reduced grid (few tolerances/integrators, short runs)")

@@ -2,13 +2,14 @@
 from ..errors import InputError
 from .base import Formulation
 from .lagrange import Lagrange
+from .manifold import Manifold
 from .pinocchio_cd import PinocchioCD
 from .projection import Projection
 from .proximal import Proximal
 
-__all__ = ["Formulation", "Lagrange", "Projection", "PinocchioCD", "Proximal", "METHODS", "get"]
+__all__ = ["Formulation", "Lagrange", "Projection", "PinocchioCD", "Proximal", "Manifold", "METHODS", "get"]
 
-METHODS = {cls.name: cls for cls in (Lagrange, Projection, PinocchioCD, Proximal)}
+METHODS = {cls.name: cls for cls in (Lagrange, Projection, PinocchioCD, Proximal, Manifold)}
 
 
 def get(name: str):
