@@ -132,7 +132,6 @@ class FrameKinematics:
         self.chain = joint_chain(model)
         if self.chain is not None:
             a = self.chain + (np.zeros((model.njoints, 4, 4)), np.array(self.joints, dtype=np.int64), self.Hj)
-            self.chain_args = a
             self._placements = bind(joint_placements, a[:5] + (DYN,) + a[5:])
 
     def load_placements(self, data, q):
@@ -153,16 +152,18 @@ class FrameKinematics:
         return self
 
 
-def update(mech, ws, q, v):
+def update(mech, ws, q, v, mass=True):
     """One kinematic/dynamic pass at (q, v): the only place the right-hand side calls Pinocchio's
     tree algorithms. Afterwards data.M (upper triangle), data.nle, data.oMi, data.J, data.dJ,
     data.v and data.a (joint accelerations at zero ddq) are valid, and data.oMf when the
-    mechanism has force elements (the only readers of frame placements on this path)."""
+    mechanism has force elements (the only readers of frame placements on this path).
+    ``mass=False`` skips crba for a caller that already holds M at this q."""
     model, data = mech.model, ws.data
     pin.computeJointJacobiansTimeVariation(model, data, q, v)
     if mech.forces:          # closures read joint placements; only force elements read data.oMf
         pin.updateFramePlacements(model, data)
-    pin.crba(model, data, q)
+    if mass:
+        pin.crba(model, data, q)
     pin.nonLinearEffects(model, data, q, v)
     ws.fk.load_placements(data, q)
 

@@ -94,3 +94,36 @@ def clearance_states(mech, el, count, seed, spread):
     for _ in range(count):
         q = pin.integrate(mech.model, mech.q0, rng.normal(size=mech.nv) * spread)
         yield q, rng.normal(size=mech.nv), np.r_[10 ** rng.uniform(-4, 0, el.nc), 0.0]
+
+
+# ------------------------------------------------------------------ shared references of the
+# singular-passage tests (test_benchmark_mechanisms, test_singular_manifold)
+def energy_drift(mech, traj):
+    """max |E - E0| / max T over the samples, energies from Pinocchio at the returned states."""
+    model, data = mech.model, mech.model.createData()
+    T = np.array([pin.computeKineticEnergy(model, data, q, v) for q, v in zip(traj.q, traj.v)])
+    V = np.array([pin.computePotentialEnergy(model, data, q) for q in traj.q])
+    E = T + V
+    return float(np.abs(E - E[0]).max() / T.max())
+
+
+def a02_cranks(mech, n, traj):
+    """Angles of A02's n + 1 cranks over the samples."""
+    idx = [mech.model.joints[mech.model.getJointId(f"crank{k}_joint")].idx_q for k in range(n + 1)]
+    return traj.q[:, idx]
+
+
+def a02_branch(n, t):
+    """A02's parallelogram branch as a 1-dof pendulum from the published start (closed form),
+    SciPy DOP853 at rtol 1e-13 (the solve_ivp result)."""
+    from scipy.integrate import solve_ivp
+
+    from pinclear.mechanisms import benchmarks as B
+    return solve_ivp(B.a02_branch_rhs(n), (0.0, t[-1]), [B.A02_THETA0, B.a02_initial_rate()], method="DOP853",
+                     rtol=1e-13, atol=1e-14, t_eval=t)
+
+
+def flat_passages(th):
+    """Number of flat configurations (sin th changes sign) a crank angle history passes."""
+    s = np.sin(th)
+    return int(np.sum(np.sign(s[1:]) != np.sign(s[:-1])))

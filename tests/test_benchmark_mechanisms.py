@@ -21,13 +21,14 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
-from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicHermiteSpline
 from scipy.optimize import brentq
 
 import pinclear
 from pinclear import kinematics
 from pinclear.mechanisms import benchmarks as B
+
+from conftest import a02_branch, a02_cranks, energy_drift, flat_passages
 
 
 def _simulate(mech, t_end, **kw):
@@ -38,34 +39,6 @@ def _simulate(mech, t_end, **kw):
 
 def _idx(mech, joint):
     return mech.model.joints[mech.model.getJointId(joint)].idx_q
-
-
-def _energies(mech, traj):
-    model, data = mech.model, mech.model.createData()
-    T = np.array([pin.computeKineticEnergy(model, data, q, v) for q, v in zip(traj.q, traj.v)])
-    V = np.array([pin.computePotentialEnergy(model, data, q) for q in traj.q])
-    return T, T + V
-
-
-def _drift(mech, traj):
-    T, E = _energies(mech, traj)
-    return float(np.abs(E - E[0]).max() / T.max())
-
-
-# ============================================================================ A02 N-four-bar
-def _cranks(mech, n, traj):
-    return traj.q[:, [_idx(mech, f"crank{k}_joint") for k in range(n + 1)]]
-
-
-def _branch_reference(n, t):
-    """The parallelogram branch as a 1-dof pendulum, from the published start (closed form)."""
-    return solve_ivp(B.a02_branch_rhs(n), (0.0, t[-1]), [B.A02_THETA0, B.a02_initial_rate()], method="DOP853",
-                     rtol=1e-13, atol=1e-14, t_eval=t)
-
-
-def _flat_passages(th):
-    s = np.sin(th)
-    return int(np.sum(np.sign(s[1:]) != np.sign(s[:-1])))
 
 
 @pytest.mark.parametrize("n", B.A02_SIZES)
@@ -114,10 +87,10 @@ def test_a02_proximal_keeps_energy_closure_and_branch(a02_runs, n, ref_tol):
     1e-8, branch 1e-6; reference error 1e-6 (N = 1) and 5e-5 (N = 2), 2.3x-4.5x the study."""
     mech, traj = a02_runs[n]
     assert traj.status == "success" and traj.t[-1] == pytest.approx(10.0)
-    th = _cranks(mech, n, traj)
-    ref = _branch_reference(n, traj.t)
-    assert _flat_passages(th[:, 0]) == _flat_passages(ref.y[0]) >= 10
-    assert _drift(mech, traj) < 1e-6
+    th = a02_cranks(mech, n, traj)
+    ref = a02_branch(n, traj.t)
+    assert flat_passages(th[:, 0]) == flat_passages(ref.y[0]) >= 10
+    assert energy_drift(mech, traj) < 1e-6
     assert traj.residual.max() < 1e-8
     # parallelogram branch: every crank parallel to the first (the anti-parallelogram differs by O(1))
     assert np.abs(th - th[:, :1]).max() < 1e-6
@@ -155,12 +128,12 @@ def test_a02_n10_short_run_through_a_flat_passage(a02_10):
     mech, n = a02_10, 10
     traj = _simulate(mech, 0.5, method="proximal", integrator="DOP853", rtol=1e-10, dt_out=0.005)
     assert traj.status == "success"
-    th = _cranks(mech, n, traj)
+    th = a02_cranks(mech, n, traj)
     assert th[0, 0] > 0 > th[-1, 0]
-    assert _drift(mech, traj) < 1e-7
+    assert energy_drift(mech, traj) < 1e-7
     assert traj.residual.max() < 1e-10
     assert np.abs(th - th[:, :1]).max() < 1e-8
-    np.testing.assert_allclose(th[:, 0], _branch_reference(n, traj.t).y[0], rtol=0, atol=1e-7)
+    np.testing.assert_allclose(th[:, 0], a02_branch(n, traj.t).y[0], rtol=0, atol=1e-7)
 
 
 # ============================================================================ A04 Bricard
@@ -199,7 +172,7 @@ def test_bricard_proximal_conserves_energy_with_a_redundant_row_everywhere(brica
     that the integration does not impose."""
     traj = bricard_proximal
     assert traj.status == "success" and traj.t[-1] == pytest.approx(10.0)
-    assert _drift(bricard, traj) < 1e-9
+    assert energy_drift(bricard, traj) < 1e-9
     assert traj.residual.max() < 1e-10
     assert np.ptp(traj.q[:, 0]) > 3.0                           # it swings through a half turn
     q = traj.q
@@ -233,7 +206,7 @@ def test_bricard_lagrange_chooses_its_rows_again_when_the_dropped_one_is_needed(
     run = _simulate(bricard, 10.0, method="lagrange", integrator="DOP853", rtol=1e-10, dt_out=0.01)
     assert run.stats["redundant_rows"] == ["J5.z"], "the QR pivot now drops another row: revisit this test"
     assert run.status == "success"
-    assert _drift(bricard, run) < 1e-8
+    assert energy_drift(bricard, run) < 1e-8
     assert run.residual.max() < 1e-9
     first = run.stats["row_changes"][0]
     assert t_star - 0.2 < first["t"] < t_star and first["dropped"] != ["J5.z"]

@@ -151,17 +151,21 @@ def test_compiled_rk45_takes_scipys_steps():
 
 
 # ------------------------------------------------------------------ fused clearance path
+def _clearance_scene(scene, name):
+    """(mech, element, its z slice, a workspace, the element's data there) with clearance ``name``."""
+    mech = pinclear.load(scene, clearances=[name])
+    i = [f.name for f in mech.forces].index(name)
+    ws = mech.workspace()
+    return mech, mech.forces[i], mech.z_slices[i], ws, ws.force_data[i]
+
+
 @pytest.mark.parametrize("scene, name", [("clr_ball", "S"), ("nine_bar", "A"), ("clr_hinge", "R")])
 def test_fused_clearance_events_and_records_equal_the_python_path(scene, name):
     """The compiled right-hand-side path of a clearance joint (placements from the joint chain)
     leaves the same penetrations, forces and outputs as the element's Python path (Pinocchio's
     frame placements, law by law), at random states."""
-    mech = pinclear.load(scene, clearances=[name])
-    i = [f.name for f in mech.forces].index(name)
-    el = mech.forces[i]
+    mech, el, sl, ws, d = _clearance_scene(scene, name)
     assert el.event_level == "placements" and el.kinematic_frames == (el.f1, el.f2)
-    ws = mech.workspace()
-    d = ws.force_data[i]
     seen_contact = 0
     for q, v, z in clearance_states(mech, el, 30, seed=3, spread=2e-3):
         kinematics.update(mech, ws, q, v)
@@ -252,11 +256,7 @@ def test_bound_clearance_kernels_equal_the_direct_calls(scene, name):
     """Inside a run a clearance joint writes into the workspace's own tau and zdot through its
     bound kernel; any other caller gets the direct call. Both must leave bitwise equal forces,
     state rates and channel quantities (spherical, revolute and prismatic kernels)."""
-    mech = pinclear.load(scene, clearances=[name])
-    i = [f.name for f in mech.forces].index(name)
-    el, sl = mech.forces[i], mech.z_slices[i]
-    ws = mech.workspace()
-    d = ws.force_data[i]
+    mech, el, sl, ws, d = _clearance_scene(scene, name)
     seen_contact = 0
     for q, v, z in clearance_states(mech, el, 20, seed=5, spread=2e-3):
         kinematics.update(mech, ws, q, v)

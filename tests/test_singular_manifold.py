@@ -34,6 +34,8 @@ from pinclear import formulations, kinematics
 from pinclear.errors import InputError
 from pinclear.mechanisms import benchmarks as B
 
+from conftest import a02_branch, a02_cranks, energy_drift, flat_passages
+
 STARTS = (0, 1, 3, 5)          # q0 + j * 4e-16 rad
 U = np.array([1.0, -1.0, 1.0])  # the parallelogram branch direction (crank, coupler, rocker)
 
@@ -42,18 +44,6 @@ def _simulate(mech, t_end, **kw):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         return pinclear.simulate(mech, t_end, method="manifold", integrator="DOP853", **kw)
-
-
-def _energies(mech, traj):
-    model, data = mech.model, mech.model.createData()
-    T = np.array([pin.computeKineticEnergy(model, data, q, v) for q, v in zip(traj.q, traj.v)])
-    V = np.array([pin.computePotentialEnergy(model, data, q) for q in traj.q])
-    return T, T + V
-
-
-def _drift(mech, traj):
-    T, E = _energies(mech, traj)
-    return float(np.abs(E - E[0]).max() / T.max())
 
 
 def _wrap(x):
@@ -70,21 +60,6 @@ def _parallelogram_branch(mech, th0, t_eval):
 
     return solve_ivp(f, (0.0, t_eval[-1]), [th0, 0.0], method="DOP853", rtol=1e-13, atol=1e-15,
                      t_eval=t_eval).y[0]
-
-
-def _cranks(mech, n, traj):
-    idx = [mech.model.joints[mech.model.getJointId(f"crank{k}_joint")].idx_q for k in range(n + 1)]
-    return traj.q[:, idx]
-
-
-def _a02_branch(n, t_eval):
-    return solve_ivp(B.a02_branch_rhs(n), (0.0, t_eval[-1]), [B.A02_THETA0, B.a02_initial_rate()],
-                     method="DOP853", rtol=1e-13, atol=1e-14, t_eval=t_eval).y[0]
-
-
-def _flat_passages(th):
-    s = np.sin(th)
-    return int(np.sum(np.sign(s[1:]) != np.sign(s[:-1])))
 
 
 # ---------------------------------------------------------------------------- the right-hand side
@@ -163,7 +138,7 @@ def test_parallelogram_meets_its_branch_on_every_start(parallelogram, parallelog
         assert th.min() < -math.pi < 0.0 < th.max()              # both flat configurations passed
         ref = _parallelogram_branch(mech, traj.q[0, 0], traj.t)
         np.testing.assert_allclose(th, ref, rtol=0, atol=1e-7)
-        assert _drift(mech, traj) < 1e-8
+        assert energy_drift(mech, traj) < 1e-8
         assert traj.residual.max() < 1e-12
         assert np.abs(_wrap(traj.q[:, 2] - traj.q[:, 0])).max() < 1e-10
     first = parallelogram_runs[0].q
@@ -187,11 +162,11 @@ def test_a02_n2_meets_the_issue_targets_on_every_start(a02_2_runs):
     mech, runs = a02_2_runs
     for traj in runs:
         assert traj.status == "success" and traj.t[-1] == pytest.approx(10.0)
-        th = _cranks(mech, 2, traj)
-        ref = _a02_branch(2, traj.t)
-        assert _flat_passages(th[:, 0]) == _flat_passages(ref) >= 10
+        th = a02_cranks(mech, 2, traj)
+        ref = a02_branch(2, traj.t).y[0]
+        assert flat_passages(th[:, 0]) == flat_passages(ref) >= 10
         np.testing.assert_allclose(th[:, 0], ref, rtol=0, atol=1e-7)
-        assert _drift(mech, traj) < 1e-8
+        assert energy_drift(mech, traj) < 1e-8
         assert traj.residual.max() < 1e-10
         assert np.abs(th - th[:, :1]).max() < 1e-10
     for traj in runs[1:]:
@@ -205,6 +180,6 @@ def test_a02_n2_error_converges_with_rtol(a02_2_runs):
     mech, runs = a02_2_runs
     loose = _simulate(mech, 10.0, rtol=1e-8, dt_out=0.01)
     assert loose.status == "success"
-    err = [np.abs(_cranks(mech, 2, tr)[:, 0] - _a02_branch(2, tr.t)).max() for tr in (runs[0], loose)]
+    err = [np.abs(a02_cranks(mech, 2, tr)[:, 0] - a02_branch(2, tr.t).y[0]).max() for tr in (runs[0], loose)]
     assert 1e-7 < err[1] < 1e-5
     assert err[1] > 10 * err[0]

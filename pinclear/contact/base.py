@@ -255,14 +255,7 @@ class ClearanceJoint(ForceElement):
             # the hot path: one compiled call (same kernels as _compute); nothing is cached, so
             # later calls at this state (outputs, events) evaluate afresh through _eval
             d.key = d.q_key = None
-            if tau is ws.tau and zdot.base is ws.zdot:
-                # the simulator's call: the kernel is bound once to this workspace's buffers
-                kernel = d.kernel
-                if kernel is None:
-                    kernel = d.kernel = bind(_kernels.clearance_force, self._fused_args(ws, d, DYN, DYN, tau, zdot))
-                kernel(v, z)
-            else:
-                _kernels.clearance_force(*self._fused_args(ws, d, v, z, tau, zdot))
+            self._call_kernel(_kernels.clearance_force, self._fused_args, ws, d, v, z, tau, zdot)
             d.loss = zdot[self.nc]
             return
         self._eval(ws, d, t, q, v, z)
@@ -272,6 +265,19 @@ class ClearanceJoint(ForceElement):
         zdot[nc + 1:] = d.dzf
         if d.on.any():
             _kernels.add_wrenches(ws.data.J, self.idx1, self.idx2, d.F2, d.p1, d.p2, tau)
+
+    @staticmethod
+    def _call_kernel(kernel, args, ws, d, v, z, tau, zdot):
+        """kernel(*args(ws, d, v, z, tau, zdot)). The simulator's call writes into the workspace's
+        own tau and zdot slice: there the kernel is bound once to those buffers (pinclear._bind)
+        and kept in d; any other caller gets the direct call."""
+        if tau is ws.tau and zdot.base is ws.zdot:
+            bound = d.kernel
+            if bound is None:
+                bound = d.kernel = bind(kernel, args(ws, d, DYN, DYN, tau, zdot))
+            bound(v, z)
+        else:
+            kernel(*args(ws, d, v, z, tau, zdot))
 
     def _fused_args(self, ws, d, v, z, tau, zdot):
         f, fk = self._fused, ws.fk

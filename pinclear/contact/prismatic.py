@@ -29,8 +29,6 @@ from types import MappingProxyType
 
 import numpy as np
 
-from pinclear._bind import DYN, bind
-
 from . import _kernels
 from .base import ClearanceData, ClearanceJoint, _readonly
 
@@ -162,14 +160,7 @@ class PrismaticClearance(ClearanceJoint):
         if pf is None:
             return super().add_force(mech, ws, d, t, q, v, z, tau, zdot)
         d.key = d.q_key = None
-        if tau is ws.tau and zdot.base is ws.zdot:
-            # the simulator's call: the kernel is bound once to this workspace's buffers
-            kernel = d.kernel
-            if kernel is None:
-                kernel = d.kernel = bind(_kernels.prismatic_force, self._prismatic_args(ws, d, DYN, DYN, tau, zdot))
-            kernel(v, z)
-        else:
-            _kernels.prismatic_force(*self._prismatic_args(ws, d, v, z, tau, zdot))
+        self._call_kernel(_kernels.prismatic_force, self._prismatic_args, ws, d, v, z, tau, zdot)
         d.loss = zdot[self.nc]
 
     def _prismatic_args(self, ws, d, v, z, tau, zdot):

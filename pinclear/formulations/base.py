@@ -69,10 +69,11 @@ class Formulation(abc.ABC):
         self._last_finite = True
 
     # -------------------------------------------------------------- shared pieces
-    def applied(self, t, q, v, z):
-        """Kinematics pass and applied forces into ws.tau; fills ws.zdot for internal states."""
+    def applied(self, t, q, v, z, mass=True):
+        """Kinematics pass and applied forces into ws.tau; fills ws.zdot for internal states
+        (``mass=False``: data.M already holds the mass matrix at q, see kinematics.update)."""
         mech, ws = self.mech, self.ws
-        kinematics.update(mech, ws, q, v)
+        kinematics.update(mech, ws, q, v, mass)
         if mech.forces:                   # tau stays zero otherwise
             apply_forces(mech, ws, t, q, v, z)
 

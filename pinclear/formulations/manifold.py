@@ -125,8 +125,8 @@ class Manifold(Formulation):
             self._nonfinite = not np.isfinite(a.sum())
             return a
         q1, v1 = self._project(t, q, v, self._stage_exact)
-        # the dynamics pass at the projected state; M is unchanged (same q1), its factor is kept
-        self.applied(t, q1, v1, z)
+        # the dynamics pass at the projected state; _project left M and its factor at q1
+        self.applied(t, q1, v1, z, mass=False)
         code = self._acc(q1, v1, self._values(t, ws.drive_data))
         self._nonfinite = code == -2.0
         return b["a"].copy()
@@ -182,7 +182,6 @@ def qr_pivoted(A, piv, beta, rcond):
 def min_norm_solve(A, piv, beta, k, r, x, lam):
     """From qr_pivoted of A = B^T: x = B^+ r (minimum norm; r's rows beyond the rank dropped)
     and, when lam has entries, lam = (B B^T)^+ r with B^T lam = x."""
-    n = A.shape[0]
     z = np.zeros(k)
     for j in range(k):                       # R^T z = P^T r
         s = r[piv[j]]
@@ -192,14 +191,7 @@ def min_norm_solve(A, piv, beta, k, r, x, lam):
     x[:] = 0.0
     for j in range(k):
         x[j] = z[j]
-    for j in range(k - 1, -1, -1):           # x = Q (z, 0)
-        s = x[j]
-        for i in range(j + 1, n):
-            s += A[i, j] * x[i]
-        s *= beta[j]
-        x[j] -= s
-        for i in range(j + 1, n):
-            x[i] -= s * A[i, j]
+    _apply_q(A, beta, k, x)                  # x = Q (z, 0)
     if lam.shape[0] > 0:
         lam[:] = 0.0
         for j in range(k - 1, -1, -1):       # R lam_p = z
@@ -263,25 +255,37 @@ def _filtered_normal(Y, V, g, r, x):
 def _project_out_rows(Qr, piv, hb, k, x):
     """x <- (I - Q Q^T) x: removes from x its part in the range of B^T (pivoted QR of B^T in
     Qr). A projector, computed without dividing by B's singular values."""
-    n = Qr.shape[0]
-    for j in range(k):                       # x <- Q^T x (reflectors in order)
-        s = x[j]
-        for i in range(j + 1, n):
-            s += Qr[i, j] * x[i]
-        s *= hb[j]
-        x[j] -= s
-        for i in range(j + 1, n):
-            x[i] -= s * Qr[i, j]
+    _apply_qt(Qr, hb, k, x)
     for j in range(k):
         x[j] = 0.0
-    for j in range(k - 1, -1, -1):           # x <- Q x
-        s = x[j]
-        for i in range(j + 1, n):
-            s += Qr[i, j] * x[i]
-        s *= hb[j]
-        x[j] -= s
-        for i in range(j + 1, n):
-            x[i] -= s * Qr[i, j]
+    _apply_q(Qr, hb, k, x)
+
+
+@njit(cache=True)
+def _reflect(Qr, hb, j, x):
+    """x <- H_j x, H_j = I - hb[j] u u^T with u = (1, Qr[j+1:, j]) below row j."""
+    n = Qr.shape[0]
+    s = x[j]
+    for i in range(j + 1, n):
+        s += Qr[i, j] * x[i]
+    s *= hb[j]
+    x[j] -= s
+    for i in range(j + 1, n):
+        x[i] -= s * Qr[i, j]
+
+
+@njit(cache=True)
+def _apply_qt(Qr, hb, k, x):
+    """x <- Q^T x for the first k reflectors of qr_pivoted (applied in order)."""
+    for j in range(k):
+        _reflect(Qr, hb, j, x)
+
+
+@njit(cache=True)
+def _apply_q(Qr, hb, k, x):
+    """x <- Q x (the reflectors in reverse order)."""
+    for j in range(k - 1, -1, -1):
+        _reflect(Qr, hb, j, x)
 
 
 @njit(cache=True)
@@ -369,13 +373,16 @@ def projected_accelerations(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, 
         r[rr] = s
     xs = np.empty(nv)
     min_norm_solve(Qr, piv, hb, kk[0], r, xs, lam)
+    c = np.empty(m)                            # V^T gamma
+    for i in range(m):
+        s = 0.0
+        for j in range(m):
+            s += Vs[j, i] * gamma[j]
+        c[i] = s
     for rr in range(m):
         s = 0.0
         for i in range(m):
-            c = 0.0
-            for j in range(m):
-                c += Vs[j, i] * gamma[j]
-            s += Vs[rr, i] * g[i] * c
+            s += Vs[rr, i] * g[i] * c[i]
         lam[rr] += s
     _project_out_rows(Qr, piv, hb, kk[0], a)
     corr = np.empty(nv)
