@@ -44,7 +44,7 @@ def _add_model_args(p, file_required=True):
 
 #: the simulate options recorded in OUT/run.json, so that --resume OUT repeats the same run
 RUN_KEYS = ("file", "clearance", "set", "option", "trust", "t_end", "method", "integrator", "rtol", "atol", "h",
-            "max_step", "dt_out", "alpha", "beta", "max_cpu")
+            "max_step", "dt_out", "alpha", "beta", "max_cpu", "min_mean_step")
 
 
 def _check_out_dir(out: Path):
@@ -157,7 +157,8 @@ def cmd_simulate(args):
         try:
             traj = simulate(mech, args.t_end, method=args.method, integrator=args.integrator, rtol=args.rtol,
                             atol=args.atol, h=args.h, dt_out=args.dt_out, max_step=max_step, max_cpu=args.max_cpu,
-                            progress=progress, checkpoint=save_checkpoint, checkpoint_every=args.checkpoint_every,
+                            min_mean_step=args.min_mean_step, progress=progress, checkpoint=save_checkpoint,
+                            checkpoint_every=args.checkpoint_every,
                             resume=resume, **kw)
         finally:
             if bar is not None:
@@ -318,6 +319,9 @@ def build_parser():
     s.add_argument("--beta", type=float, default=None, help="Baumgarte beta [1/s]")
     s.add_argument("--out", default="out")
     s.add_argument("--max-cpu", type=float, default=None, help="CPU budget [s]: the run ends as failed, samples kept")
+    s.add_argument("--min-mean-step", type=float, default=None, metavar="SECONDS",
+                   help="stall test: the run fails as a step-size collapse when its last 1000 steps average less "
+                        "(default 1e-9 of the run's span; 0: off)")
     s.add_argument("--checkpoint-every", type=float, default=None, metavar="SECONDS",
                    help="write OUT/checkpoint.npz every SECONDS of CPU, so a killed run can be resumed")
     s.add_argument("--resume", default=None, metavar="DIR",

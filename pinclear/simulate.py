@@ -29,6 +29,10 @@ RTOL_DEFAULT = 1e-8
 
 #: largest number of output samples a run may ask for (each keeps q, v, a, multipliers, outputs)
 MAX_SAMPLES = 2_000_000
+#: stall test of adaptive runs: the window of accepted steps whose mean step is compared with
+#: ``min_mean_step`` (default STALL_FRACTION of the run's span)
+STALL_STEPS = 1000
+STALL_FRACTION = 1e-9
 
 class OdeSystem:
     """The ODE right-hand side over the state x = [qc, v, z] for a formulation."""
@@ -171,16 +175,22 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True):
 def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAULT, atol=None, t_eval=None,
              dt_out=None, q0=None, v0=None, t0=0.0, max_step=np.inf, h=None, first_step=None,
              assemble=True, strict=False, max_cpu=None, progress=None, checkpoint=None,
-             checkpoint_every=None, resume=None, **method_options) -> Trajectory:
+             checkpoint_every=None, resume=None, min_mean_step=None, **method_options) -> Trajectory:
     """Integrate the forward dynamics of ``mech`` from t0 to t_end; return a Trajectory.
 
-    method: lagrange | projection | pinocchio | proximal (see pinclear.formulations).
+    method: lagrange | projection | pinocchio | proximal | manifold (see pinclear.formulations).
     integrator: RK45 | DOP853 | Radau | BDF | LSODA | RK4 (fixed step h).
     Output at t_eval, or every dt_out (default 500 intervals). A failure (step-size collapse,
     rank loss, non-finite state, an exception in a user function, max_cpu exceeded) ends the run
     with status 'failed', a message saying when and why, and every sample computed so far;
     KeyboardInterrupt (SIGINT) ends it as 'interrupted', samples kept. strict=True raises
     IntegrationError instead (the trajectory attached).
+
+    min_mean_step: an adaptive run whose last STALL_STEPS (1000) accepted steps average less than
+    this (default 1e-9 of t_end - t0; 0 turns the test off) fails as a step-size collapse. SciPy
+    stops only at steps of ~1e-15 t, so a run whose steps shrink onto a configuration they cannot
+    pass (a singular passage, a contact law the tolerance cannot resolve) would otherwise grind
+    on for hours with steps of 1e-11 s.
 
     progress: callable(t) after every accepted step. checkpoint: callable(Checkpoint) every
     ``checkpoint_every`` CPU seconds and when the run ends early; ``resume`` (a Checkpoint)
@@ -190,6 +200,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     if atol is None:
         atol = rtol * 1e-2 if rtol is not None else None
     _check_inputs(t_end, t0, rtol, atol, integ, h, max_step, first_step, t_eval, dt_out)
+    if min_mean_step is not None and not (np.isfinite(min_mean_step) and min_mean_step >= 0):
+        raise InputError(f"min_mean_step must be a number of seconds >= 0 (0: no stall test), got {min_mean_step!r}",
+                         key="min_mean_step")
     Form = formulations.get(method)
     form = Form(mech, **method_options)
     if form.supports_projection and not integ.corrects_state:
@@ -291,6 +304,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
                               samples=list(samples), stats=dict(stats, events=list(stats["events"]))))
 
     status, message = "success", "reached t_end"
+    h_stall = (STALL_FRACTION * (t_end - t0) if min_mean_step is None else float(min_mean_step)) if integ.adaptive else 0.0
+    t_ring, n_acc = np.empty(STALL_STEPS), 0      # solver.t after the last STALL_STEPS accepted steps
     last_ckpt = time.process_time()
     stats["setup_cpu_s"] = last_ckpt - cpu0       # assembly, rank analysis, buffers (not integration)
     try:
@@ -389,6 +404,16 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
                 message = f"stopped at t = {solver.t:.9g} s: CPU budget max_cpu = {max_cpu} s exhausted"
                 save_checkpoint()
                 break
+            k = n_acc % STALL_STEPS
+            if n_acc >= STALL_STEPS and t_new - t_ring[k] < STALL_STEPS * h_stall and solver.status == "running":
+                status = "failed"
+                message = (f"integrator {integrator} stalled at t = {t_new:.9g} s: its last {STALL_STEPS} steps "
+                           f"advanced t by {t_new - t_ring[k]:.3g} s (mean step below min_mean_step = {h_stall:.3g} s; "
+                           "step-size collapse: a singular configuration or a contact the tolerance cannot resolve; "
+                           "try another method, a looser rtol, or Radau/BDF for stiff contact)")
+                save_checkpoint()
+                break
+            t_ring[k], n_acc = t_new, n_acc + 1
     except KeyboardInterrupt:
         status = "interrupted"
         save_checkpoint()

@@ -211,6 +211,27 @@ def test_5_user_function_faults_keep_samples(tmp_path, monkeypatch, fn, words):
     assert np.all(np.isfinite(tr.q))
 
 
+def test_5_a_stalled_run_fails_as_a_step_size_collapse():
+    """The stall test: once the last 1000 accepted steps average less than min_mean_step the run
+    fails as a step-size collapse at that step, samples and a checkpoint kept. A threshold of
+    three times the free run's mean step must fire at the 1001st accepted step, the same step
+    (same time, bitwise) as in the free run, whose steps are identical up to there."""
+    mech = pinclear.load("four_bar")
+    ts = []
+    free = pinclear.simulate(mech, 5.0, rtol=1e-10, dt_out=0.01, progress=lambda t: ts.append(t) and False)
+    assert free.status == "success" and len(ts) > 1500
+    ckpts = []
+    with pytest.warns(RuntimeWarning, match="stalled"):
+        tr = pinclear.simulate(mech, 5.0, rtol=1e-10, dt_out=0.01, min_mean_step=3 * 5.0 / len(ts),
+                               checkpoint=ckpts.append)
+    assert tr.status == "failed" and "step-size collapse" in tr.message
+    assert f"t = {ts[1000]:.9g} s" in tr.message and tr.stats["steps"] == 1001
+    assert np.array_equal(tr.q, free.q[: len(tr.t)]) and tr.t[-1] <= ts[1000] < tr.t[-1] + 0.01
+    assert ckpts and ckpts[-1].t == ts[1000]
+    with pytest.raises(pinclear.InputError, match="min_mean_step"):
+        pinclear.simulate(mech, 1.0, min_mean_step=-1.0)
+
+
 def test_5_rk4_overflow_is_a_failed_run():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -322,6 +343,17 @@ def test_7_cpu_budget_on_the_command_line(tmp_path, capsys):
     assert code == 1 and "max_cpu" in err
     assert time.process_time() - t0 < 30
     assert pinclear.Trajectory.load(tmp_path / "trajectory.npz").status == "failed"
+
+
+def test_7_stall_test_on_the_command_line(tmp_path, capsys):
+    """--min-mean-step reaches simulate and is recorded for --resume: a 5 s four-bar run at rtol
+    1e-10 takes ~2000 steps of ~2.6 ms, so a 1 s threshold stops it at its 1001st step."""
+    code, out, err = _cli(["simulate", "four_bar", "--t-end", "5", "--rtol", "1e-10", "--min-mean-step", "1",
+                           "--progress", "off", "--out", str(tmp_path)], capsys)
+    assert code == 1 and "step-size collapse" in err
+    tr = pinclear.Trajectory.load(tmp_path / "trajectory.npz")
+    assert tr.status == "failed" and tr.stats["steps"] == 1001 and 0.5 < tr.t[-1] < 5.0
+    assert json.loads((tmp_path / "run.json").read_text())["min_mean_step"] == 1.0
 
 
 def test_cli_never_prints_a_traceback_for_an_unforeseen_error(capsys, monkeypatch):
