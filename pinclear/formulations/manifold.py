@@ -12,6 +12,9 @@ formulation"). At every evaluation, from the stage state (q, v):
 3. a = L^-1 ((I - Q Q^T) y + B^T g(S) gamma), y = L^-T (tau - nle), gamma = -(dJ v1) v1 at
    (q1, v1), Q an orthonormal basis of range(B^T) (the same pivoted QR, truncated at pivots
    below ``rcond_v``). Where g(S) = S^-1 this is the exact a = L^-1 (y + B^+ (gamma - B y)).
+4. near flat (smallest kept pivot below ``tangent`` times the largest), range(Q) is made
+   orthogonal to x = L v1 first: exact arithmetic has x orthogonal to range(B^T) already, so
+   this only replaces round-off (below).
 
 Why (the study is in the doc): near a flat configuration one singular value sigma of B falls
 like the crank angle eps. At a stage state d off the manifold the exact multipliers turn the
@@ -23,8 +26,12 @@ rtol 1e-10. Hence the split in 3: the reaction to the applied forces (Q Q^T y, a
 exact at any eps and is what keeps the motion on its branch; the tangential acceleration
 u^T M a = u^T (tau - nle) does not depend on the filter at all (u^T J^T = 0); only the
 velocity-squared part and, at the stages, the velocity projection are filtered, which bounds
-their round-off. After every accepted step the state is projected with the exact velocity
-projection (``project``)."""
+their round-off. That leaves the direction of the vanishing normal itself, known only to
+1e-16 / sigma^2 at q1, so (I - Q Q^T) y leaked up to 1e-4 of gravity into the tangent near flat
+and collapsed the step size on A02 N = 10 (docs/singular_passages.md). The velocity carries the
+branch (it is O(1) away from the other branch's tangent, the position is not): step 4 takes the
+tangential equation x^T L a = x^T y from it. After every accepted step the state is projected
+with the exact velocity projection (``project``)."""
 from __future__ import annotations
 
 import numpy as np
@@ -40,7 +47,7 @@ from .base import Formulation
 
 class Manifold(Formulation):
     name = "manifold"
-    options = {"tol": 1e-12, "max_iter": 10, "rcond": 1e-13, "rcond_v": 1e-8, "mu": 1e-2}
+    options = {"tol": 1e-12, "max_iter": 10, "rcond": 1e-13, "rcond_v": 1e-8, "mu": 1e-2, "tangent": 1e-3}
     supports_projection = True
     # accelerations() leaves the pass of the projected state in ws.data, not the one of (q, v)
     fills_workspace = False
@@ -51,6 +58,9 @@ class Manifold(Formulation):
             if not (np.isfinite(self.opts[key]) and self.opts[key] > 0):
                 raise InputError(f"method 'manifold': option {key!r} must be a positive number, "
                                  f"got {self.opts[key]!r}", key=key)
+        if not (np.isfinite(self.opts["tangent"]) and 0.0 <= self.opts["tangent"] < 1.0):
+            raise InputError(f"method 'manifold': option 'tangent' must be a number in [0, 1) (a relative pivot; "
+                             f"0: off), got {self.opts['tangent']!r}", key="tangent")
         nv, m = mech.nv, mech.m
         ws = self.ws
         if int(self.opts["max_iter"]) != self.opts["max_iter"] or self.opts["max_iter"] < 1:
@@ -74,7 +84,7 @@ class Manifold(Formulation):
                                                            b["Qr"], b["piv"], b["hb"], b["kk"], DYN, b["v1"]))
         self._acc = bind(projected_accelerations, self._rows + (DYN, DYN, DYN, ws.tau, ws.data.nle, ws.parent, b["L"],
                                                                b["Y"], b["Fr"], b["Fi"], b["Qr"], b["piv"], b["hb"],
-                                                               b["kk"], ws.lam, b["a"]))
+                                                               b["kk"], float(o["tangent"]), ws.lam, b["a"]))
         self._values = mech.driverows.values
         # stages: filtered velocity projection (see the module doc); after steps: exact
         self._stage_exact = 0
@@ -318,6 +328,34 @@ def _apply_q(Qr, hb, k, x):
 
 
 @njit(cache=True)
+def _lv(Lm, parent, v, x):
+    """x = L v for M = L^T L, L upper-triangular in the tree pattern: (L v)_k sums over k and its
+    ancestors."""
+    for c in range(v.shape[0]):
+        s = Lm[c, c] * v[c]
+        i = parent[c]
+        while i >= 0:
+            s += Lm[c, i] * v[i]
+            i = parent[i]
+        x[c] = s
+
+
+@njit(cache=True)
+def _unit_lv(Lm, parent, v, x):
+    """x = L v / |L v| (the velocity in the coordinates where B = J L^-1 lives); False if v = 0."""
+    _lv(Lm, parent, v, x)
+    n = 0.0
+    for c in range(x.shape[0]):
+        n += x[c] * x[c]
+    if not n > 0.0:
+        return False
+    n = np.sqrt(n)
+    for c in range(x.shape[0]):
+        x[c] /= n
+    return True
+
+
+@njit(cache=True)
 def velocity_projection(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc, bias,
                         dphi, gamma, alpha, beta, q, v, fdrv, M, parent, rows, mu, rcond, Lm, Y, S, Fr, Fi, Qr, piv,
                         hb, kk, exact, v1):
@@ -337,14 +375,7 @@ def velocity_projection(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, 
             Qr[c, r] = Y[r, c]
     k = qr_pivoted(Qr, piv, hb, rcond)
     kk[0] = k
-    # x = L v, with L upper-triangular in the tree pattern: (L v)_k = sum over k and its ancestors
-    for c in range(nv):
-        s = Lm[c, c] * v[c]
-        i = parent[c]
-        while i >= 0:
-            s += Lm[c, i] * v[i]
-            i = parent[i]
-        v1[c] = s
+    _lv(Lm, parent, v, v1)                   # x = L v
     pt = np.empty(m)
     if exact:
         _project_out_rows(Qr, piv, hb, k, v1)
@@ -378,7 +409,7 @@ def velocity_projection(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, 
 @njit(cache=True)
 def projected_accelerations(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V, W, A, Al, phi, Jc,
                             bias, dphi, gamma, alpha, beta, q, v, fdrv, tau, nle, parent, Lm, Y, Fr, Fi, Qr, piv, hb,
-                            kk, lam, a):
+                            kk, wtan, lam, a):
     """Accelerations at a state on the manifold (pass at (q, v) done; L, B = Y, B^T's QR and the
     factor of S + i mu^2 I from velocity_projection at q):
         y = L^-T (tau - nle),   a = L^-1 ((I - Q Q^T) y + B^T g(S) gamma).
@@ -406,7 +437,30 @@ def projected_accelerations(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, 
     filtered_solve(Fr, Fi, gamma, w)
     for rr in range(m):
         lam[rr] += w[rr]
-    _project_out_rows(Qr, piv, hb, kk[0], a)
+    k = kk[0]
+    xt = np.empty(nv)
+    along = k > 0 and abs(Qr[k - 1, k - 1]) < wtan * abs(Qr[0, 0]) and _unit_lv(Lm, parent, v, xt)
+    if along:
+        xy = 0.0                               # x^T y before y's normal part is removed
+        for c in range(nv):
+            xy += xt[c] * a[c]
+        wt = xt.copy()
+        _project_out_rows(Qr, piv, hb, k, wt)  # w = (I - Q Q^T) x
+        ww = 0.0
+        for c in range(nv):
+            ww += wt[c] * wt[c]
+        along = ww > 0.5                       # x mostly tangent (else the velocity is not a guide)
+    _project_out_rows(Qr, piv, hb, k, a)
+    if along:
+        # range(Q) made orthogonal to x: z - w (w^T z) / |w|^2 + x (x^T y). A no-op in exact
+        # arithmetic, where x is orthogonal to range(B^T); near flat it replaces the round-off
+        # of the vanishing normal along the velocity (~1e-16 / sigma^2) by x^T y exactly
+        wz = 0.0
+        for c in range(nv):
+            wz += wt[c] * a[c]
+        wz /= ww
+        for c in range(nv):
+            a[c] += xy * xt[c] - wz * wt[c]
     corr = np.empty(nv)
     _filtered_normal(Y, Fr, Fi, gamma, corr)
     for c in range(nv):
