@@ -173,12 +173,26 @@ def test_parallelogram_meets_its_branch_on_every_start(parallelogram, parallelog
 
 
 # ---------------------------------------------------------------------------- A02
+def _a02_start(mech, j):
+    return mech.q0 + j * 4e-16 * (-1.0) ** np.arange(mech.nq)
+
+
+def _assert_a02_targets(mech, n, traj):
+    """The issue's targets over A02's 10 s: >= 10 flat passages, error 1e-7 against the closed
+    form, drift 1e-8, closure 1e-10; and the branch (cranks parallel) to 1e-10."""
+    assert traj.status == "success" and traj.t[-1] == pytest.approx(10.0)
+    th = a02_cranks(mech, n, traj)
+    ref = a02_branch(n, traj.t).y[0]
+    assert flat_passages(th[:, 0]) == flat_passages(ref) >= 10
+    np.testing.assert_allclose(th[:, 0], ref, rtol=0, atol=1e-7)
+    assert energy_drift(mech, traj) < 1e-8
+    assert traj.residual.max() < 1e-10 and np.abs(th - th[:, :1]).max() < 1e-10
+
+
 @pytest.fixture(scope="module")
 def a02_2_runs():
     mech = pinclear.load(B.a02_name(2))
-    runs = [_simulate(mech, 10.0, rtol=1e-10, dt_out=0.01, q0=mech.q0 + j * 4e-16 * (-1.0) ** np.arange(mech.nq))
-            for j in STARTS]
-    return mech, runs
+    return mech, [_simulate(mech, 10.0, rtol=1e-10, dt_out=0.01, q0=_a02_start(mech, j)) for j in STARTS]
 
 
 def test_a02_n2_meets_the_issue_targets_on_every_start(a02_2_runs):
@@ -187,14 +201,7 @@ def test_a02_n2_meets_the_issue_targets_on_every_start(a02_2_runs):
     1e-8, closure 1e-10), branch 1e-10; the starts agree to 1e-7."""
     mech, runs = a02_2_runs
     for traj in runs:
-        assert traj.status == "success" and traj.t[-1] == pytest.approx(10.0)
-        th = a02_cranks(mech, 2, traj)
-        ref = a02_branch(2, traj.t).y[0]
-        assert flat_passages(th[:, 0]) == flat_passages(ref) >= 10
-        np.testing.assert_allclose(th[:, 0], ref, rtol=0, atol=1e-7)
-        assert energy_drift(mech, traj) < 1e-8
-        assert traj.residual.max() < 1e-10
-        assert np.abs(th - th[:, :1]).max() < 1e-10
+        _assert_a02_targets(mech, 2, traj)
     for traj in runs[1:]:
         np.testing.assert_allclose(traj.q, runs[0].q, rtol=0, atol=1e-7)
 
@@ -218,15 +225,8 @@ def test_a02_n10_meets_the_issue_targets_on_every_start():
     the four starts collapsed the step size at the first flat passage (next test)."""
     mech = pinclear.load(B.a02_name(10))
     for j in STARTS:
-        traj = _simulate(mech, 10.0, rtol=1e-10, dt_out=0.01, max_cpu=120.0,
-                         q0=mech.q0 + j * 4e-16 * (-1.0) ** np.arange(mech.nq))
-        assert traj.status == "success" and traj.t[-1] == pytest.approx(10.0)
-        th = a02_cranks(mech, 10, traj)
-        ref = a02_branch(10, traj.t).y[0]
-        assert flat_passages(th[:, 0]) == flat_passages(ref) >= 10
-        np.testing.assert_allclose(th[:, 0], ref, rtol=0, atol=1e-7)
-        assert energy_drift(mech, traj) < 1e-8
-        assert traj.residual.max() < 1e-10 and np.abs(th - th[:, :1]).max() < 1e-10
+        _assert_a02_targets(mech, 10, _simulate(mech, 10.0, rtol=1e-10, dt_out=0.01, max_cpu=120.0,
+                                                q0=_a02_start(mech, j)))
 
 
 def test_a02_n10_without_the_tangent_keeps_the_branch_or_ends_as_a_named_collapse():
@@ -237,8 +237,7 @@ def test_a02_n10_without_the_tangent_keeps_the_branch_or_ends_as_a_named_collaps
     the rounding lets it pass it must meet the bounds above. Before the stall test a collapsed
     start ran for hours with steps of 1e-11 s."""
     mech = pinclear.load(B.a02_name(10))
-    traj = _simulate(mech, 10.0, rtol=1e-10, dt_out=0.01, max_cpu=120.0, tangent=0.0,
-                     q0=mech.q0 + 4e-16 * (-1.0) ** np.arange(mech.nq))
+    traj = _simulate(mech, 10.0, rtol=1e-10, dt_out=0.01, max_cpu=120.0, tangent=0.0, q0=_a02_start(mech, 1))
     assert "CPU budget" not in traj.message
     th = a02_cranks(mech, 10, traj)
     np.testing.assert_allclose(th[:, 0], a02_branch(10, traj.t).y[0], rtol=0, atol=1e-7)
