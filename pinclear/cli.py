@@ -321,7 +321,7 @@ def build_parser():
     s.add_argument("--max-cpu", type=float, default=None, help="CPU budget [s]: the run ends as failed, samples kept")
     s.add_argument("--min-mean-step", type=float, default=None, metavar="SECONDS",
                    help="stall test: the run fails as a step-size collapse when its last 1000 steps average less "
-                        "(default 1e-9 of the run's span; 0: off)")
+                        "(default 1e-9 of the run's span, at most 1e-8 s; 0: off)")
     s.add_argument("--checkpoint-every", type=float, default=None, metavar="SECONDS",
                    help="write OUT/checkpoint.npz every SECONDS of CPU, so a killed run can be resumed")
     s.add_argument("--resume", default=None, metavar="DIR",

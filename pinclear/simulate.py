@@ -30,9 +30,11 @@ RTOL_DEFAULT = 1e-8
 #: largest number of output samples a run may ask for (each keeps q, v, a, multipliers, outputs)
 MAX_SAMPLES = 2_000_000
 #: stall test of adaptive runs: the window of accepted steps whose mean step is compared with
-#: ``min_mean_step`` (default STALL_FRACTION of the run's span)
+#: ``min_mean_step`` (default STALL_FRACTION of the run's span, at most STALL_MAX seconds, so
+#: that a long run's stiff contacts, resolved with steps of ~1e-6 s, never look like a stall)
 STALL_STEPS = 1000
 STALL_FRACTION = 1e-9
+STALL_MAX = 1e-8
 
 class OdeSystem:
     """The ODE right-hand side over the state x = [qc, v, z] for a formulation."""
@@ -187,7 +189,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     IntegrationError instead (the trajectory attached).
 
     min_mean_step: an adaptive run whose last STALL_STEPS (1000) accepted steps average less than
-    this (default 1e-9 of t_end - t0; 0 turns the test off) fails as a step-size collapse. SciPy
+    this (default 1e-9 of t_end - t0, at most 1e-8 s; 0 turns the test off) fails as a step-size
+    collapse. SciPy
     stops only at steps of ~1e-15 t, so a run whose steps shrink onto a configuration they cannot
     pass (a singular passage, a contact law the tolerance cannot resolve) would otherwise grind
     on for hours with steps of 1e-11 s.
@@ -304,7 +307,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
                               samples=list(samples), stats=dict(stats, events=list(stats["events"]))))
 
     status, message = "success", "reached t_end"
-    h_stall = (STALL_FRACTION * (t_end - t0) if min_mean_step is None else float(min_mean_step)) if integ.adaptive else 0.0
+    h_default = min(STALL_FRACTION * (t_end - t0), STALL_MAX)
+    h_stall = (h_default if min_mean_step is None else float(min_mean_step)) if integ.adaptive else 0.0
     t_ring, n_acc = np.empty(STALL_STEPS), 0      # solver.t after the last STALL_STEPS accepted steps
     last_ckpt = time.process_time()
     stats["setup_cpu_s"] = last_ckpt - cpu0       # assembly, rank analysis, buffers (not integration)
