@@ -36,6 +36,7 @@ STALL_STEPS = 1000
 STALL_FRACTION = 1e-9
 STALL_MAX = 1e-8
 
+
 class OdeSystem:
     """The ODE right-hand side over the state x = [qc, v, z] for a formulation."""
 
@@ -190,10 +191,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
 
     min_mean_step: an adaptive run whose last STALL_STEPS (1000) accepted steps average less than
     this (default 1e-9 of t_end - t0, at most 1e-8 s; 0 turns the test off) fails as a step-size
-    collapse. SciPy
-    stops only at steps of ~1e-15 t, so a run whose steps shrink onto a configuration they cannot
-    pass (a singular passage, a contact law the tolerance cannot resolve) would otherwise grind
-    on for hours with steps of 1e-11 s.
+    collapse. SciPy stops only at steps of ~1e-15 t, so a run whose steps shrink onto a
+    configuration they cannot pass (a singular passage, a contact law the tolerance cannot
+    resolve) would otherwise grind on for hours with steps of 1e-11 s.
 
     progress: callable(t) after every accepted step. checkpoint: callable(Checkpoint) every
     ``checkpoint_every`` CPU seconds and when the run ends early; ``resume`` (a Checkpoint)
