@@ -97,7 +97,7 @@ def clearance_states(mech, el, count, seed, spread):
 
 
 # ------------------------------------------------------------------ shared references of the
-# singular-passage tests (test_benchmark_mechanisms, test_singular_manifold)
+# singular-passage tests (test_benchmark_mechanisms, test_singular_manifold, test_core_fourbar)
 def energy_drift(mech, traj):
     """max |E - E0| / max T over the samples, energies from Pinocchio at the returned states."""
     model, data = mech.model, mech.model.createData()
@@ -121,6 +121,26 @@ def a02_branch(n, t):
     from pinclear.mechanisms import benchmarks as B
     return solve_ivp(B.a02_branch_rhs(n), (0.0, t[-1]), [B.A02_THETA0, B.a02_initial_rate()], method="DOP853",
                      rtol=1e-13, atol=1e-14, t_eval=t)
+
+
+def parallelogram_branch(mech, th0, t_eval, events=None):
+    """The parallelogram scene's branch q = th u, u = (1, -1, 1), from rest at th0: linear in the
+    joints, so Lagrange's equation of the 1-dof reduction is u^T (M(th u) u th'' + nle(th u,
+    th' u)) = 0 with Pinocchio's mass matrix and bias forces, no difference quotient; SciPy
+    DOP853 at rtol 1e-13 (rtol 1e-11 .. 1e-14 agree to 8e-10 over 3 s). Returns solve_ivp's
+    result (y[0] = th; t_events when ``events`` is given)."""
+    from scipy.integrate import solve_ivp
+
+    model, data = mech.model, mech.model.createData()
+    u = np.array([1.0, -1.0, 1.0])
+
+    def f(_, y):
+        M = pin.crba(model, data, y[0] * u)
+        M = np.triu(M) + np.triu(M, 1).T
+        return [y[1], -(u @ pin.nonLinearEffects(model, data, y[0] * u, y[1] * u)) / (u @ M @ u)]
+
+    return solve_ivp(f, (0.0, t_eval[-1]), [th0, 0.0], method="DOP853", rtol=1e-13, atol=1e-15,
+                     t_eval=t_eval, events=events)
 
 
 def flat_passages(th):

@@ -14,7 +14,6 @@ import re
 import numpy as np
 import pinocchio as pin
 import pytest
-from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
 import pinclear
@@ -22,6 +21,8 @@ from pinclear import kinematics
 from pinclear.drives import Drive
 from pinclear.mechanisms import four_bar as fb
 from pinclear.timelaws import Constant, Polynomial
+
+from conftest import parallelogram_branch
 
 
 def _wrap(x):
@@ -125,32 +126,13 @@ def test_redundant_rows_kept_are_reported_as_rank_loss(four_bar_revolute, sim):
 
 # ---------------------------------------------------------------------------- singular
 def _parallelogram_reference(mech, t_eval):
-    """Parallelogram branch q = (th, -th, th): a 1-dof system with kinetic energy
-    I(th) thd^2 / 2, I = u^T M u (u = (1, -1, 1)) and generalized gravity u^T g(q);
-    integrated on its own (Pinocchio's mass matrix and gravity only)."""
-    model = mech.model
-    data = model.createData()
-    u = np.array([1.0, -1.0, 1.0])
-
-    def I(th):
-        M = pin.crba(model, data, th * u)
-        M = np.triu(M) + np.triu(M, 1).T
-        return u @ M @ u
-
-    def f(t, y):
-        th, thd = y
-        h = 1e-6
-        dI = (I(th + h) - I(th - h)) / (2 * h)
-        G = u @ pin.computeGeneralizedGravity(model, data, th * u)
-        return [thd, (-G - 0.5 * dI * thd * thd) / I(th)]
-
+    """The 1-dof pendulum on the parallelogram branch from rest at mech.q0's crank angle
+    (conftest.parallelogram_branch: exact Lagrange equation of the reduction, no difference
+    quotient), with the flat configuration th = 0 as an event."""
     def flat(t, y):
         return y[0]
 
-    q0 = float(mech.q0[0])
-    sol = solve_ivp(f, (0.0, t_eval[-1]), [q0, 0.0], method="DOP853", rtol=1e-12, atol=1e-14,
-                    t_eval=t_eval, events=flat)
-    return sol
+    return parallelogram_branch(mech, float(mech.q0[0]), t_eval, events=flat)
 
 
 @pytest.fixture(scope="module")
@@ -178,10 +160,10 @@ def test_parallelogram_proximal_stays_on_branch(parallelogram, parallelogram_pro
     Tolerance from a convergence and rounding study (DOP853, default rho 1e-4, 3 s, two
     flat passages), the initial state perturbed by k * 4e-16 rad (k = 0, 1, 3, 5) to stand for
     another machine's rounding (docs/singular_passages.md). Crank-angle error against the
-    pendulum, best .. worst start:
+    pendulum (the exact 1-dof equation, conftest.parallelogram_branch), best .. worst start:
 
-        rtol 1e-8: 5.4e-7 .. 1.3e-6   1e-9: 5.8e-8 .. 1.7e-4   1e-10: 5.3e-8 .. 4.5e-7
-        rtol 1e-11: 4.8e-8 .. 4.1e-7
+        rtol 1e-8: 6.7e-7 .. 1.3e-6   1e-9: 1.0e-7 .. 1.7e-4   1e-10: 1.1e-7 .. 4.5e-7
+        rtol 1e-11: 1.0e-7 .. 1.4e-7
 
     The error stops falling with rtol at a few 1e-7: the floor of the regularised passage,
     not of the integrator; where the stages fall inside the regularisation window still moves

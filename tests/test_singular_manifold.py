@@ -4,9 +4,8 @@ IFToMM A02 N-four-bar against closed-form 1-dof references of their parallelogra
 References (none from pinclear's formulations):
 * parallelogram: the branch is q = th u, u = (1, -1, 1), linear in the joints, so Lagrange's
   equation of the 1-dof reduction is u^T (M(th u) u th'' + nle(th u, th' u)) = 0 with
-  Pinocchio's mass matrix and bias forces (no finite differences: the older reference of
-  tests/test_core_fourbar.py differentiates I(th) numerically and is itself only good to
-  ~3e-7 on this near-separatrix swing, see docs/singular_passages.md); SciPy DOP853 at rtol 1e-13;
+  Pinocchio's mass matrix and bias forces (conftest.parallelogram_branch; no finite
+  differences, see docs/singular_passages.md); SciPy DOP853 at rtol 1e-13;
 * A02: the branch pendulum in closed form (pinclear.mechanisms.benchmarks.a02_branch_rhs);
 * energy conservation; the closure residual; the cranks staying parallel (the other branch
   differs by O(1));
@@ -29,14 +28,13 @@ import warnings
 import numpy as np
 import pinocchio as pin
 import pytest
-from scipy.integrate import solve_ivp
 
 import pinclear
 from pinclear import formulations, kinematics
 from pinclear.errors import InputError
 from pinclear.mechanisms import benchmarks as B
 
-from conftest import a02_branch, a02_cranks, energy_drift, flat_passages
+from conftest import a02_branch, a02_cranks, energy_drift, flat_passages, parallelogram_branch
 
 STARTS = (0, 1, 3, 5)          # q0 + j * 4e-16 rad
 U = np.array([1.0, -1.0, 1.0])  # the parallelogram branch direction (crank, coupler, rocker)
@@ -50,18 +48,6 @@ def _simulate(mech, t_end, **kw):
 
 def _wrap(x):
     return np.angle(np.exp(1j * np.asarray(x)))
-
-
-def _parallelogram_branch(mech, th0, t_eval):
-    model, data = mech.model, mech.model.createData()
-
-    def f(_, y):
-        M = pin.crba(model, data, y[0] * U)
-        M = np.triu(M) + np.triu(M, 1).T
-        return [y[1], -(U @ pin.nonLinearEffects(model, data, y[0] * U, y[1] * U)) / (U @ M @ U)]
-
-    return solve_ivp(f, (0.0, t_eval[-1]), [th0, 0.0], method="DOP853", rtol=1e-13, atol=1e-15,
-                     t_eval=t_eval).y[0]
 
 
 # ---------------------------------------------------------------------------- the right-hand side
@@ -110,8 +96,8 @@ def test_shifted_solve_is_the_eigenvalue_filter(m):
     from pinclear.formulations.manifold import filtered_solve, shifted_factor
     rng = np.random.default_rng(m)
     for _ in range(50):
-        U, _r = np.linalg.qr(rng.standard_normal((m, m)))
-        S = (U * 10.0 ** rng.uniform(-14, 2, m)) @ U.T
+        Qm, _r = np.linalg.qr(rng.standard_normal((m, m)))
+        S = (Qm * 10.0 ** rng.uniform(-14, 2, m)) @ Qm.T
         S = 0.5 * (S + S.T)
         mu2 = 1e-4 * np.trace(S) / m
         s, V = np.linalg.eigh(S)
@@ -162,7 +148,7 @@ def test_parallelogram_meets_its_branch_on_every_start(parallelogram, parallelog
         assert traj.status == "success" and traj.t[-1] == pytest.approx(3.0)
         th = traj.q[:, 0]
         assert th.min() < -math.pi < 0.0 < th.max()              # both flat configurations passed
-        ref = _parallelogram_branch(mech, traj.q[0, 0], traj.t)
+        ref = parallelogram_branch(mech, traj.q[0, 0], traj.t).y[0]
         np.testing.assert_allclose(th, ref, rtol=0, atol=1e-7)
         assert energy_drift(mech, traj) < 1e-8
         assert traj.residual.max() < 1e-12
