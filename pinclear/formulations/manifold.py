@@ -118,12 +118,12 @@ class Manifold(Formulation):
         if res == -1.0:
             raise np.linalg.LinAlgError(f"{mech.name}: the mass matrix is not positive definite at "
                                         f"t = {t:.9g} s (check the URDF inertias)")
-        return q, b["v1"].copy()
+        return q, b["v1"].copy(), fdrv
 
     def project(self, t, q, v):
         if self.mech.m == 0:
             return q, v
-        return self._project(t, q, v, 1)
+        return self._project(t, q, v, 1)[:2]
 
     # -------------------------------------------------------------- right-hand side
     def accelerations(self, t, q, v, z):
@@ -134,10 +134,10 @@ class Manifold(Formulation):
             a = np.linalg.solve(np.triu(M) + np.triu(M, 1).T, ws.tau - ws.data.nle)
             self._nonfinite = not np.isfinite(a.sum())
             return a
-        q1, v1 = self._project(t, q, v, self._stage_exact)
+        q1, v1, fdrv = self._project(t, q, v, self._stage_exact)
         # the dynamics pass at the projected state; _project left M and its factor at q1
         self.applied(t, q1, v1, z, mass=False)
-        code = self._acc(q1, v1, self._values(t, ws.drive_data))
+        code = self._acc(q1, v1, fdrv)
         self._nonfinite = code == -2.0
         return b["a"].copy()
 
@@ -438,8 +438,10 @@ def projected_accelerations(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, 
     for rr in range(m):
         lam[rr] += w[rr]
     k = kk[0]
-    xt = np.empty(nv)
-    along = k > 0 and abs(Qr[k - 1, k - 1]) < wtan * abs(Qr[0, 0]) and _unit_lv(Lm, parent, v, xt)
+    along = k > 0 and abs(Qr[k - 1, k - 1]) < wtan * abs(Qr[0, 0])    # near flat only
+    if along:
+        xt = np.empty(nv)
+        along = _unit_lv(Lm, parent, v, xt)
     if along:
         xy = 0.0                               # x^T y before y's normal part is removed
         for c in range(nv):
