@@ -123,26 +123,31 @@ def _kernels_digest() -> bytes:
     return h.digest()
 
 
-def _wrapper(kernel, kinds):
-    src = _source(kernel, kinds)
+def load_generated(src, prefix="bound"):
+    """Import generated source (a compiled wrapper, a mechanism's loop) from the user cache
+    folder, named by a hash of the source and of the kernels it inlines."""
     key = hashlib.sha1(src.encode() + _kernels_digest()).hexdigest()[:20]
     if key in _LOADED:
         return _LOADED[key]
     folder = cache_dir() / "bound"
-    path = folder / f"bound_{key}.py"
+    path = folder / f"{prefix}_{key}.py"
     folder.mkdir(parents=True, exist_ok=True)
     if not path.exists() or path.read_text() != src:
         tmp = path.with_suffix(f".{os.getpid()}.tmp")
         tmp.write_text(src)
         tmp.replace(path)            # atomic: parallel workers may write the same file
-    spec = importlib.util.spec_from_file_location(f"pinclear_bound_{key}", path)
+    spec = importlib.util.spec_from_file_location(f"pinclear_{prefix}_{key}", path)
     module = importlib.util.module_from_spec(spec)
     # registered before it runs: numba's on-disk cache records the module by name and imports
     # it again when it loads the compiled code
     sys.modules[spec.name] = module
     spec.loader.exec_module(module)
-    _LOADED[key] = module.call
-    return module.call
+    _LOADED[key] = module
+    return module
+
+
+def _wrapper(kernel, kinds):
+    return load_generated(_source(kernel, kinds)).call
 
 
 #: marks an argument of :func:`bind` that is passed at every call

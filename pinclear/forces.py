@@ -71,6 +71,11 @@ class ForceElement(abc.ABC):
     def add_force(self, mech, ws, d, t, q, v, z, tau, zdot) -> None:
         """Add the generalized force into ``tau``; write internal-state rates into ``zdot``."""
 
+    def rhs_kernel(self):
+        """(kernel, args) when add_force is one compiled call ``kernel(*args(ws, d, v, z, tau,
+        zdot))`` (the compiled integration loop calls it, pinclear.fastloop); None otherwise."""
+        return None
+
     def potential(self, mech, ws, d, q) -> float:
         return 0.0
 

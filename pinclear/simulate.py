@@ -18,7 +18,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.optimize import brentq
 
-from . import formulations, integrators, kinematics
+from . import fastloop, formulations, integrators, kinematics
 from .errors import InputError, PinclearError, RankLossError
 from .trajectory import Checkpoint, Trajectory
 
@@ -178,7 +178,7 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True):
 def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAULT, atol=None, t_eval=None,
              dt_out=None, q0=None, v0=None, t0=0.0, max_step=np.inf, h=None, first_step=None,
              assemble=True, strict=False, max_cpu=None, progress=None, checkpoint=None,
-             checkpoint_every=None, resume=None, min_mean_step=None, **method_options) -> Trajectory:
+             checkpoint_every=None, resume=None, min_mean_step=None, loop="auto", **method_options) -> Trajectory:
     """Integrate the forward dynamics of ``mech`` from t0 to t_end; return a Trajectory.
 
     method: lagrange | projection | pinocchio | proximal | manifold (see pinclear.formulations).
@@ -195,11 +195,18 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     configuration they cannot pass (a singular passage, a contact law the tolerance cannot
     resolve) would otherwise grind on for hours with steps of 1e-11 s.
 
-    progress: callable(t) after every accepted step. checkpoint: callable(Checkpoint) every
+    loop: "auto" runs the integration in pinclear's compiled loop when the run allows it
+    (pinclear.fastloop: RK45, method lagrange, compiled laws; same steps, same states),
+    "python" always steps from Python. ``stats['loop']`` says which ran and why.
+
+    progress: callable(t) after every accepted step (on the compiled loop: after every chunk of
+    at most fastloop.CHUNK steps). checkpoint: callable(Checkpoint) every
     ``checkpoint_every`` CPU seconds and when the run ends early; ``resume`` (a Checkpoint)
     continues such a run exactly where it stopped (same steps, same samples).
     """
     integ = integrators.get(integrator)
+    if loop not in ("auto", "python"):
+        raise InputError(f"loop must be 'auto' or 'python', got {loop!r}", key="loop", choices=("auto", "python"))
     if atol is None:
         atol = rtol * 1e-2 if rtol is not None else None
     _check_inputs(t_end, t0, rtol, atol, integ, h, max_step, first_step, t_eval, dt_out)
@@ -275,8 +282,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     def make_solver(t_from, x_from, hint=None):
         sysf.strict = True          # a non-finite first evaluation would hang SciPy's step selection
         try:
-            return integ.start(sysf, t_from, x_from, t_end, rtol=rtol, atol=atol, max_step=max_step,
-                               first_step=hint, h=h)
+            return integ.start(sysf if fast is None else fast.fun, t_from, x_from, t_end, rtol=rtol, atol=atol,
+                               max_step=max_step, first_step=hint, h=h)
         finally:
             sysf.strict = False
 
@@ -301,7 +308,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         del stats["events"][ne:]
         if checkpoint is None:
             return
-        stats["rhs_evals"] = nfev0 + sysf.nfev
+        stats["rhs_evals"] = nfev0 + sysf.nfev + (fast.evals if fast is not None else 0)
         stats["cpu_s"] = cpu_prior + time.process_time() - cpu0
         checkpoint(Checkpoint(t0=t0, q=q, v=v, z=z, t=tg, q_now=qg, v_now=vg, z_now=zg, h_next=hg,
                               samples=list(samples), stats=dict(stats, events=list(stats["events"]))))
@@ -309,9 +316,46 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     status, message = "success", "reached t_end"
     h_default = min(STALL_FRACTION * (t_end - t0), STALL_MAX)
     h_stall = (h_default if min_mean_step is None else float(min_mean_step)) if integ.adaptive else 0.0
+    why_python = "asked for (loop='python')" if loop == "python" else fastloop.eligible(form, integrator, sysf)
+    fast, chunk_ts = None, []      # chunk_ts: accepted steps of a compiled chunk not yet reported
+    if not why_python:
+        try:
+            fast = fastloop.build(form, sysf, events, t_eval, h_stall)
+        except Exception as exc:     # a defect of the compiled path must not cost the run
+            why_python = f"the compiled loop could not be built ({type(exc).__name__}: {exc})"
+            warnings.warn(f"pinclear.simulate: {why_python}", RuntimeWarning, stacklevel=2)
+    stats["loop"] = "compiled" if not why_python else f"python: {why_python}"
     t_ring, n_acc = np.empty(STALL_STEPS), 0      # solver.t after the last STALL_STEPS accepted steps
     last_ckpt = time.process_time()
     stats["setup_cpu_s"] = last_ckpt - cpu0       # assembly, rank analysis, buffers (not integration)
+
+    def bookkeeping(times):
+        """After the accepted steps that reached ``times`` (one step, or a compiled chunk):
+        progress, checkpoints, the CPU budget. Returns the failure message when the budget is
+        spent."""
+        nonlocal last_ckpt
+        mark_good(solver)
+        if progress is not None:
+            stop = False
+            for tp in times:
+                stop = progress(tp) or stop
+            if stop and solver.status == "running":
+                raise KeyboardInterrupt     # the caller asked to stop (a signal handler, a GUI)
+        now = time.process_time()
+        if checkpoint_every is not None and now - last_ckpt >= checkpoint_every and solver.status == "running":
+            save_checkpoint()
+            last_ckpt = now
+        if max_cpu is not None and now - cpu0 > max_cpu and solver.status == "running":
+            save_checkpoint()
+            return f"stopped at t = {solver.t:.9g} s: CPU budget max_cpu = {max_cpu} s exhausted"
+        return None
+
+    def stall_message(t_new, t_back):
+        return (f"integrator {integrator} stalled at t = {t_new:.9g} s: its last {STALL_STEPS} steps "
+                f"advanced t by {t_new - t_back:.3g} s (mean step below min_mean_step = {h_stall:.3g} s; "
+                "step-size collapse: a singular configuration or a contact the tolerance cannot resolve; "
+                "try another method, a looser rtol, or Radau/BDF for stiff contact)")
+
     try:
         solver = make_solver(t_start, x, step_hint)
         while out_i < len(t_eval) and t_eval[out_i] <= t_start + 1e-15:
@@ -321,7 +365,36 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         mark_good(solver)
         while solver.status == "running":
             t_old = solver.t
-            msg = solver.step()
+            if fast is not None:
+                n_before = n_acc
+                code, out_j, n_acc, nsteps = fast.advance(solver, out_i, ev_prev, t_ring, n_acc)
+                chunk_ts = t_ring[np.arange(n_before, n_acc) % STALL_STEPS].tolist()
+                samples.extend(fast.sample_rows(out_i, out_j))
+                out_i = out_j
+                if code in (fastloop.QUIET, fastloop.FINISHED, fastloop.STALLED):
+                    stats["steps"] += nsteps
+                    failure = bookkeeping(chunk_ts + ([float(solver.t)] if code == fastloop.STALLED else []))
+                    chunk_ts = []
+                    if failure:
+                        status, message = "failed", failure
+                        break
+                    if code == fastloop.STALLED:
+                        status, message = "failed", stall_message(solver.t, t_ring[n_acc % STALL_STEPS])
+                        save_checkpoint()
+                        break
+                    continue
+                # the chunk's last step (or the next one) needs the simulator's own handling
+                stats["steps"] += nsteps - 1 if code == fastloop.HANDLE else nsteps
+                if code == fastloop.HANDLE:
+                    t_old, msg = solver.t_old, None
+                else:
+                    t_old = solver.t
+                    msg = solver.step()
+                    if fast.stale():        # the step chose other constraint rows
+                        evals, fast = fast.evals, fastloop.build(form, sysf, events, t_eval, h_stall)
+                        fast.evals, solver._rhs = evals, fast.fun
+            else:
+                msg = solver.step()
             if solver.status == "failed":
                 if sysf.rank_loss is not None:      # the steps shrank onto a singular configuration
                     raise sysf.rank_loss
@@ -396,25 +469,14 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
                 stats["restarts"] += 1
                 if t_restart < t_end:
                     solver = make_solver(t_restart, x_restart, hint)
-            mark_good(solver)
-            if progress is not None and progress(float(solver.t)) and solver.status == "running":
-                raise KeyboardInterrupt     # the caller asked to stop (a signal handler, a GUI)
-            now = time.process_time()
-            if checkpoint_every is not None and now - last_ckpt >= checkpoint_every and solver.status == "running":
-                save_checkpoint()
-                last_ckpt = now
-            if max_cpu is not None and now - cpu0 > max_cpu and solver.status == "running":
-                status = "failed"
-                message = f"stopped at t = {solver.t:.9g} s: CPU budget max_cpu = {max_cpu} s exhausted"
-                save_checkpoint()
+            failure = bookkeeping(chunk_ts + [float(solver.t)])
+            chunk_ts = []
+            if failure:
+                status, message = "failed", failure
                 break
             k = n_acc % STALL_STEPS
             if n_acc >= STALL_STEPS and t_new - t_ring[k] < STALL_STEPS * h_stall and solver.status == "running":
-                status = "failed"
-                message = (f"integrator {integrator} stalled at t = {t_new:.9g} s: its last {STALL_STEPS} steps "
-                           f"advanced t by {t_new - t_ring[k]:.3g} s (mean step below min_mean_step = {h_stall:.3g} s; "
-                           "step-size collapse: a singular configuration or a contact the tolerance cannot resolve; "
-                           "try another method, a looser rtol, or Radau/BDF for stiff contact)")
+                status, message = "failed", stall_message(t_new, t_ring[k])
                 save_checkpoint()
                 break
             t_ring[k], n_acc = t_new, n_acc + 1
@@ -439,7 +501,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     except Exception as exc:  # a user function (drive law, python hook) raised: keep the samples
         status, message = "failed", (f"a function raised {type(exc).__name__} after t = "
                                      f"{_last_t(samples, t0):.9g} s: {exc}")
-    stats["rhs_evals"] = nfev0 + sysf.nfev
+    stats["rhs_evals"] = nfev0 + sysf.nfev + (fast.evals if fast is not None else 0)
     stats["cpu_s"] = cpu_prior + time.process_time() - cpu0
     if form.row_changes:
         stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in form.row_changes]

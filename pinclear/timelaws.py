@@ -207,6 +207,13 @@ class Callable(TimeLaw):
             return None
         return functools.partial(self._into, **self.args) if self.args else self._into
 
+    def compiled_filler(self):
+        """(kernel, args) with kernel(t, *args, out) a compiled function that fills what
+        :meth:`filler` fills (``func.kernel(**args)``, declared next to ``func.into``); None when
+        the function declares none. The compiled integration loop calls it (pinclear.fastloop)."""
+        make = getattr(self.func, "kernel", None)
+        return make(**self.args) if callable(make) else None
+
     def eval(self, t):
         if self.index is not None:
             y, yd, ydd = self.vector(t)

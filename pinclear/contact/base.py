@@ -249,13 +249,18 @@ class ClearanceJoint(ForceElement):
             z[:self.nc] = np.where(d.on, np.abs(d.dd), 0.0)
         return z
 
+    def rhs_kernel(self):
+        """(kernel, args) of the one compiled call that adds this joint's force: kernel(*args(ws,
+        d, v, z, tau, zdot)); None when a law has no compiled form (see _freeze)."""
+        return None if self._fused is None else (_kernels.clearance_force, self._fused_args)
+
     def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
-        f = self._fused
-        if f is not None:
+        k = self.rhs_kernel()
+        if k is not None:
             # the hot path: one compiled call (same kernels as _compute); nothing is cached, so
             # later calls at this state (outputs, events) evaluate afresh through _eval
             d.key = d.q_key = None
-            self._call_kernel(_kernels.clearance_force, self._fused_args, ws, d, v, z, tau, zdot)
+            self._call_kernel(k[0], k[1], ws, d, v, z, tau, zdot)
             d.loss = zdot[self.nc]
             return
         self._eval(ws, d, t, q, v, z)

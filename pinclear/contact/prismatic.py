@@ -155,13 +155,8 @@ class PrismaticClearance(ClearanceJoint):
     def _geometry_params(self):
         return np.array([self.ha, self.hb, 0.5 * self.a, 0.5 * self.b, 0.5 * self.L])
 
-    def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
-        pf = self._pfused
-        if pf is None:
-            return super().add_force(mech, ws, d, t, q, v, z, tau, zdot)
-        d.key = d.q_key = None
-        self._call_kernel(_kernels.prismatic_force, self._prismatic_args, ws, d, v, z, tau, zdot)
-        d.loss = zdot[self.nc]
+    def rhs_kernel(self):
+        return None if self._pfused is None else (_kernels.prismatic_force, self._prismatic_args)
 
     def _prismatic_args(self, ws, d, v, z, tau, zdot):
         pf, fk = self._pfused, ws.fk

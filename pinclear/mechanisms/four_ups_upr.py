@@ -367,12 +367,19 @@ def _limb_lengths_into(t, amp, w, H, bl, base, out):
     _limb_kinematics(R, _mv(R, x[2], 0.0, H + x[3]), VA[0], VA[1], bl, base, out)
 
 
-def _limb_lengths_fill(t, out, law="high", layout="f"):
-    """limb_lengths(t, law, layout) written into out (3, 4) (timelaws.Callable's compiled path)."""
+def _limb_lengths_kernel(law="high", layout="f"):
+    """(kernel, args): kernel(t, *args, out) writes limb_lengths(t, law, layout) into out (3, 4)
+    in compiled code (timelaws.Callable: the drives' compiled path, and the compiled loop)."""
     amp, w = _check_law(law)
+    return _limb_lengths_into, (amp, w, H0, _check_layout(layout), BASE_POINTS)
+
+
+def _limb_lengths_fill(t, out, law="high", layout="f"):
+    """limb_lengths(t, law, layout) written into out (3, 4)."""
+    kernel, args = _limb_lengths_kernel(law, layout)
     if out.shape != (3, 4):
         raise ValueError(f"limb_lengths fills (3, 4) values, got an array of shape {out.shape}")
-    _limb_lengths_into(float(t), amp, w, H0, _check_layout(layout), BASE_POINTS, out)
+    kernel(float(t), *args, out)
 
 
 def limb_lengths(t, law="high", layout="f"):
@@ -385,6 +392,7 @@ def limb_lengths(t, law="high", layout="f"):
 
 
 limb_lengths.into = _limb_lengths_fill
+limb_lengths.kernel = _limb_lengths_kernel
 
 
 def limb_law(t, limb, law="high", layout="f"):

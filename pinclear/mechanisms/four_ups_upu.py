@@ -208,14 +208,22 @@ def _limb_lengths_into(t, offsets, x0, amp, w, out):
         out[0, i], out[1, i], out[2, i] = li, dv / li, (vv + da) / li - dv * dv / li**3
 
 
+def _limb_lengths_kernel():
+    """(kernel, args): kernel(t, *args, out) writes limb_lengths(t) into out (3, 5) in compiled
+    code (timelaws.Callable: the drives' compiled path, and the compiled integration loop)."""
+    return _limb_lengths_into, (_OFFSETS, X0, AMPLITUDE, OMEGA)
+
+
 def _limb_lengths_fill(t, out):
-    """limb_lengths(t) written into out (3, 5): the drives' compiled path (timelaws.Callable)."""
+    """limb_lengths(t) written into out (3, 5)."""
     if out.shape != (3, _OFFSETS.shape[0]):
         raise ValueError(f"limb_lengths fills (3, {_OFFSETS.shape[0]}) values, got an array of shape {out.shape}")
-    _limb_lengths_into(float(t), _OFFSETS, X0, AMPLITUDE, OMEGA, out)
+    kernel, args = _limb_lengths_kernel()
+    kernel(float(t), *args, out)
 
 
 limb_lengths.into = _limb_lengths_fill
+limb_lengths.kernel = _limb_lengths_kernel
 
 
 def limb_law(t, limb):

@@ -308,14 +308,22 @@ def _limb_lengths_at(t, xc, yc, z0, radius, th0, w, plat_xy, base, out):
     _limb_lengths_into(_circle(t, xc, yc, z0, radius, th0, w), plat_xy, base, out)
 
 
+def _limb_lengths_kernel():
+    """(kernel, args): kernel(t, *args, out) writes limb_lengths(t) into out (3, 3) in compiled
+    code (timelaws.Callable: the drives' compiled path, and the compiled integration loop)."""
+    return _limb_lengths_at, (XC, YC, Z0, RADIUS, THETA0, OMEGA, _PLATFORM_XY, _BASE)
+
+
 def _limb_lengths_fill(t, out):
-    """limb_lengths(t) written into out (3, 3): the drives' compiled path (timelaws.Callable)."""
+    """limb_lengths(t) written into out (3, 3)."""
     if out.shape != (3, _BASE.shape[0]):
         raise ValueError(f"limb_lengths fills (3, {_BASE.shape[0]}) values, got an array of shape {out.shape}")
-    _limb_lengths_at(float(t), XC, YC, Z0, RADIUS, THETA0, OMEGA, _PLATFORM_XY, _BASE, out)
+    kernel, args = _limb_lengths_kernel()
+    kernel(float(t), *args, out)
 
 
 limb_lengths.into = _limb_lengths_fill
+limb_lengths.kernel = _limb_lengths_kernel
 
 
 def limb_law(t, limb):
