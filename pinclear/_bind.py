@@ -70,6 +70,7 @@ def _kind(x):
     return None
 
 
+@functools.lru_cache(maxsize=None)
 def _source(kernel, kinds):
     """The wrapper module: views of the bound buffers from the address table P (address, then
     the shape), floats from F, ints from I, then the kernel call with the dynamic arguments
@@ -147,7 +148,7 @@ def load_generated(src, prefix="bound"):
 
 
 def _wrapper(kernel, kinds):
-    return load_generated(_source(kernel, kinds)).call
+    return load_generated(_source(kernel, tuple(kinds))).call
 
 
 #: marks an argument of :func:`bind` that is passed at every call

@@ -244,12 +244,17 @@ def pinocchio_floor(mech, q, v, repeat=3):
     return _best_mean(go, repeat) / len(q)
 
 
-def bench_runs(files=None, t_end=0.5, rtol=1e-6, integrator="RK45", max_cpu=120.0, progress=None):
+def _integration_cpu(tr):
+    return tr.stats["cpu_s"] - tr.stats["setup_cpu_s"]
+
+
+def bench_runs(files=None, t_end=0.5, rtol=1e-6, integrator="RK45", max_cpu=120.0, progress=None, repeat=5):
     """Simulate every scene for ``t_end`` simulated seconds (RK45, rtol 1e-6: the clearance
     default) and report per scene: CPU s per simulated s, set-up CPU, right-hand-side evaluations,
     steps, us per evaluation inside the run (the integration's CPU over evaluations: integrator,
     events and output sampling included, set-up not) and its ratio over the Pinocchio floor
-    measured at the run's own samples in the same process."""
+    measured at the run's own samples in the same process. Each scene's figures come from the best
+    of ``repeat`` runs, fewer once they used a CPU second; ``loop`` says which integration loop ran."""
     import warnings
 
     from .sidecar import load
@@ -263,12 +268,21 @@ def bench_runs(files=None, t_end=0.5, rtol=1e-6, integrator="RK45", max_cpu=120.
             warnings.simplefilter("ignore")
             # warm-up: compiled kernels load from the cache (or compile) on a scene's first run
             simulate(mech, min(t_end, 1e-3), rtol=rtol, integrator=integrator, max_cpu=max_cpu)
-            tr = simulate(mech, t_end, rtol=rtol, integrator=integrator, max_cpu=max_cpu, dt_out=t_end / 100)
+            # best of up to `repeat` runs (while they took under a CPU second together): a short
+            # run's few hundred microseconds are at the mercy of the machine's other work
+            tr, spent = None, 0.0
+            for _ in range(repeat):
+                run = simulate(mech, t_end, rtol=rtol, integrator=integrator, max_cpu=max_cpu, dt_out=t_end / 100)
+                spent += run.stats["cpu_s_total"]
+                if tr is None or _integration_cpu(run) < _integration_cpu(tr):
+                    tr = run
+                if spent > 1.0:
+                    break
         st = tr.stats
         row = {"scene": label, "nv": mech.nv, "closure_rows": mech.compiled.m, "drives": len(mech.drives),
                "clearances": [f.name for f in mech.clearances], "status": tr.status,
                "t_reached": float(tr.t[-1]) if len(tr.t) else 0.0, "cpu_s": st["cpu_s"], "rhs_evals": st["rhs_evals"],
-               "steps": st["steps"], "events": len(st["events"])}
+               "steps": st["steps"], "events": len(st["events"]), "loop": st.get("loop", "")}
         sim_t = max(row["t_reached"], 1e-12)
         row["cpu_per_sim_s"] = st["cpu_s"] / sim_t
         # set-up (assembly, rank analysis, buffers) has its own target; an evaluation's cost
@@ -283,7 +297,8 @@ def bench_runs(files=None, t_end=0.5, rtol=1e-6, integrator="RK45", max_cpu=120.
         if tr.status != "success":
             row["message"] = tr.message
         rows.append(row)
-    return {"t_end": t_end, "rtol": rtol, "integrator": integrator, "max_cpu": max_cpu, "scenes": rows}
+    return {"t_end": t_end, "rtol": rtol, "integrator": integrator, "max_cpu": max_cpu, "repeat": repeat,
+            "scenes": rows}
 
 
 def runs_table(res) -> str:

@@ -8,6 +8,7 @@ same passes through Pinocchio's Python bindings and the integration loop stays i
 """
 from __future__ import annotations
 
+import importlib
 import os
 
 import pinocchio as pin
@@ -20,7 +21,7 @@ if os.environ.get("PINCLEAR_NATIVE", "1") == "0":
     reason = "turned off by PINCLEAR_NATIVE=0"
 else:
     try:
-        from . import _passes as _mod
+        _mod = importlib.import_module("pinclear._passes")
     except ImportError as exc:
         reason = f"the extension pinclear._passes was not built ({exc}); reinstall with a C++ compiler"
     else:

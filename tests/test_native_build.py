@@ -1,0 +1,95 @@
+"""The compiled passes pinclear._passes (pinclear/_cxx/passes.cpp, built by setup.py at install
+time) against Pinocchio's Python bindings.
+
+Both sides run the same library functions (libpinocchio_default) in the same order on a Data of
+the same Model at the same (q, v), so every output must be bit-identical: a wrong model/data
+address, a q/v length mix-up (nq != nv for spherical and free joints), another crba convention or
+a flags bit read the wrong way shows as an exact mismatch."""
+from __future__ import annotations
+
+import ctypes
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import pinclear
+from pinclear import native
+
+FRAMES, MASS = 1, 2          # the flags of pinclear_passes (passes.cpp)
+PASSES_SIG = ctypes.CFUNCTYPE(None, *[ctypes.c_int64] * 5)
+
+
+def _python_sequence(model, data, q, v, flags):
+    """pinclear.kinematics.update's sequence through the Python bindings."""
+    pin.computeJointJacobiansTimeVariation(model, data, q, v)
+    if flags & FRAMES:
+        pin.updateFramePlacements(model, data)
+    if flags & MASS:
+        pin.crba(model, data, q)
+    pin.nonLinearEffects(model, data, q, v)
+
+
+def _oMf(data):
+    return np.array([f.homogeneous for f in data.oMf])
+
+
+@pytest.fixture(scope="module")
+def passes():
+    if not native.available():
+        pytest.skip(native.reason)
+    return PASSES_SIG(native.passes_address())
+
+
+def _model(name):
+    # pinclear's mechanisms all have nq == nv; Pinocchio's sample humanoid has a free-flyer
+    # (quaternion: nq = nv + 1), so a q read with nv entries or a v with nq would differ
+    return pin.buildSampleModelHumanoid() if name == "humanoid" else pinclear.load(name).model
+
+
+@pytest.mark.parametrize("name", ["four_bar", "humanoid"])
+@pytest.mark.parametrize("flags", [FRAMES | MASS, FRAMES, MASS, 0])
+def test_passes_equal_python_bindings(passes, name, flags):
+    model = _model(name)
+    ref, out = model.createData(), model.createData()
+    maddr, daddr = native.addresses(model, out)
+    rng = np.random.default_rng(7)
+    sentinel_M = np.full((model.nv, model.nv), 0.25)
+    for _ in range(3):
+        q = np.ascontiguousarray(pin.integrate(model, pin.neutral(model), rng.standard_normal(model.nv)))
+        v = np.ascontiguousarray(rng.standard_normal(model.nv))
+        # a pass that is skipped must leave its outputs as they were. The C++ crba writes only
+        # the upper-triangle entries of joints on one branch (the bindings' crba zeroes M
+        # first), so with the mass pass M starts at zero, as in a fresh Data
+        out.M[:] = 0.0 if flags & MASS else sentinel_M
+        oMf_before = _oMf(out)
+        _python_sequence(model, ref, q, v, flags)
+        passes(maddr, daddr, q.ctypes.data, v.ctypes.data, flags)
+        assert np.array_equal(out.nle, ref.nle)
+        assert np.array_equal(out.J, ref.J)
+        assert np.array_equal(out.dJ, ref.dJ)
+        assert np.array_equal(np.array([m.homogeneous for m in out.oMi]),
+                              np.array([m.homogeneous for m in ref.oMi]))
+        if flags & MASS:
+            # the bindings' crba also mirrors M into the lower triangle
+            assert np.array_equal(np.triu(out.M), np.triu(ref.M))
+        else:
+            assert np.array_equal(out.M, sentinel_M)
+        if flags & FRAMES:
+            assert np.array_equal(_oMf(out), _oMf(ref))
+        else:
+            assert np.array_equal(_oMf(out), oMf_before)
+
+
+def test_env_switch_turns_native_off():
+    """PINCLEAR_NATIVE=0 falls back whether or not the extension was built, and says why."""
+    env = dict(os.environ, PINCLEAR_NATIVE="0")
+    res = subprocess.run([sys.executable, "-c",
+                          "import pinclear.native as n; print(n.available()); print(n.reason)"],
+                         env=env, capture_output=True, text=True, timeout=120, check=True)
+    available, reason = res.stdout.strip().splitlines()
+    assert available == "False"
+    assert "PINCLEAR_NATIVE" in reason
