@@ -13,17 +13,17 @@ states as on the Python path (tests/test_fastloop.py compares them).
 
 The loop returns to Python every CHUNK steps (progress, checkpoints, the CPU budget), and for any
 step that needs the simulator's own handling: an event crossing, a pivot dip, a non-finite state.
-A stage it cannot take (a non-finite or rank-deficient evaluation, a step below SciPy's minimum)
-is handed back before it changes anything, and Python takes that step through the solver.
+A stage it cannot take (a non-finite or rank-deficient evaluation, constraint rows to choose
+again, a step below SciPy's minimum) is handed back before it changes anything, and Python takes
+that step through the solver.
 
-Eligible runs: method 'lagrange' without dropped rows, integrator 'RK45', Euclidean
+Eligible runs: method 'lagrange', integrator 'RK45', Euclidean
 configurations, trees of 1-dof joints, every force element with a compiled right-hand side and
 compiled events, every drive law compiled. Anything else runs on the Python path;
 ``Trajectory.stats['loop']`` says which path a run took and why.
 """
 from __future__ import annotations
 
-import hashlib
 import math
 
 import numpy as np
@@ -37,7 +37,7 @@ from ._jit import njit
 from .contact._kernels import channel_penetrations
 from .formulations.base import SINGULAR_DIP
 from .formulations.lagrange import RESELECT_DIP
-from .integrators import CompiledRK45, _rk_error_norm, _rk_stage  # noqa: F401 (the loop's)
+from .timelaws import eval_laws
 
 #: accepted steps per compiled call; between calls Python looks at progress, checkpoints and
 #: the CPU budget (a chunk of a clearance run takes well under a millisecond)
@@ -309,7 +309,7 @@ class FastLoop:
         return zip(self.t_eval[i:j].tolist(), X[:, :nq], X[:, nq:nq + nv], X[:, nq + nv:])
 
 
-def eligible(form, integrator, sysf) -> str:
+def eligible(form, integrator) -> str:
     """Why a run cannot take the compiled loop ("" when it can)."""
     mech = form.mech
     if not native.available():
@@ -336,59 +336,49 @@ def eligible(form, integrator, sysf) -> str:
 def build(form, sysf, events, t_eval, h_stall):
     """The FastLoop of this run (the formulation's kernels are bound: call after an evaluation)."""
     mech, ws = form.mech, form.ws
-    comps, calls = [], []       # (parts), the generated call lines
+    comps = []       # (wrapper, P, F, I) of every bound kernel the generated code calls
 
-    def add(fn, dyn):
+    def call(fn, *dyn):
+        """The generated line calling bound kernel ``fn`` with the dynamic arguments ``dyn``."""
         p = _parts(fn)
         if p is None:
             raise RuntimeError("a kernel runs unbound")
         comps.append(p)
         i = len(comps) - 1
-        calls.append((i, dyn))
-        return i
+        return f"    k{i}(T[{3 * i}], T[{3 * i + 1}], T[{3 * i + 2}]{''.join(', ' + a for a in dyn)})"
 
     nq, nv = mech.nq, mech.nv
     lines_rhs = ["    q = x[:NQ]", "    v = x[NQ:NQ + NV]", "    z = x[NQ + NV:]",
                  "    # Pinocchio: computeJointJacobiansTimeVariation, updateFramePlacements, crba, nle",
                  "    call_passes(PS[0], PS[1], PS[2], x.ctypes.data, x.ctypes.data + 8 * NQ, PS[3])"]
-    ip = add(ws.fk._placements, "q")
-    lines_rhs.append(f"    k{ip}(T[{3 * ip}], T[{3 * ip + 1}], T[{3 * ip + 2}], q)")
+    placements = call(ws.fk._placements, "q")
+    lines_rhs.append(placements)
     if mech.forces:
         lines_rhs.append("    tau[:] = 0.0")
     for f, d, sl in zip(mech.forces, ws.force_data, mech.z_slices):
         kernel, args = f.rhs_kernel()
-        fn = bind(kernel, args(ws, d, DYN, DYN, ws.tau, ws.zdot[sl]))
-        i = add(fn, None)
-        lines_rhs.append(f"    k{i}(T[{3 * i}], T[{3 * i + 1}], T[{3 * i + 2}], v, z[{sl.start}:{sl.stop}])")
+        lines_rhs.append(call(bind(kernel, args(ws, d, DYN, DYN, ws.tau, ws.zdot[sl])), "v", f"z[{sl.start}:{sl.stop}]"))
     dr, fdrv = mech.driverows, form._drive_data.f
     for law, _, _, _ in dr.groups:
         kernel, args = law.compiled_filler()
-        i = add(bind(kernel, (DYN,) + tuple(args) + (fdrv,)), None)
-        lines_rhs.append(f"    k{i}(T[{3 * i}], T[{3 * i + 1}], T[{3 * i + 2}], t)")
+        lines_rhs.append(call(bind(kernel, (DYN,) + tuple(args) + (fdrv,)), "t"))
     if dr.law_table is not None:
-        from .timelaws import eval_laws
         lt = dr.law_table
-        i = add(bind(eval_laws, (lt[0], lt[1], lt[2], DYN, lt[3], fdrv)), None)
-        lines_rhs.append(f"    k{i}(T[{3 * i}], T[{3 * i + 1}], T[{3 * i + 2}], t)")
+        lines_rhs.append(call(bind(eval_laws, (lt[0], lt[1], lt[2], DYN, lt[3], fdrv)), "t"))
     if form._bound_rows is not form.rows:
         form._bind()
-    il = add(form._kernel, None)
-    lines_rhs.append(f"    r = k{il}(T[{3 * il}], T[{3 * il + 1}], T[{3 * il + 2}], q, v, fdrv)")
+    lines_rhs.append("    r = " + call(form._kernel, "q", "v", "fdrv").strip())
     lines_rhs += ["    for i in range(NQ):", "        dx[i] = v[i]",
                   "    for i in range(NV):", "        dx[NQ + i] = abuf[i]",
                   "    for i in range(zdot.shape[0]):", "        dx[NQ + NV + i] = zdot[i]",
                   "    return r"]
-    lines_ev = ["    q = y[:NQ]", f"    k{ip}(T[{3 * ip}], T[{3 * ip + 1}], T[{3 * ip + 2}], q)"]
-    g0 = 0
+    lines_ev = ["    q = y[:NQ]", placements]
+    g0, fk = 0, ws.fk
     for fi, f, _ in events:
-        d = ws.force_data[fi]
-        g = f._geom
-        fk = ws.fk
-        i = add(bind(channel_penetrations, (g[0], g[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, d.delta,
-                                              d.n, d.p1, d.p2, f.event_snap)), None)
-        j = add(bind(_copy_into, (d.delta, DYN, g0)), None)
-        lines_ev.append(f"    k{i}(T[{3 * i}], T[{3 * i + 1}], T[{3 * i + 2}])")
-        lines_ev.append(f"    k{j}(T[{3 * j}], T[{3 * j + 1}], T[{3 * j + 2}], g)")
+        d, g = ws.force_data[fi], f._geom
+        lines_ev.append(call(bind(channel_penetrations, (g[0], g[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch,
+                                                         d.delta, d.n, d.p1, d.p2, f.event_snap))))
+        lines_ev.append(call(bind(_copy_into, (d.delta, DYN, g0)), "g"))
         g0 += len(d.delta)
     src = ["# generated by pinclear.fastloop: one mechanism's compiled loop (do not edit)",
            "import math", "import numpy as np", "from pinclear._jit import njit",
@@ -411,10 +401,3 @@ def _copy_into(src, dst, start):
     for i in range(src.shape[0]):
         dst[start + i] = src[i]
 
-
-def digest() -> str:
-    """A short name for the loop's template (part of the generated module's cache key)."""
-    return hashlib.sha1(_LOOP.encode()).hexdigest()[:8]
-
-
-__all__ = ["FastLoop", "build", "eligible", "CHUNK", "CompiledRK45"]

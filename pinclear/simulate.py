@@ -199,8 +199,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     (pinclear.fastloop: RK45, method lagrange, compiled laws; same steps, same states),
     "python" always steps from Python. ``stats['loop']`` says which ran and why.
 
-    progress: callable(t) after every accepted step (on the compiled loop: after every chunk of
-    at most fastloop.CHUNK steps). checkpoint: callable(Checkpoint) every
+    progress: callable(t) for every accepted step (the compiled loop reports the steps of a chunk,
+    at most fastloop.CHUNK, in order after it). checkpoint: callable(Checkpoint) every
     ``checkpoint_every`` CPU seconds and when the run ends early; ``resume`` (a Checkpoint)
     continues such a run exactly where it stopped (same steps, same samples).
     """
@@ -289,6 +289,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
 
     good = None     # (t, q, v, z, next step, samples, events) after the last completed step
 
+    def rhs_evals():
+        return nfev0 + sysf.nfev + (fast.evals if fast is not None else 0)
+
     def mark_good(solver):
         # every step: keep it cheap (the state is split only when a checkpoint is written)
         nonlocal good
@@ -308,7 +311,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         del stats["events"][ne:]
         if checkpoint is None:
             return
-        stats["rhs_evals"] = nfev0 + sysf.nfev + (fast.evals if fast is not None else 0)
+        stats["rhs_evals"] = rhs_evals()
         stats["cpu_s"] = cpu_prior + time.process_time() - cpu0
         checkpoint(Checkpoint(t0=t0, q=q, v=v, z=z, t=tg, q_now=qg, v_now=vg, z_now=zg, h_next=hg,
                               samples=list(samples), stats=dict(stats, events=list(stats["events"]))))
@@ -316,7 +319,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     status, message = "success", "reached t_end"
     h_default = min(STALL_FRACTION * (t_end - t0), STALL_MAX)
     h_stall = (h_default if min_mean_step is None else float(min_mean_step)) if integ.adaptive else 0.0
-    why_python = "asked for (loop='python')" if loop == "python" else fastloop.eligible(form, integrator, sysf)
+    why_python = "asked for (loop='python')" if loop == "python" else fastloop.eligible(form, integrator)
     fast, chunk_ts = None, []      # chunk_ts: accepted steps of a compiled chunk not yet reported
     if not why_python:
         try:
@@ -501,7 +504,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     except Exception as exc:  # a user function (drive law, python hook) raised: keep the samples
         status, message = "failed", (f"a function raised {type(exc).__name__} after t = "
                                      f"{_last_t(samples, t0):.9g} s: {exc}")
-    stats["rhs_evals"] = nfev0 + sysf.nfev + (fast.evals if fast is not None else 0)
+    stats["rhs_evals"] = rhs_evals()
     stats["cpu_s"] = cpu_prior + time.process_time() - cpu0
     if form.row_changes:
         stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in form.row_changes]
