@@ -440,3 +440,84 @@ def proximal_accel(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, Jw, V
     if not np.isfinite(s):
         return -2.0
     return 1.0
+
+
+#: Brent's golden-section ratio (3 - sqrt 5) / 2
+_GOLDEN = 0.5 * (3.0 - math.sqrt(5.0))
+#: the search state of brent_start / brent_next: the bracket [a, b], the three best points
+#: x <= w <= v (by value), the last two moves d, e, the trial point u, its count, the tolerance
+_A, _B, _V, _W, _X, _FV, _FW, _FX, _D, _E, _U, _N, _XATOL = range(13)
+BRENT_STATE = 13
+
+
+@njit(cache=True)
+def brent_start(a, b, xatol, st):
+    """Start Brent's minimisation of f on [a, b] (golden sections, parabolic steps where the
+    last three points trust them; R. P. Brent, Algorithms for Minimization without
+    Derivatives, 1973, ch. 5), to within sqrt(eps)|x| + xatol/3. Returns the first point to
+    evaluate; give f there to :func:`brent_next`.
+
+    Reverse communication (the caller evaluates f) lets one search serve both integration
+    loops: pinclear.simulate's singular-passage location evaluates in Python, the compiled
+    loop's in compiled code, at the same points."""
+    st[_A], st[_B], st[_XATOL] = a, b, xatol
+    x = a + _GOLDEN * (b - a)
+    st[_V] = st[_W] = st[_X] = st[_U] = x
+    st[_D] = st[_E] = st[_N] = 0.0
+    return x
+
+
+@njit(cache=True)
+def brent_next(st, fu, maxiter):
+    """Take f at the point brent_start or the last brent_next returned; returns (the next point
+    to evaluate, False), or (the minimiser found, True) once the bracket is within tolerance or
+    ``maxiter`` points were evaluated (its value is st[_FX])."""
+    a, b, v, w, x = st[_A], st[_B], st[_V], st[_W], st[_X]
+    fv, fw, fx, d, e, u = st[_FV], st[_FW], st[_FX], st[_D], st[_E], st[_U]
+    n = st[_N] + 1.0
+    if n == 1.0:
+        fv = fw = fx = fu
+    elif fu <= fx:
+        if u < x:
+            b = x
+        else:
+            a = x
+        v, fv, w, fw, x, fx = w, fw, x, fx, u, fu
+    else:
+        if u < x:
+            a = u
+        else:
+            b = u
+        if fu <= fw or w == x:
+            v, fv, w, fw = w, fw, u, fu
+        elif fu <= fv or v == x or v == w:
+            v, fv = u, fu
+    mid = 0.5 * (a + b)
+    tol = math.sqrt(np.finfo(np.float64).eps) * abs(x) + st[_XATOL] / 3.0
+    done = abs(x - mid) <= 2.0 * tol - 0.5 * (b - a) or n >= maxiter
+    if not done:
+        parabolic = False
+        if abs(e) > tol:
+            # the parabola through (v, fv), (w, fw), (x, fx); its vertex is x + p / q
+            r = (x - w) * (fx - fv)
+            q = (x - v) * (fx - fw)
+            p = (x - v) * q - (x - w) * r
+            q = 2.0 * (q - r)
+            if q > 0.0:
+                p = -p
+            else:
+                q = -q
+            e_prev, e = e, d
+            # accept it inside the bracket and when it moves less than half the step before last
+            if abs(p) < abs(0.5 * q * e_prev) and q * (a - x) < p < q * (b - x):
+                parabolic = True
+                d = p / q
+                if (x + d) - a < 2.0 * tol or b - (x + d) < 2.0 * tol:
+                    d = tol if x < mid else -tol
+        if not parabolic:
+            e = (b - x) if x < mid else (a - x)
+            d = _GOLDEN * e
+        u = x + (d if abs(d) >= tol else (tol if d > 0.0 else -tol))
+    st[_A], st[_B], st[_V], st[_W], st[_X] = a, b, v, w, x
+    st[_FV], st[_FW], st[_FX], st[_D], st[_E], st[_U], st[_N] = fv, fw, fx, d, e, u, n
+    return (x if done else u), done

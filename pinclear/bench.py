@@ -248,7 +248,7 @@ def _integration_cpu(tr):
     return tr.stats["cpu_s"] - tr.stats["setup_cpu_s"]
 
 
-def bench_runs(files=None, t_end=0.5, rtol=1e-6, integrator="RK45", max_cpu=120.0, progress=None, repeat=5):
+def bench_runs(files=None, t_end=0.5, rtol=1e-6, integrator="RK45", max_cpu=120.0, progress=None, repeat=20):
     """Simulate every scene for ``t_end`` simulated seconds (RK45, rtol 1e-6: the clearance
     default) and report per scene: CPU s per simulated s, set-up CPU, right-hand-side evaluations,
     steps, us per evaluation inside the run (the integration's CPU over evaluations: integrator,
@@ -291,7 +291,7 @@ def bench_runs(files=None, t_end=0.5, rtol=1e-6, integrator="RK45", max_cpu=120.
         row["us_per_eval"] = 1e6 * (st["cpu_s"] - st["setup_cpu_s"]) / max(st["rhs_evals"], 1)
         row["us_per_eval_with_setup"] = 1e6 * st["cpu_s"] / max(st["rhs_evals"], 1)
         if len(tr.t):
-            floor = pinocchio_floor(mech, tr.q, tr.v)
+            floor = pinocchio_floor(mech, tr.q, tr.v, repeat=10)
             row["floor_us"] = 1e6 * floor
             row["ratio_over_floor"] = row["us_per_eval"] / row["floor_us"]
         if tr.status != "success":

@@ -19,6 +19,7 @@ import pinocchio as pin
 from scipy.optimize import brentq
 
 from . import fastloop, formulations, integrators, kinematics
+from ._kernels import BRENT_STATE, brent_next, brent_start
 from .errors import InputError, PinclearError, RankLossError
 from .trajectory import Checkpoint, Trajectory
 
@@ -279,6 +280,14 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
             qs, vs = form.project(ts, qs, vs)
         return ts, np.array(qs), np.array(vs), np.array(zs)
 
+    def samples_until(dense, i, j):
+        """Samples i..j-1 from one call of a step's dense output; returns the next index."""
+        if j > i:
+            X = dense(t_eval[i:j]).reshape(len(x), -1)
+            for k in range(j - i):
+                samples.append(sample(t_eval[i + k], X[:, k]))
+        return max(i, j)
+
     def make_solver(t_from, x_from, hint=None):
         sysf.strict = True          # a non-finite first evaluation would hang SciPy's step selection
         try:
@@ -414,11 +423,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
             if form.pivot_dip():
                 dense_s = solver.dense_output()
                 try:
-                    _locate_singular_passage(form, sysf, dense_s, t_old, t_new)
+                    _locate_singular_passage(form, sysf, dense_s, t_old, t_new, fast, solver)
                 except RankLossError as exc:       # keep the samples before the singular time
-                    while out_i < len(t_eval) and t_eval[out_i] < exc.t:
-                        samples.append(sample(t_eval[out_i], dense_s(t_eval[out_i])))
-                        out_i += 1
+                    out_i = samples_until(dense_s, out_i, bisect.bisect_left(t_list, exc.t))
                     raise
             form.reset_pivot_monitor()
             if not math.isfinite(solver.y.sum()):
@@ -438,12 +445,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
                             hit = (te, fi, int(k), f)
                 ev_prev = g_new
             t_stop = hit[0] if hit else t_new
-            j = bisect.bisect_right(t_list, t_stop)
-            if j > out_i:               # every output time of this step from one dense-output call
-                X = dense(t_eval[out_i:j]).reshape(len(x), -1)
-                for k in range(j - out_i):
-                    samples.append(sample(t_eval[out_i + k], X[:, k]))
-                out_i = j
+            out_i = samples_until(dense, out_i, bisect.bisect_right(t_list, t_stop))
             restart, hint = False, solver.step_size
             if hit:
                 te, fi, k, f = hit
@@ -565,18 +567,33 @@ NONFINITE_MESSAGE = ("non-finite accelerations (check parameters, stiffness, and
                      "positive definite)")
 
 
-def _locate_singular_passage(form, sysf, dense, t_old, t_new):
+def _locate_singular_passage(form, sysf, dense, t_old, t_new, fast=None, solver=None):
     """Minimise the pivot ratio along the step's dense output; a rank loss there raises
-    RankLossError at its time, instead of letting the step jump branches silently."""
-    from scipy.optimize import minimize_scalar
+    RankLossError at its time, instead of letting the step jump branches silently. Every
+    evaluation counts as a right-hand side. With the compiled loop (``fast``) the search runs
+    compiled and stops at an evaluation Python must take (a rank loss to report, rows to choose
+    again); Python takes it, and searches again itself if it did not raise."""
+    xatol = 1e-13 * max(1.0, t_new)
 
     def ratio(s):
         q, v, z = sysf.split(dense(s))
+        sysf.nfev += 1
         form.reset_pivot_monitor()
         form.accelerations(s, q, v, z)         # raises RankLossError below the rank threshold
         return form.pivot_ratio()
 
-    minimize_scalar(ratio, bounds=(t_old, t_new), method="bounded", options={"xatol": 1e-13 * max(1.0, t_new)})
+    if fast is not None:
+        s, x, python = fast.locate(solver, xatol)
+        if not python:
+            return
+        if x is not None:                      # the compiled search counted this evaluation
+            q, v, z = sysf.split(x)
+            form.reset_pivot_monitor()
+            form.accelerations(s, q, v, z)
+    st = np.empty(BRENT_STATE)
+    s, done = brent_start(t_old, t_new, xatol, st), False
+    while not done:
+        s, done = brent_next(st, ratio(s), fastloop.LOCATE_MAXITER)
 
 
 def _last_t(samples, t0):

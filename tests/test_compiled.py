@@ -150,6 +150,102 @@ def test_compiled_rk45_takes_scipys_steps():
     np.testing.assert_allclose(s3.dense_output()(tm), s1.dense_output()(tm), rtol=0, atol=1e-12)
 
 
+def test_compiled_rk45_starts_as_scipys_rk45():
+    """Its own start (no SciPy validation and wrappers: paid after every impact) carries every
+    attribute SciPy's RK45 sets, so SciPy's step(), dense_output() and step_size work on it,
+    and chooses SciPy's initial step bit for bit (a chattering contact's later impacts depend on
+    it), with SciPy's count of evaluations."""
+    from scipy.integrate import RK45
+
+    from pinclear.integrators import CompiledRK45
+
+    rng = np.random.default_rng(7)
+    A = rng.normal(size=(6, 6))
+
+    def f(t, y):
+        return A @ y + np.sin(t)
+
+    for k in range(20):
+        y0 = rng.normal(size=6) * 10.0 ** rng.uniform(-3, 3)
+        rtol, t_bound = 10.0 ** rng.uniform(-10, -3), rng.uniform(1e-3, 10)
+        ours = CompiledRK45(f, 0.0, y0, t_bound, rtol=rtol, atol=rtol * 1e-2)
+        ref = RK45(f, 0.0, y0, t_bound, rtol=rtol, atol=rtol * 1e-2)
+        assert set(vars(ref)) <= set(vars(ours)) | set(dir(ours))
+        assert ours.h_abs == ref.h_abs and ours.nfev == ref.nfev == 2
+        assert ours.step_size is None and ours.status == "running"
+    # max_step and first_step as SciPy takes them
+    assert CompiledRK45(f, 0.0, y0, 1.0, rtol=1e-6, atol=1e-8, max_step=1e-5).h_abs <= 1e-5
+    s = CompiledRK45(f, 0.0, y0, 1.0, rtol=1e-6, atol=1e-8, first_step=2e-3)
+    assert s.h_abs == 2e-3 and s.nfev == 1
+    s.step()
+    assert s.t == 2e-3 or s.t < 2e-3                     # the first step tries first_step
+    with pytest.raises(ValueError, match="finite"):
+        CompiledRK45(f, 0.0, np.array([1.0, np.nan]), 1.0, rtol=1e-6, atol=1e-8)
+
+
+def test_brent_search_compiled_and_python_take_the_same_points():
+    """The singular-passage search (pinclear._kernels.brent_start/brent_next, reverse
+    communication) is driven from compiled code in the compiled loop and from Python in the
+    Python loop: on random smooth functions both drivers return the same point after the same
+    evaluations, and the point is the minimiser: SciPy's bounded Brent's where it found the same
+    basin, the analytic one of a parabola to the flat band around it."""
+    import math
+
+    from numba import njit
+    from scipy.optimize import minimize_scalar
+
+    from pinclear._kernels import BRENT_STATE, brent_next, brent_start
+
+    @njit
+    def wavy(x, p):
+        return (x - p[0]) ** 2 + p[1] * math.cos(p[2] * x)
+
+    @njit
+    def search_compiled(p, a, b, xatol):
+        st = np.empty(BRENT_STATE)
+        x, n = brent_start(a, b, xatol, st), 0
+        while True:
+            fx = wavy(x, p)
+            n += 1
+            x, done = brent_next(st, fx, 500)
+            if done:
+                return x, n
+
+    def search_python(f, a, b, xatol):
+        st = np.empty(BRENT_STATE)
+        x, n, done = brent_start.py_func(a, b, xatol, st), 0, False
+        while not done:
+            fx = f(x)
+            n += 1
+            x, done = brent_next.py_func(st, fx, 500)
+        return x, n
+
+    rng = np.random.default_rng(3)
+    same_basin = 0
+    for _ in range(50):
+        p = (rng.uniform(-1, 2), rng.uniform(0, 0.3), rng.uniform(1, 8))
+        xc, nc = search_compiled(p, -1.0, 2.0, 1e-12)
+        xp, n_p = search_python(lambda x: wavy.py_func(x, p), -1.0, 2.0, 1e-12)
+        assert (xc, nc) == (xp, n_p)
+        ref = minimize_scalar(lambda x: wavy.py_func(x, p), bounds=(-1, 2), method="bounded",
+                              options={"xatol": 1e-12})
+        if abs(ref.x - xc) < 1e-3:       # both are local searches
+            same_basin += 1
+            assert abs(xc - ref.x) < 1e-7
+    assert same_basin > 40
+    # a parabola: within the flat band where 3 (x - c)^2 is below eps of f (|x - c| < 1e-8)
+    for c in (-0.7, 0.0, 0.4, 1.9):
+        x, n = search_python(lambda x: 3.0 * (x - c) ** 2 + 1.0, -1.0, 2.0, 1e-13)
+        assert abs(x - c) < 2e-8 * max(1.0, abs(c)) and n < 100
+    # it gives up after maxiter points
+    st = np.empty(BRENT_STATE)
+    x, n, done = brent_start(0.0, 1.0, 0.0, st), 0, False
+    while not done:
+        x, done = brent_next(st, math.sin(50 * x), 7)
+        n += 1
+    assert n == 7
+
+
 # ------------------------------------------------------------------ fused clearance path
 def _clearance_scene(scene, name):
     """(mech, element, its z slice, a workspace, the element's data there) with clearance ``name``."""

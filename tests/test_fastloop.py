@@ -57,6 +57,59 @@ def test_compiled_loop_takes_the_python_loops_steps(name, clr, t_end):
         np.testing.assert_allclose(fast.lam[k], slow.lam[k], rtol=0, atol=1e-9 * max(1.0, np.abs(slow.lam[k]).max()))
 
 
+@pytest.mark.parametrize("name, t_end", [("parallelogram", 0.5), ("a02_nfourbar_10", 0.5), ("a02_nfourbar_2", 3.0)])
+def test_both_loops_stop_at_the_same_singular_passage(name, t_end):
+    """Lagrange cannot pass a flat position: both loops search the step that dips for the rank
+    loss with the same Brent search (compiled there, Python here) and report it at the same
+    time, with the same rank and the same evaluations counted (the search's included). The
+    search points differ only through the dense output's rounding (1e-16) and its tolerance is
+    1e-13 s, so 1e-9 s bounds the difference of the reported times."""
+    fast, slow = _pair(name, None, t_end)
+    assert fast.stats["loop"] == "compiled"
+    assert fast.status == slow.status == "failed"
+    rf, rs = fast.stats["rank_loss"], slow.stats["rank_loss"]
+    assert (rf["rank"], rf["rows"]) == (rs["rank"], rs["rows"]) and rf["rank"] < rf["rows"]
+    assert abs(rf["t"] - rs["t"]) < 1e-9
+    assert fast.stats["steps"] == slow.stats["steps"]
+    assert fast.stats["rhs_evals"] == slow.stats["rhs_evals"]
+    assert len(fast.t) == len(slow.t) and fast.t[-1] < rf["t"]      # samples up to the singular time kept
+    np.testing.assert_allclose(fast.q, slow.q, rtol=0, atol=1e-12)
+
+
+def test_the_search_for_a_singular_passage_counts_its_evaluations(monkeypatch):
+    """The search's evaluations are right-hand sides like the steps' (uncounted, a failing
+    run's search cost looked like a cost per step evaluation in the bench). On the Python loop
+    the count grows by exactly the formulation's evaluations inside the search; the compiled
+    loop's search counts as many."""
+    import importlib
+
+    sim = importlib.import_module("pinclear.simulate")
+    real = sim._locate_singular_passage
+    seen = []
+
+    def counted(form, sysf, dense, t_old, t_new, fast=None, solver=None):
+        calls = [0]
+        inner = form.accelerations
+
+        def acc(*a):
+            calls[0] += 1
+            return inner(*a)
+        form.accelerations = acc
+        before = sysf.nfev + (fast.evals if fast is not None else 0)
+        try:
+            real(form, sysf, dense, t_old, t_new, fast, solver)
+        finally:
+            del form.accelerations
+            seen.append((sysf.nfev + (fast.evals if fast is not None else 0) - before, calls[0], fast is not None))
+    monkeypatch.setattr(sim, "_locate_singular_passage", counted)
+    _pair("parallelogram", None, 0.5)
+    (n_fast, py_calls_fast, f1), (n_slow, py_calls_slow, f2) = seen
+    assert f1 and not f2
+    assert n_slow == py_calls_slow >= 2          # Brent evaluates at least two points
+    assert n_fast == n_slow
+    assert py_calls_fast == 1                    # Python only re-takes the rank loss to report it
+
+
 def test_progress_reports_every_accepted_step_in_order():
     """On the compiled loop the steps of a chunk are reported after it, each one, in order."""
     mech = pinclear.load("four_bar")

@@ -99,7 +99,7 @@ class Lagrange(Formulation):
         if ratio < self._ratio_floor:
             if self.nonfinite:
                 return a
-            self.rank_loss(self._schur(), t)
+            self.rank_loss(self._schur(ratio), t)
         if ratio < self.ratio_min:
             self.ratio_min = ratio
             if self.ratio_ref is None:
@@ -110,6 +110,11 @@ class Lagrange(Formulation):
             ws.lam[self.rows] = self._buf["lam"][: len(self.rows)]
         return a
 
-    def _schur(self):
+    def _schur(self, ratio):
+        """S = J M^-1 J^T over the kept rows: the kernel's own (ratio >= 0: it factorised M and
+        formed S before S's Cholesky stopped), else from a fresh Cholesky of M."""
+        if ratio >= 0.0:
+            m = len(self.rows)
+            return self._buf["S"][:m, :m]
         J = self.ws.J[self.rows]
         return J @ cho_solve(self.mass_factor(), J.T, check_finite=False)
