@@ -8,7 +8,6 @@ extension is optional: without a compiler, headers or libraries the install goes
 and pinclear.native falls back to Pinocchio's Python bindings.
 """
 import os
-import re
 import sys
 from pathlib import Path
 
@@ -106,18 +105,7 @@ class _OptionalBuildExt(build_ext):
             stale = Path(self.get_ext_fullpath(ext.name))
             if stale.exists():
                 stale.unlink()
-            _warn(f"building the extension {ext.name} failed ({_short(exc)})")
-
-
-def _short(exc: Exception) -> str:
-    """The program and its exit status out of an error whose text holds the whole command line
-    (the compiler's own messages, if any, are printed above it)."""
-    text = " ".join(str(exc).split())
-    program = re.search(r"^Command '\['([^']+)'", text)
-    status = re.search(r"(exit (status|code) -?\d+)", text)
-    if program and status:
-        return f"{program.group(1)}: {status.group(1)}"
-    return text if len(text) <= 120 else "..." + text[-120:]
+            _warn(f"building the extension {ext.name} failed ({exc})")
 
 
 setup(packages=find_packages(include=["pinclear", "pinclear.*"]) + ["pinclear.urdf"],

@@ -217,7 +217,6 @@ def locate(T, PS, tau, zdot, abuf, fdrv, K, P, y_old, t_old, h, x, dx, mon, a, b
         dense_into(K, P, y_old, t_old, h, s, x)
         r = rhs(T, PS, tau, zdot, abuf, fdrv, s, x, dx)
         n += 1
-        mon[0] = np.inf
         if not monitor(r, mon):
             return s, n, True
         s, done = brent_next(st, r, LOCATE_MAXITER)
@@ -289,8 +288,8 @@ class FastLoop:
         if self.stale():
             return solver.t_old, None, True
         x = np.empty(solver.n)
-        mon = self.mon.copy()
-        mon[1] = np.nan if self.form.ratio_ref is None else self.form.ratio_ref
+        self._load_monitor()
+        mon = self.mon.copy()      # the search's evaluations leave the step's monitor as it was
         s, n, python = self.module.locate(*self.args, solver.K, solver.P, solver.y_old, float(solver.t_old),
                                           float(solver.h_previous), x, np.empty(solver.n), mon, float(solver.t_old),
                                           float(solver.t), float(xatol), np.empty(BRENT_STATE))
@@ -439,7 +438,7 @@ def build(form, sysf, events, t_eval, h_stall):
     src.append(_LOOP)
     module = load_generated("\n".join(src) + "\n", "loop")
     tables = tuple(x for p in comps for x in p[1:])
-    flags = (1 if mech.forces else 0) | 2
+    flags = (native.FRAMES if mech.forces else 0) | native.MASS   # frames as kinematics.update
     return FastLoop(form, sysf, module, tables, flags, events, t_eval, h_stall)
 
 

@@ -35,9 +35,13 @@ def available() -> bool:
     return _mod is not None
 
 
+#: the flags of pinclear_passes (passes.cpp): frame placements, the mass matrix
+FRAMES, MASS = 1, 2
+
+
 def passes_address() -> int:
-    """Address of ``pinclear_passes(model, data, q, v, flags)`` (all int64; flags: 1 frame
-    placements, 2 mass matrix); see passes.cpp."""
+    """Address of ``pinclear_passes(model, data, q, v, flags)`` (all int64; flags: FRAMES | MASS);
+    see passes.cpp."""
     return _mod.passes_address()
 
 

@@ -19,7 +19,7 @@ import pytest
 import pinclear
 from pinclear import native
 
-FRAMES, MASS = 1, 2          # the flags of pinclear_passes (passes.cpp)
+FRAMES, MASS = native.FRAMES, native.MASS
 PASSES_SIG = ctypes.CFUNCTYPE(None, *[ctypes.c_int64] * 5)
 
 

@@ -116,7 +116,8 @@ def test_project_lands_on_the_manifold(parallelogram):
     q, v = 0.3 * U + 1e-6 * np.array([1.0, 2.0, -1.0]), 2.0 * U + 1e-6
     q1, v1 = form.project(0.0, q, v)
     ws = mech.workspace()
-    assert np.abs(kinematics.closure_residual(mech, ws, q1)).max() < 1e-14
+    # Gauss-Newton stops once |Phi| <= tol (a second step may land far below it)
+    assert np.abs(kinematics.closure_residual(mech, ws, q1)).max() <= form.opts["tol"]
     assert np.abs(kinematics.jacobian(mech, ws, q1) @ v1).max() < 1e-13
     assert np.abs(q1 - q).max() < 1e-5
 

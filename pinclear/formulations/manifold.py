@@ -66,6 +66,7 @@ class Manifold(Formulation):
         if int(self.opts["max_iter"]) != self.opts["max_iter"] or self.opts["max_iter"] < 1:
             raise InputError(f"method 'manifold': option 'max_iter' must be an integer >= 1, "
                              f"got {self.opts['max_iter']!r}", key="max_iter")
+        self.opts["max_iter"] = int(self.opts["max_iter"])      # 10.0 is accepted: range() needs the int
         # buffers: L (M = L^T L), Y = B, S = B B^T and the factor of S + i mu^2 I (Fr, Fi), the QR of
         # B^T (Qr, piv, hb, rank kk) and of J^T for the Gauss-Newton step (Qg, pg, hg)
         self._b = {"L": np.zeros((nv, nv)), "Y": np.zeros((m, nv)), "S": np.zeros((m, m)), "Fr": np.zeros((m, m)),
@@ -281,9 +282,15 @@ def filtered_solve(Fr, Fi, r, w):
 @njit(cache=True)
 def _filtered_normal(Y, Fr, Fi, r, x):
     """x = B^T g(S) r (B = Y): the normal correction."""
-    m, nv = Y.shape
-    w = np.empty(m)
+    w = np.empty(Y.shape[0])
     filtered_solve(Fr, Fi, r, w)
+    _bt_times(Y, w, x)
+
+
+@njit(cache=True)
+def _bt_times(Y, w, x):
+    """x = B^T w (B = Y)."""
+    m, nv = Y.shape
     x[:] = 0.0
     for j in range(m):
         for k in range(nv):
@@ -375,9 +382,9 @@ def velocity_projection(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, Jv, 
             Qr[c, r] = Y[r, c]
     k = qr_pivoted(Qr, piv, hb, rcond)
     kk[0] = k
-    _lv(Lm, parent, v, v1)                   # x = L v
     pt = np.empty(m)
     if exact:
+        _lv(Lm, parent, v, v1)               # x = L v
         _project_out_rows(Qr, piv, hb, k, v1)
         # Phi_t = dphi - J v: the rheonomic rows' own rates (zero for closures)
         for r in range(m):
@@ -464,7 +471,7 @@ def projected_accelerations(Hj, jidx, jMf, H, mask, J, dJ, table, E, L, iq, iv, 
         for c in range(nv):
             a[c] += xy * xt[c] - wz * wt[c]
     corr = np.empty(nv)
-    _filtered_normal(Y, Fr, Fi, gamma, corr)
+    _bt_times(Y, w, corr)                      # B^T g(S) gamma, g(S) gamma from the multipliers
     for c in range(nv):
         a[c] += corr[c]
     ltl_solve(Lm, parent, a)
