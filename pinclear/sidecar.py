@@ -313,8 +313,9 @@ def load(path, options=None, overrides=None, clearances=None, trust=None) -> Mec
     loads a bundled model.
 
     trust: a mechanism file may name Python functions (drive laws, platform motions, hooks);
-    only functions inside the pinclear package are imported unless ``trust=True`` (or the
-    environment variable PINCLEAR_TRUST=1): importing a module runs its code.
+    unless ``trust=True`` (or the environment variable PINCLEAR_TRUST=1) only the functions
+    pinclear offers to data files (``pinclear.trust.OFFERED``) resolve: importing a module runs
+    its code (docs/security.md).
 
     options: scene switches declared under ``options:`` (e.g. {"limbs": False}).
     overrides: {"S2.clearance": 5e-4, "limbs": False, ...}: clearance keys (NAME.key) or options.

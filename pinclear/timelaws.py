@@ -3,14 +3,14 @@ from __future__ import annotations
 
 import abc
 import functools
-import importlib
 import math
-import os
 
 import numpy as np
 
 from ._jit import njit
 from .errors import ModelFileError
+# the trust gate lives in pinclear.trust; re-exported here, where sidecar and screw import it
+from .trust import TRUST_ENV, resolve_function, trusted  # noqa: F401
 
 
 class TimeLaw(abc.ABC):
@@ -231,42 +231,6 @@ class Callable(TimeLaw):
 
 LAW_TYPES = {"constant": ("value",), "sines": ("offset", "terms"), "polynomial": ("coeffs",),
              "spline": ("t", "y", "bc_type"), "python": ("function", "args", "index")}
-
-
-#: environment variable that trusts every mechanism file (as ``trust=True`` / ``--trust``)
-TRUST_ENV = "PINCLEAR_TRUST"
-
-
-def trusted(trust=None) -> bool:
-    """The effective trust setting: an explicit argument wins, else the environment variable."""
-    if trust is not None:
-        return bool(trust)
-    return os.environ.get(TRUST_ENV, "").strip().lower() in ("1", "true", "yes", "on")
-
-
-def resolve_function(spec: str, file, key, trust=None):
-    """'package.module:attr' -> the object.
-
-    Importing a module runs its code, so a mechanism file may name only functions inside the
-    pinclear package unless the user trusts the file (``trust=True``, ``--trust`` on the CLI or
-    PINCLEAR_TRUST=1): a shared sidecar cannot run code on ``pinclear info``."""
-    if not isinstance(spec, str) or ":" not in spec:
-        raise ModelFileError(file, key, f"expected 'module:function', got {spec!r}")
-    mod, attr = spec.split(":", 1)
-    if not (mod == "pinclear" or mod.startswith("pinclear.")) and not trusted(trust):
-        raise ModelFileError(
-            file, key, f"refusing to import {spec!r}: a mechanism file may only name functions inside the "
-            f"pinclear package unless you trust it (pinclear.load(..., trust=True), --trust on the command "
-            f"line, or {TRUST_ENV}=1)")
-    if any(not part.isidentifier() for part in mod.split(".") + attr.split(".")):
-        raise ModelFileError(file, key, f"{spec!r} is not a 'package.module:function' name")
-    try:
-        obj = importlib.import_module(mod)
-        for part in attr.split("."):
-            obj = getattr(obj, part)
-    except (ImportError, AttributeError) as exc:
-        raise ModelFileError(file, key, f"cannot import {spec!r}: {exc}") from None
-    return obj
 
 
 def _finite(law, file, key):
