@@ -18,9 +18,9 @@ import numpy as np
 import pinocchio as pin
 from scipy.optimize import brentq
 
-from . import fastloop, formulations, integrators, kinematics
+from . import fastloop, formulations, integrators, kinematics, validate
 from ._kernels import BRENT_STATE, brent_next, brent_start
-from .errors import InputError, PinclearError, RankLossError
+from .errors import InputError, RankLossError
 from .trajectory import Checkpoint, Trajectory
 
 INTEGRATORS = tuple(integrators.INTEGRATORS)
@@ -224,10 +224,17 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     sysf = OdeSystem(form)
     sysf.rejects_nonfinite = integ.rejects_nonfinite
     if resume is not None:
+        if not isinstance(resume, Checkpoint):
+            raise InputError(f"resume must be a pinclear Checkpoint, got {type(resume).__name__}")
+        t0 = validate.number(resume.t0, "<checkpoint>", "t0")
+    t_eval = output_times(t0, t_end, dt_out) if t_eval is None else np.asarray(t_eval, float)
+    identity = validate.run_identity(mech, method=method, method_options=method_options, integrator=integrator,
+                                     rtol=rtol, atol=atol, t0=t0, t_end=t_end, t_eval=t_eval, h=h, max_step=max_step)
+    if resume is not None:
+        # a checkpoint is data: checked against this mechanism and this run before any
+        # compiled code reads it (a wrong-length state would be written out of bounds)
+        validate.check_checkpoint(resume, mech, getattr(resume, "path", "<checkpoint>"), identity, ws)
         q, v, z = resume.q, resume.v, resume.z
-        t0 = resume.t0
-        if q.shape != (mech.nq,) or z.shape != (mech.nz,):
-            raise InputError("the checkpoint does not belong to this mechanism (state sizes differ)")
     else:
         q, v, z = initial_state(mech, form, q0, v0, t0, assemble)
     # redundant rows: found once at the start, dropped by formulations that need a full-rank S
@@ -235,7 +242,6 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     rank, indep, redundant = kinematics.rank_analysis(J, mech.row_names())
     form.use_rows(indep)
     kinematics.update(mech, ws, q, v)
-    t_eval = output_times(t0, t_end, dt_out) if t_eval is None else np.asarray(t_eval, float)
 
     traj = Trajectory.empty(mech, form, integrator, rtol, atol, t_eval)
     mob = kinematics.mobility(mech, q, ws)
@@ -323,7 +329,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         stats["rhs_evals"] = rhs_evals()
         stats["cpu_s"] = cpu_prior + time.process_time() - cpu0
         checkpoint(Checkpoint(t0=t0, q=q, v=v, z=z, t=tg, q_now=qg, v_now=vg, z_now=zg, h_next=hg,
-                              samples=list(samples), stats=dict(stats, events=list(stats["events"]))))
+                              samples=list(samples), stats=dict(stats, events=list(stats["events"])),
+                              identity=identity))
 
     status, message = "success", "reached t_end"
     h_default = min(STALL_FRACTION * (t_end - t0), STALL_MAX)
@@ -501,9 +508,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     except (ZeroDivisionError, OverflowError, ArithmeticError) as exc:
         status, message = "failed", (f"non-finite or invalid value after t = {_last_t(samples, t0):.9g} s: "
                                      f"{type(exc).__name__}: {exc}")
-    except PinclearError:
-        raise
     except Exception as exc:  # a user function (drive law, python hook) raised: keep the samples
+        # (a PinclearError too: a trusted law may raise one; the run is not bad input)
         status, message = "failed", (f"a function raised {type(exc).__name__} after t = "
                                      f"{_last_t(samples, t0):.9g} s: {exc}")
     stats["rhs_evals"] = rhs_evals()
@@ -516,9 +522,12 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     except KeyboardInterrupt:
         traj.fill_states(samples)
         traj.status, traj.message = "interrupted", message + " (outputs not evaluated)"
+    if traj.status == "success" and integ.adaptive:
+        _check_residual(traj, mech, rtol, atol)
     stats["cpu_s_total"] = time.process_time() - cpu0
     if len(traj.t) > 1:
         stats["cpu_per_sim_s"] = stats["cpu_s"] / (traj.t[-1] - traj.t[0])
+    status, message = traj.status, traj.message
     if status != "success":
         if strict:
             from .errors import IntegrationError
@@ -527,6 +536,29 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         warnings.warn(f"pinclear.simulate: {message} ({len(samples)} of {len(t_eval)} samples kept)",
                       RuntimeWarning, stacklevel=2)
     return traj
+
+
+def _check_residual(traj, mech, rtol, atol):
+    """Honest status: a run whose closure residual exceeds the bound its tolerances allow
+    (pinclear.validate.residual_bound) ends as failed, samples kept, naming the residual, when it
+    first exceeded the bound, and the bound (docs/security.md, 'honest status')."""
+    if not len(traj.t) or not mech.compiled.m:
+        return
+    res = np.nan_to_num(traj.residual, nan=0.0)
+    bound = validate.residual_bound(mech, rtol, atol, traj.stats.get("steps", 0),
+                                    q_scale=float(np.max(np.abs(traj.q), initial=1.0)))
+    bound += float(res[0])                 # what the assembly left at the start
+    if np.all(res <= bound):
+        return
+    k = int(np.argmax(res > bound))
+    traj.stats["constraint_violation"] = {"t": float(traj.t[k]), "max_residual": float(res.max()),
+                                          "bound": bound}
+    traj.status = "failed"
+    traj.message = (f"constraint violated: closure residual {res.max():.3g} exceeds {bound:.3g}, the bound "
+                    f"rtol = {rtol:g} allows over {traj.stats.get('steps', 0)} steps (first at t = "
+                    f"{traj.t[k]:.9g} s); the motion left its constraint manifold (a singular start, a "
+                    "huge initial velocity, an ill-conditioned mass matrix?): try method projection or a "
+                    f"smaller rtol (samples kept up to t = {traj.t[-1]:.6g} s)")
 
 
 def _crossings(g0, g1, dirs):

@@ -58,6 +58,7 @@ class Checkpoint:
     h_next: float | None         # the step the integrator would try next
     samples: list = field(default_factory=list)      # (t, q, v, z) output samples so far
     stats: dict = field(default_factory=dict)
+    identity: dict | None = None  # the run it belongs to (pinclear.validate.run_identity)
 
     def save(self, path):
         """NPZ, written atomically (a temporary file renamed into place)."""
@@ -67,23 +68,37 @@ class Checkpoint:
         for i, k in enumerate(("qs", "vs", "zs")):
             arrays[k] = (np.array([s[i + 1] for s in self.samples], float) if n
                          else np.zeros((0, arrays[k[0]].size)))
-        meta = {"t0": self.t0, "t": self.t, "h_next": self.h_next, "stats": self.stats}
+        meta = {"t0": self.t0, "t": self.t, "h_next": self.h_next, "stats": self.stats, "identity": self.identity}
         arrays["meta"] = np.array(json.dumps(_jsonable(meta)))
         return atomic_savez(path, arrays)
 
     @classmethod
     def load(cls, path):
-        from .errors import InputError
+        """A checkpoint written by :meth:`save`, checked as data (headers and sizes before
+        loading, consistent shapes, finite values, JSON types); :func:`pinclear.validate.
+        check_checkpoint` then checks it against the mechanism and the run it is to continue."""
+        from . import validate as V
 
-        try:
-            d = np.load(path, allow_pickle=False)
-            meta = json.loads(str(d["meta"]))
-            samples = [(float(t), qs, vs, zs) for t, qs, vs, zs in zip(d["ts"], d["qs"], d["vs"], d["zs"])]
-            return cls(t0=float(meta["t0"]), q=d["q"], v=d["v"], z=d["z"], t=float(meta["t"]), q_now=d["q_now"],
-                       v_now=d["v_now"], z_now=d["z_now"], h_next=meta["h_next"], samples=samples,
-                       stats=dict(meta["stats"]))
-        except (OSError, KeyError, ValueError, TypeError, json.JSONDecodeError) as exc:
-            raise InputError(f"{path}: not a pinclear checkpoint ({type(exc).__name__}: {exc})") from None
+        arrays = V.read_npz(path, "checkpoint")
+        meta = V.read_meta(arrays, path, "checkpoint")
+        for k in ("t0", "t", "h_next", "stats"):
+            if k not in meta:
+                raise V._err(path, f"metadata has no {k!r}: not a pinclear checkpoint")
+        if not isinstance(meta["stats"], dict):
+            raise V._err(path, "stats must be a mapping")
+        vec = {k: V.real_array(arrays, k, path, 1) for k in ("q", "v", "z", "q_now", "v_now", "z_now")}
+        ts = V.real_array(arrays, "ts", path, 1)
+        n = len(ts)
+        qs, vs, zs = (V.real_array(arrays, k, path, 2, rows=n, cols=vec[k[0]].size) for k in ("qs", "vs", "zs"))
+        V.increasing(ts, path, "ts")
+        samples = [(float(t), q, v, z) for t, q, v, z in zip(ts, qs, vs, zs)]
+        identity = meta.get("identity")
+        if identity is not None and not isinstance(identity, dict):
+            raise V._err(path, "identity must be a mapping")
+        return cls(t0=V.number(meta["t0"], path, "t0"), q=vec["q"], v=vec["v"], z=vec["z"],
+                   t=V.number(meta["t"], path, "t"), q_now=vec["q_now"], v_now=vec["v_now"], z_now=vec["z_now"],
+                   h_next=V.number(meta["h_next"], path, "h_next", positive=True, allow_none=True),
+                   samples=samples, stats=dict(meta["stats"]), identity=identity)
 
 
 def atomic_savez(path, arrays: dict):
@@ -115,6 +130,17 @@ def atomic_write_text(path, text: str):
         Path(tmp).unlink(missing_ok=True)
         raise
     return path
+
+
+#: the statuses a run can end with
+STATUSES = ("success", "failed", "interrupted", "empty")
+
+
+def _rows(V, arrays, key, path, n):
+    a = arrays[key]
+    if a.dtype.kind not in "fiub" or a.ndim < 1 or len(a) != n:
+        raise V._err(path, f"array {key!r} has shape {a.shape} and dtype {a.dtype}, expected {n} rows of numbers")
+    return np.asarray(a, float)
 
 
 class Trajectory:
@@ -291,29 +317,48 @@ class Trajectory:
     @classmethod
     def load(cls, path, mech=None):
         """A saved run (NPZ + JSON metadata). Loading never imports code; ``mech`` (optional) is
-        the mechanism it belongs to, checked against the recorded description."""
-        from .errors import InputError
+        the mechanism it belongs to, checked against the recorded description. The file is checked
+        as data first (pinclear.validate: declared sizes before loading, JSON types, shapes,
+        finite states, increasing times); a failure is an InputError naming the file."""
+        from . import validate as V
 
         tr = cls()
-        try:
-            d = np.load(path, allow_pickle=False)
-            meta = json.loads(str(d["meta"]))
-            if not isinstance(meta, dict):
-                raise TypeError("metadata is not a mapping")
-            tr.meta, tr.status, tr.message, tr.stats = meta, meta["status"], meta["message"], dict(meta["stats"])
-            tr.mech_path = meta.get("mech_path")
-            for k in ("t", "q", "v", "a", "z", "residual"):
-                setattr(tr, k, np.asarray(d[k], float))
-            tr.drive_error = np.asarray(d["drive_error"], float) if "drive_error" in d.files else np.zeros(0)
-            tr.lam = {k: d[f"lam/{k}"] for k in meta["lam_names"]}
-            tr.outputs = {k[4:]: d[k] for k in d.files if k.startswith("out/")}
-            tr.energies = {k[7:]: d[k] for k in d.files if k.startswith("energy/")}
-        except (OSError, KeyError, ValueError, TypeError, EOFError, json.JSONDecodeError) as exc:
-            raise InputError(f"{path}: not a readable pinclear trajectory ({type(exc).__name__}: "
-                             f"{' '.join(str(exc).split())[:200]})") from None
+        arrays = V.read_npz(path, "trajectory")
+        meta = V.read_meta(arrays, path, "trajectory")
+        for k, types in (("status", str), ("message", str), ("stats", dict), ("lam_names", list)):
+            if not isinstance(meta.get(k), types):
+                raise V._err(path, f"metadata {k!r}: expected a {types.__name__}, got {type(meta.get(k)).__name__}")
+        if meta["status"] not in STATUSES:
+            raise V._err(path, f"metadata 'status': {meta['status']!r} is not a run status (valid: {', '.join(STATUSES)})")
+        if not all(isinstance(k, str) for k in meta["lam_names"]):
+            raise V._err(path, "metadata 'lam_names': expected a list of names")
+        if not isinstance(meta.get("mech_path"), (str, type(None))):
+            raise V._err(path, "metadata 'mech_path': expected a path")
+        for k in ("mechanism", "load_args"):
+            if not isinstance(meta.get(k), (dict, type(None))):
+                raise V._err(path, f"metadata {k!r}: expected a mapping")
+        tr.meta, tr.status, tr.message, tr.stats = meta, meta["status"], meta["message"], dict(meta["stats"])
+        tr.mech_path = meta.get("mech_path")
+        rec = meta.get("mechanism") or {}
+        dims = {}
+        for k in ("nq", "nv"):
+            if k in rec:
+                dims[k] = V.number(rec[k], path, f"mechanism.{k}", integer=True)
+        tr.t = V.real_array(arrays, "t", path, 1)
         n = len(tr.t)
-        if tr.q.ndim != 2 or len(tr.q) != n or len(tr.v) != n:
-            raise InputError(f"{path}: inconsistent trajectory arrays (t has {n} samples, q {tr.q.shape})")
+        V.increasing(tr.t, path, "t")
+        tr.q = V.real_array(arrays, "q", path, 2, rows=n, cols=dims.get("nq"))
+        tr.v = V.real_array(arrays, "v", path, 2, rows=n, cols=dims.get("nv"))
+        tr.z = V.real_array(arrays, "z", path, 2, rows=n)
+        # accelerations, residuals and multipliers are NaN where a sample could not be evaluated
+        tr.a = V.real_array(arrays, "a", path, 2, finite=False, rows=n, cols=tr.v.shape[1])
+        tr.residual = V.real_array(arrays, "residual", path, 1, finite=False, rows=n)
+        tr.drive_error = (V.real_array(arrays, "drive_error", path, 1, finite=False, rows=n)
+                          if "drive_error" in arrays else np.zeros(0))
+        tr.lam = {k: V.real_array(arrays, f"lam/{k}", path, 1, finite=False, rows=n) for k in meta["lam_names"]}
+        tr.outputs = {k[4:]: _rows(V, arrays, k, path, n) for k in arrays if k.startswith("out/")}
+        tr.energies = {k[7:]: V.real_array(arrays, k, path, 1, finite=False, rows=n)
+                       for k in arrays if k.startswith("energy/")}
         if mech is not None:
             tr.check_mechanism(mech, path)
         tr.mech = mech
@@ -327,7 +372,7 @@ class Trajectory:
         have = mech.describe()
         def kinds(forces):           # force elements and active clearances by name and type
             return sorted((str(f.get("name")), str(f.get("type"))) for f in forces or [])
-        for key in ("name", "nq", "nv", "joints", "closures", "drives", "forces"):
+        for key in ("name", "nq", "nv", "joints", "closures", "drives", "forces", "gravity"):
             if key not in rec:
                 continue
             a, b = (kinds(rec[key]), kinds(have[key])) if key == "forces" else (_jsonable(rec[key]),
@@ -337,6 +382,10 @@ class Trajectory:
                                  f"({rec.get('path')}); {mech.path or mech.name} differs in {key!r}")
         if self.q.ndim == 2 and self.q.shape[1] != mech.nq:
             raise InputError(f"{path}: q has {self.q.shape[1]} columns, mechanism {mech.name!r} has nq = {mech.nq}")
+        for k, n in (("v", mech.nv), ("a", mech.nv), ("z", mech.nz)):
+            arr = getattr(self, k)
+            if arr.ndim == 2 and len(arr) and arr.shape[1] != n:
+                raise InputError(f"{path}: {k} has {arr.shape[1]} columns, mechanism {mech.name!r} needs {n}")
 
     def load_mechanism(self, trust=None):
         """The mechanism this run used, loaded again with the same options, overrides and
