@@ -10,6 +10,8 @@ import json
 import os
 import signal
 import sys
+import threading
+import time
 import traceback
 import warnings
 from pathlib import Path
@@ -42,12 +44,18 @@ def _add_model_args(p, file_required=True):
                    help="allow the mechanism file to import Python code outside pinclear (see README: trust)")
 
 
-#: the simulate options recorded in OUT/run.json, so that --resume OUT repeats the same run
+#: the simulate options recorded in OUT/run.json (a record for the user: --resume compares the
+#: command line with it and takes nothing from it)
 RUN_KEYS = ("file", "clearance", "set", "option", "trust", "t_end", "method", "integrator", "rtol", "atol", "h",
             "max_step", "dt_out", "alpha", "beta", "max_cpu", "min_mean_step")
+#: the options that define the run a checkpoint continues (--resume refuses a command line that
+#: differs in one of them); trust is the user's decision of the moment, never the folder's
+RESUME_KEYS = tuple(k for k in RUN_KEYS if k not in ("trust", "max_cpu"))
+#: the files a simulate run writes into --out
+RUN_FILES = ("run.json", "trajectory.npz", "summary.json", "checkpoint.npz")
 
 
-def _check_out_dir(out: Path):
+def _check_out_dir(out: Path, files=()):
     """Fail before the run, not after it, when the results could not be written."""
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {str(out)!r} is an existing file; give a folder")
@@ -61,29 +69,57 @@ def _check_out_dir(out: Path):
         probe.unlink()
     except OSError as exc:
         raise InputError(f"--out {str(out)!r}: the folder is not writable ({exc.strerror})") from None
+    for name in files:
+        target = out / name
+        if target.is_symlink() or (target.exists() and not target.is_file()):
+            raise InputError(f"--out {str(out)!r}: {str(target)!r} exists and is not a regular file (a folder, a "
+                             "link or a device); remove it or choose another --out")
 
 
 @contextlib.contextmanager
 def _folder_lock(folder: Path):
-    """An advisory lock on OUT/.lock (fcntl on POSIX; a no-op where fcntl is missing)."""
+    """Hold OUT/.lock (fcntl.flock, exclusive, not waiting) for the whole command: a second run
+    into the same folder is refused at once, naming the folder and the process holding it, so two
+    runs never mix their files. A no-op where fcntl is missing."""
     try:
         import fcntl
     except ImportError:            # pragma: no cover - Windows
         yield
         return
-    with open(folder / ".lock", "a+") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
+    lock = folder / ".lock"
+    try:
+        fh = open(lock, "a+")
+    except OSError as exc:
+        raise InputError(f"--out {str(folder)!r}: cannot create the lock file {str(lock)!r} ({exc.strerror})") from None
+    with fh:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            fh.seek(0)
+            holder = fh.read(200).strip()
+            raise InputError(f"--out {str(folder)!r} is in use by another pinclear run "
+                             f"({holder or 'process unknown'}); wait for it to end or choose another --out") from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()}, started {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
+        fh.flush()
         try:
             yield
         finally:
+            fh.seek(0)
+            fh.truncate()
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
 class _StopRequest:
-    """SIGINT/SIGTERM during a run: finish the current step, keep every sample, checkpoint."""
+    """SIGINT/SIGTERM for the whole of a command: the first signal asks the run to finish its
+    current step (samples kept, checkpoint written) and the command to end with the interrupted
+    status once everything computed is saved; a second one stops at once, except while results
+    are being written (``critical``), which always completes."""
 
     def __init__(self):
         self.requested = False
+        self.critical = False
         self._old = {}
 
     def __enter__(self):
@@ -95,7 +131,7 @@ class _StopRequest:
         return self
 
     def _handle(self, signum, frame):
-        if self.requested:              # a second signal: stop at once
+        if self.requested and not self.critical:     # a second signal: stop at once
             raise KeyboardInterrupt
         self.requested = True
 
@@ -116,73 +152,210 @@ def _progress_bar(args, t0, t_end):
                 bar_format="{l_bar}{bar}| {n:.4g}/{total:.4g} sim s [{elapsed}<{remaining}]")
 
 
+def _resume_command(recorded: dict, folder) -> str:
+    """The command line that continues the run recorded in run.json (shown, never executed)."""
+    import shlex
+
+    parts = ["pinclear", "simulate", str(recorded.get("file"))]
+    for k in RUN_KEYS:
+        v = recorded.get(k)
+        if k == "file" or v is None or v is False or v == []:
+            continue
+        flag = "--" + k.replace("_", "-")
+        if v is True:
+            parts.append(flag)
+        elif isinstance(v, list):
+            for item in v:
+                parts += [flag, str(item)]
+        else:
+            parts += [flag, str(v)]
+    parts += ["--resume", str(folder)]
+    return " ".join(shlex.quote(p) for p in parts)
+
+
+def _read_run_json(rdir: Path) -> dict:
+    """OUT/run.json of the run to resume, as data: a mapping of the RUN_KEYS with JSON types."""
+    path = rdir / "run.json"
+    try:
+        if path.is_symlink() or not path.is_file():
+            raise OSError("not a regular file")
+        if path.stat().st_size > 1_000_000:
+            raise ValueError("larger than 1 MB")
+        recorded = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError) as exc:
+        raise InputError(f"--resume {str(rdir)!r}: no readable run.json of an earlier run "
+                         f"({type(exc).__name__}: {exc})") from None
+    if not isinstance(recorded, dict) or not isinstance(recorded.get("file"), str):
+        raise InputError(f"{path}: does not describe a pinclear run (expected a mapping with 'file')")
+    scalar = (int, float, str, bool, type(None))
+    for k, v in recorded.items():
+        if not (isinstance(v, scalar) or (isinstance(v, list) and all(isinstance(x, str) for x in v))):
+            raise InputError(f"{path}: {k}: expected a number, text or a list of texts, got {type(v).__name__}")
+    return recorded
+
+
+def _resume_differences(args, recorded: dict) -> list[str]:
+    """Where the command line contradicts the recorded run (names the options)."""
+    from .models import model_path
+
+    diffs = []
+    for k in RESUME_KEYS:
+        have, was = getattr(args, k, None), recorded.get(k)
+        if k == "file":
+            try:
+                same = model_path(have).resolve() == model_path(was).resolve()
+            except PinclearError:
+                same = have == was
+            if not same:
+                diffs.append(f"mechanism {have!r} (command line) vs {was!r} (the run)")
+            continue
+        if isinstance(have, list) or isinstance(was, list):
+            have, was = list(have or []), list(was or [])
+        if have != was:
+            diffs.append(f"--{k.replace('_', '-')} {have!r} (command line) vs {was!r} (the run)")
+    return diffs
+
+
 def cmd_simulate(args):
+    """simulate FILE ...: the whole command runs under one lock on --out and one SIGINT/SIGTERM
+    handler; the trajectory is written before anything that can raise, and a write that fails
+    leaves a copy elsewhere (docs/security.md)."""
+    with _StopRequest() as stop:
+        return _simulate(args, stop)
+
+
+def _simulate(args, stop):
     from .simulate import simulate
     from .trajectory import Checkpoint, atomic_write_text
 
-    resume = None
+    resume = recorded = None
     if args.resume:
         rdir = Path(args.resume)
-        try:
-            recorded = json.loads((rdir / "run.json").read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
-            raise InputError(f"--resume {str(rdir)!r}: no readable run.json of an earlier run ({exc})") from None
-        if not isinstance(recorded, dict) or "file" not in recorded:
-            raise InputError(f"--resume {str(rdir)!r}: run.json does not describe a run")
-        for k in RUN_KEYS:
-            setattr(args, k, recorded.get(k))
+        if args.out not in (None, "out") and Path(args.out).resolve() != rdir.resolve():
+            raise InputError(f"--out {args.out!r} contradicts --resume {str(rdir)!r}: a run is continued in its "
+                             "own folder (omit --out)")
         args.out = str(rdir)
-        resume = Checkpoint.load(rdir / "checkpoint.npz")
-    elif args.file is None or args.t_end is None:
-        raise InputError("simulate needs a mechanism file and --t-end (or --resume DIR)")
+        if not rdir.is_dir():
+            raise InputError(f"--resume {str(rdir)!r}: no such folder")
+    if args.file is None or args.t_end is None:
+        hint = ""
+        if args.resume:
+            with contextlib.suppress(PinclearError):
+                hint = f"; the run in it was started as: {_resume_command(_read_run_json(Path(args.resume)), args.resume)}"
+        raise InputError("simulate needs a mechanism file and --t-end (with --resume DIR: the same mechanism and "
+                         "options as the run being continued; nothing is taken from DIR but its checkpoint)" + hint)
     out = Path(args.out)
-    _check_out_dir(out)
-    mech = _load(args)
-    kw = {k: getattr(args, k) for k in ("alpha", "beta") if getattr(args, k) is not None}
-    max_step = np.inf if args.max_step is None else args.max_step
-    atomic_write_text(out / "run.json", json.dumps({k: getattr(args, k) for k in RUN_KEYS}, indent=2))
+    _check_out_dir(out, RUN_FILES)
+    with _folder_lock(out):
+        if args.resume:
+            recorded = _read_run_json(out)
+            diffs = _resume_differences(args, recorded)
+            if diffs:
+                raise InputError(f"--resume {str(out)!r}: the command line contradicts the run it continues: "
+                                 + "; ".join(diffs) + f" (that run: {_resume_command(recorded, out)})")
+            ck_path = out / "checkpoint.npz"
+            if not ck_path.exists():
+                raise InputError(f"--resume {str(out)!r}: no checkpoint.npz (the run finished, or never wrote one)")
+            resume = Checkpoint.load(ck_path)
+            resume.path = str(ck_path)
+        mech = _load(args)
+        if stop.requested:
+            print("pinclear: interrupted before the run started; nothing computed", file=sys.stderr)
+            return 130
+        kw = {k: getattr(args, k) for k in ("alpha", "beta") if getattr(args, k) is not None}
+        max_step = np.inf if args.max_step is None else args.max_step
+        atomic_write_text(out / "run.json", json.dumps({k: getattr(args, k) for k in RUN_KEYS}, indent=2))
 
-    def save_checkpoint(ck):
-        ck.save(out / "checkpoint.npz")
+        def save_checkpoint(ck):
+            ck.save(out / "checkpoint.npz")
 
-    bar = _progress_bar(args, resume.t if resume else 0.0, args.t_end)
-    with _StopRequest() as stop, warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
+        bar = _progress_bar(args, resume.t if resume else 0.0, args.t_end)
 
         def progress(t):
             if bar is not None:
                 bar.update(t - bar.n)
             return stop.requested
 
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            try:
+                traj = simulate(mech, args.t_end, method=args.method, integrator=args.integrator, rtol=args.rtol,
+                                atol=args.atol, h=args.h, dt_out=args.dt_out, max_step=max_step,
+                                max_cpu=args.max_cpu, min_mean_step=args.min_mean_step, progress=progress,
+                                checkpoint=save_checkpoint, checkpoint_every=args.checkpoint_every,
+                                resume=resume, **kw)
+            finally:
+                if bar is not None:
+                    bar.close()
+        stop.critical = True           # from here on, everything computed is written whatever arrives
+        return _save_run(args, mech, traj, out, stop)
+
+
+def _fallback_path(target: Path) -> list[Path]:
+    """Where a run goes when its own path cannot be written: beside it, else the user cache."""
+    from ._jit import cache_dir
+
+    stamp = f"{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}"
+    return [target.with_name(f"{target.stem}.fallback-{stamp}{target.suffix}"),
+            cache_dir() / "unsaved-runs" / stamp / target.name]
+
+
+def _write_or_fallback(write, target: Path):
+    """write(path) to ``target``; if that fails, to a fallback path. Returns (path written or
+    None, a message naming the paths and the reason, or None)."""
+    try:
+        return write(target), None
+    except OSError as exc:
+        why = exc.strerror or str(exc)
+    for alt in _fallback_path(target):
         try:
-            traj = simulate(mech, args.t_end, method=args.method, integrator=args.integrator, rtol=args.rtol,
-                            atol=args.atol, h=args.h, dt_out=args.dt_out, max_step=max_step, max_cpu=args.max_cpu,
-                            min_mean_step=args.min_mean_step, progress=progress, checkpoint=save_checkpoint,
-                            checkpoint_every=args.checkpoint_every,
-                            resume=resume, **kw)
-        finally:
-            if bar is not None:
-                bar.close()
-    summary = traj.summary()
+            write(alt)
+        except OSError:
+            continue
+        return alt, f"could not write {target} ({why}); saved it as {alt} instead"
+    return None, f"could not write {target} ({why}), nor a copy at {' or '.join(map(str, _fallback_path(target)))}"
+
+
+def _save_run(args, mech, traj, out: Path, stop):
+    """Write the trajectory first (nothing that can raise comes before it), then the summary."""
+    from .trajectory import atomic_write_text
+
+    problems = []
+    written, problem = _write_or_fallback(traj.save, out / "trajectory.npz")
+    if problem:
+        problems.append(problem)
+    try:
+        summary = traj.summary()
+    except Exception as exc:      # e.g. a trusted platform motion raising in the tracking error
+        summary = {"status": traj.status, "message": traj.message, "t_end": float(traj.t[-1]) if len(traj.t) else None,
+                   "samples": len(traj.t), "summary_error": f"{type(exc).__name__}: {exc}"}
     summary["mechanism"] = mech.name
     summary["file"] = str(args.file)
     summary["clearances"] = [f.describe() for f in mech.clearances]
-    summary["drive_force_peaks"] = {d.name: float(np.nanmax(np.abs(traj.lam[d.name]))) for d in mech.drives} \
-        if len(traj.t) else {}
-    # trajectory and summary are written under one lock on the folder, each atomically, so two
-    # runs into one folder leave a matching pair (the later run's), never a mix
-    with _folder_lock(out):
-        traj.save(out / "trajectory.npz")
-        atomic_write_text(out / "summary.json", json.dumps(summary, indent=2))
-        if traj.status == "success":
-            (out / "checkpoint.npz").unlink(missing_ok=True)
+    with contextlib.suppress(Exception):
+        summary["drive_force_peaks"] = {d.name: float(np.nanmax(np.abs(traj.lam[d.name]))) for d in mech.drives} \
+            if len(traj.t) else {}
+    _, problem = _write_or_fallback(lambda p: atomic_write_text(p, json.dumps(summary, indent=2, default=str)),
+                                    out / "summary.json")
+    if problem:
+        problems.append(problem)
+    if traj.status == "success" and written == out / "trajectory.npz":
+        (out / "checkpoint.npz").unlink(missing_ok=True)
     print(json.dumps({k: summary[k] for k in ("status", "mobility", "redundant_constraints", "max_closure_residual",
-                                              "energy_drift_rel", "tracking_error", "rhs_evals", "cpu_s")
-                      if k in summary}))
-    if traj.status == "interrupted":
-        print(f"pinclear: {traj.message}; {len(traj.t)} samples saved in {out}; continue with "
-              f"pinclear simulate --resume {out}", file=sys.stderr)
+                                              "energy_drift_rel", "tracking_error", "rhs_evals", "cpu_s",
+                                              "summary_error") if k in summary}, default=str))
+    for p in problems:
+        print(f"pinclear: error: {p}", file=sys.stderr)
+    if "summary_error" in summary:
+        print(f"pinclear: warning: the summary could not be computed ({summary['summary_error']}); the "
+              f"trajectory is saved", file=sys.stderr)
+    if traj.status == "interrupted" or stop.requested:
+        print(f"pinclear: {traj.message if traj.status == 'interrupted' else 'interrupted after the run ended'}; "
+              f"{len(traj.t)} samples saved in {written or out}; continue with the same command and "
+              f"--resume {out}", file=sys.stderr)
         return 130
+    if problems:
+        return 1
     if traj.status != "success":
         print(f"pinclear: integration failed: {traj.message}", file=sys.stderr)
         return 1
@@ -396,6 +569,10 @@ class _OneLineParser(argparse.ArgumentParser):
 
 
 def main(argv=None):
+    # a SIGINT from here on is a KeyboardInterrupt caught below (one line, exit 130); before
+    # this, while pinclear was imported, pinclear/__init__ answered it the same way
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     if debug:

@@ -292,6 +292,15 @@ class Trajectory:
                 s["tracking_error"] = te
         return _jsonable(s)
 
+    def _summary_for_saving(self) -> dict:
+        """The summary, or why it could not be computed: the summary calls user code (the
+        platform motion of the tracking error), and nothing it raises may cost the run's file."""
+        try:
+            return self.summary()
+        except Exception as exc:
+            return {"status": self.status, "message": self.message,
+                    "summary_error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"}
+
     # ------------------------------------------------------------------ I/O
     def save(self, path):
         """NPZ with every array + JSON metadata (versions, parameters, method options, stats)."""
@@ -308,7 +317,7 @@ class Trajectory:
         meta = dict(self.meta, status=self.status, message=self.message, stats=self.stats,
                     mech_path=str(Path(self.mech_path).resolve()) if self.mech_path else None,
                     load_args=getattr(self.mech, "load_args", None),
-                    lam_names=list(self.lam), summary=self.summary())
+                    lam_names=list(self.lam), summary=self._summary_for_saving())
         if self.mech is not None:
             meta["parameters"] = self.mech.parameters
         arrays["meta"] = np.array(json.dumps(_jsonable(meta)))

@@ -143,7 +143,8 @@ def test_4_interrupt_keeps_samples_and_resume_completes_the_run(tmp_path, sig):
     assert part.status == "interrupted" and 0.0 < part.t[-1] < 300.0
     assert len(part.t) > 5 and np.all(np.isfinite(part.q))
     assert (out / "checkpoint.npz").exists()
-    done = subprocess.run([sys.executable, "-m", "pinclear.cli", "simulate", "--resume", str(out)],
+    # the same command line continues it (nothing but the checkpoint is taken from the folder)
+    done = subprocess.run([sys.executable, "-m", "pinclear.cli", "simulate"] + args + ["--resume", str(out)],
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     resumed = pinclear.Trajectory.load(out / "trajectory.npz")
@@ -171,17 +172,29 @@ def test_4_max_cpu_keeps_samples_and_checkpoint_resumes(tmp_path):
     assert rest.stats["steps"] == whole.stats["steps"]
 
 
-def test_4_two_runs_into_one_folder_leave_a_matching_pair(tmp_path):
+def test_4_two_runs_into_one_folder_never_mix(tmp_path):
+    """A second run into a folder a run is writing into is refused at once, naming the folder and
+    the process holding it (issue 23: run.json of run 2 once sat beside trajectory.npz of run 1);
+    the first run's files stay a matching set."""
     out = tmp_path / "same"
-    procs = [_run_cli(["simulate", "four_bar", "--t-end", str(t), "--progress", "off", "--out", str(out)])
-             for t in (0.3, 0.6)]
-    for p in procs:
-        p.communicate(timeout=300)
-        assert p.returncode == 0
+    first = _run_cli(["simulate", "four_bar", "--t-end", "300", "--rtol", "1e-11", "--progress", "off",
+                      "--out", str(out)])
+    deadline = time.time() + 120
+    while not (out / "run.json").exists() and time.time() < deadline:
+        time.sleep(0.02)
+    assert first.poll() is None, "the first run ended before the second started"
+    second = subprocess.run([sys.executable, "-m", "pinclear.cli", "simulate", "four_bar", "--t-end", "0.3",
+                             "--progress", "off", "--out", str(out)], capture_output=True, text=True, timeout=300)
+    first.send_signal(signal.SIGTERM)
+    first.communicate(timeout=300)
+    assert second.returncode == 2 and str(out) in second.stderr and f"pid {first.pid}" in second.stderr
+    assert second.stderr.count("\n") == 1
+    assert first.returncode == 130
+    run = json.loads((out / "run.json").read_text())
     summary = json.loads((out / "summary.json").read_text())
     traj = pinclear.Trajectory.load(out / "trajectory.npz")
-    assert summary["t_end"] == pytest.approx(traj.t[-1])
-    assert summary["rhs_evals"] == traj.stats["rhs_evals"]
+    assert run["t_end"] == 300.0 and traj.meta["t_requested"][1] == 300.0
+    assert summary["t_end"] == pytest.approx(traj.t[-1]) and summary["rhs_evals"] == traj.stats["rhs_evals"]
     assert not list(out.glob(".*.npz")) and not list(out.glob(".summary.json.*"))   # no temporaries left
 
 
