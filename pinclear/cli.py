@@ -209,8 +209,8 @@ def _resume_differences(args, recorded: dict) -> list[str]:
             if not same:
                 diffs.append(f"mechanism {have!r} (command line) vs {was!r} (the run)")
             continue
-        if isinstance(have, list) or isinstance(was, list):
-            have, was = list(have or []), list(was or [])
+        if k in ("clearance", "set", "option"):       # repeatable options: absent == none given
+            have, was = have or [], was or []
         if have != was:
             diffs.append(f"--{k.replace('_', '-')} {have!r} (command line) vs {was!r} (the run)")
     return diffs
@@ -354,7 +354,7 @@ def _save_run(args, mech, traj, out: Path, stop):
               f"{len(traj.t)} samples saved in {written or out}; continue with the same command and "
               f"--resume {out}", file=sys.stderr)
         return 130
-    if problems:
+    if problems or "summary_error" in summary:
         return 1
     if traj.status != "success":
         print(f"pinclear: integration failed: {traj.message}", file=sys.stderr)

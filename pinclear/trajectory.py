@@ -132,6 +132,8 @@ def atomic_write_text(path, text: str):
     return path
 
 
+#: the energy channels every saved run holds
+ENERGY_KEYS = ("kinetic", "potential", "spring", "dissipated_power")
 #: the statuses a run can end with
 STATUSES = ("success", "failed", "interrupted", "empty")
 
@@ -343,9 +345,12 @@ class Trajectory:
             raise V._err(path, "metadata 'lam_names': expected a list of names")
         if not isinstance(meta.get("mech_path"), (str, type(None))):
             raise V._err(path, "metadata 'mech_path': expected a path")
-        for k in ("mechanism", "load_args"):
-            if not isinstance(meta.get(k), (dict, type(None))):
-                raise V._err(path, f"metadata {k!r}: expected a mapping")
+        for k, types in (("mechanism", dict), ("load_args", dict), ("method", dict), ("options", dict),
+                         ("versions", dict), ("summary", dict), ("integrator", str), ("rtol", (int, float)),
+                         ("atol", (int, float, list)), ("t_requested", list), ("parameters", list)):
+            if not isinstance(meta.get(k), (types, type(None))) or isinstance(meta.get(k), bool):
+                raise V._err(path, f"metadata {k!r}: expected {getattr(types, '__name__', 'a number')}, "
+                                   f"got {type(meta.get(k)).__name__}")
         tr.meta, tr.status, tr.message, tr.stats = meta, meta["status"], meta["message"], dict(meta["stats"])
         tr.mech_path = meta.get("mech_path")
         rec = meta.get("mechanism") or {}
@@ -368,6 +373,9 @@ class Trajectory:
         tr.outputs = {k[4:]: _rows(V, arrays, k, path, n) for k in arrays if k.startswith("out/")}
         tr.energies = {k[7:]: V.real_array(arrays, k, path, 1, finite=False, rows=n)
                        for k in arrays if k.startswith("energy/")}
+        missing = [k for k in ENERGY_KEYS if k not in tr.energies]
+        if missing:
+            raise V._err(path, f"array 'energy/{missing[0]}' is missing")
         if mech is not None:
             tr.check_mechanism(mech, path)
         tr.mech = mech
