@@ -594,7 +594,8 @@ def main(argv=None):
     except OSError as exc:
         if debug:
             traceback.print_exc()
-        print(f"pinclear: error: {exc.filename or ''}: {exc.strerror or exc}", file=sys.stderr)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"pinclear: error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("pinclear: interrupted", file=sys.stderr)

@@ -93,8 +93,9 @@ class Checkpoint:
         V.increasing(ts, path, "ts")
         samples = [(float(t), q, v, z) for t, q, v, z in zip(ts, qs, vs, zs)]
         identity = meta.get("identity")
-        if identity is not None and not isinstance(identity, dict):
-            raise V._err(path, "identity must be a mapping")
+        if not isinstance(identity, dict):
+            raise V._err(path, "the checkpoint records no identity of its run (written by another program or an "
+                               "older pinclear): it cannot be matched to a run, start the run again")
         return cls(t0=V.number(meta["t0"], path, "t0"), q=vec["q"], v=vec["v"], z=vec["z"],
                    t=V.number(meta["t"], path, "t"), q_now=vec["q_now"], v_now=vec["v_now"], z_now=vec["z_now"],
                    h_next=V.number(meta["h_next"], path, "h_next", positive=True, allow_none=True),

@@ -268,8 +268,10 @@ def check_checkpoint(ck, mech, path="<checkpoint>", identity=None, ws=None):
     events = ck.stats.get("events", [])
     if not isinstance(events, list) or not all(isinstance(e, dict) for e in events):
         raise _err(path, "stats.events must be a list of mappings")
-    if identity is not None:
-        diffs = identity_differences(getattr(ck, "identity", None), identity)
+    # a checkpoint built in Python (identity None: e.g. analysis.lyapunov restarting from a state
+    # it chose) is the caller's own; one read from a file always carries its run's identity
+    if identity is not None and getattr(ck, "identity", None) is not None:
+        diffs = identity_differences(ck.identity, identity)
         if diffs:
             raise _err(path, "the checkpoint belongs to another run: " + "; ".join(diffs))
     _check_on_manifold(ck, mech, path, ws, identity)

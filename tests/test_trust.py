@@ -271,7 +271,7 @@ def test_wrong_length_checkpoint_state_never_reaches_the_compiled_loop(tmp_path,
 
 
 @pytest.mark.parametrize("what", ["nan sample", "reversed times", "off manifold", "stale run", "bad h_next",
-                                  "stats junk"])
+                                  "stats junk", "no identity"])
 def test_tampered_checkpoints_are_refused(tmp_path, interrupted_run, what):
     src = _ck(interrupted_run)
     with np.load(src) as d:
@@ -290,6 +290,8 @@ def test_tampered_checkpoints_are_refused(tmp_path, interrupted_run, what):
         p, word, rtol = src, "rtol", 1e-9
     elif what == "bad h_next":
         p, word = _tampered(src, tmp_path / "c.npz", h_next=-1.0), "h_next"
+    elif what == "no identity":
+        p, word = _tampered(src, tmp_path / "c.npz", identity=None), "identity"
     else:
         p, word = _tampered(src, tmp_path / "c.npz", stats={"steps": "many"}), "stats.steps"
     with pytest.raises(InputError, match=word):
