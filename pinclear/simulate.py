@@ -522,12 +522,11 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     except KeyboardInterrupt:
         traj.fill_states(samples)
         traj.status, traj.message = "interrupted", message + " (outputs not evaluated)"
-    if traj.status == "success" and integ.adaptive:
-        _check_residual(traj, mech, rtol, atol)
+    if traj.status == "success" and integ.adaptive and _check_residual(traj, mech, rtol, atol):
+        status, message = traj.status, traj.message
     stats["cpu_s_total"] = time.process_time() - cpu0
     if len(traj.t) > 1:
         stats["cpu_per_sim_s"] = stats["cpu_s"] / (traj.t[-1] - traj.t[0])
-    status, message = traj.status, traj.message
     if status != "success":
         if strict:
             from .errors import IntegrationError
@@ -541,15 +540,15 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
 def _check_residual(traj, mech, rtol, atol):
     """Honest status: a run whose closure residual exceeds the bound its tolerances allow
     (pinclear.validate.residual_bound) ends as failed, samples kept, naming the residual, when it
-    first exceeded the bound, and the bound (docs/security.md, 'honest status')."""
+    first exceeded the bound, and the bound (docs/security.md, 'honest status'). True if so."""
     if not len(traj.t) or not mech.compiled.m:
-        return
+        return False
     res = np.nan_to_num(traj.residual, nan=0.0)
     bound = validate.residual_bound(mech, rtol, atol, traj.stats.get("steps", 0),
                                     q_scale=float(np.max(np.abs(traj.q), initial=1.0)))
     bound += float(res[0])                 # what the assembly left at the start
     if np.all(res <= bound):
-        return
+        return False
     k = int(np.argmax(res > bound))
     traj.stats["constraint_violation"] = {"t": float(traj.t[k]), "max_residual": float(res.max()),
                                           "bound": bound}
@@ -559,6 +558,7 @@ def _check_residual(traj, mech, rtol, atol):
                     f"{traj.t[k]:.9g} s); the motion left its constraint manifold (a singular start, a "
                     "huge initial velocity, an ill-conditioned mass matrix?): try method projection or a "
                     f"smaller rtol (samples kept up to t = {traj.t[-1]:.6g} s)")
+    return True
 
 
 def _crossings(g0, g1, dirs):

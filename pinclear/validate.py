@@ -228,8 +228,6 @@ def residual_bound(mech, rtol, atol, steps, q_scale=1.0, n_state=None) -> float:
 def check_checkpoint(ck, mech, path="<checkpoint>", identity=None, ws=None):
     """Refuse a checkpoint that cannot continue a run of ``mech`` (sizes, finite values,
     increasing times inside [t0, t], a state on the constraint manifold, the run identity)."""
-    from . import kinematics
-
     sizes = {"q": mech.nq, "v": mech.nv, "z": mech.nz, "q_now": mech.nq, "v_now": mech.nv, "z_now": mech.nz}
     for k, n in sizes.items():
         a = np.asarray(getattr(ck, k), float) if getattr(ck, k) is not None else None
