@@ -350,9 +350,10 @@ def _save_run(args, mech, traj, out: Path, stop):
         print(f"pinclear: warning: the summary could not be computed ({summary['summary_error']}); the "
               f"trajectory is saved", file=sys.stderr)
     if traj.status == "interrupted" or stop.requested:
-        print(f"pinclear: {traj.message if traj.status == 'interrupted' else 'interrupted after the run ended'}; "
-              f"{len(traj.t)} samples saved in {written or out}; continue with the same command and "
-              f"--resume {out}", file=sys.stderr)
+        when = f"at t = {traj.t[-1]:.9g} s" if traj.status == "interrupted" and len(traj.t) else "after the run ended"
+        print(f"pinclear: interrupted {when} (SIGINT/SIGTERM); {len(traj.t)} samples saved in {written or out}"
+              + (f"; continue with {_resume_command({k: getattr(args, k) for k in RUN_KEYS}, out)}"
+                 if traj.status == "interrupted" else ""), file=sys.stderr)
         return 130
     if problems or "summary_error" in summary:
         return 1

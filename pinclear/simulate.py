@@ -496,7 +496,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         status = "interrupted"
         save_checkpoint()
         message = (f"interrupted at t = {good[0] if good else t0:.9g} s (SIGINT/SIGTERM); "
-                   "continue with simulate(..., resume=checkpoint) / pinclear simulate --resume DIR")
+                   "continue with simulate(..., resume=checkpoint) / the same pinclear simulate command and "
+                   "--resume DIR")
     except RankLossError as exc:
         status, message = "failed", str(exc)
         stats["rank_loss"] = {"t": exc.t, "rank": exc.rank, "rows": exc.rows, "cond": exc.cond}

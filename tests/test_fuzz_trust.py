@@ -30,7 +30,7 @@ import pytest
 import yaml
 
 hypothesis = pytest.importorskip("hypothesis")
-from hypothesis import HealthCheck, given, settings  # noqa: E402
+from hypothesis import HealthCheck, event, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 import pinclear  # noqa: E402
@@ -248,8 +248,10 @@ def test_tampered_checkpoints_resume_or_fail_cleanly(tmp_path_factory, mech, che
         try:
             tr = pinclear.simulate(mech, T_END, rtol=RTOL, max_cpu=5.0, resume=Checkpoint.load(p))
             assert tr.status in ("success", "failed") and np.all(np.isfinite(tr.t))
+            event(f"resumed ({tr.stats['loop'].split(':')[0]} loop): {tr.status}")
         except pinclear.PinclearError as exc:
             assert "\n" not in str(exc) and str(exc)
+            event("refused")
 
 
 # ------------------------------------------------------------------ tampered saved runs

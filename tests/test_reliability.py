@@ -139,6 +139,9 @@ def test_4_interrupt_keeps_samples_and_resume_completes_the_run(tmp_path, sig):
     proc.send_signal(sig)
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 130, stderr
+    # the message shows the command that continues the run: the same one, with --resume
+    assert "continue with pinclear simulate four_bar --t-end 300.0" in stderr and "--rtol 1e-11" in stderr
+    assert stderr.strip().endswith(f"--resume {out}")
     part = pinclear.Trajectory.load(out / "trajectory.npz")
     assert part.status == "interrupted" and 0.0 < part.t[-1] < 300.0
     assert len(part.t) > 5 and np.all(np.isfinite(part.q))
