@@ -114,8 +114,8 @@ def _folder_lock(folder: Path):
 class _StopRequest:
     """SIGINT/SIGTERM for the whole of a command: the first signal asks the run to finish its
     current step (samples kept, checkpoint written) and the command to end with the interrupted
-    status once everything computed is saved; a second one stops at once, except while results
-    are being written (``critical``), which always completes."""
+    status once everything computed is saved; a second one stops at once, unless the orderly
+    stop or the writing of results has begun (``critical``), which always completes."""
 
     def __init__(self):
         self.requested = False
@@ -274,6 +274,10 @@ def _simulate(args, stop):
         def progress(t):
             if bar is not None:
                 bar.update(t - bar.n)
+            if stop.requested:
+                # the run stops in order from here (checkpoint, samples, save): a further
+                # signal must not cut that short
+                stop.critical = True
             return stop.requested
 
         with warnings.catch_warnings():

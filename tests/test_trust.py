@@ -429,6 +429,28 @@ def test_sigterm_while_saving_keeps_the_run(tmp_path):
     assert "Traceback" not in r.stderr and not list(out.glob(".*.npz"))
 
 
+def test_two_quick_signals_still_keep_the_run(tmp_path):
+    """SIGTERM twice, 20 ms apart, mid-integration: the first stops the run in order, the second
+    may not cut the checkpoint or the save short; the samples are on disk, exit 130."""
+    out = tmp_path / "o"
+    proc = subprocess.Popen([sys.executable, "-m", "pinclear.cli", "simulate", "four_bar", "--t-end", "300",
+                             "--rtol", "1e-11", "--progress", "off", "--checkpoint-every", "0.2", "--out", str(out)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while not (out / "checkpoint.npz").exists() and time.time() < deadline:
+        time.sleep(0.02)
+    assert proc.poll() is None, "the run ended before it could be interrupted"
+    proc.send_signal(signal.SIGTERM)
+    time.sleep(0.02)
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 130, err
+    tr = pinclear.Trajectory.load(out / "trajectory.npz")
+    assert tr.status == "interrupted" and len(tr.t) > 5 and 0.0 < tr.t[-1] < 300.0
+    ck = Checkpoint.load(out / "checkpoint.npz")
+    assert ck.t >= tr.t[-1] and "Traceback" not in err
+
+
 def raising_motion(t):
     raise RuntimeError("platform motion broken after the run")
 
