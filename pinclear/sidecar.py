@@ -145,32 +145,20 @@ def _joint(model, name, file, key, one_dof=False):
 
 
 def _build_model(urdf):
-    """pin.Model from a URDF; malformed XML is reported here, and urdfdom's own stderr chatter
+    """pin.Model from a URDF checked first (pinclear.urdf_check: bounded size and depth, a tree,
+    finite numbers; Pinocchio gets the very text that was checked); urdfdom's own stderr chatter
     is captured into the error message instead of reaching the user's terminal."""
     import os
     import tempfile
-    import xml.etree.ElementTree as ET
 
-    try:
-        tree = ET.parse(str(urdf))
-    except ET.ParseError as exc:
-        raise ModelFileError(str(urdf), "urdf", f"malformed XML: {exc}") from None
-    parents: dict = {}
-    for j in tree.getroot().iter("joint"):
-        child = j.find("child")
-        if child is not None:
-            parents.setdefault(child.get("link"), []).append(j.get("name"))
-    loops = {link: js for link, js in parents.items() if len(js) > 1}
-    if loops:
-        link, js = next(iter(loops.items()))
-        raise ModelFileError(str(urdf), f"link {link!r}", f"is the child of {len(js)} joints ({', '.join(js)}): "
-                             "a URDF must be a tree; keep one joint in the URDF and declare the cut one under "
-                             "'closures:' in the sidecar")
+    from .urdf_check import checked_urdf_text
+
+    text = checked_urdf_text(urdf)
     with tempfile.TemporaryFile(mode="w+b") as tmp:
         saved = os.dup(2)
         os.dup2(tmp.fileno(), 2)
         try:
-            model = pin.buildModelFromUrdf(str(urdf))
+            model = pin.buildModelFromXML(text)
             err = None
         except (RuntimeError, ValueError) as exc:
             model, err = None, str(exc).strip()
