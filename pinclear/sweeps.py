@@ -156,7 +156,9 @@ def parse_vary(spec):
                 return key, np.geomspace(a, b, n).tolist()
             return key, np.linspace(a, b, n).tolist()
         return key, [_number(x) for x in rhs.split(",")]
-    except ValueError:
+    except ValueError as exc:
+        if isinstance(exc, InputError):         # already says what is wrong
+            raise
         raise InputError(f"--vary {spec!r}: expected KEY=a:b:n[:log] (n >= 1) or KEY=v1,v2,...") from None
 
 
