@@ -150,14 +150,18 @@ def check_urdf_tree(root, file):
         _check_link(el, file)
     parent: dict = {}
     children: dict = {}
+    joined: dict = {}
     for j in joints:
         p, c = _check_joint(j, known, file)
-        if c in parent:
-            raise ModelFileError(file, f"link {c!r}", f"is the child of two joints ({parent[c][1]}, {j.get('name')}): "
-                                 "a URDF must be a tree; keep one joint in the URDF and declare the cut one under "
-                                 "'closures:' in the sidecar")
+        joined.setdefault(c, []).append(j.get("name"))
         parent[c] = (p, j.get("name"))
         children.setdefault(p, []).append(c)
+    loops = {c: js for c, js in joined.items() if len(js) > 1}
+    if loops:
+        c, js = next(iter(loops.items()))
+        raise ModelFileError(file, f"link {c!r}", f"is the child of {len(js)} joints ({', '.join(js)}): a URDF must be "
+                             "a tree; keep one joint in the URDF and declare the cut one under 'closures:' in the "
+                             "sidecar")
     if not names:
         raise ModelFileError(file, "urdf", "no <link> element")
     roots = [n for n in names if n not in parent]
