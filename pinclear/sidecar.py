@@ -158,6 +158,20 @@ def _vec3(x, file, key, direction=False):
     return a
 
 
+def _unit_parts(model, jm, arr, file, key, given):
+    """A joint configuration whose coordinates hold a unit quaternion or a (cos, sin) pair (free
+    flyer, spherical, unbounded revolute, planar joints), normalised; a zero quaternion or pair
+    has no rotation to normalise to and is refused (Pinocchio keeps it, and every rotation of
+    that joint is then the zero matrix)."""
+    q = pin.neutral(model)
+    q[jm.idx_q:jm.idx_q + jm.nq] = arr
+    q = pin.normalize(model, q)
+    if not pin.isNormalized(model, q, 1e-10):
+        raise ModelFileError(file, key, f"{given!r}: the {jm.shortname()} coordinates hold a unit quaternion or a "
+                             "(cos, sin) pair of zero length; give a non-zero one (it is normalised)")
+    return q[jm.idx_q:jm.idx_q + jm.nq]
+
+
 def _check_finite(obj, file, key):
     """Refuse NaN and inf anywhere in a sidecar value (no key of a mechanism file means 'not a
     number'); the key path is that of load()'s overrides (``closures[0].length``)."""
@@ -574,6 +588,8 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
                 raise ModelFileError(file, f"initial.{which}.{jn}", f"expected {n} number(s), got {val!r}") from None
             if arr.size != n or not np.all(np.isfinite(arr)):
                 raise ModelFileError(file, f"initial.{which}.{jn}", f"expected {n} finite number(s), got {val!r}")
+            if which == "q" and jm.nq != jm.nv:
+                arr = _unit_parts(model, jm, arr, file, f"initial.q.{jn}", val)
             vec[idx:idx + n] = arr
 
     # ---- platform

@@ -194,6 +194,20 @@ def test_non_finite_or_zero_geometry_is_refused_at_load(tmp_path, closure, key, 
         pinclear.load(path)
 
 
+def test_a_zero_quaternion_in_the_initial_guess_is_refused_and_a_long_one_normalised(tmp_path):
+    """A zero quaternion was kept (pin.normalize leaves it) and the run reported success with every
+    rotation of that body the zero matrix."""
+    (tmp_path / "free.urdf").write_text(f'<robot name="free"><link name="base"/>{_link("b")}<joint name="free" '
+                                        'type="floating"><parent link="base"/><child link="b"/></joint></robot>')
+    zero = tmp_path / "zero.yaml"
+    zero.write_text("urdf: free.urdf\ninitial: {q: {free: [0, 0, 0, 0, 0, 0, 0]}}\n")
+    with pytest.raises(ModelFileError, match=r"zero\.yaml: initial\.q\.free: .*zero length"):
+        pinclear.load(zero)
+    two = tmp_path / "two.yaml"
+    two.write_text("urdf: free.urdf\ninitial: {q: {free: [0.1, 0, 0, 0, 0, 0, 2.0]}}\n")
+    np.testing.assert_array_equal(pinclear.load(two).q0, [0.1, 0, 0, 0, 0, 0, 1.0])
+
+
 def test_nan_anywhere_in_a_sidecar_or_an_override_is_refused_with_its_key(tmp_path):
     _ok_urdf(tmp_path)
     path = tmp_path / "spring.yaml"
