@@ -147,6 +147,9 @@ def cli_main(argv) -> int:
     from ..sidecar import load
     from ..trajectory import Trajectory
 
+    from ..bounded import check_regular
+
+    check_regular(args.trajectory, "path", "trajectory")     # a FIFO or a device would block or never end
     tr0 = Trajectory.load(args.trajectory)
     path = args.file or tr0.mech_path
     if not path:
