@@ -17,35 +17,79 @@ from .mechanism import Mechanism
 from .timelaws import build_law, resolve_function, trusted
 
 
+#: nesting levels of a YAML document (the bundled sidecars use 6); deeper input would otherwise
+#: exhaust Python's recursion limit in PyYAML's composer
+MAX_YAML_DEPTH = 32
+
+
+class _YAMLRefused(yaml.YAMLError):
+    """A YAML document pinclear refuses although it is valid YAML: ``key`` is what to name."""
+
+    def __init__(self, key, message):
+        self.key, self.message = key, message
+        super().__init__(message)
+
+
 class _SidecarLoader(yaml.SafeLoader):
-    """PyYAML's safe loader without aliases: a 600-byte file of nested aliases expands to
-    gigabytes ("billion laughs"), and a mechanism file has no use for them."""
+    """PyYAML's safe loader without aliases (a 600-byte file of nested aliases expands to
+    gigabytes, "billion laughs", and a mechanism file has no use for them), with duplicate keys
+    refused (the last would silently win: a closure's ``type`` given twice changed the closure)
+    and nesting bounded by MAX_YAML_DEPTH."""
+
+    def __init__(self, stream):
+        super().__init__(stream)
+        self._depth = 0
 
     def compose_node(self, parent, index):
         if self.check_event(yaml.events.AliasEvent):
             event = self.peek_event()
-            raise yaml.YAMLError(f"line {event.start_mark.line + 1}: YAML aliases (*{event.anchor}) are not "
-                                 "accepted in a mechanism file; write the value out")
-        return super().compose_node(parent, index)
+            raise _YAMLRefused("yaml", f"line {event.start_mark.line + 1}: YAML aliases (*{event.anchor}) are not "
+                               "accepted in a mechanism file; write the value out")
+        self._depth += 1
+        try:
+            if self._depth > MAX_YAML_DEPTH:
+                line = self.peek_event().start_mark.line + 1
+                raise _YAMLRefused("yaml", f"line {line}: nested more than {MAX_YAML_DEPTH} levels deep (at most "
+                                   f"{MAX_YAML_DEPTH})")
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+    def construct_mapping(self, node, deep=False):
+        if isinstance(node, yaml.MappingNode):
+            seen = {}
+            for key_node, _ in node.value:
+                if key_node.tag == "tag:yaml.org,2002:merge":
+                    continue
+                key = self.construct_object(key_node, deep=True)
+                line = key_node.start_mark.line + 1
+                try:
+                    first = seen.get(key)
+                except TypeError:            # an unhashable key: PyYAML's own error follows
+                    continue
+                if first is not None:
+                    raise _YAMLRefused(str(key), f"given twice (lines {first} and {line}); a key appears once "
+                                       "in a mapping")
+                seen[key] = line
+        return super().construct_mapping(node, deep)
+
+
+def yaml_value(text):
+    """A YAML value from a string (a --set value, an override) with the sidecar's rules."""
+    return yaml.load(text, Loader=_SidecarLoader)
 
 
 def read_yaml(path, what="sidecar"):
-    """A YAML mapping from a file: UTF-8, bounded size, no aliases, errors naming the file."""
-    path = Path(path)
-    file = str(path)
+    """A YAML mapping from a file: a regular file read with a byte bound (pinclear.bounded), UTF-8,
+    no aliases, no duplicate keys, bounded nesting, errors naming the file (and the key)."""
+    from .bounded import read_text_bounded
+
+    file = str(Path(path))
+    text = read_text_bounded(path, MAX_SIDECAR_BYTES, "path", what)
     try:
-        size = path.stat().st_size
-        if size > MAX_SIDECAR_BYTES:
-            raise ModelFileError(file, "yaml", f"{size} bytes is too large for a {what} (at most {MAX_SIDECAR_BYTES})")
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as exc:
-        raise ModelFileError(file, "yaml", f"not UTF-8 text ({exc.reason} at byte {exc.start})") from None
-    except IsADirectoryError:
-        raise ModelFileError(file, "path", "is a folder, not a file") from None
-    except OSError as exc:
-        raise ModelFileError(file, "path", f"cannot be read: {exc.strerror}") from None
-    try:
-        return yaml.load(text, Loader=_SidecarLoader)
+        return yaml_value(text)
+    except _YAMLRefused as exc:
+        raise ModelFileError(file, exc.key, exc.message) from None
     except yaml.YAMLError as exc:
         raise ModelFileError(file, "yaml", f"not valid YAML: {' '.join(str(exc).split())}") from None
 
@@ -82,14 +126,64 @@ def _check_keys(d, allowed, file, key):
             raise ModelFileError(file, f"{key}.{k}" if key else k, "unknown key", choices=allowed)
 
 
-def _vec3(x, file, key):
+def _number(x, file, key, positive=False):
+    """A finite number (> 0 with ``positive``) or an error naming the file, the key and what is
+    allowed: a NaN or zero reaching the solver fails only later, as a LAPACK error without a key."""
+    if isinstance(x, bool):
+        raise ModelFileError(file, key, f"expected a number, got {x!r}")
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise ModelFileError(file, key, f"expected a number, got {x!r}") from None
+    if not np.isfinite(v):
+        raise ModelFileError(file, key, f"{x!r} is not finite: give a finite number{' > 0' if positive else ''}")
+    if positive and not v > 0:
+        raise ModelFileError(file, key, f"{v!r}: must be > 0")
+    return v
+
+
+def _vec3(x, file, key, direction=False):
+    """Three finite numbers; with ``direction`` (an axis, a plane normal) also of non-zero length."""
     try:
         a = np.asarray(x, float).reshape(3)
     except (TypeError, ValueError):
         raise ModelFileError(file, key, f"expected 3 numbers, got {x!r}") from None
     if not np.all(np.isfinite(a)):
         raise ModelFileError(file, key, f"expected 3 finite numbers, got {x!r}")
+    if direction:
+        n = np.linalg.norm(a)
+        if not (n > 0 and np.all(np.isfinite(a / n))):
+            raise ModelFileError(file, key, f"{x!r} has no direction: give a non-zero vector (any length, it is "
+                                 "normalised)")
     return a
+
+
+def _unit_parts(model, jm, arr, file, key, given):
+    """A joint configuration whose coordinates hold a unit quaternion or a (cos, sin) pair (free
+    flyer, spherical, unbounded revolute, planar joints), normalised; a zero quaternion or pair
+    has no rotation to normalise to and is refused (Pinocchio keeps it, and every rotation of
+    that joint is then the zero matrix)."""
+    q = pin.neutral(model)
+    q[jm.idx_q:jm.idx_q + jm.nq] = arr
+    q = pin.normalize(model, q)
+    if not pin.isNormalized(model, q, 1e-10):
+        raise ModelFileError(file, key, f"{given!r}: the {jm.shortname()} coordinates hold a unit quaternion or a "
+                             "(cos, sin) pair of zero length; give a non-zero one (it is normalised)")
+    return q[jm.idx_q:jm.idx_q + jm.nq]
+
+
+def _check_finite(obj, file, key):
+    """Refuse NaN and inf anywhere in a sidecar value (no key of a mechanism file means 'not a
+    number'); the key path is that of load()'s overrides (``closures[0].length``)."""
+    if isinstance(obj, float) and not np.isfinite(obj):
+        raise ModelFileError(file, key or "value", f"{obj!r} is not finite: every number of a mechanism file "
+                             "is a finite number")
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            _check_finite(v, file, f"{key}.{k}" if key else str(k))
+    elif isinstance(obj, list):
+        for i, v in enumerate(obj):
+            _check_finite(v, file, f"{key}[{i}]")
 
 
 def _rotation_z_to(axis):
@@ -119,7 +213,7 @@ def _frame(model, spec, default_name, file, key):
     if "rpy" in spec and "axis" in spec:
         raise ModelFileError(file, key, "give either rpy or axis, not both")
     if "axis" in spec:
-        R = _rotation_z_to(_vec3(spec["axis"], file, f"{key}.axis"))
+        R = _rotation_z_to(_vec3(spec["axis"], file, f"{key}.axis", direction=True))
     else:
         R = pin.rpy.rpyToMatrix(_vec3(spec.get("rpy", [0, 0, 0]), file, f"{key}.rpy"))
     name = spec.get("name", default_name)
@@ -145,32 +239,20 @@ def _joint(model, name, file, key, one_dof=False):
 
 
 def _build_model(urdf):
-    """pin.Model from a URDF; malformed XML is reported here, and urdfdom's own stderr chatter
+    """pin.Model from a URDF checked first (pinclear.urdf_check: bounded size and depth, a tree,
+    finite numbers; Pinocchio gets the very text that was checked); urdfdom's own stderr chatter
     is captured into the error message instead of reaching the user's terminal."""
     import os
     import tempfile
-    import xml.etree.ElementTree as ET
 
-    try:
-        tree = ET.parse(str(urdf))
-    except ET.ParseError as exc:
-        raise ModelFileError(str(urdf), "urdf", f"malformed XML: {exc}") from None
-    parents: dict = {}
-    for j in tree.getroot().iter("joint"):
-        child = j.find("child")
-        if child is not None:
-            parents.setdefault(child.get("link"), []).append(j.get("name"))
-    loops = {link: js for link, js in parents.items() if len(js) > 1}
-    if loops:
-        link, js = next(iter(loops.items()))
-        raise ModelFileError(str(urdf), f"link {link!r}", f"is the child of {len(js)} joints ({', '.join(js)}): "
-                             "a URDF must be a tree; keep one joint in the URDF and declare the cut one under "
-                             "'closures:' in the sidecar")
+    from .urdf_check import checked_urdf_text
+
+    text = checked_urdf_text(urdf)
     with tempfile.TemporaryFile(mode="w+b") as tmp:
         saved = os.dup(2)
         os.dup2(tmp.fileno(), 2)
         try:
-            model = pin.buildModelFromUrdf(str(urdf))
+            model = pin.buildModelFromXML(text)
             err = None
         except (RuntimeError, ValueError) as exc:
             model, err = None, str(exc).strip()
@@ -234,8 +316,16 @@ def _substitute(obj, opts, file, key):
     return obj
 
 
-def _parse_value(text):
-    return yaml.safe_load(text) if isinstance(text, str) else text
+def _parse_value(text, key="value"):
+    """An override's value: a string is read as a YAML scalar (as on the command line)."""
+    if not isinstance(text, str):
+        return text
+    try:
+        return yaml_value(text)
+    except _YAMLRefused as exc:
+        raise ModelFileError("<override>", key, exc.message) from None
+    except yaml.YAMLError as exc:
+        raise ModelFileError("<override>", key, f"not a YAML value: {' '.join(str(exc).split())}") from None
 
 
 _TOKEN = re.compile(r"([^.\[\]]+)|\[([^\]]*)\]")
@@ -302,7 +392,9 @@ def parse_assignments(items, what="--set") -> dict:
             raise InputError(f"{what} expects KEY=VALUE, got {it!r}")
         k, v = it.split("=", 1)
         try:
-            out[k.strip()] = yaml.safe_load(v)
+            out[k.strip()] = yaml_value(v)
+        except _YAMLRefused as exc:
+            raise InputError(f"{what} {it!r}: {exc.message}") from None
         except yaml.YAMLError as exc:
             raise InputError(f"{what} {it!r}: the value is not a YAML scalar ({' '.join(str(exc).split())})") from None
     return out
@@ -349,7 +441,8 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
     all_overrides = dict(overrides or {})
     overrides = dict(all_overrides)
     for k in [k for k in overrides if isinstance(k, str) and re.split(r"[.\[]", k, 1)[0] in TOP_KEYS]:
-        set_key_path(sc, parse_key_path(k), _parse_value(overrides.pop(k)), file, k)
+        set_key_path(sc, parse_key_path(k), _parse_value(overrides.pop(k), k), file, k)
+    _check_finite(sc, file, "")
     if "urdf" not in sc:
         raise ModelFileError(file, "urdf", "missing: the URDF file of the spanning tree")
     if not isinstance(sc["urdf"], str):
@@ -387,7 +480,7 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
         opts[k] = val
     clr_overrides: dict[str, dict] = {}
     for k, val in dict(overrides or {}).items():
-        val = _parse_value(val)
+        val = _parse_value(val, k)
         if "." in k:
             cname, key = k.split(".", 1)
             if cname not in clr_names:
@@ -400,6 +493,8 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
             raise ModelFileError(file, k, "unknown override (a sidecar key path such as forces[NAME].k, NAME.key for "
                                  "a clearance joint, or a scene option)",
                                  choices=list(opts) + [f"{c}.<key>" for c in clr_names] + sorted(TOP_KEYS))
+    _check_finite(opts, file, "options")
+    _check_finite(clr_overrides, file, "clearances")
     for k, val in opts.items():
         choices = declared[k].get("choices")
         if choices is not None and val not in choices:
@@ -437,9 +532,11 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
             raise ModelFileError(file, key, "frame1 and frame2 are on the same body: nothing to close")
         if ctype == "distance" and "length" not in c:
             raise ModelFileError(file, f"{key}.length", "missing for a distance closure")
+        # |p1 - p2| = 0 has no gradient at its solution: a distance is > 0 (a spherical closure is L = 0)
+        length = _number(c.get("length", 0.0), file, f"{key}.length", positive=ctype == "distance")
         closures.append(Closure(cname, ctype, n1, n2, f1, f2,
-                                normal=_vec3(c.get("normal", [0, 0, 1]), file, f"{key}.normal"),
-                                length=float(c.get("length", 0.0))))
+                                normal=_vec3(c.get("normal", [0, 0, 1]), file, f"{key}.normal", direction=True),
+                                length=length))
 
     # ---- drives
     drives = []
@@ -492,6 +589,8 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
                 raise ModelFileError(file, f"initial.{which}.{jn}", f"expected {n} number(s), got {val!r}") from None
             if arr.size != n or not np.all(np.isfinite(arr)):
                 raise ModelFileError(file, f"initial.{which}.{jn}", f"expected {n} finite number(s), got {val!r}")
+            if which == "q" and jm.nq != jm.nv:
+                arr = _unit_parts(model, jm, arr, file, f"initial.q.{jn}", val)
             vec[idx:idx + n] = arr
 
     # ---- platform

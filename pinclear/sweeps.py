@@ -20,10 +20,13 @@ import itertools
 import json
 import math
 import os
+import signal
 import sys
 import tempfile
+import threading
 import time
 import warnings
+import zipfile
 from concurrent.futures import Executor, ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -34,6 +37,12 @@ from .errors import InputError
 from .trajectory import Trajectory, atomic_write_text, jsonable
 
 FORMAT = "pinclear-sweep/1"
+#: points of one sweep grid: every finished point rewrites the index (sweep.json, about 100 bytes
+#: per point), so a grid is refused before anything is built above this (split it into sweeps)
+MAX_SWEEP_POINTS = 10_000
+#: bytes of the sweep index and of a point's error file / recorded metadata read back on resume
+MAX_INDEX_BYTES = 64_000_000
+MAX_POINT_META_BYTES = 16_000_000
 
 
 # ------------------------------------------------------------------------------- executors
@@ -49,11 +58,57 @@ def make_executor(workers=None, scheduler=None):
             client = Client(scheduler, timeout="20s")
         except OSError as exc:
             raise InputError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
-        return client.get_executor(), client.close
+        return client.get_executor(), lambda abort=False: client.close()
     if workers is not None and int(workers) < 1:
         raise InputError(f"workers must be a positive number of processes, got {workers!r}")
-    ex = ProcessPoolExecutor(max_workers=int(workers) if workers else os.cpu_count() or 1)
-    return ex, lambda: ex.shutdown(wait=True, cancel_futures=True)
+    ex = ProcessPoolExecutor(max_workers=int(workers) if workers else os.cpu_count() or 1,
+                             initializer=_die_with_parent, initargs=(os.getpid(),))
+
+    def close(abort=False):
+        # on an error or an interrupt the running points are not waited for: the workers end now
+        ex.shutdown(wait=not abort, cancel_futures=True)
+        if abort:
+            for proc in list((getattr(ex, "_processes", None) or {}).values()):
+                if proc.is_alive():
+                    proc.kill()
+    return ex, close
+
+
+def _die_with_parent(parent):
+    """Worker initializer: the worker ends when the process that started the sweep ends, however
+    it ends (SIGKILL included). Workers otherwise wait forever for jobs from a dead parent,
+    holding its caller's pipes open. Linux: the kernel sends SIGKILL to the worker when its
+    parent exits (prctl PR_SET_PDEATHSIG); elsewhere, or when the worker's parent is a fork
+    server rather than the sweep's process, a daemon thread polls the sweep's process."""
+    armed = False
+    if sys.platform.startswith("linux") and os.getppid() == parent:
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            armed = libc.prctl(1, int(signal.SIGKILL), 0, 0, 0) == 0      # 1 = PR_SET_PDEATHSIG
+        except (OSError, AttributeError):
+            armed = False
+    if not _alive(parent):              # the parent died before the signal was armed
+        os._exit(1)
+    if not armed:
+        threading.Thread(target=_watch_parent, args=(parent,), name="pinclear-parent-watch", daemon=True).start()
+
+
+def _alive(pid) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:             # exists, owned by someone else (a reused pid): not ours
+        return pid == os.getppid()
+    return True
+
+
+def _watch_parent(parent, every=1.0):
+    while _alive(parent):
+        time.sleep(every)
+    os._exit(1)
 
 
 def run_jobs(fn, jobs, executor, on_result, on_error):
@@ -90,15 +145,20 @@ def parse_vary(spec):
             if len(parts) not in (3, 4) or (len(parts) == 4 and parts[3] != "log"):
                 raise ValueError
             a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
-            if n < 1:
+            if n < 1 or not (math.isfinite(a) and math.isfinite(b)):
                 raise ValueError
+            if n > MAX_SWEEP_POINTS:
+                raise InputError(f"--vary {spec!r}: {n} values, more than a sweep may have (at most "
+                                 f"{MAX_SWEEP_POINTS} points)")
             if len(parts) == 4:
                 if a <= 0 or b <= 0:
                     raise InputError(f"--vary {spec!r}: a geometric range needs positive ends")
                 return key, np.geomspace(a, b, n).tolist()
             return key, np.linspace(a, b, n).tolist()
         return key, [_number(x) for x in rhs.split(",")]
-    except ValueError:
+    except ValueError as exc:
+        if isinstance(exc, InputError):         # already says what is wrong
+            raise
         raise InputError(f"--vary {spec!r}: expected KEY=a:b:n[:log] (n >= 1) or KEY=v1,v2,...") from None
 
 
@@ -122,6 +182,11 @@ def grid(vary):
     for k, vals in items:
         if len(vals) == 0:
             raise InputError(f"sweep: no values for {k!r}")
+    count = math.prod(len(v) for _, v in items)
+    if count > MAX_SWEEP_POINTS:
+        sizes = " x ".join(f"{len(v)} ({k})" for k, v in items)
+        raise InputError(f"sweep: the grid of --vary {', '.join(keys)} has {sizes} = {count} points, more than a "
+                         f"sweep may have (at most {MAX_SWEEP_POINTS}); split it into several sweeps")
     return [dict(zip(keys, combo)) for combo in itertools.product(*[list(v) for _, v in items])]
 
 
@@ -197,13 +262,51 @@ def _point_files(folder, i):
 
 
 def _status_from_file(npz, err):
-    if npz.exists():
-        meta = json.loads(str(np.load(npz, allow_pickle=False)["meta"]))
-        return meta["status"], meta["message"], npz
-    if err.exists():
-        d = json.loads(err.read_text(encoding="utf-8"))
-        return d["status"], d["message"], err
+    """(status, message, file) of a point from its file on disk; ("pending", ...) when it has
+    none. A file that cannot be read back (truncated, not a point file, a FIFO...) is moved aside
+    as ``NAME.corrupt``, reported on stderr by name, and the point is computed again."""
+    for f, read in ((npz, _npz_status), (err, _json_status)):
+        if not (f.exists() or f.is_symlink()):
+            continue
+        try:
+            status, message = read(f)
+            return status, message, f
+        except (InputError, OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
+            why = " ".join(str(exc).split())[:200] or type(exc).__name__
+            aside = f.with_name(f.name + ".corrupt")
+            try:
+                os.replace(f, aside)
+                where = f"moved to {aside.name}"
+            except OSError as mv:
+                where = f"could not be moved aside ({mv.strerror}); it is overwritten"
+            print(f"pinclear: warning: {f}: unreadable sweep point file ({why}); {where}, the point is computed "
+                  "again", file=sys.stderr)
     return "pending", "", None
+
+
+def _npz_status(npz):
+    from .bounded import check_regular
+
+    check_regular(npz, "point", "sweep point")
+    with zipfile.ZipFile(npz) as z:
+        size = z.getinfo("meta.npy").file_size
+    if size > MAX_POINT_META_BYTES:
+        raise InputError(f"its metadata declares {size} bytes (at most {MAX_POINT_META_BYTES})")
+    with np.load(npz, allow_pickle=False) as d:
+        meta = json.loads(str(d["meta"]))
+    return _checked_status(meta)
+
+
+def _json_status(err):
+    from .bounded import read_text_bounded
+
+    return _checked_status(json.loads(read_text_bounded(err, MAX_POINT_META_BYTES, "point", "sweep point")))
+
+
+def _checked_status(meta):
+    if not (isinstance(meta, dict) and isinstance(meta.get("status"), str) and isinstance(meta.get("message"), str)):
+        raise ValueError("no status and message recorded")
+    return meta["status"], meta["message"]
 
 
 # ------------------------------------------------------------------------------- the sweep
@@ -249,10 +352,14 @@ def sweep(model, vary, t_end, out, *, sim_options=None, load_options=None, worke
                      "t_end": float(t_end), "sim_options": sim_kw, "load_options": load_kw, "fixed": fixed})
     index_path = folder / "sweep.json"
     if index_path.exists():
+        from .bounded import read_text_bounded
+
         try:
-            old = json.loads(index_path.read_text(encoding="utf-8"))
-        except (OSError, json.JSONDecodeError) as exc:
+            old = json.loads(read_text_bounded(index_path, MAX_INDEX_BYTES, "sweep.json", "sweep index"))
+        except json.JSONDecodeError as exc:
             raise InputError(f"{index_path}: not a readable sweep index ({exc})") from None
+        if not isinstance(old, dict):
+            raise InputError(f"{index_path}: not a sweep index (a JSON object)")
         diff = [k for k in spec if old.get(k) != spec[k]]
         if diff:
             raise InputError(f"{folder} holds a different sweep (it differs in {', '.join(diff)}); "
@@ -318,6 +425,11 @@ def sweep(model, vary, t_end, out, *, sim_options=None, load_options=None, worke
             if ex is None:
                 ex, close = make_executor(workers if workers else min(len(jobs), os.cpu_count() or 1), scheduler)
             run_jobs(_run_point, jobs, ex, on_result, on_error)
+    except BaseException:
+        if close is not None:
+            close(abort=True)
+            close = None
+        raise
     finally:
         if close is not None:
             close()

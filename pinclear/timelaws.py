@@ -244,6 +244,35 @@ def _finite(law, file, key):
     return law
 
 
+def _checked_output(law, file, key):
+    """A python law evaluated once, at t = 0, to check the shape of what its function returns
+    against the law's ``index``: an index past the function's output (or a vector function
+    without an index) is a load error naming the law's key, not an IndexError in the run. A
+    function that raises here is left to the run, which reports the time and the reason."""
+    try:
+        out = law.func(0.0, **law.args)
+    except Exception:
+        return law
+    name = law.name
+    try:
+        parts = [np.asarray(x, float) for x in out]
+    except (TypeError, ValueError):
+        parts = None
+    if parts is None or len(parts) != 3 or any(p.ndim > 1 for p in parts):
+        raise ModelFileError(file, f"{key}.function", f"{name} returned {type(out).__name__}: a law returns three "
+                             "numbers (y, y', y''), or three 1-D arrays of equal length chosen from with 'index'")
+    n = parts[0].size
+    if law.index is None:
+        if any(p.size != 1 for p in parts):
+            raise ModelFileError(file, f"{key}.index", f"missing: {name} returns {n} values per derivative; "
+                                 f"choose one with index (0..{n - 1})")
+    elif any(p.size != n for p in parts) or law.index >= n:
+        sizes = "/".join(str(p.size) for p in parts)
+        raise ModelFileError(file, f"{key}.index", f"{law.index} is past the values {name} returns ({sizes} for "
+                             f"y, y', y''; valid: 0..{min(p.size for p in parts) - 1})")
+    return law
+
+
 def build_law(spec, file="<python>", key="law", trust=None) -> TimeLaw:
     """A TimeLaw from a sidecar mapping, a number, a callable or a TimeLaw."""
     if isinstance(spec, TimeLaw):
@@ -285,7 +314,10 @@ def build_law(spec, file="<python>", key="law", trust=None) -> TimeLaw:
         index = spec.get("index")
         if index is not None and (not isinstance(index, int) or index < 0):
             raise ModelFileError(file, f"{key}.index", f"expected a non-negative integer, got {index!r}")
-        return Callable(func, spec.get("args"), name=spec.get("function"), index=index)
+        args = spec.get("args")
+        if args is not None and not isinstance(args, dict):
+            raise ModelFileError(file, f"{key}.args", f"expected a mapping of keyword arguments, got {args!r}")
+        return _checked_output(Callable(func, args, name=spec.get("function"), index=index), file, key)
     except KeyError as exc:
         raise ModelFileError(file, f"{key}.{exc.args[0]}", f"missing for a {kind} law") from None
     except (TypeError, ValueError) as exc:

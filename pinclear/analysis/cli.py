@@ -25,11 +25,22 @@ def _values_arg(text):
         parts = text.split(":")
         if len(parts) != 3:
             raise InputError(f"--values: expected 'start:stop:count', got {text!r}")
+        from ..sweeps import MAX_SWEEP_POINTS
+
         try:
-            return list(np.linspace(float(parts[0]), float(parts[1]), int(parts[2])))
+            a, b, n = float(parts[0]), float(parts[1]), int(parts[2])
         except ValueError:
             raise InputError(f"--values: expected 'start:stop:count', got {text!r}") from None
-    return [yaml.safe_load(v) for v in text.split(",")]
+        if not (np.isfinite(a) and np.isfinite(b)) or not 1 <= n <= MAX_SWEEP_POINTS:
+            raise InputError(f"--values {text!r}: finite start and stop, 1 <= count <= {MAX_SWEEP_POINTS}")
+        return list(np.linspace(a, b, n))
+    from ..sidecar import yaml_value
+
+    try:
+        return [yaml_value(v) for v in text.split(",")]
+    except yaml.YAMLError as exc:
+        raise InputError(f"--values {text!r}: not a comma-separated list of YAML scalars "
+                         f"({' '.join(str(exc).split())})") from None
 
 
 def _param_arg(items):
@@ -136,12 +147,19 @@ def cli_main(argv) -> int:
     from ..sidecar import load
     from ..trajectory import Trajectory
 
+    from ..bounded import check_regular
+
+    check_regular(args.trajectory, "path", "trajectory")     # a FIFO or a device would block or never end
     tr0 = Trajectory.load(args.trajectory)
     path = args.file or tr0.mech_path
     if not path:
         raise InputError(f"{args.trajectory}: no mechanism file recorded in the run: give --file")
     if args.clearance is None:
-        sc = yaml.safe_load(Path(path).read_text()) or {}
+        from ..sidecar import read_yaml
+
+        sc = read_yaml(path) or {}
+        if not isinstance(sc, dict):
+            raise ModelFileError(str(path), "sidecar", "expected a mapping")
         names = {c.get("name") for c in sc.get("clearances") or [] if isinstance(c, dict)}
         ran = {f.get("name") for f in tr0.meta.get("mechanism", {}).get("forces", [])}
         args.clearance = sorted(names & ran)

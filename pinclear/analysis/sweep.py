@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, ModelFileError
-from ..sweeps import make_executor, run_jobs
+from ..sweeps import MAX_SWEEP_POINTS, make_executor, run_jobs
 from .classify import Classification, classify
 from .poincare import PoincareSection, poincare, section_times
 from .signals import series
@@ -314,6 +314,9 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     values = [v.item() if isinstance(v, np.generic) else v for v in values]
     if not values:
         raise InputError("bifurcation: no parameter values given")
+    if len(values) > MAX_SWEEP_POINTS:
+        raise InputError(f"bifurcation: {len(values)} parameter values, more than one diagram may have (at most "
+                         f"{MAX_SWEEP_POINTS}); split the range")
     sim_kw = dict(sim_options or {})
     for k in ("t_end", "t_eval", "dt_out", "t0", "strict"):
         if k in sim_kw:
@@ -391,6 +394,11 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
         run_jobs(_run_one, jobs, ex, lambda job, run: finish(run),
                  lambda job, exc: finish(BifurcationRun(job["index"], job["value"], "error",
                                                         f"{type(exc).__name__}: {exc}")))
+    except BaseException:
+        if close is not None:           # an interrupt: the workers end now, not after their runs
+            close(abort=True)
+            close = None
+        raise
     finally:
         if close is not None:
             close()

@@ -1,6 +1,7 @@
 """Validation of the sidecar keys shared by all clearance joints (pinclear.contact.build)."""
 from __future__ import annotations
 
+import math
 import numbers
 
 from pinclear.errors import ContactSetupError
@@ -36,6 +37,8 @@ class Spec:
             except (TypeError, ValueError):
                 raise self.error(key, f"expected a number, got {v!r}") from None
         v = float(v)
+        if not math.isfinite(v):
+            raise self.error(key, f"expected a finite number, got {v}")
         if positive and (v < 0 or (v == 0 and not allow_zero)):
             raise self.error(key, f"must be {'>= 0' if allow_zero else '> 0'}, got {v}")
         return v
@@ -48,8 +51,11 @@ class Spec:
             v = [v, v]
         if not isinstance(v, (list, tuple)) or len(v) != 2:
             raise self.error(key, f"expected a number or a pair [x, y], got {v!r}")
-        out = [float(x) for x in v]
-        if min(out) <= 0:
+        try:
+            out = [float(x) for x in v]
+        except (TypeError, ValueError):
+            raise self.error(key, f"expected a number or a pair [x, y], got {v!r}") from None
+        if not all(math.isfinite(x) for x in out) or min(out) <= 0:
             raise self.error(key, f"must be > 0, got {v!r}")
         return out
 

@@ -74,6 +74,28 @@ def load_run(npz, mech_path=None, trust=None):
     return traj, mech
 
 
+def check_same_tree(mech, ref_mech, file, ref_file):
+    """A reference run is drawn with the main run's model (its platform frame, its joint order),
+    so it must come from the same kinematic tree: same joints, types, sizes and placements. Its
+    joints may differ in clearances, closures, drives and forces (e.g. ideal joints)."""
+    from pinclear.errors import InputError
+
+    a, b = mech.model, ref_mech.model
+    why = None
+    if (a.nq, a.nv) != (b.nq, b.nv):
+        why = f"nq/nv {b.nq}/{b.nv} instead of {a.nq}/{a.nv}"
+    elif list(a.names) != list(b.names):
+        why = "other joint names"
+    elif [j.shortname() for j in a.joints] != [j.shortname() for j in b.joints]:
+        why = "other joint types"
+    elif not all(x.isApprox(y, 1e-12) for x, y in zip(a.jointPlacements, b.jointPlacements)):
+        why = "other joint placements"
+    if why is not None:
+        raise InputError(f"--ref {ref_file}: the run was made with mechanism {ref_mech.name!r} ({ref_mech.path}), "
+                         f"{file} with {mech.name!r} ({mech.path}): {why}; --ref takes a run of the same mechanism "
+                         "(e.g. with ideal joints)")
+
+
 def _scene_args(ap):
     ap.add_argument("--slowdown", type=float, default=None,
                     help="playback seconds per simulated second (default: real time, or slowed by a round "
@@ -211,8 +233,16 @@ def plot_main(argv: list[str]) -> int:
     from .plots import save_all
 
     try:
+        from pinclear.bounded import check_regular
+
+        for f in (a.file, a.ref):
+            if f is not None:               # a FIFO or a device would block or never end
+                check_regular(f, "path", "trajectory")
         traj, mech = load_run(a.file, a.mech, trust=_trust(a.trust))
-        ref = load_run(a.ref, a.mech, trust=_trust(a.trust))[0] if a.ref else None
+        ref = None
+        if a.ref:
+            ref, ref_mech = load_run(a.ref, a.mech, trust=_trust(a.trust))
+            check_same_tree(mech, ref_mech, a.file, a.ref)
         written, skipped = save_all(traj, a.out, mech=mech, ref=ref, fmt=a.format, frame=a.frame)
     except PinclearError as exc:
         print(f"pinclear: error: {exc}", file=sys.stderr)
