@@ -175,6 +175,23 @@ def friction_scale(code, par, s, fn):
 
 
 @njit(cache=True)
+def power_energy(d, K, expo):
+    """Potential of power_elastic: K d^(e+1)/(e+1), continued linearly beyond DELTA_CAP where the
+    force is held constant (so the force stays its exact derivative everywhere)."""
+    if d <= 0.0:
+        return 0.0
+    if d <= DELTA_CAP:
+        return K * d ** (expo + 1.0) / (expo + 1.0)
+    return K * DELTA_CAP ** expo * (DELTA_CAP / (expo + 1.0) + (d - DELTA_CAP))
+
+
+@njit(cache=True)
+def power_law_energy(d, K, expo, U):
+    for k in range(d.shape[0]):
+        U[k] = power_energy(d[k], K, expo)
+
+
+@njit(cache=True)
 def power_law_forces(d, dd, dd0, K, expo, chi, F, Fe):
     for k in range(d.shape[0]):
         F[k], Fe[k] = power_law(d[k], dd[k], dd0[k], K, expo, chi)
@@ -496,7 +513,7 @@ def law_energy(code, d, p0, p1):
         if P <= 0.0:
             return 0.0
         return P * d - p0 * (0.75 * P * P - 0.5 * P * P * math.log(p1 * P))
-    return p0 * d ** (p1 + 1.0) / (p1 + 1.0)
+    return power_energy(d, p0, p1)
 
 
 @njit(cache=True)
