@@ -197,3 +197,18 @@ def test_compiled_slider_equals_the_python_path(scene, name, friction, model):
         np.testing.assert_allclose(el.event_values(mech, fast, fast.force_data[i], 0.0, q, v, z), ds.delta,
                                    rtol=0, atol=el.event_snap)      # event values snap |delta| < 1e-13
     assert len(modes) >= 4            # lines, planes, their mixes and free flight are all visited
+
+
+def test_model_key_is_validated_with_file_key_and_choices():
+    from pinclear.errors import ContactSetupError
+    with pytest.raises(ContactSetupError) as e:
+        pinclear.load(SLIDER, clearances=["P"], overrides={"P.model": "paper_003"})
+    msg = str(e.value)
+    assert "clr_slider.yaml" in msg and "clearances.P.model" in msg and "energy, paper003" in msg
+    with pytest.raises(ContactSetupError) as e:
+        pinclear.load(SLIDER, clearances=["P"], overrides={"P.normal_law": "line"})
+    assert "clearances.P.normal_law" in str(e.value) and "lankarani_nikravesh" in str(e.value)
+    el = pinclear.load(SLIDER, clearances=["P"]).forces[-1]
+    assert el.contact_model == "energy" and {d for _, d in el.events} == {1}       # onsets only
+    el = pinclear.load(SLIDER, clearances=["P"], overrides={"P.model": "paper003"}).forces[-1]
+    assert el.contact_model == "paper003" and {d for _, d in el.events} == {0}     # law changes both ways

@@ -328,7 +328,7 @@ class PrismaticClearance(ClearanceJoint):
         out = {**super().describe(), "model": self.contact_model, "section": [self.a, self.b],
                "clearance": [self.c1, self.c2], "length": self.L}
         if self.contact_model == "energy":
-            out.update(foundation_modulus=list(self.kf), chi=self.chi)
+            out.update(foundation_modulus=[float(k) for k in self.kf], chi=self.chi)
         else:
             out["laws"] = {k: repr(v) for k, v in self.laws.items()}
         return out
