@@ -179,6 +179,11 @@ def cmd_simulate(args):
     print(json.dumps({k: summary[k] for k in ("status", "mobility", "redundant_constraints", "max_closure_residual",
                                               "energy_drift_rel", "tracking_error", "rhs_evals", "cpu_s")
                       if k in summary}))
+    eb = summary.get("energy_balance") or {}
+    if eb.get("ok") is False:       # the energy audit (pinclear.energy), whatever the status
+        print(f"pinclear: warning: energy balance off by {eb['error']:.3g} of the run's energy scale "
+              f"{eb['scale']:.3g} J at t = {eb['t']:.6g} s (bound {eb['bound']:.3g} from rtol and steps): "
+              "a force element creates or loses energy it does not report", file=sys.stderr)
     if traj.status == "interrupted":
         print(f"pinclear: {traj.message}; {len(traj.t)} samples saved in {out}; continue with "
               f"pinclear simulate --resume {out}", file=sys.stderr)
