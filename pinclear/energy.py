@@ -128,7 +128,8 @@ def energy_balance(traj) -> dict:
     need = ("kinetic", "potential", "spring", "dissipated", "work_drives", "closure_power", "applied_power")
     empty = {"error": None, "t": None, "ok": None, "bound": None, "scale": None}
     if any(k not in E for k in need):
-        return dict(empty, message="energy terms not recorded (a run saved before the energy audit)")
+        return dict(empty, message="energy terms not recorded (outputs not evaluated, or a run saved before "
+                                   "the energy audit)")
     t = np.asarray(traj.t, float)
     cols = [np.asarray(E[k], float) for k in need]
     finite = np.all(np.isfinite(np.array(cols).reshape(len(need), -1)), axis=0) if len(t) else np.zeros(0, bool)
