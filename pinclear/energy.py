@@ -139,7 +139,7 @@ def energy_balance(traj) -> dict:
     t = t[:n]
     T, Vg, Vel, D, Wd, Pc, Pa = (c[:n] for c in cols)
     Wc = _cumtrapz(Pc, t)
-    Wa = -_cumtrapz(Pa, t)          # work of applied forces (their power_loss is negative when they inject)
+    Wa = 0.0 - _cumtrapz(Pa, t)     # work of applied forces (their power_loss is negative when they inject)
     B = T + Vg + Vel + D - Wd - Wc - Wa
     dev = np.abs(B - B[0])
     k = int(np.argmax(dev))

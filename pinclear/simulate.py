@@ -49,7 +49,7 @@ class OdeSystem:
         self.zdot = form.ws.zdot
         self.nq_state = mech.nq if mech.euclidean else mech.nv
         self.nv, self.nz = mech.nv, mech.nz
-        self.meters = bool(mech.n_work)     # the work meters of the energy audit (pinclear.energy)
+        self.meters = bool(mech.n_work)     # the drive work meter of the energy audit (pinclear.energy)
         self.anchor = None
         self.nfev = 0
         self.bad = 0            # consecutive non-finite evaluations
@@ -174,7 +174,7 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True):
     else:
         v = v_guess
     kinematics.update(mech, ws, q, v)
-    # the elements' states, then the work meters (zero: work counts from the start)
+    # the elements' states, then the work meter (zero: work counts from the start)
     z = np.concatenate([f.z0(mech, ws, d, q, v) for f, d in zip(mech.forces, ws.force_data)]
                        + [np.zeros(mech.n_work)])
     return q, v, z
