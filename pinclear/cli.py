@@ -348,6 +348,11 @@ def _save_run(args, mech, traj, out: Path, stop):
     print(json.dumps({k: summary[k] for k in ("status", "mobility", "redundant_constraints", "max_closure_residual",
                                               "energy_drift_rel", "tracking_error", "rhs_evals", "cpu_s",
                                               "summary_error") if k in summary}, default=str))
+    eb = summary.get("energy_balance") or {}
+    if eb.get("ok") is False:       # the energy audit (pinclear.energy), whatever the status
+        print(f"pinclear: warning: energy balance off by {eb['error']:.3g} of the run's energy scale "
+              f"{eb['scale']:.3g} J at t = {eb['t']:.6g} s (bound {eb['bound']:.3g} from rtol and steps): "
+              "a force element creates or loses energy it does not report", file=sys.stderr)
     for p in problems:
         print(f"pinclear: error: {p}", file=sys.stderr)
     if "summary_error" in summary:

@@ -38,6 +38,7 @@ from ._bind import DYN, bind, load_generated
 from ._jit import njit
 from ._kernels import BRENT_STATE
 from .contact._kernels import channel_penetrations
+from .energy import drive_power
 from .formulations.base import SINGULAR_DIP
 from .formulations.lagrange import RESELECT_DIP
 from .timelaws import eval_laws
@@ -412,6 +413,12 @@ def build(form, sysf, events, t_eval, h_stall):
     if form._bound_rows is not form.rows:
         form._bind()
     lines_rhs.append("    r = " + call(form._kernel, "q", "v", "fdrv").strip())
+    if mech.n_work:
+        # the work meter of the energy audit, from the multipliers the solve just left
+        lam = ws.lam if form._all_rows else form._buf["lam"]
+        rows = np.ascontiguousarray(form.rows, dtype=np.int64)
+        lines_rhs.append(call(bind(drive_power, (lam, int(form._all_rows), rows, DYN, mech.driverows.iv,
+                                                 mech.compiled.m, ws.zdot, mech.z_work.start)), "v"))
     lines_rhs += ["    for i in range(NQ):", "        dx[i] = v[i]",
                   "    for i in range(NV):", "        dx[NQ + i] = abuf[i]",
                   "    for i in range(zdot.shape[0]):", "        dx[NQ + NV + i] = zdot[i]",

@@ -33,6 +33,9 @@ class ForceElement(abc.ABC):
     5. :meth:`potential` is the stored elastic energy, :meth:`power_loss` the dissipated power
        (negative when the element injects energy): the energy balance of a run closes with them.
     6. ``conservative`` says whether the element neither dissipates nor injects energy.
+       ``dissipation_state`` is the index (in the element's z) of a state integrating the
+       dissipated energy (the integral of :meth:`power_loss`), or None: the energy audit
+       (pinclear.energy) then integrates the power loss over the output samples.
     7. Events: ``events`` is a tuple of ``(name, direction)`` channels (direction +1: rising
        zero crossings only, -1 falling, 0 both). :meth:`event_values` returns all channels'
        values at once; the simulator locates crossings and calls :meth:`handle_event` with the
@@ -52,6 +55,7 @@ class ForceElement(abc.ABC):
     name: str = ""
     nz: int = 0
     conservative: bool = True
+    dissipation_state = None
     events: tuple = ()
     is_clearance: bool = False
     #: frames whose placements the element reads from the workspace's compiled frame kinematics

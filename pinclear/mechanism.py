@@ -47,7 +47,11 @@ class Mechanism:
         for f in self.forces:
             self.z_slices.append(slice(n, n + f.nz))
             n += f.nz
-        self.nz = n
+        # a work meter after the elements' states: the work of the drive rows, integrated with
+        # the state (pinclear.energy)
+        self.n_work = 1 if self.drives else 0
+        self.z_work = slice(n, n + self.n_work)
+        self.nz = n + self.n_work
         # frames whose placements the compiled kernels compute from the joint chain: the closures'
         # frames, then those force elements evaluate in compiled code (``kinematic_frames``);
         # element i's frames start at slot force_frame_slot[i] of the workspace's FrameKinematics

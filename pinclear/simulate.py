@@ -18,7 +18,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.optimize import brentq
 
-from . import fastloop, formulations, integrators, kinematics, validate
+from . import energy, fastloop, formulations, integrators, kinematics, validate
 from ._kernels import BRENT_STATE, brent_next, brent_start
 from .errors import InputError, RankLossError
 from .trajectory import Checkpoint, Trajectory
@@ -49,6 +49,7 @@ class OdeSystem:
         self.zdot = form.ws.zdot
         self.nq_state = mech.nq if mech.euclidean else mech.nv
         self.nv, self.nz = mech.nv, mech.nz
+        self.meters = bool(mech.n_work)     # the drive work meter of the energy audit (pinclear.energy)
         self.anchor = None
         self.nfev = 0
         self.bad = 0            # consecutive non-finite evaluations
@@ -96,6 +97,8 @@ class OdeSystem:
             if self.strict or self.bad > MAX_NONFINITE:
                 raise
             return np.full(len(x), np.nan)
+        if self.meters:
+            energy.meter_rates(form, v, self.zdot)
         if not form.finite(a):
             # a too-long trial step into a stiff contact overflows; SciPy's RK solvers reject it
             # and shrink the step. At a solver's first evaluation, or when it keeps happening, stop
@@ -171,8 +174,9 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True):
     else:
         v = v_guess
     kinematics.update(mech, ws, q, v)
-    z = (np.concatenate([f.z0(mech, ws, d, q, v) for f, d in zip(mech.forces, ws.force_data)])
-         if mech.nz else np.zeros(0))
+    # the elements' states, then the work meter (zero: work counts from the start)
+    z = np.concatenate([f.z0(mech, ws, d, q, v) for f, d in zip(mech.forces, ws.force_data)]
+                       + [np.zeros(mech.n_work)])
     return q, v, z
 
 

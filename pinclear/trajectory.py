@@ -197,7 +197,9 @@ class Trajectory:
         n = len(samples)
         lam = np.zeros((n, mech.m))
         phi = np.zeros((n, mech.m))
-        E = {k: np.zeros(n) for k in ("kinetic", "potential", "spring", "dissipated_power")}
+        E = {k: np.zeros(n) for k in ("kinetic", "potential", "spring", "dissipated_power", "applied_power")}
+        # power of the closure rows' forces (pinclear.energy: Baumgarte drift), sampled
+        E["closure_power"] = np.zeros(n)
         outs: dict[str, list] = {}
         model = mech.model
         mc = mech.compiled.m
@@ -217,6 +219,8 @@ class Trajectory:
             if not (fresh and form.fills_rows):
                 kinematics.constraint_rows(mech, ws, t, q, v)
             phi[i] = ws.phi
+            if mc:
+                E["closure_power"][i] = float(lam[i, :mc] @ ws.dphi[:mc])
             # from the joint velocities and placements the kinematics pass left in data
             E["kinetic"][i] = pin.computeKineticEnergy(model, ws.data)
             E["potential"][i] = pin.computePotentialEnergy(model, ws.data)
@@ -224,6 +228,8 @@ class Trajectory:
                 pot, loss, rec = f.record(mech, ws, d, t, q, v, z[sl], fresh)
                 E["spring"][i] += pot
                 E["dissipated_power"][i] += loss
+                if f.dissipation_state is None:      # integrated over the samples by the audit
+                    E["applied_power"][i] += loss
                 for k, val in rec.items():
                     outs.setdefault(f"{f.name}.{k}", []).append(np.asarray(val, float))
         absphi = np.abs(phi)
@@ -233,6 +239,13 @@ class Trajectory:
         names = mech.row_names()
         self.lam = {nm: lam[:, k] for k, nm in enumerate(names)}
         self.outputs = {k: np.array(v) for k, v in outs.items()}
+        # the integrated energy states of the audit (pinclear.energy): dissipated energy of the
+        # elements that integrate it, the work of the drive rows
+        E["dissipated"] = np.zeros(n)
+        for f, sl in zip(mech.forces, mech.z_slices):
+            if f.dissipation_state is not None:
+                E["dissipated"] += self.z[:, sl.start + f.dissipation_state]
+        E["work_drives"] = self.z[:, mech.z_work.start].copy() if mech.n_work else np.zeros(n)
         self.energies = E
         if self.status != "success" and n:
             self.message += f" (samples kept up to t = {self.t[-1]:.6g} s)"
@@ -245,6 +258,12 @@ class Trajectory:
         E = dict(self.energies)
         E["total"] = E["kinetic"] + E["potential"] + E["spring"]
         return E
+
+    def energy_balance(self) -> dict:
+        """The run's energy audit (pinclear.energy.energy_balance): error, t, ok, bound, scale..."""
+        from .energy import energy_balance
+
+        return energy_balance(self)
 
     def drive_forces(self) -> dict:
         if self.mech is None:
@@ -293,6 +312,7 @@ class Trajectory:
             te = self.tracking_error()
             if te:
                 s["tracking_error"] = te
+        s["energy_balance"] = self.energy_balance()
         return _jsonable(s)
 
     def _summary_for_saving(self) -> dict:

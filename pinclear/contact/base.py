@@ -110,6 +110,7 @@ class ClearanceJoint(ForceElement):
         self.idx2 = _readonly(supporting_dofs(model, f2))
         self.nfs = friction.nstate * self.nc
         self.nz = self.nc + 1 + self.nfs
+        self.dissipation_state = self.nc          # z = [dd0 (nc) | E_dissipated | friction states]
         self.events = tuple((f"{name}.c{k}", self.event_direction) for k in range(self.nc))
 
     def _freeze(self):
