@@ -16,16 +16,20 @@ How each integral is obtained (measured on nine_bar with clearance A, 0.2 s, rto
 drive forces jump at every impact of a clearance, so their power integrated afterwards over the
 output samples is only as good as the samples: with the default 500 samples the balance was off
 by 1.77 J on an energy scale of 12.6 J, with 50 000 samples still by 1.6e-3 J; with the work as a
-state of the integration, by 1.0e-6 J. So the integrals that impacts make spiky are states,
-exact to the run's tolerances:
+state of the integration, by 1.0e-6 J. So the integrals that impacts make spiky are integrated
+with the state, on its steps:
 
 * E_diss of a clearance joint: its own internal state (contact/base.py; ForceElement
   ``dissipation_state``);
 * W_drives: a work meter appended to z (``mech.z_work``, present when the mechanism has
   drives) whose rate :func:`meter_rates` (Python loop) or :func:`drive_power` (compiled loop)
   writes after each evaluation of the accelerations, from the multipliers it solved for. The
-  meter is a state like any other (it enters the step-size control: a few per cent more or
-  fewer steps on the seed mechanisms with drives).
+  meter is a quadrature (nothing depends on it): simulate keeps it out of the error test, as
+  CVODES treats quadratures by default, so it rides on the steps the states' error control
+  chooses (a Runge-Kutta quadrature of the power along each step, of the method's order). In
+  the error test it cost steps for nothing (its start near zero made atol steer them) and, with
+  DOP853, accuracy: that method's norm err5^2 / sqrt(err5^2 + 0.01 err3^2) shrinks when one
+  component's err3 is large, as the spiky power's is.
 
 The closure rows' work is tiny (Baumgarte drift: 3e-10 J in the run above) and the power of
 elements without a dissipation state (springs' viscous damping, joint forces) is a smooth
@@ -106,8 +110,10 @@ def energy_balance(traj) -> dict:
     * integration: an adaptive step is accepted when the RMS over the n states of
       e_i / (atol + rtol |y_i|) is <= 1, so every state's local error is <= sqrt(n) (atol +
       rtol |y_i|). Each energy in B is a function of degree <= 3 in the states it depends on
-      (kinetic 2 in v, a Hertz contact 2.5 in the penetration, the dissipation and work states
-      1), so a relative error eps of the states changes it by <= 3 eps of itself, and B by
+      (kinetic 2 in v, a Hertz contact 2.5 in the penetration, the dissipation state 1; the
+      drive work meter, out of the error test, integrates lam_d v_j, a function of the states
+      whose error it inherits at degree 1), so a relative error eps of the states changes it
+      by <= 3 eps of itself, and B by
       <= 3 eps scale. A projection method's correction after a step is of the size of that
       step's local error, so it is covered too. Over N accepted steps, with SAFETY = 10 for the
       error estimator being an estimate (of the lower-order solution's error):
