@@ -147,3 +147,22 @@ def flat_passages(th):
     """Number of flat configurations (sin th changes sign) a crank angle history passes."""
     s = np.sin(th)
     return int(np.sum(np.sign(s[1:]) != np.sign(s[:-1])))
+
+
+def write_sidecar(folder, doc, name="m.yaml", urdf="four_bar.urdf"):
+    """A sidecar document written beside a copy of a bundled URDF (tests that edit a seed file)."""
+    import yaml
+
+    (folder / urdf).write_text((ROOT / "urdf" / urdf).read_text())
+    p = folder / name
+    p.write_text(yaml.safe_dump(doc))
+    return p
+
+
+def run_cli(argv, capsys):
+    """pinclear's command line in this process: (exit code, stdout, stderr)."""
+    from pinclear import cli
+
+    code = cli.main(argv)
+    out = capsys.readouterr()
+    return code, out.out, out.err

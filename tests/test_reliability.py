@@ -16,23 +16,13 @@ import pytest
 import yaml
 
 import pinclear
+from conftest import run_cli, write_sidecar
 from pinclear import cli
 
 ROOT = Path(__file__).resolve().parents[1]
 FOUR = yaml.safe_load((ROOT / "urdf" / "four_bar.yaml").read_text())
 
 
-def _sidecar(tmp_path, doc, name="m.yaml"):
-    (tmp_path / "four_bar.urdf").write_text((ROOT / "urdf" / "four_bar.urdf").read_text())
-    p = tmp_path / name
-    p.write_text(yaml.safe_dump(doc))
-    return p
-
-
-def _cli(argv, capsys):
-    code = cli.main(argv)
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 # ------------------------------------------------------------------ 1. no code from data
@@ -41,22 +31,22 @@ def test_1_sidecar_cannot_run_a_shell_command(tmp_path, capsys, monkeypatch):
     doc = dict(FOUR, drives=[{"name": "d", "joint": "crank_joint",
                               "law": {"type": "python", "function": "pydoc:pipepager",
                                       "args": {"cmd": f"id > {tmp_path / 'pwned'}"}}}])
-    path = _sidecar(tmp_path, doc)
-    code, _, err = _cli(["info", str(path)], capsys)
+    path = write_sidecar(tmp_path, doc)
+    code, _, err = run_cli(["info", str(path)], capsys)
     assert code == 2 and not (tmp_path / "pwned").exists()
     assert "pydoc:pipepager" in err and "--trust" in err and err.count("\n") == 1
     # the same through platform.motion and hook
     for extra in ({"platform": {"frame": "coupler", "motion": {"function": "os:system", "args": {}}}},
                   {"hook": "this:s"}):
         with pytest.raises(pinclear.ModelFileError, match="trust"):
-            pinclear.load(_sidecar(tmp_path, dict(FOUR, **extra)))
+            pinclear.load(write_sidecar(tmp_path, dict(FOUR, **extra)))
 
 
 def test_1_trust_is_the_users_choice(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(Path(__file__).parent))
     doc = dict(FOUR, forces=[{"name": "motor", "type": "joint_force", "joint": "crank_joint",
                               "law": {"type": "python", "function": "test_reliability:torque"}}])
-    path = _sidecar(tmp_path, doc)
+    path = write_sidecar(tmp_path, doc)
     monkeypatch.delenv("PINCLEAR_TRUST", raising=False)
     with pytest.raises(pinclear.ModelFileError, match="test_reliability:torque"):
         pinclear.load(path)
@@ -77,7 +67,7 @@ def test_1_saved_run_does_not_import_code_on_load(tmp_path, monkeypatch):
     monkeypatch.delenv("PINCLEAR_TRUST", raising=False)
     doc = dict(FOUR, forces=[{"name": "motor", "type": "joint_force", "joint": "crank_joint",
                               "law": {"type": "python", "function": "test_reliability:torque"}}])
-    path = _sidecar(tmp_path, doc)
+    path = write_sidecar(tmp_path, doc)
     mech = pinclear.load(path, trust=True)
     tr = pinclear.simulate(mech, 0.05)
     tr.save(tmp_path / "run.npz")
@@ -105,7 +95,7 @@ def test_4_output_checked_before_the_run(tmp_path, capsys):
     target = tmp_path / "afile"
     target.write_text("x")
     t0 = time.process_time()
-    code, _, err = _cli(["simulate", "four_bar", "--t-end", "50", "--out", str(target)], capsys)
+    code, _, err = run_cli(["simulate", "four_bar", "--t-end", "50", "--out", str(target)], capsys)
     assert code == 2 and "existing file" in err
     assert time.process_time() - t0 < 5          # refused at once, not after a 50 s run
     assert target.read_text() == "x"
@@ -218,7 +208,7 @@ def test_5_user_function_faults_keep_samples(tmp_path, monkeypatch, fn, words):
     monkeypatch.syspath_prepend(str(Path(__file__).parent))
     doc = dict(FOUR, forces=[{"name": "motor", "type": "joint_force", "joint": "crank_joint",
                               "law": {"type": "python", "function": f"test_reliability:{fn}"}}])
-    mech = pinclear.load(_sidecar(tmp_path, doc), trust=True)
+    mech = pinclear.load(write_sidecar(tmp_path, doc), trust=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         tr = pinclear.simulate(mech, 0.2, rtol=1e-8, dt_out=0.01)
@@ -269,7 +259,7 @@ def test_5_bad_numbers_in_a_sidecar_are_file_errors(tmp_path, mutate, key):
     doc.setdefault("initial", {}).setdefault("q", {})
     mutate(doc)
     with pytest.raises(pinclear.ModelFileError, match=key.replace(".", r"\.")):
-        pinclear.load(_sidecar(tmp_path, doc))
+        pinclear.load(write_sidecar(tmp_path, doc))
 
 
 def test_5_unreadable_files_are_clear_errors(tmp_path, capsys):
@@ -298,14 +288,14 @@ def test_5_unreadable_files_are_clear_errors(tmp_path, capsys):
 ])
 def test_6_silently_ignored_options_are_errors(tmp_path, capsys, argv, words):
     f = "four_ups_upu" if any("S2" in a for a in argv) else "four_bar"
-    code, _, err = _cli(["simulate", f, "--t-end", "0.1", "--out", str(tmp_path / "o")] + argv, capsys)
+    code, _, err = run_cli(["simulate", f, "--t-end", "0.1", "--out", str(tmp_path / "o")] + argv, capsys)
     assert code == 2
     for w in words:
         assert w in err
 
 
 def test_6_bench_unknown_method_is_an_error(capsys):
-    code, _, err = _cli(["bench", "rhs", "four_bar", "--methods", "bogus"], capsys)
+    code, _, err = run_cli(["bench", "rhs", "four_bar", "--methods", "bogus"], capsys)
     assert code == 2 and "bogus" in err and "lagrange" in err
 
 
@@ -313,7 +303,7 @@ def test_6_empty_polynomial_law(tmp_path):
     doc = dict(FOUR, forces=[{"name": "m", "type": "joint_force", "joint": "crank_joint",
                               "law": {"type": "polynomial", "coeffs": []}}])
     with pytest.raises(pinclear.ModelFileError, match="coeffs"):
-        pinclear.load(_sidecar(tmp_path, doc))
+        pinclear.load(write_sidecar(tmp_path, doc))
 
 
 def test_6_non_physical_inertia_refused_at_load(tmp_path):
@@ -340,7 +330,7 @@ def test_6_urdf_with_a_kinematic_loop_is_named(tmp_path):
 
 # ------------------------------------------------------------------ 7. bounds on memory and time
 def test_7_output_samples_are_bounded(tmp_path, capsys):
-    code, _, err = _cli(["simulate", "four_bar", "--t-end", "1", "--dt-out", "1e-9", "--out", str(tmp_path)],
+    code, _, err = run_cli(["simulate", "four_bar", "--t-end", "1", "--dt-out", "1e-9", "--out", str(tmp_path)],
                         capsys)
     assert code == 2 and "dt_out" in err
 
@@ -357,7 +347,7 @@ def test_7_yaml_alias_bomb_is_refused(tmp_path):
 
 def test_7_cpu_budget_on_the_command_line(tmp_path, capsys):
     t0 = time.process_time()
-    code, out, err = _cli(["simulate", "four_bar", "--t-end", "1e6", "--max-cpu", "0.5", "--progress", "off",
+    code, out, err = run_cli(["simulate", "four_bar", "--t-end", "1e6", "--max-cpu", "0.5", "--progress", "off",
                            "--out", str(tmp_path)], capsys)
     assert code == 1 and "max_cpu" in err
     assert time.process_time() - t0 < 30
@@ -367,7 +357,7 @@ def test_7_cpu_budget_on_the_command_line(tmp_path, capsys):
 def test_7_stall_test_on_the_command_line(tmp_path, capsys):
     """--min-mean-step reaches simulate and is recorded for --resume: a 5 s four-bar run at rtol
     1e-10 takes ~2000 steps of ~2.6 ms, so a 1 s threshold stops it at its 1001st step."""
-    code, out, err = _cli(["simulate", "four_bar", "--t-end", "5", "--rtol", "1e-10", "--min-mean-step", "1",
+    code, out, err = run_cli(["simulate", "four_bar", "--t-end", "5", "--rtol", "1e-10", "--min-mean-step", "1",
                            "--progress", "off", "--out", str(tmp_path)], capsys)
     assert code == 1 and "step-size collapse" in err
     tr = pinclear.Trajectory.load(tmp_path / "trajectory.npz")
@@ -379,7 +369,7 @@ def test_cli_never_prints_a_traceback_for_an_unforeseen_error(capsys, monkeypatc
     def broken(args):
         raise TypeError("an internal bug")
     monkeypatch.setattr(cli, "cmd_info", broken)
-    code, _, err = _cli(["info", "four_bar"], capsys)
+    code, _, err = run_cli(["info", "four_bar"], capsys)
     assert code == 3 and "Traceback" not in err and "--debug" in err and err.count("\n") == 1
-    code, _, err = _cli(["info", "four_bar", "--debug"], capsys)
+    code, _, err = run_cli(["info", "four_bar", "--debug"], capsys)
     assert code == 3 and "Traceback" in err

@@ -20,6 +20,7 @@ import pytest
 import yaml
 
 import pinclear
+from conftest import run_cli, write_sidecar
 from pinclear import cli
 from pinclear.errors import InputError, ModelFileError
 from pinclear.screw.section import read_section
@@ -35,17 +36,6 @@ def _untrusted(monkeypatch):
     monkeypatch.delenv("PINCLEAR_TRUST", raising=False)
 
 
-def _sidecar(folder, doc, name="m.yaml", urdf="four_bar.urdf"):
-    (folder / urdf).write_text((ROOT / "urdf" / urdf).read_text())
-    p = folder / name
-    p.write_text(yaml.safe_dump(doc))
-    return p
-
-
-def _cli(argv, capsys):
-    code = cli.main(argv)
-    out = capsys.readouterr()
-    return code, out.out, out.err
 
 
 def _run(args, **kw):
@@ -81,10 +71,10 @@ def _chain_docs(marker):
 @pytest.mark.parametrize("route", list(_chain_docs("M")))
 def test_attribute_chains_through_pinclear_modules_run_nothing(tmp_path, capsys, route):
     marker = tmp_path / "MARKER"
-    path = _sidecar(tmp_path, _chain_docs(marker)[route])
+    path = write_sidecar(tmp_path, _chain_docs(marker)[route])
     for argv in (["info", str(path)], ["simulate", str(path), "--t-end", "0.05", "--out", str(tmp_path / "o"),
                                        "--progress", "off"]):
-        code, _, err = _cli(argv, capsys)
+        code, _, err = run_cli(argv, capsys)
         if route == "screw ik":          # the screw section is read by inverse dynamics only
             assert code in (0, 1)
             with pytest.raises(ModelFileError, match="refusing.*--trust"):
@@ -145,16 +135,16 @@ def test_viewing_or_plotting_a_run_calls_no_sidecar_code(tmp_path, capsys, monke
     marker = tmp_path / "MARKER"
     doc = dict(FOUR, platform={"frame": "coupler", "motion": {"function": "test_trust:motion_with_marker",
                                                                "args": {"marker": str(marker)}}})
-    path = _sidecar(tmp_path, doc)
+    path = write_sidecar(tmp_path, doc)
     mech = pinclear.load(path, trust=True)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         tr = pinclear.simulate(mech, 0.05)
     tr.save(tmp_path / "run.npz")
     marker.unlink()                                  # the save computed the tracking error (trusted)
-    code, _, err = _cli(["view", str(tmp_path / "run.npz"), "--html", str(tmp_path / "x.html")], capsys)
+    code, _, err = run_cli(["view", str(tmp_path / "run.npz"), "--html", str(tmp_path / "x.html")], capsys)
     assert code == 2 and "refusing" in err and not marker.exists()
-    code, _, err = _cli(["plot", str(tmp_path / "run.npz"), "--out", str(tmp_path / "figs")], capsys)
+    code, _, err = run_cli(["plot", str(tmp_path / "run.npz"), "--out", str(tmp_path / "figs")], capsys)
     assert code == 2 and "refusing" in err and not marker.exists()
     with pytest.raises(ModelFileError, match="refusing"):
         pinclear.Trajectory.load(tmp_path / "run.npz").load_mechanism()
@@ -162,8 +152,8 @@ def test_viewing_or_plotting_a_run_calls_no_sidecar_code(tmp_path, capsys, monke
     # the attribute-chain spelling of the same motion, recorded in a run: refused as well
     meta_doc = dict(FOUR, platform={"frame": "coupler", "motion": {"function": "pinclear.viz.cli:sys.exit",
                                                                     "args": {}}})
-    _sidecar(tmp_path, meta_doc, name="m.yaml")
-    code, _, err = _cli(["view", str(tmp_path / "run.npz"), "--html", str(tmp_path / "x.html")], capsys)
+    write_sidecar(tmp_path, meta_doc, name="m.yaml")
+    code, _, err = run_cli(["view", str(tmp_path / "run.npz"), "--html", str(tmp_path / "x.html")], capsys)
     assert code == 2 and "refusing" in err
 
 
@@ -190,19 +180,19 @@ def test_resume_takes_no_trust_and_no_file_from_run_json(tmp_path, interrupted_r
     mechanism and trust come from the command line."""
     monkeypatch.syspath_prepend(str(Path(__file__).parent))
     marker = tmp_path / "MARKER"
-    evil = _sidecar(tmp_path, dict(FOUR, platform={"frame": "coupler", "motion": {
+    evil = write_sidecar(tmp_path, dict(FOUR, platform={"frame": "coupler", "motion": {
         "function": "test_trust:motion_with_marker", "args": {"marker": str(marker)}}}), name="evil.yaml")
     out = _copy_run(interrupted_run, tmp_path / "o")
     run = json.loads((out / "run.json").read_text())
     (out / "run.json").write_text(json.dumps(dict(run, trust=True, file=str(evil))))
     # the bare --resume takes nothing from the folder: it asks for the command line
-    code, _, err = _cli(["simulate", "--resume", str(out)], capsys)
+    code, _, err = run_cli(["simulate", "--resume", str(out)], capsys)
     assert code == 2 and "mechanism file and --t-end" in err and not marker.exists()
     # the evil sidecar named on the command line, without --trust: the gate refuses it
-    code, _, err = _cli(["simulate", str(evil), "--t-end", "100", "--rtol", "1e-10", "--resume", str(out)], capsys)
+    code, _, err = run_cli(["simulate", str(evil), "--t-end", "100", "--rtol", "1e-10", "--resume", str(out)], capsys)
     assert code == 2 and "refusing" in err and not marker.exists()
     # the original mechanism on the command line contradicts the doctored run.json: refused, named
-    code, _, err = _cli(["simulate", "four_bar", "--t-end", "100", "--rtol", "1e-10", "--resume", str(out)], capsys)
+    code, _, err = run_cli(["simulate", "four_bar", "--t-end", "100", "--rtol", "1e-10", "--resume", str(out)], capsys)
     assert code == 2 and "mechanism" in err and not marker.exists()
 
 
@@ -215,7 +205,7 @@ def test_resume_takes_no_trust_and_no_file_from_run_json(tmp_path, interrupted_r
 def test_resume_refuses_a_contradicting_command_line(tmp_path, interrupted_run, capsys, extra, named):
     out = _copy_run(interrupted_run, tmp_path / "o")
     before = (out / "checkpoint.npz").read_bytes()
-    code, _, err = _cli(["simulate", "four_bar"] + extra + ["--resume", str(out), "--progress", "off"], capsys)
+    code, _, err = run_cli(["simulate", "four_bar"] + extra + ["--resume", str(out), "--progress", "off"], capsys)
     assert code == 2 and err.count("\n") == 1, err
     for word in named:
         assert word in err
@@ -225,7 +215,7 @@ def test_resume_refuses_a_contradicting_command_line(tmp_path, interrupted_run, 
 def test_resume_with_the_same_command_line_continues(tmp_path, interrupted_run, capsys):
     out = _copy_run(interrupted_run, tmp_path / "o")
     part = pinclear.Trajectory.load(out / "trajectory.npz")
-    code, _, err = _cli(["simulate", "four_bar", "--t-end", "100", "--rtol", "1e-10", "--max-cpu", "600",
+    code, _, err = run_cli(["simulate", "four_bar", "--t-end", "100", "--rtol", "1e-10", "--max-cpu", "600",
                          "--progress", "off", "--resume", str(out)], capsys)
     assert code == 0, err
     done = pinclear.Trajectory.load(out / "trajectory.npz")
@@ -398,10 +388,10 @@ def test_a_second_run_into_a_locked_folder_is_refused(tmp_path, capsys):
         fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
         fh.write("pid 4242, started earlier\n")
         fh.flush()
-        code, _, err = _cli(["simulate", "four_bar", "--t-end", "0.1", "--out", str(out), "--progress", "off"], capsys)
+        code, _, err = run_cli(["simulate", "four_bar", "--t-end", "0.1", "--out", str(out), "--progress", "off"], capsys)
     assert code == 2 and str(out) in err and "pid 4242" in err
     assert not (out / "run.json").exists()
-    code, _, err = _cli(["simulate", "four_bar", "--t-end", "0.1", "--out", str(out), "--progress", "off"], capsys)
+    code, _, err = run_cli(["simulate", "four_bar", "--t-end", "0.1", "--out", str(out), "--progress", "off"], capsys)
     assert code == 0, err
 
 
@@ -457,10 +447,10 @@ def raising_motion(t):
 
 def test_summary_failure_does_not_lose_the_run(tmp_path, capsys, monkeypatch):
     monkeypatch.syspath_prepend(str(Path(__file__).parent))
-    path = _sidecar(tmp_path, dict(FOUR, platform={"frame": "coupler", "motion": {
+    path = write_sidecar(tmp_path, dict(FOUR, platform={"frame": "coupler", "motion": {
         "function": "test_trust:raising_motion", "args": {}}}))
     out = tmp_path / "o"
-    code, _, err = _cli(["simulate", str(path), "--t-end", "0.2", "--trust", "--out", str(out), "--progress", "off"],
+    code, _, err = run_cli(["simulate", str(path), "--t-end", "0.2", "--trust", "--out", str(out), "--progress", "off"],
                         capsys)
     assert code == 1 and "RuntimeError" in err and "saved" in err
     tr = pinclear.Trajectory.load(out / "trajectory.npz")
@@ -486,7 +476,7 @@ def test_a_failed_write_leaves_a_fallback_copy(tmp_path, capsys, monkeypatch):
         return real(path, arrays)
 
     monkeypatch.setattr(trajectory, "atomic_savez", full)
-    code, _, err = _cli(["simulate", "four_bar", "--t-end", "0.2", "--out", str(out), "--progress", "off"], capsys)
+    code, _, err = run_cli(["simulate", "four_bar", "--t-end", "0.2", "--out", str(out), "--progress", "off"], capsys)
     assert code == 1
     assert str(out / "trajectory.npz") in err and "No space left on device" in err
     copies = list(cache.glob("unsaved-runs/*/trajectory.npz"))
@@ -498,7 +488,7 @@ def test_an_output_path_that_is_a_folder_is_refused_before_the_run(tmp_path, cap
     out = tmp_path / "o"
     (out / "trajectory.npz").mkdir(parents=True)
     t0 = time.process_time()
-    code, _, err = _cli(["simulate", "four_bar", "--t-end", "50", "--out", str(out)], capsys)
+    code, _, err = run_cli(["simulate", "four_bar", "--t-end", "50", "--out", str(out)], capsys)
     assert code == 2 and "trajectory.npz" in err and "not a regular file" in err
     assert time.process_time() - t0 < 10
 
@@ -517,7 +507,7 @@ def test_a_pinclear_error_from_a_trusted_law_keeps_the_samples(tmp_path, monkeyp
     monkeypatch.syspath_prepend(str(Path(__file__).parent))
     doc = dict(FOUR, forces=[{"name": "motor", "type": "joint_force", "joint": "crank_joint",
                               "law": {"type": "python", "function": "test_trust:law_raising_a_pinclear_error"}}])
-    mech = pinclear.load(_sidecar(tmp_path, doc), trust=True)
+    mech = pinclear.load(write_sidecar(tmp_path, doc), trust=True)
     with pytest.warns(RuntimeWarning, match="LawFailure"):
         tr = pinclear.simulate(mech, 0.2, dt_out=0.01)
     assert tr.status == "failed" and "LawFailure" in tr.message and "gave up" in tr.message
@@ -549,8 +539,8 @@ def test_a_broken_closure_is_not_success(tmp_path, capsys):
     open by 0.4 m; it once reported success."""
     doc = yaml.safe_load((ROOT / "urdf" / "parallelogram.yaml").read_text())
     doc["initial"] = {"q": {"crank_joint": 0.0, "coupler_joint": 0.0, "rocker_joint": 0.0}}
-    path = _sidecar(tmp_path, doc, urdf="parallelogram.urdf")
-    code, _, err = _cli(["simulate", str(path), "--t-end", "2", "--out", str(tmp_path / "o"), "--progress", "off"],
+    path = write_sidecar(tmp_path, doc, urdf="parallelogram.urdf")
+    code, _, err = run_cli(["simulate", str(path), "--t-end", "2", "--out", str(tmp_path / "o"), "--progress", "off"],
                         capsys)
     assert code == 1 and "constraint violated" in err
     tr = pinclear.Trajectory.load(tmp_path / "o" / "trajectory.npz")
