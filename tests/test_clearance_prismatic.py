@@ -86,6 +86,14 @@ def slider():
     return mech, mech.forces[-1], ws, ws.force_data[-1]
 
 
+@pytest.fixture(scope="module")
+def slider003():
+    """The slider with paper 003's per-mode laws (``model: paper003``)."""
+    mech = pinclear.load(SLIDER, clearances=["P"], overrides={"P.model": "paper003"})
+    ws = mech.workspace()
+    return mech, mech.forces[-1], ws, ws.force_data[-1]
+
+
 def penetrations(mech, el, ws, d, q):
     """Per-channel penetration at pose q (the event values are the channels' penetrations)."""
     kinematics.update(mech, ws, q, np.zeros(6))
@@ -116,8 +124,9 @@ def test_free_slider_is_mode_zero(slider):
     assert int(el.outputs(mech, ws, d, 0.0, q, np.zeros(6), np.zeros(el.nz))["mode"]) == 0
 
 
-def test_force_laws_per_contact_kind(slider):
-    mech, el, ws, dat = slider
+def test_force_laws_per_contact_kind(slider003):
+    """model: paper003 applies paper 003's law of each contact kind (sec. 2.2)."""
+    mech, el, ws, dat = slider003
     v = np.zeros(6)
     z = np.zeros(el.nz)
     d = 3e-6
@@ -148,17 +157,22 @@ def test_slider_settles_on_its_face_at_the_plane_law_deflection():
     assert tr.outputs["P.normal_force"][-1] == pytest.approx([W, 0, 0], rel=1e-2)
 
 
+@pytest.mark.parametrize("model", ["energy", "paper003"])
 @pytest.mark.parametrize("scene, name, friction", [("clr_slider", "P", None),
                                                    ("clr_slider", "P", {"type": "coulomb", "mu": 0.2}),
                                                    ("three_upru_up", "P_UP", None)])
-def test_compiled_slider_equals_the_python_path(scene, name, friction):
-    """The prismatic joint's one compiled call (corner geometry, mode classification, each
-    face's point/line/plane law, friction, wrenches) against its Python path (Pinocchio's frame
-    placements, ``classify`` and the law objects face by face) at random poses in contact.
+def test_compiled_slider_equals_the_python_path(scene, name, friction, model):
+    """The prismatic joint's one compiled call (corner geometry, mode classification, the
+    foundation's corner loads (energy) or each face's point/line/plane law (paper003), friction,
+    wrenches) against its Python path (Pinocchio's frame placements, ``classify`` and the law
+    objects face by face, or the foundation called on the Python geometry) at random poses in
+    contact.
 
     Tolerance: the two paths round the corner coordinates differently, by ~eps |r| with |r| up to
     0.3 m, so a penetration of ~1 um differs by ~3e-11 relative and the forces as much."""
-    ov = {f"{name}.friction_law": friction} if friction else None
+    ov = {f"{name}.model": model}
+    if friction:
+        ov[f"{name}.friction_law"] = friction
     mech = pinclear.load(scene, clearances=[name], overrides=ov)
     i = [f.name for f in mech.forces].index(name)
     el = mech.forces[i]
@@ -183,3 +197,18 @@ def test_compiled_slider_equals_the_python_path(scene, name, friction):
         np.testing.assert_allclose(el.event_values(mech, fast, fast.force_data[i], 0.0, q, v, z), ds.delta,
                                    rtol=0, atol=el.event_snap)      # event values snap |delta| < 1e-13
     assert len(modes) >= 4            # lines, planes, their mixes and free flight are all visited
+
+
+def test_model_key_is_validated_with_file_key_and_choices():
+    from pinclear.errors import ContactSetupError
+    with pytest.raises(ContactSetupError) as e:
+        pinclear.load(SLIDER, clearances=["P"], overrides={"P.model": "paper_003"})
+    msg = str(e.value)
+    assert "clr_slider.yaml" in msg and "clearances.P.model" in msg and "energy, paper003" in msg
+    with pytest.raises(ContactSetupError) as e:
+        pinclear.load(SLIDER, clearances=["P"], overrides={"P.normal_law": "line"})
+    assert "clearances.P.normal_law" in str(e.value) and "lankarani_nikravesh" in str(e.value)
+    el = pinclear.load(SLIDER, clearances=["P"]).forces[-1]
+    assert el.contact_model == "energy" and {d for _, d in el.events} == {1}       # onsets only
+    el = pinclear.load(SLIDER, clearances=["P"], overrides={"P.model": "paper003"}).forces[-1]
+    assert el.contact_model == "paper003" and {d for _, d in el.events} == {0}     # law changes both ways

@@ -7,7 +7,10 @@ friction_law, material | material1 + material2 (name or {E, nu}), stiffness
 (conformal | printed | number), v_impact_min [m/s], max_initial_penetration [m], notes.
 spherical: radius (ball), socket_radius. planar_revolute / revolute: radius (journal),
 bearing_radius, length; revolute also axial_clearance. prismatic: section [a, b], clearance
-[c1, c2] or c, length, edge_radius, point_law, line_law, plane_law.
+[c1, c2] or c, length, model (energy | paper003; default energy: a Winkler foundation on each
+slider face, the exact gradient of its energy; paper003: the paper's per-mode laws, not
+conservative, see docs/contact_models.md), edge_radius, point_law, line_law, plane_law (the last
+four are paper003's; the energy model takes its damping from normal_law).
 
 Choosing a normal law by restitution (``pinclear bench restitution``): the effective
 restitution of every damped law depends only on its hysteresis factor chi(ce).

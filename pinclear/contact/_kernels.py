@@ -175,6 +175,23 @@ def friction_scale(code, par, s, fn):
 
 
 @njit(cache=True)
+def power_energy(d, K, expo):
+    """Potential of power_elastic: K d^(e+1)/(e+1), continued linearly beyond DELTA_CAP where the
+    force is held constant (so the force stays its exact derivative everywhere)."""
+    if d <= 0.0:
+        return 0.0
+    if d <= DELTA_CAP:
+        return K * d ** (expo + 1.0) / (expo + 1.0)
+    return K * DELTA_CAP ** expo * (DELTA_CAP / (expo + 1.0) + (d - DELTA_CAP))
+
+
+@njit(cache=True)
+def power_law_energy(d, K, expo, U):
+    for k in range(d.shape[0]):
+        U[k] = power_energy(d[k], K, expo)
+
+
+@njit(cache=True)
 def power_law_forces(d, dd, dd0, K, expo, chi, F, Fe):
     for k in range(d.shape[0]):
         F[k], Fe[k] = power_law(d[k], dd[k], dd0[k], K, expo, chi)
@@ -496,7 +513,7 @@ def law_energy(code, d, p0, p1):
         if P <= 0.0:
             return 0.0
         return P * d - p0 * (0.75 * P * P - 0.5 * P * P * math.log(p1 * P))
-    return p0 * d ** (p1 + 1.0) / (p1 + 1.0)
+    return power_energy(d, p0, p1)
 
 
 @njit(cache=True)
@@ -522,3 +539,172 @@ def channel_record(delta, n, Fn, F2, M1, M2, dissipated, code, P0, P1, W, out):
         for j in range(3):
             acc += M1[j, i] * (M2[j, 3] - M1[j, 3])
         out[10 + i] = acc
+
+
+# ------------------------------------------------------------------ energy-consistent prismatic model
+# Each of the slider's four side faces rests on a linear elastic foundation (Winkler) against
+# the guide face it can reach: pressure p = kf delta(xi, eta) where it penetrates. The slider is
+# rigid, so delta is affine over the face, and the penetrated region is the face rectangle
+# clipped by a line. Potential U = kf/2 int delta^2 dA; its gradient is the virtual work of p,
+# which bilinear shape functions N_j (exact for an affine field) lump onto the face's corner
+# channels: F_j = int p N_j dA >= 0. Integrated exactly (degree-3 rule on the triangles of the
+# clipped polygon), so the forces are the exact gradient of the reported energy and a corner, an
+# edge and a face are limits of one law (F ~ delta^3, delta^2, delta). Maths: docs/contact_models.md.
+
+
+@njit(cache=True)
+def _tri_moments(x0, y0, d0, x1, y1, d1, x2, y2, d2):
+    """int over the triangle of (d, d x, d y, d x y, d^2/2) for an affine d (vertex values d_i):
+    the 7-point rule exact to degree 3 (vertices 3/60, edge midpoints 8/60, centroid 27/60)."""
+    A = 0.5 * abs((x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0))
+    s0 = s1 = s2 = s3 = s4 = 0.0
+    for i in range(7):
+        if i < 3:
+            w = 3.0
+            if i == 0:
+                x, y, d = x0, y0, d0
+            elif i == 1:
+                x, y, d = x1, y1, d1
+            else:
+                x, y, d = x2, y2, d2
+        elif i < 6:
+            w = 8.0
+            if i == 3:
+                x, y, d = 0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.5 * (d0 + d1)
+            elif i == 4:
+                x, y, d = 0.5 * (x1 + x2), 0.5 * (y1 + y2), 0.5 * (d1 + d2)
+            else:
+                x, y, d = 0.5 * (x2 + x0), 0.5 * (y2 + y0), 0.5 * (d2 + d0)
+        else:
+            w = 27.0
+            x, y, d = (x0 + x1 + x2) / 3.0, (y0 + y1 + y2) / 3.0, (d0 + d1 + d2) / 3.0
+        s0 += w * d
+        s1 += w * d * x
+        s2 += w * d * y
+        s3 += w * d * x * y
+        s4 += w * 0.5 * d * d
+    A /= 60.0
+    return A * s0, A * s1, A * s2, A * s3, A * s4
+
+
+#: rectangle corners in cyclic order as member indices j (xi sign: bit 1, eta sign: bit 0)
+_CYCLE = (0, 2, 3, 1)
+
+
+@njit(cache=True)
+def foundation_face(d, hx, hy, kf, poly, F):
+    """Nodal loads F[j] (j: member index, xi sign bit 1, eta sign bit 0) of a Winkler foundation
+    of modulus kf (Pa/m) on the rectangle |xi| <= hx, |eta| <= hy, for the corner penetrations d
+    (4,), and its elastic energy (returned). The affine field is the least-squares plane of the
+    four corner values (equal to them for a rigid slider up to round-off)."""
+    c0 = 0.25 * (d[0] + d[1] + d[2] + d[3])
+    gx = 0.25 * ((d[2] + d[3]) - (d[0] + d[1])) / hx
+    gy = 0.25 * ((d[1] + d[3]) - (d[0] + d[2])) / hy
+    F[0] = F[1] = F[2] = F[3] = 0.0
+    if c0 + abs(gx) * hx + abs(gy) * hy <= 0.0:
+        return 0.0
+    # clip the rectangle by delta > 0 (Sutherland-Hodgman, one line): at most 5 vertices
+    m = 0
+    for i in range(4):
+        ji, jn = _CYCLE[i], _CYCLE[(i + 1) % 4]
+        xi = hx if ji & 2 else -hx
+        yi = hy if ji & 1 else -hy
+        xn = hx if jn & 2 else -hx
+        yn = hy if jn & 1 else -hy
+        di = c0 + gx * xi + gy * yi
+        dn = c0 + gx * xn + gy * yn
+        if di > 0.0:
+            poly[m, 0], poly[m, 1], poly[m, 2] = xi, yi, di
+            m += 1
+        if (di > 0.0) != (dn > 0.0):
+            t = di / (di - dn)
+            poly[m, 0], poly[m, 1], poly[m, 2] = xi + t * (xn - xi), yi + t * (yn - yi), 0.0
+            m += 1
+    I0 = Ix = Iy = Ixy = U = 0.0
+    for i in range(1, m - 1):
+        a0, a1, a2, a3, a4 = _tri_moments(poly[0, 0], poly[0, 1], poly[0, 2], poly[i, 0], poly[i, 1], poly[i, 2],
+                                          poly[i + 1, 0], poly[i + 1, 1], poly[i + 1, 2])
+        I0 += a0
+        Ix += a1
+        Iy += a2
+        Ixy += a3
+        U += a4
+    # N_j = (1 + sx xi/hx)(1 + sy eta/hy)/4
+    for j in range(4):
+        sx = 1.0 if j & 2 else -1.0
+        sy = 1.0 if j & 1 else -1.0
+        F[j] = 0.25 * kf * (I0 + sx * Ix / hx + sy * Iy / hy + sx * sy * Ixy / (hx * hy))
+    return kf * U
+
+
+@njit(cache=True)
+def prismatic_foundation(gpar, kf, members, delta, poly, Fel, Uf):
+    """Elastic nodal loads Fel of every corner channel and the energy Uf[f] of each face f
+    (0, 1: the x faces, modulus kf[0], half widths b/2 x L/2; 2, 3: the y faces, kf[1], a/2 x
+    L/2). members[f, j]: face f's channel with xi sign bit 1, eta sign bit 0 of j (the
+    prismatic module's face table). Returns the number of faces in contact."""
+    d4 = poly[5, 0:4]
+    F4 = poly[6, 0:4]
+    on = 0
+    for f in range(4):
+        for j in range(4):
+            d4[j] = delta[members[f, j]]
+        hx = gpar[3] if f < 2 else gpar[2]
+        U = foundation_face(d4, hx, gpar[4], kf[0] if f < 2 else kf[1], poly, F4)
+        Uf[f] = U
+        if U > 0.0:
+            on += 1
+        for j in range(4):
+            Fel[members[f, j]] = F4[j]
+    return on
+
+
+@njit(cache=True)
+def lumped_forces(Fel, dd, vt, n, dd0, chi, fcode, fpar, Fn, F2):
+    """Damping and memoryless friction on the lumped corner loads Fel: F = Fel (1 + chi dd/dd0)
+    clipped at zero, friction -mu(|vt|) F vt/|vt| at the corner. Fills Fn, F2 and returns the
+    dissipated power (F - Fel) dd - Ft . vt (each channel's term >= 0)."""
+    loss = 0.0
+    for k in range(Fel.shape[0]):
+        fe = Fel[k]
+        if fe <= 0.0:
+            Fn[k] = 0.0
+            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+            continue
+        f = damped(fe, dd[k], dd0[k], chi)
+        Fn[k] = f
+        t0, t1, t2 = vt[k, 0], vt[k, 1], vt[k, 2]
+        s = (t0 * t0 + t1 * t1 + t2 * t2) ** 0.5
+        g = friction_scale(fcode, fpar, s, f)
+        F2[k, 0] = -g * t0 - f * n[k, 0]
+        F2[k, 1] = -g * t1 - f * n[k, 1]
+        F2[k, 2] = -g * t2 - f * n[k, 2]
+        loss += (f - fe) * dd[k] + g * s * s
+    return loss
+
+
+@njit(cache=True)
+def prismatic_energy_force(gpar, kf, Hj, jidx, jMf, slot, Mbuf, J, idx1, idx2, v, z, vmin, members, modes, info,
+                           chi, fcode, fpar, poly, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, Uf, tau, zdot):
+    """The energy-consistent prismatic clearance's right-hand-side contribution in one call:
+    placements, corner geometry, the paper's mode (an output only), the foundation's corner
+    loads, damping, friction and wrenches. zdot = (0 per channel, dissipated power)."""
+    frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
+    frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
+    prismatic_geometry(gpar, Mbuf[0], Mbuf[1], delta, n, p1, p2)
+    prismatic_mode(delta, members, modes, info)
+    nc = delta.shape[0]
+    for k in range(nc + 1):
+        zdot[k] = 0.0
+    on = prismatic_foundation(gpar, kf, members, delta, poly, Fel, Uf)
+    if on == 0:
+        for k in range(nc):
+            Fn[k] = 0.0
+            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+        return 0
+    relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt)
+    for k in range(nc):
+        dd0[k] = max(z[k], vmin)
+    zdot[nc] = lumped_forces(Fel, dd, vt, n, dd0, chi, fcode, fpar, Fn, F2)
+    add_wrenches(J, idx1, idx2, F2, p1, p2, tau)
+    return on

@@ -157,6 +157,11 @@ class ClearanceJoint(ForceElement):
     def _energy(self, d, delta):
         return self.law.energy(delta)
 
+    def _loaded(self, d, Fel):
+        """Channels that carry force (boolean (nc,)): those in contact, unless a subclass's law
+        spreads a load onto channels not themselves penetrating (the prismatic foundation)."""
+        return d.on
+
     def _kernel_params(self):
         """(law code, p0, p1, chi, weight) per channel and (friction code, friction parameters)
         when every channel's normal law and the friction law declare a compiled form
@@ -214,6 +219,7 @@ class ClearanceJoint(ForceElement):
             d.loss = _kernels.contact_forces(d.delta, dd, vt, n, d.dd0, *self._kernel, d.Fn, d.Fel, d.F2)
             return
         Fn, Fel = self._normal(d, d.delta, dd, d.dd0)
+        on = self._loaded(d, Fel)
         Fn = np.where(on, Fn, 0.0)
         Fel = np.where(on, Fel, 0.0)
         if self.nfs:

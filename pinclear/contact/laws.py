@@ -194,7 +194,11 @@ class PowerLaw(NormalLaw):
         return Fe
 
     def energy(self, d):
-        return self.K * np.maximum(d, 0.0) ** (self.n + 1.0) / (self.n + 1.0)
+        # the potential of elastic(), including its constant continuation beyond DELTA_CAP
+        (d,) = _vec(d)
+        U = np.empty_like(d)
+        _kernels.power_law_energy(d, self.K, self.n, U)
+        return U
 
     def force(self, d, dd, dd0):
         return self.force_and_elastic(d, dd, dd0)[0]

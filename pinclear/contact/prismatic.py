@@ -8,7 +8,24 @@ centred on frame2 (x2, y2, z2 likewise). Its 8 corners P1..P8 are expressed in t
 their opposites. A corner can only reach the faces on its own side, so there are 16 channels
 (corner k, direction x or y); the slider keeps its full 6-DOF pose relative to the guide.
 
-Per face, the touching corners decide the contact kind and the force law (paper 003 sec. 2.2):
+Two normal-force models (sidecar key ``model``):
+
+``energy`` (default): each slider side face rests on a linear elastic (Winkler) foundation
+against the guide face it can reach, pressure p = kf delta(xi, eta) over the penetrated part of
+the face, kf = E / l (the slider's thickness across that face, so a face pressed flat gives
+paper 003 eq. 4, F = E A delta / l). The elastic force is the exact gradient of the face
+energies kf/2 int delta^2 dA, continuous across every change of the touching corners: a
+corner (F ~ delta^3), an edge (F ~ delta^2) and a face (F ~ delta) are limits of one law. The
+pressure is lumped onto the corner channels by bilinear shape functions (virtual work, exact for
+the affine penetration of a rigid slider). Damping multiplies each corner load by
+(1 + chi dd/dd0) with the face's impact speed dd0, friction acts on the corner loads; neither
+can inject energy. The compiled kernel is contact._kernels.prismatic_energy_force.
+
+``paper003``: paper 003's per-mode laws, kept to reproduce its figures. It is NOT conservative:
+at the same penetration a corner's force jumps when a neighbouring corner touches (point ->
+line -> plane law), and a force that jumps with the contact set is not the gradient of any
+potential, so mode changes can add energy (docs/contact_models.md). Per face, the touching
+corners decide the contact kind and the force law (paper 003 sec. 2.2):
 
 * one corner (or two diagonal ones): point contacts, Lankarani-Nikravesh with the Hertz
   stiffness of a corner of radius ``edge_radius`` on a flat (eq. 7);
@@ -19,8 +36,10 @@ Per face, the touching corners decide the contact kind and the force law (paper 
   at each corner from its own penetration (the resultant and moment of a linear foundation).
 
 The kinds of the four faces combine into the 15 modes of paper 003 Table 1 (``MODES``); any
-other combination (possible with large tilts) is reported as mode 16. Because the force law
-changes with the mode, every channel raises an event at contact onset and at separation.
+other combination (possible with large tilts) is reported as mode 16 (both models report the
+mode; only ``paper003`` switches laws with it). Because its force law changes with the mode,
+``paper003`` raises an event per channel at contact onset and at separation; ``energy`` needs
+only the onsets (the impact speed of its damping).
 """
 from __future__ import annotations
 
@@ -32,7 +51,9 @@ import numpy as np
 from . import _kernels
 from .base import ClearanceData, ClearanceJoint, _readonly
 
-KEYS = frozenset({"section", "length", "edge_radius", "point_law", "line_law", "plane_law"})
+KEYS = frozenset({"section", "length", "edge_radius", "point_law", "line_law", "plane_law", "model"})
+#: normal-force models of the ``model`` key; the first is the default
+MODELS = ("energy", "paper003")
 
 #: paper 003 Table 1: (points, lines, planes) -> mode number
 MODES = MappingProxyType({
@@ -113,10 +134,13 @@ class PrismaticData(ClearanceData):
         self.mode = 0                       # Table 1 number (0 free, 16 other)
         self.counts = (0, 0, 0)             # (points, lines, planes)
         self.kinds = [""] * 4               # contact kind per face
-        # compiled path: mode and face kinds as codes, each channel's law and weight
+        # compiled path: mode and face kinds as codes, each channel's law and weight (paper003)
         self.info = np.zeros(8, dtype=np.int64)
         self.lcode = np.zeros(16, dtype=np.int64)
         self.P0, self.P1, self.chi, self.W = (np.zeros(16) for _ in range(4))
+        # energy model: elastic energy per face, clipped-polygon and corner scratch
+        self.Uf = np.zeros(4)
+        self.poly = np.zeros((7, 4))
 
     def mode_from_info(self):
         self.mode, self.counts, self.kinds = _from_info(self.info)
@@ -128,25 +152,41 @@ class PrismaticClearance(ClearanceJoint):
     geometry_code = _kernels.G_PRISMATIC
     _data_class = PrismaticData
 
-    def __init__(self, name, model, f1, f2, section, clearance, length, laws, friction, **kw):
+    def __init__(self, name, model, f1, f2, section, clearance, length, laws, friction, *, contact_model="energy",
+                 modulus=None, hysteresis=0.0, **kw):
+        if contact_model not in MODELS:
+            raise ValueError(f"contact_model {contact_model!r} not in {MODELS}")
+        self.contact_model = contact_model
+        # energy: only contact onsets matter (the damping's impact speed); paper003's law also
+        # changes at separations
+        self.event_direction = 1 if contact_model == "energy" else 0
         super().__init__(name, model, f1, f2, 16, friction, **kw)
         self.a, self.b = map(float, section)
         self.c1, self.c2 = map(float, clearance)
         self.L = float(length)
         self.ha = 0.5 * self.a + self.c1           # a'/2
         self.hb = 0.5 * self.b + self.c2           # b'/2
-        # point, line_long, line_x, line_y, plane_x, plane_y
+        # point, line_long, line_x, line_y, plane_x, plane_y (model paper003)
         self.laws = MappingProxyType(dict(laws))
+        # energy model: foundation moduli of the x faces (slider thickness a across them) and the
+        # y faces (thickness b), Pa/m, and the hysteresis factor of the corner loads
+        self.modulus = None if modulus is None else float(modulus)
+        self.kf = _readonly([0.0, 0.0] if modulus is None else [self.modulus / self.a, self.modulus / self.b])
+        self.chi = float(hysteresis)
         self._freeze()
 
     def _freeze(self):
-        # the mode-dependent laws go into the compiled call when each slot's law and the
-        # friction law have a compiled form
-        par = [self.laws[k].kernel_params() for k in _LAW_ROWS]
+        # the model's laws go into the compiled call when they (and the friction law) have a
+        # compiled form
         fr = self.friction.kernel_params()
         self._pfused = None
-        if fr is not None and all(p is not None for p in par):
-            self._pfused = (_readonly(np.array(par, float)), int(fr[0]), fr[1])
+        if self.contact_model == "energy":
+            if fr is not None:
+                self._pfused = (self.kf, float(self.chi), int(fr[0]), fr[1])
+        else:
+            par = [self.laws[k].kernel_params() for k in _LAW_ROWS]
+            if fr is not None and all(p is not None for p in par):
+                self._pfused = (_readonly(np.array(par, float)), int(fr[0]), fr[1])
         super()._freeze()
 
     def _compiled_rhs(self):
@@ -156,7 +196,11 @@ class PrismaticClearance(ClearanceJoint):
         return np.array([self.ha, self.hb, 0.5 * self.a, 0.5 * self.b, 0.5 * self.L])
 
     def rhs_kernel(self):
-        return None if self._pfused is None else (_kernels.prismatic_force, self._prismatic_args)
+        if self._pfused is None:
+            return None
+        if self.contact_model == "energy":
+            return _kernels.prismatic_energy_force, self._energy_args
+        return _kernels.prismatic_force, self._prismatic_args
 
     def _prismatic_args(self, ws, d, v, z, tau, zdot):
         pf, fk = self._pfused, ws.fk
@@ -164,18 +208,27 @@ class PrismaticClearance(ClearanceJoint):
                 self.v_impact_min, _MEMBERS, _MODE_TABLE, pf[0], d.info, d.lcode, d.P0, d.P1, d.chi, d.W, pf[1],
                 pf[2], d.delta, d.n, d.p1, d.p2, d.dd, d.vt, d.dd0, d.Fn, d.Fel, d.F2, tau, zdot)
 
+    def _energy_args(self, ws, d, v, z, tau, zdot):
+        pf, fk = self._pfused, ws.fk
+        return (self._geom[1], pf[0], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, ws.J6, self.idx1, self.idx2, v, z,
+                self.v_impact_min, _MEMBERS, _MODE_TABLE, d.info, pf[1], pf[2], pf[3], d.poly, d.delta, d.n, d.p1,
+                d.p2, d.dd, d.vt, d.dd0, d.Fn, d.Fel, d.F2, d.Uf, tau, zdot)
+
     def _record_laws(self, d):
+        if self.contact_model == "energy":
+            return self._no_laws                  # the face energies come from d.Uf (_record)
         return d.lcode, d.P0, d.P1, d.W
 
     # geometry -----------------------------------------------------------------
     def _geometry(self, data, dat):
         super()._geometry(data, dat)
-        # the touching corners decide each face's force law: the mode belongs to this pose
+        # the mode belongs to this pose (paper003: the touching corners decide each face's law)
         _kernels.prismatic_mode(dat.delta, _MEMBERS, _MODE_TABLE, dat.info)
         dat.mode_from_info()
 
     def _apply(self, dat, fn):
-        """Sum over faces of fn(law, weight, channel indices), for the mode of ``dat``'s pose."""
+        """Sum over faces of fn(law, weight, channel indices), for the mode of ``dat``'s pose
+        (paper003)."""
         for f, kind in enumerate(dat.kinds):
             if not kind:
                 continue
@@ -191,7 +244,20 @@ class PrismaticClearance(ClearanceJoint):
             else:
                 fn(self.laws["plane_x" if f < 2 else "plane_y"], 0.25, ch)
 
+    def _foundation(self, dat, delta):
+        """Elastic corner loads (16,) of the energy model; the face energies go to dat.Uf."""
+        Fel = np.zeros(16)
+        _kernels.prismatic_foundation(self._geom[1], self.kf, _MEMBERS, np.ascontiguousarray(delta, float), dat.poly,
+                                      Fel, dat.Uf)
+        return Fel
+
     def _normal(self, dat, delta, dd, dd0):
+        if self.contact_model == "energy":
+            Fel = self._foundation(dat, delta)
+            F = np.empty(16)
+            _kernels.damped_forces(Fel, np.ascontiguousarray(dd, float), np.ascontiguousarray(dd0, float), self.chi,
+                                   F)
+            return np.where(Fel > 0.0, F, 0.0), np.maximum(Fel, 0.0)
         Fn = np.zeros(16)
         Fel = np.zeros(16)
 
@@ -203,7 +269,15 @@ class PrismaticClearance(ClearanceJoint):
         self._apply(dat, fn)
         return Fn, Fel
 
+    def _loaded(self, dat, Fel):
+        # the foundation loads a corner that is itself still out of contact when part of its
+        # face penetrates
+        return Fel > 0.0 if self.contact_model == "energy" else dat.on
+
     def _energy(self, dat, delta):
+        if self.contact_model == "energy":
+            self._foundation(dat, delta)
+            return dat.Uf.copy()
         E = np.zeros(16)
 
         def fn(law, w, ch):
@@ -212,15 +286,52 @@ class PrismaticClearance(ClearanceJoint):
         self._apply(dat, fn)
         return E
 
+    def _compute(self, ws, d, v, z, full):
+        d.Uf[:] = 0.0
+        super()._compute(ws, d, v, z, full)
+
+    def z0(self, mech, ws, d, q, v):
+        z = super().z0(mech, ws, d, q, v)
+        if self.contact_model == "energy":
+            # a face in contact at t0: its impact speed is its fastest touching corner's
+            for ch in FACE_MEMBERS:
+                z[ch] = z[ch].max()
+        return z
+
+    def handle_event(self, k, mech, ws, d, t, q, v, z):
+        if self.contact_model != "energy":
+            return super().handle_event(k, mech, ws, d, t, q, v, z)
+        self._eval(ws, d, t, q, v, z, full=True)
+        z = np.array(z, float)
+        near = np.abs(d.delta) < 1e3 * self.event_snap
+        near[k] = True
+        onset = near & (d.dd > 0.0)
+        inside = d.delta > 1e3 * self.event_snap
+        for ch in FACE_MEMBERS:
+            # a face whose first corners just touched: the impact speed of its damping (paper 003
+            # uses the Lankarani-Nikravesh hysteresis of papers 000 eq. 17, 002 eq. 9)
+            if onset[ch].any() and not inside[ch].any():
+                z[ch] = d.dd[ch][onset[ch]].max()
+                if self.nfs:
+                    z[self.nc + 1:].reshape(self.nc, -1)[ch] = 0.0
+        return z
+
     def _record(self, d, z, M1, M2, laws):
         pot, out = super()._record(d, z, M1, M2, laws)
+        if self.contact_model == "energy":
+            pot = float(d.Uf.sum())                         # both paths leave the face energies in d.Uf
         out["mode"] = np.array(float(d.info[0]))            # both paths leave the pose's mode in d.info
         out["kinds"] = d.info[1:4].astype(float)
         return pot, out
 
     def describe(self):
-        return {**super().describe(), "section": [self.a, self.b], "clearance": [self.c1, self.c2],
-                "length": self.L, "laws": {k: repr(v) for k, v in self.laws.items()}}
+        out = {**super().describe(), "model": self.contact_model, "section": [self.a, self.b],
+               "clearance": [self.c1, self.c2], "length": self.L}
+        if self.contact_model == "energy":
+            out.update(foundation_modulus=[float(k) for k in self.kf], chi=self.chi)
+        else:
+            out["laws"] = {k: repr(v) for k, v in self.laws.items()}
+        return out
 
 
 def from_spec(sp, mech, closure):
@@ -238,8 +349,13 @@ def from_spec(sp, mech, closure):
     E = min(E1, E2)                                   # the softer body sets the plane compliance
     laws["plane_x"] = sp.normal_law("plane_law", "plane", plane=(E, L * b, a))
     laws["plane_y"] = sp.normal_law("plane_law", "plane", plane=(E, L * a, b))
+    model = sp.choice("model", MODELS)
+    # energy model: the foundation modulus E / l of paper 003 eq. 4's plane law, the damping of
+    # normal_law's hysteresis (point_law, line_law and plane_law are paper003's)
     return PrismaticClearance(sp.name, mech.model, closure.f1, closure.f2, (a, b), (c1, c2), L, laws,
-                              sp.friction_law(), **sp.common(min(c1, c2)))
+                              sp.friction_law(), contact_model=model, modulus=E,
+                              hysteresis=sp.hysteresis("normal_law", "lankarani_nikravesh"),
+                              **sp.common(min(c1, c2)))
 
 
 __all__ = ["PrismaticClearance", "classify", "MODES", "MODE_NAMES", "SIGNS"]

@@ -5,7 +5,7 @@ import numbers
 
 from pinclear.errors import ContactSetupError
 
-from .laws import MATERIALS, effective_modulus, make_friction_law, make_normal_law
+from .laws import HYSTERESIS, MATERIALS, effective_modulus, make_friction_law, make_normal_law
 
 COMMON_KEYS = frozenset({"name", "type", "closure", "active", "notes", "clearance", "mu", "ce",
                          "normal_law", "friction_law", "material", "material1", "material2", "stiffness",
@@ -97,6 +97,37 @@ class Spec:
         if "ce" not in spec and spec.get("type") != "hertz":
             spec["ce"] = self.ce()
         return make_normal_law(spec, file=self.file, key=f"clearances.{self.name}.{key}", **geom)
+
+    def choice(self, key, choices):
+        """A string from ``choices``; the first is the default."""
+        v = self.d.get(key, choices[0])
+        if v not in choices:
+            raise self.error(key, f"invalid value {v!r}", choices)
+        return v
+
+    def hysteresis(self, key, default):
+        """Hysteresis factor chi of the damped family named by ``key`` (a law name or {type, ce,
+        damping}), with the joint's ``ce``: for models that take only the damping of a law."""
+        spec = self.d.get(key, default)
+        if isinstance(spec, str):
+            spec = {"type": spec}
+        if not isinstance(spec, dict):
+            raise self.error(key, f"expected a law name or mapping, got {spec!r}", sorted(HYSTERESIS))
+        spec = dict(spec)
+        typ = spec.pop("type", None)
+        if typ not in HYSTERESIS:
+            raise self.error(f"{key}.type" if key in self.d and isinstance(self.d[key], dict) else key,
+                             f"this model takes only the damping of a law, got {typ!r}", sorted(HYSTERESIS))
+        ce = spec.pop("ce", None)
+        ce = self.ce() if ce is None else float(ce)
+        if not 0 < ce <= 1:
+            raise self.error(f"{key}.ce", f"restitution coefficient {ce} outside (0, 1]")
+        damping = spec.pop("damping", typ)
+        if damping not in HYSTERESIS:
+            raise self.error(f"{key}.damping", f"unknown hysteresis {damping!r}", sorted(HYSTERESIS))
+        if spec:
+            raise self.error(f"{key}.{sorted(spec)[0]}", "unknown key", ["type", "ce", "damping"])
+        return float(HYSTERESIS[damping](ce))
 
     def friction_law(self):
         spec = self.d.get("friction_law")
