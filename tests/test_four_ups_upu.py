@@ -46,6 +46,11 @@ def test_committed_files_match_generator():
     assert all(c["type"] == "spherical" for c in sc["closures"])
     for p in sc["parameters"]:
         assert p["source"].startswith(("paper 000", "reconstructed:")), p
+    # paper 000, sec. 3.1: every rod's x axis points "downward along the rod", from the fixed
+    # platform (X = 0) to the moving one (X = 1.1 m): gravity points from the first to the second
+    g = np.asarray(sc["gravity"], float)
+    assert np.linalg.norm(g) == pytest.approx(9.81) and g @ np.array([mod.X0, 0.0, 0.0]) == pytest.approx(9.81 * mod.X0)
+    assert sc["baumgarte"] == {"alpha": 5.0, "beta": 5.0}            # eq. 31: zeta = xi = 5
 
 
 def test_masses_from_dimensions(mech):

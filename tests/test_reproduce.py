@@ -56,3 +56,34 @@ def test_reproduce_names_the_available_papers(tmp_path):
     r = subprocess.run([sys.executable, "-m", "pinclear.cli", "reproduce", "001", "--out", str(tmp_path)],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and "004" in r.stderr
+
+
+@pytest.mark.parametrize("name, gains", [("four_ups_upu", (5.0, 5.0)),      # paper 000, eq. 31
+                                         ("nine_bar", (20.0, 20.0)),        # paper 002, after eq. 19
+                                         ("three_upru_up", (5.0, 1.0))])    # paper 003, eq. 20, Table 3
+def test_the_papers_baumgarte_gains_reach_the_formulation(name, gains):
+    import pinclear
+    from pinclear.formulations.lagrange import Lagrange
+
+    mech = pinclear.load(name)
+    assert Lagrange(mech).baumgarte() == gains
+    assert Lagrange(mech, alpha=1.0).baumgarte() == (1.0, gains[1])      # simulate()'s options win
+    # a model without the key keeps the class defaults
+    assert Lagrange(pinclear.load("four_bar")).baumgarte() == (5.0, 5.0)
+
+
+def test_baumgarte_key_errors_name_the_file_and_key(tmp_path):
+    import yaml
+
+    import pinclear
+    from pinclear.models import model_path
+    from pinclear.errors import ModelFileError
+
+    src = model_path("four_bar")
+    sc = yaml.safe_load(src.read_text())
+    sc["urdf"] = str(src.parent / sc["urdf"])
+    for bad, key in (({"alpha": -1.0}, "baumgarte.alpha"), ({"gamma": 2.0}, "baumgarte.gamma")):
+        f = tmp_path / "m.yaml"
+        f.write_text(yaml.safe_dump({**sc, "baumgarte": bad}))
+        with pytest.raises(ModelFileError, match=key.replace(".", r"\.")):
+            pinclear.load(f)
