@@ -132,7 +132,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter
 
+    MM = FuncFormatter(lambda v, _: f"{1e3 * v:.6g}")      # m/s data shown in mm/s: no offset, no multiplier
     s = _settings(quick, settings)
     path = model_path("four_ups_upu")
     results, notes, checks, figures = [], [], [], []
@@ -184,7 +186,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                                    why))
             results.append(compare(f"contact force max ({SMOOTH:.2g} s average), mu {mu}", band.max(), hi, "N", 0.15,
                                    why))
-            notes.append(f"mu = {mu}, K printed: raw contact force {Fm.min():.1f}-{Fm.max():.0f} N (impact peaks), "
+            notes.append(f"mu = {mu}, K printed: raw contact force {Fm.min():.1f}-{Fm.max():.0f} N (least-largest), "
                          f"in contact {100 * np.mean(tr.outputs['S2.contact'] > 0):.0f} % of the window; period-mean "
                          f"contact force equals the ideal joint's reaction to {100 * dev:.2f} %")
             axf[0].plot(tr.t, Fm, lw=0.5, label=f"mu {mu}")
@@ -229,6 +231,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
             for row, name in enumerate(("position [m]", "velocity [m/s]", "acceleration [m/s^2]")):
                 axr[row, j].plot(t_eval[two], law[two, 3 * row + j], "k--", lw=0.8, label="ideal")
                 axr[row, j].set_title(f"platform {c} {name}", fontsize=9)
+                axr[row, j].ticklabel_format(axis="y", useOffset=False)
         for j in range(3):
             axr[2, j].set_xlabel("t [s]")
         axr[0, 0].legend(fontsize=8)
@@ -282,8 +285,8 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
         for ax, sig in zip(axes.ravel(), PLATFORM + CLEARANCE):
             analysis.plot_bifurcation(res, signal=sig, ax=ax)
             ax.set_title(f"{sig}: velocity at the Poincaré section", fontsize=9)
-            ax.set_ylabel(f"d/dt {sig} [m/s]")
-            ax.ticklabel_format(axis="y", useOffset=False)
+            ax.set_ylabel(f"d/dt {sig} [mm/s]")
+            ax.yaxis.set_major_formatter(MM)
             ax.set_xlabel(label)
         fig.tight_layout()
         fig.savefig(out / name, dpi=80)
@@ -320,9 +323,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                      "rows": rows,
                      "note": f"{s['transient']} transient + {s['cycles']} recorded periods per run. A period-1 "
                              "orbit's Poincaré points coincide to the integration error (spread << 1 um); the paper "
-                             "reports chaos of the clearance at mu 0.010-0.022. A variant that changes the verdict "
-                             "names the quantity the paper's chaos depends on; with none, the difference lies in what "
-                             "this table does not vary (the lost Tables 1-3: masses, inertias, joint layout)"})
+                             "reports chaos of the clearance at mu 0.010-0.022. A variant that changed the verdict "
+                             "would name a quantity the paper's chaos depends on. The masses, inertias and platform "
+                             "joint angles (the lost Tables 1-3) are not varied here: they need regenerated models"})
     lam_m, _ = ideal_reaction(np.linspace(0.0, T, 401), gravity_sign=-1.0)
     lam_p, _ = ideal_reaction(np.linspace(0.0, T, 401))
     rows = []

@@ -394,12 +394,14 @@ def _portraits(res, values, name, title, plt, out):
 
 
 def _diagrams(res, name, label, plt, out):
+    from matplotlib.ticker import FuncFormatter
+
     fig, ax = plt.subplots(1, 2, figsize=(13, 4.5))
     for a, j in zip(ax, JOINTS):
         an.plot_bifurcation(res, signal=f"{j}.eccentricity[0]", ax=a, label=label)
         a.set_title(f"joint {j}: Poincaré samples of the relative velocity", fontsize=9)
-        a.set_ylabel(f"d/dt {j}.eccentricity[0] [m/s]")
-        a.ticklabel_format(axis="y", useOffset=False)
+        a.set_ylabel(f"d/dt {j}.eccentricity[0] [mm/s]")
+        a.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{1e3 * v:.6g}"))   # no offset, no multiplier
     fig.tight_layout()
     fig.savefig(out / name, dpi=90)
     plt.close(fig)
