@@ -263,7 +263,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
 
     portraits = [r for r in bmu.runs if any(abs(float(r.value) - m) < 1e-9 for m in (0.01, 0.05, 0.10))]
     if portraits:
-        fig, axes = plt.subplots(len(portraits), 4, figsize=(14, 3.4 * len(portraits)), squeeze=False)
+        fig, axes = plt.subplots(len(portraits), 4, figsize=(16, 3.8 * len(portraits)), squeeze=False)
         for row, r in zip(axes, portraits):
             for k, sig in enumerate(("platform.z", "S2.eccentricity[1]")):
                 if sig not in r.portraits:
@@ -271,11 +271,22 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                     continue
                 _, x, xd = r.portraits[sig]
                 sec = r.sections[sig]
-                row[2 * k].plot(x, xd, lw=0.4)
+                # portrait in mm and mm/s; Poincaré points as offsets from their mean in um and um/s
+                # (a period-1 map is a cluster far smaller than the orbit: absolute values would
+                # need offset notation)
+                row[2 * k].plot(1e3 * np.asarray(x), 1e3 * np.asarray(xd), lw=0.4)
                 row[2 * k].set_title(f"mu {r.value}: {sig} phase portrait", fontsize=9)
-                row[2 * k + 1].plot(sec.x, sec.xdot, ".", ms=3, color="C3")
+                row[2 * k].set_xlabel(f"{sig} [mm]")
+                row[2 * k].set_ylabel(f"d/dt {sig} [mm/s]")
+                sx, sv = np.asarray(sec.x), np.asarray(sec.xdot)
+                row[2 * k + 1].plot(1e6 * (sx - sx.mean()), 1e6 * (sv - sv.mean()), ".", ms=3, color="C3")
                 c = r.classifications[sig]
-                row[2 * k + 1].set_title(f"Poincaré map: {c.kind}", fontsize=9)
+                row[2 * k + 1].set_title(f"Poincaré map: {c.kind}\nabout {1e3 * sx.mean():.4g} mm, "
+                                         f"{1e3 * sv.mean():.4g} mm/s", fontsize=8.5)
+                row[2 * k + 1].set_xlabel(f"{sig} - mean [um]")
+                row[2 * k + 1].set_ylabel("velocity - mean [um/s]")
+                for a in row[2 * k:2 * k + 2]:
+                    a.ticklabel_format(useOffset=False)
         fig.tight_layout()
         fig.savefig(out / "phase_poincare_mu.png", dpi=80)
         plt.close(fig)
