@@ -52,7 +52,8 @@ SETTINGS = {"full": {"t_end": 0.3, "dt_out": 1e-4, "settle": 0.05, "max_cpu": 60
 LISTS = ("clearances", "mus", "models", "lengths")
 WHY_DEV = ("rigid bodies: with the three drives holding the limb lengths the platform can leave Z0 only as far as "
            "the slider's gap lets the UP branch tilt, so the deviation is proportional to the clearance; the factor "
-           "({ratio:.3f} here) depends on the reconstructed slider length and guide position (sensitivity table). "
+           "({ratio:.3f} here) goes as 1 / slider length (sensitivity table) and with the guide's position on the "
+           "branch (reconstructed, not varied). "
            "The paper's millimetres would need deviation / clearance of 16-54 (10 in its own Fig. 8), and its "
            "ratio grows with friction, which no kinematic bound can do (docs/papers.md, paper 003)")
 WHY_VEL = ("the paper's velocity amplitudes contradict its own displacements: reaching 0.15 m/s within a 1.6 mm "
@@ -222,10 +223,11 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                      "columns": ["slider length [m]", "Z deviation [um]", "deviation / clearance",
                                  "Z velocity amplitude [m/s]", f"largest force after {s['settle']:g} s [N]"],
                      "rows": lrows,
-                     "note": "the gap lets the slider tilt in the guide by about 2 c / l; the platform, about 1.5 m "
-                             "from the branch's base U joint, moves by that tilt times its lever arm, so a shorter "
-                             "slider or a longer lever gives a larger multiple of the clearance. No length in this "
-                             "range brings the multiple near the 16-54 the paper's millimetres need"})
+                     "note": "the gap lets the slider tilt in the guide by about 2 c / l, and the platform moves by "
+                             "that tilt times its distance from the slider: a shorter slider gives a larger multiple "
+                             "of the clearance. No length in this range brings the multiple near the 16-54 the "
+                             "paper's millimetres need. The lever arm (the guide's position along the branch, "
+                             "fixed in the generated URDF) is not swept"})
     if set(MODELS) <= set(models):
         both = [(pick(rf_all, friction_law(mu), "energy"), pick(rf_all, friction_law(mu), "paper003"), mu)
                 for mu in s["mus"]]
