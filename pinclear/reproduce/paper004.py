@@ -92,8 +92,7 @@ def run(out, quick=False, workers=None, scheduler=None):
         tw.plot(CUTOFFS, [100 * f for _, f in curve], "s:", color="C7", ms=3)
         tw.set_ylabel("share of the period below the cut-off [%]", color="C7")
         tw.set_ylim(0, 100)
-        if k == 0:
-            axc[k].legend(fontsize=8, loc="upper left")
+        axc[k].legend(fontsize=7, loc="upper left")
         # time histories: the y range is set by what is compared (twice the paper's peak); forces
         # beyond it (around the singular crossings) are clipped at the frame and their spans hatched
         lim = 2.0 * paper
