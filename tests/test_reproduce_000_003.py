@@ -82,7 +82,7 @@ def test_paper003_reduced_run_z_deviation_grows_with_the_clearance(tmp_path):
     ratio must lie in [1.5, 2.2]; the ideal run stays on Z0 to 1e-8 m."""
     rep = paper003.run(tmp_path, quick=True, workers=1,
                        settings={"t_end": 0.05, "clearances": [1e-4, 2e-4], "mus": [0.05], "models": ["energy"],
-                                 "lengths": []})
+                                 "lengths": [], "lever_shifts": []})
     _check_files(rep, tmp_path)
     names = {r["name"] for r in rep["results"]}
     assert "largest contact force in the prismatic joint (friction study), energy model" in names

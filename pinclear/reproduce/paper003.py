@@ -41,6 +41,9 @@ CLEARANCES = (1e-4, 2e-4, 3e-4)
 MODELS = ("energy", "paper003")
 #: reconstructed slider length (sidecar: 0.3 m) and the sweep around it (0.1 mm gap, Table 3 friction)
 LENGTHS = (0.15, 0.6)
+#: shifts (m) of the guide/slider pair along the UP branch from its reconstructed place (the guide's
+#: centre 0.3 m above the base U joint): the lever arm of the slider's tilt about that joint
+LEVER_SHIFTS = (-0.15, 0.45)
 #: reconstructed: the paper's friction law (eq. 3) has mu_s = 0.80, mu_d = 0.16 (Table 3); its study
 #: names one coefficient, taken as mu_d with Table 3's ratio mu_s / mu_d = 5 kept
 MU_RATIO = 0.80 / 0.16
@@ -49,11 +52,11 @@ MU_RATIO = 0.80 / 0.16
 #: (RK45 and LSODA alike), and a run that exhausts the budget is kept up to where it stopped
 SETTINGS = {"full": {"t_end": 0.3, "dt_out": 1e-4, "settle": 0.05, "max_cpu": 600.0},
             "quick": {"t_end": 0.1, "dt_out": 2e-4, "settle": 0.05, "max_cpu": 60.0}}
-LISTS = ("clearances", "mus", "models", "lengths")
+LISTS = ("clearances", "mus", "models", "lengths", "lever_shifts")
 WHY_DEV = ("rigid bodies: with the three drives holding the limb lengths the platform can leave Z0 only as far as "
            "the slider's gap lets the UP branch tilt, so the deviation is proportional to the clearance; the factor "
-           "({ratio:.3f} here) goes as 1 / slider length (sensitivity table) and with the guide's position on the "
-           "branch (reconstructed, not varied). "
+           "({ratio:.3f} here) goes as 1 / slider length and changes with the guide's place on the branch "
+           "(sensitivity tables). "
            "The paper's millimetres would need deviation / clearance of 16-54 (10 in its own Fig. 8), and its "
            "ratio grows with friction, which no kinematic bound can do (docs/papers.md, paper 003)")
 WHY_VEL = ("the paper's velocity amplitudes contradict its own displacements: reaching 0.15 m/s within a 1.6 mm "
@@ -69,7 +72,8 @@ def _settings(quick, settings):
     bad = set(settings or {}) - set(s) - set(LISTS)
     if bad:
         raise InputError(f"paper 003: unknown setting {sorted(bad)[0]!r}", choices=sorted(s) + list(LISTS))
-    s.update({"clearances": CLEARANCES, "mus": PAPER_FRICTION["mu"], "models": MODELS, "lengths": LENGTHS})
+    s.update({"clearances": CLEARANCES, "mus": PAPER_FRICTION["mu"], "models": MODELS, "lengths": LENGTHS,
+              "lever_shifts": LEVER_SHIFTS})
     s.update(settings or {})
     return s
 
@@ -88,6 +92,25 @@ def response(tr, mech, settle):
     return {"z_dev": float(np.abs(se.x - mod.Z0).max()), "vz_amp": float(np.abs(se.xdot).max()),
             "F_max": float(F.max()), "F_max_settled": float(F[late].max()) if late.any() else float("nan"),
             "t": tr.t, "z": se.x - mod.Z0, "vz": se.xdot, "F": F}
+
+
+def lever_sidecar(folder, shift):
+    """A copy of the model whose P_UP closure frames (guide and slider centres) sit ``shift`` m
+    further along the UP branch: the same mechanism with the prismatic pair moved along its
+    axis (consistent at every pose, since the slider only translates along that axis)."""
+    import yaml
+
+    src = model_path("three_upru_up")
+    sc = yaml.safe_load(src.read_text())
+    sc["urdf"] = str((src.parent / sc["urdf"]).resolve())
+    for c in sc["closures"]:
+        if c["name"] == "P_UP":
+            c["frame1"] = {"parent": c["frame1"], "xyz": [0.0, 0.0, shift], "name": "guide_centre_shifted"}
+            c["frame2"] = {"parent": c["frame2"], "xyz": [0.0, 0.0, shift], "name": "slider_centre_shifted"}
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / f"three_upru_up_shift_{shift:+.3f}.yaml"
+    path.write_text(yaml.safe_dump(sc, sort_keys=False))
+    return path
 
 
 def _model_label(m):
@@ -117,6 +140,12 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
         swl = (sweep(path, {"P_UP.length": list(s["lengths"])}, s["t_end"], folder / "length",
                      load_options={"clearances": ["P_UP"], "overrides": {"P_UP.clearance": [1e-4, 1e-4]}},
                      sim_options=sim, executor=ex, progress=None) if s["lengths"] else None)
+        lever = []
+        for sh in s["lever_shifts"]:
+            vp = lever_sidecar(folder / "lever", sh)
+            lever.append((sh, vp, sweep(vp, {"P_UP.clearance": [[1e-4, 1e-4]]}, s["t_end"], folder / "lever" / f"{sh:+.3f}",
+                                        load_options={"clearances": ["P_UP"], "trust": True}, sim_options=sim,
+                                        executor=ex, progress=None)))
     finally:
         if close is not None:
             close()
@@ -226,8 +255,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                      "note": "the gap lets the slider tilt in the guide by about 2 c / l, and the platform moves by "
                              "that tilt times its distance from the slider: a shorter slider gives a larger multiple "
                              "of the clearance. No length in this range brings the multiple near the 16-54 the "
-                             "paper's millimetres need. The lever arm (the guide's position along the branch, "
-                             "fixed in the generated URDF) is not swept"})
+                             "paper's millimetres need. The lever arm is the next table"})
     if set(MODELS) <= set(models):
         both = [(pick(rf_all, friction_law(mu), "energy"), pick(rf_all, friction_law(mu), "paper003"), mu)
                 for mu in s["mus"]]
@@ -242,6 +270,31 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                          "and falls onto a stiff face) peaks at "
                          + ", ".join(f"{e['F_max']:.3g} N" for e, _, _ in both)
                          + " with the energy model too: that peak is the contact stiffness, not an artefact")
+    if lever and c_ref is not None:
+        zg = mod.GUIDE_Z0 + mod.GUIDE_LEN / 2
+        vrows = [[zg, 1e6 * c_ref["z_dev"], c_ref["z_dev"] / 1e-4, c_ref["vz_amp"]]]
+        for sh, vp, sw in lever:
+            p = sw.points[0]
+            if p.file is None or p.file.suffix != ".npz":
+                notes.append(f"lever run, shift {sh:+g} m: {p.status}: {p.message}")
+                continue
+            r = response(p.trajectory(), load(vp, clearances=["P_UP"], trust=True), s["settle"])
+            vrows.append([zg + sh, 1e6 * r["z_dev"], r["z_dev"] / 1e-4, r["vz_amp"]])
+        vrows.sort()
+        L0 = float(next(c["length"] for c in ideal.sidecar["clearances"] if c["name"] == "P_UP"))
+        ks = [row[2] * L0 / row[0] for row in vrows]          # (deviation / clearance) x slider length / lever
+        notes.append("deviation / clearance x slider length / lever arm = " + ", ".join(f"{k:.3f}" for k in ks)
+                     + " for guide centres " + ", ".join(f"{row[0]:g}" for row in vrows) + " m above the base U "
+                     f"joint (slider {L0:g} m): the platform's offset is about "
+                     f"{np.mean(ks):.2f} c a / l. The paper's 16-54 clearances would need a / l of "
+                     f"{16 / np.mean(ks):.0f}-{54 / np.mean(ks):.0f}")
+        sens.append({"title": "lever arm: the guide/slider pair moved along the UP branch (reconstructed place: "
+                              f"guide centre {zg:g} m above the base U joint), 0.1 mm gap, mu_d 0.16, energy model",
+                     "columns": ["guide centre above the base U joint [m]", "Z deviation [um]",
+                                 "deviation / clearance", "Z velocity amplitude [m/s]"],
+                     "rows": vrows,
+                     "note": "the slider's tilt in the gap turns the branch about the base U joint; where the pair "
+                             "sits on the branch changes the multiple of the clearance the platform moves by"})
     devs = [r["z_dev"] for r in (pick(rc_all, [c, c], models[0]) for c in s["clearances"]) if r is not None]
     checks.append({"name": "Z deviation grows with the clearance", "model": models[0],
                    "clearances_m": [c for c in s["clearances"] if pick(rc_all, [c, c], models[0]) is not None],
@@ -290,5 +343,5 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
             "settings": {"mode": "quick" if quick else "full", "simulated": f"{s['t_end']:g} s",
                          "output step": f"{s['dt_out']:g} s", "clearances (m)": list(s["clearances"]),
                          "friction coefficients": list(s["mus"]), "contact models": models,
-                         "slider lengths (m)": list(s["lengths"])},
+                         "slider lengths (m)": list(s["lengths"]), "lever shifts (m)": list(s["lever_shifts"])},
             "results": results, "notes": notes, "checks": checks, "figures": ["responses.png"], "sensitivity": sens}
