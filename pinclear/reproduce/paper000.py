@@ -64,8 +64,8 @@ SENS_RTOL = 1e-10
 SMOOTH = T / 20          # moving-average window for the force band: removes the impact ringing, keeps the load
 WHY_FORCE = ("reconstructed masses and platform joint angles (docs/papers.md, paper 000: Tables 1-3 are lost); the "
              "contact force follows limb 2's load, which with our layout swings {lo:.0f}-{hi:.0f} N over a period "
-             "with ideal joints (mean {mean:.0f} N): the mean is set by the load, the band by the layout; with "
-             "gravity along -X the band is 21-283 N (sensitivity table)")
+             "with ideal joints (mean {mean:.0f} N): the mean is set by the load, the band by the layout and "
+             "gravity's direction (-X would make it several times wider: sensitivity table)")
 
 
 def sensitivity_mechanism(variant):
