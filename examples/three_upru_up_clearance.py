@@ -60,11 +60,19 @@ def main(argv=None) -> int:
     ax[1, 0].step(tr.t, modes, where="post", lw=0.7)
     ax[1, 0].set_ylabel("contact mode (Table 1; 0 free, 16 other)")
     ax[1, 0].set_xlabel("t, s")
+    ax[0, 0].set_xlabel("t, s")
+    ax[0, 1].set_xlabel("t, s")
     e = tr.outputs["P_UP.eccentricity"] * 1e3
     ax[1, 1].plot(e[:, 0], e[:, 1], lw=0.6)
     ax[1, 1].set_xlabel("slider centre x in guide, mm")
     ax[1, 1].set_ylabel("y, mm")
-    ax[1, 1].set_aspect("equal")
+    # a square window around the path, equal scales: an aspect-equal panel sized by a path that is
+    # long in one direction and short in the other is squashed to a strip
+    lim = 1.15 * max(float(np.abs(e[:, :2]).max()), 1e-6)
+    ax[1, 1].set_xlim(-lim, lim)
+    ax[1, 1].set_ylim(-lim, lim)
+    ax[1, 1].set_aspect("equal", adjustable="box")
+    ax[1, 1].ticklabel_format(useOffset=False)
     fig.tight_layout()
     out = Path(a.out) / "three_upru_up_clearance.png"
     fig.savefig(out, dpi=110)

@@ -94,7 +94,8 @@ def read_yaml(path, what="sidecar"):
         raise ModelFileError(file, "yaml", f"not valid YAML: {' '.join(str(exc).split())}") from None
 
 TOP_KEYS = {"name", "urdf", "description", "gravity", "initial", "closures", "drives", "forces",
-            "clearances", "platform", "options", "hook", "parameters", "screw", "nonphysical_inertia"}
+            "clearances", "platform", "options", "hook", "parameters", "screw", "nonphysical_inertia",
+            "baumgarte"}
 #: a sidecar is a few kilobytes; anything near this is not one
 MAX_SIDECAR_BYTES = 1_000_000
 CLOSURE_KEYS = {"name", "type", "frame1", "frame2", "normal", "length"}
@@ -507,6 +508,12 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
         if key in sc:
             sc[key] = _substitute(sc[key], opts, file, key)
 
+    # ---- Baumgarte gains of the model's source (read by the formulations that stabilise with them)
+    bg = sc.get("baumgarte") or {}
+    _check_keys(bg, {"alpha", "beta"}, file, "baumgarte")
+    for k, val in bg.items():
+        if isinstance(val, bool) or not isinstance(val, (int, float)) or not val >= 0.0:
+            raise ModelFileError(file, f"baumgarte.{k}", f"expected a number >= 0 [1/s], got {val!r}")
     # ---- gravity
     model.gravity.linear = _vec3(sc.get("gravity", [0.0, 0.0, -9.81]), file, "gravity")
 

@@ -46,6 +46,11 @@ def test_committed_files_match_generator():
     assert all(c["type"] == "spherical" for c in sc["closures"])
     for p in sc["parameters"]:
         assert p["source"].startswith(("paper 000", "reconstructed:")), p
+    # paper 000, sec. 3.1: every rod's x axis points "downward along the rod", from the fixed
+    # platform (X = 0) to the moving one (X = 1.1 m): gravity points from the first to the second
+    g = np.asarray(sc["gravity"], float)
+    assert np.linalg.norm(g) == pytest.approx(9.81) and g @ np.array([mod.X0, 0.0, 0.0]) == pytest.approx(9.81 * mod.X0)
+    assert sc["baumgarte"] == {"alpha": 5.0, "beta": 5.0}            # eq. 31: zeta = xi = 5
 
 
 def test_masses_from_dimensions(mech):
@@ -237,5 +242,6 @@ def test_static_drive_forces_balance_gravity_by_virtual_work(mech):
     assert np.abs(dV).max() > 50.0                                    # a real load
     for k in range(lam.shape[1]):
         assert lam[:, k] == pytest.approx(dV, abs=1e-5 * np.abs(dV).max())
-    # and the total drive force supports the weight projected on the limbs (sanity of sign)
-    assert dV.sum() > 0
+    # sign: gravity is +X (paper 000, sec. 3.1), the platform hangs below the fixed platform, so
+    # lengthening the limbs lowers it and every body on them: V falls, the drives pull (dV/dL < 0)
+    assert dV.sum() < 0

@@ -13,11 +13,12 @@ import numpy as np
 import pytest
 
 from pinclear.mechanisms import nine_bar
+import pinclear.reproduce.paper002 as p002
 from pinclear.reproduce import reproduce
 
 T_RESP = 0.3
 TINY = {"response t_end [s]": T_RESP, "clearances [mm]": [0.01, 0.8], "speeds [pi rad/s]": [2.0, 3.0],
-        "cycles": 1, "transient cycles": 0}
+        "cycles": 1, "transient cycles": 0, "long cycles": 1}
 
 
 @pytest.fixture(scope="module")
@@ -54,6 +55,12 @@ def test_report_files_and_keys(report):
     md = (out / "report.md").read_text()
     assert "| AB 0.5 mm: impact force peak at B |" in md and "![bifurcation_clearance.png]" in md
     assert (out / "report.html").read_text().count("data:image/png;base64,") == len(doc["figures"])
+    # the measured sensitivity: journal radius x K form (3 x 2 runs) and the longer 0.01 mm run
+    radius, long = doc["sensitivity"]
+    assert sorted((r[0], r[1]) for r in radius["rows"]) == sorted(
+        (1e3 * a, k) for a in p002.SENS_RADII for k in p002.SENS_K)
+    assert all(r[2] == "success" and r[3] > 0 for r in radius["rows"])
+    assert [r[0] for r in long["rows"]] == ["A", "B"] and "## Sensitivity" in md and "docs/papers.md" in md
 
 
 def test_ideal_slider_matches_the_closed_form_position_analysis(report):

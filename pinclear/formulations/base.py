@@ -62,7 +62,10 @@ class Formulation(abc.ABC):
         if bad:
             raise InputError(f"method {self.name!r} has no option {sorted(bad)[0]!r}", choices=self.options)
         self.mech = mech
-        self.opts = {**self.options, **options}
+        # the sidecar's ``baumgarte:`` gains (those of the model's source paper) replace the
+        # class defaults; options passed to simulate() replace both
+        gains = {k: float(v) for k, v in (mech.sidecar.get("baumgarte") or {}).items() if k in self.options}
+        self.opts = {**self.options, **gains, **options}
         self.ws = mech.workspace()
         self.rows = np.arange(mech.m)      # constraint rows used (redundant ones may be dropped)
         self.row_changes = []              # (t, names of the rows dropped from then on), when re-chosen

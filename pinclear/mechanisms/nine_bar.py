@@ -418,6 +418,8 @@ def sidecar_text(d: Dimensions = DIMS, urdf: str = "nine_bar.urdf") -> str:
         "urdf": urdf,
         "description": "Paper 002 planar 2-DOF nine-bar with slider; x-y plane, axes z, gravity -y",
         "gravity": [0.0, -GRAVITY, 0.0],
+        # paper 002, the equation after eq. 19: "alpha and beta are selected as 20"
+        "baumgarte": {"alpha": 20.0, "beta": 20.0},
         "initial": {"q": {j: float(v) for j, v in tree.items()},
                     "v": {"O1": OMEGA1, "O4": OMEGA4}},
         "closures": [

@@ -431,6 +431,8 @@ def sidecar_dict():
         "urdf": f"{SIDECAR_NAME}.urdf",
         "description": "3-UPRU+UP polishing robot (paper 003), ideal joints, 3 prismatic drives, circle law",
         "gravity": [0.0, 0.0, -G],
+        # paper 003, eq. 20 and Table 3: alpha_b = 5, beta_b = 1
+        "baumgarte": {"alpha": 5.0, "beta": 1.0},
         "initial": {"q": {k: float(round(v, 12)) + 0.0 for k, v in q0.items()}},   # + 0.0: no -0.0
         "closures": CLOSURES,
         "drives": [{"name": f"drive{i}", "joint": f"P{i}",

@@ -44,10 +44,39 @@ SETTINGS = {
     "quick": {"force_periods": 4, "window_periods": 2, "mu_values": [0.01, 0.05, 0.10],
               "clearance_values": [3.0e-4, 6.7e-4], "transient": 3, "cycles": 10, "per_period": 100, "dt_out": 2e-3},
 }
+#: the sensitivity study at the paper's chaotic end (mu 0.01, the sidecar's 0.5 mm gap): each
+#: reconstructed quantity the clearance's motion could hinge on, changed alone. Friction ramp
+#: (modified Coulomb, eqs. 18-19; the paper's v0/v1 are in its lost Table 3), the floor of the
+#: impact speed in the damping (pinclear's, not the paper's), gravity's direction (the reading of
+#: sec. 3.1), and the integration tolerance (a separate run at rtol 1e-10)
+SENS_MU = 0.01
+SENS_VARIANTS = {
+    "baseline: v0 0.1 mm/s, v1 1 mm/s, floor 0.1 mm/s, gravity +X": {},
+    "friction ramp 10x wider: v0 1 mm/s, v1 10 mm/s": {"S2.friction_law": {"type": "modified_coulomb", "v0": 1e-3,
+                                                                           "v1": 1e-2}},
+    "friction ramp 10x narrower: v0 0.01 mm/s, v1 0.1 mm/s": {"S2.friction_law": {"type": "modified_coulomb",
+                                                                                  "v0": 1e-5, "v1": 1e-4}},
+    "impact-speed floor 1 um/s": {"S2.v_impact_min": 1e-6},
+    "impact-speed floor 1 mm/s": {"S2.v_impact_min": 1e-3},
+    "gravity -X (the other reading of sec. 3.1)": {"gravity": -1.0},
+}
+SENS_RTOL = 1e-10
 SMOOTH = T / 20          # moving-average window for the force band: removes the impact ringing, keeps the load
-WHY_FORCE = ("reconstructed masses and platform joint angles (SEEDS.md: Tables 1-3 lost); the contact force follows "
-             "limb 2's load, which with our layout swings {lo:.0f}-{hi:.0f} N over a period with ideal joints "
-             "(mean {mean:.0f} N): the mean is set by the load, the band by the layout")
+WHY_FORCE = ("reconstructed masses and platform joint angles (docs/papers.md, paper 000: Tables 1-3 are lost); the "
+             "contact force follows limb 2's load, which with our layout swings {lo:.0f}-{hi:.0f} N over a period "
+             "with ideal joints (mean {mean:.0f} N): the mean is set by the load, the band by the layout and "
+             "gravity's direction (-X would make it several times wider: sensitivity table)")
+
+
+def sensitivity_mechanism(variant):
+    """The S2-clearance model at mu = SENS_MU with one reconstructed quantity changed
+    (SENS_VARIANTS); module-level so that it pickles to worker processes."""
+    change = dict(SENS_VARIANTS[variant])
+    flip = change.pop("gravity", None)
+    mech = load(model_path("four_ups_upu"), clearances=["S2"], overrides={"S2.mu": SENS_MU, **change})
+    if flip is not None:
+        mech.model.gravity.linear = flip * np.asarray(mech.model.gravity.linear)
+    return mech
 
 
 def executor_for(workers, scheduler, n_jobs):
@@ -61,7 +90,8 @@ def executor_for(workers, scheduler, n_jobs):
 
 
 #: the response/contact-force runs, the same in both modes (the paper's values; clearance: the sidecar's 0.5 mm)
-RESPONSE = {"force_mu": list(PAPER_FORCE), "stiffness": ["printed", "conformal"], "clearance": 5e-4}
+RESPONSE = {"force_mu": list(PAPER_FORCE), "stiffness": ["printed", "conformal"], "clearance": 5e-4,
+            "sensitivity": True}
 
 
 def _settings(quick, settings):
@@ -73,10 +103,12 @@ def _settings(quick, settings):
     return s
 
 
-def ideal_reaction(t):
+def ideal_reaction(t, gravity_sign=1.0):
     """World force of the ideal spherical joint S2 at times ``t`` (one ideal run; periodic), and
-    the worst condition number of the closures + drives Jacobian along that run."""
+    the worst condition number of the closures + drives Jacobian along that run. gravity_sign -1:
+    gravity reversed (the other reading of paper 000's sec. 3.1)."""
     mech = load(model_path("four_ups_upu"))
+    mech.model.gravity.linear = gravity_sign * np.asarray(mech.model.gravity.linear)
     tr = simulate(mech, float(t[-1]), t_eval=np.asarray(t, float), rtol=1e-9)
     return np.column_stack([tr.lam[f"S2.{c}"] for c in "xyz"]), worst_condition(mech, tr)
 
@@ -100,7 +132,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import FuncFormatter
 
+    MM = FuncFormatter(lambda v, _: f"{1e3 * v:.6g}")      # m/s data shown in mm/s: no offset, no multiplier
     s = _settings(quick, settings)
     path = model_path("four_ups_upu")
     results, notes, checks, figures = [], [], [], []
@@ -124,6 +158,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
         fig_f, axf = plt.subplots(2, 1, figsize=(9, 7), sharex=True)
         fig_r, axr = plt.subplots(3, 3, figsize=(12, 8), sharex=True)
         law = np.array([np.concatenate(mod.platform_position(t)) for t in t_eval])
+        contact_runs = []          # (mu, share of the window in contact, least raw force)
         for p in sw.points:
             mu, stiff = p.overrides["S2.mu"], p.overrides["S2.stiffness"]
             if not p.ok:
@@ -144,13 +179,14 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                              f"{band.min():.1f}-{band.max():.1f} N")
                 continue
             lo, hi = PAPER_FORCE[mu]
+            contact_runs.append((mu, float(np.mean(tr.outputs["S2.contact"] > 0)), float(Fm.min())))
             results.append(compare(f"contact force mean, mu {mu} (K as printed)", Fm.mean(), 0.5 * (lo + hi), "N",
                                    0.15, "paper: mid-point of its min/max; " + why))
             results.append(compare(f"contact force min ({SMOOTH:.2g} s average), mu {mu}", band.min(), lo, "N", 0.15,
                                    why))
             results.append(compare(f"contact force max ({SMOOTH:.2g} s average), mu {mu}", band.max(), hi, "N", 0.15,
                                    why))
-            notes.append(f"mu = {mu}, K printed: raw contact force {Fm.min():.1f}-{Fm.max():.0f} N (impact peaks), "
+            notes.append(f"mu = {mu}, K printed: raw contact force {Fm.min():.1f}-{Fm.max():.0f} N (least-largest), "
                          f"in contact {100 * np.mean(tr.outputs['S2.contact'] > 0):.0f} % of the window; period-mean "
                          f"contact force equals the ideal joint's reaction to {100 * dev:.2f} %")
             axf[0].plot(tr.t, Fm, lw=0.5, label=f"mu {mu}")
@@ -166,12 +202,14 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                     notes.append(f"mu = {mu}: platform {c.upper()} deviation from the ideal motion law: position "
                                  f"{1e6 * np.abs(se.x - law[:, j]).max():.1f} um, velocity "
                                  f"{1e3 * np.abs(se.xdot - law[:, 3 + j]).max():.2f} mm/s")
-        notes.append(f"with ideal joints the S2 load stays between {lam_mag.min():.0f} and {lam_mag.max():.0f} N and "
-                     "turns slowly: the ball rides the socket wall except near the load's minimum, where it lifts "
-                     "off and lands once per period (the spikes in contact_force.png) at the same phase each time, "
-                     "followed by a high-frequency ringing that grows with mu (the paper's 'obvious high-frequency "
-                     "vibration'); with one such landing per period the motion locks onto a period-1 orbit instead "
-                     "of the paper's chaos at small mu")
+        always = contact_runs and all(share == 1.0 for _, share, _ in contact_runs)
+        notes.append(f"with ideal joints the S2 load stays between {lam_mag.min():.0f} and {lam_mag.max():.0f} N. "
+                     + ("With the clearance the ball stays on the socket wall throughout every response window "
+                        f"(least raw force {min(f for _, _, f in contact_runs):.0f} N): no lift-off, no landing; "
+                        "the high-frequency ringing at the larger mu (the paper's 'obvious high-frequency "
+                        "vibration') modulates the force around the load's maximum without separating the ball"
+                        if always else "With the clearance the contact share of the window per mu: "
+                        + ", ".join(f"{m}: {100 * sh:.1f} % (least force {f:.0f} N)" for m, sh, f in contact_runs)))
         dev_c = [c for c in notes if "platform Z deviation" in c]
         notes.append(f"removing S2's three rows leaves the platform one free motion, which the {1e3 * s['clearance']:g} "
                      "mm gap bounds: the platform's steady offset from the law (above) is that gap times the "
@@ -193,6 +231,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
             for row, name in enumerate(("position [m]", "velocity [m/s]", "acceleration [m/s^2]")):
                 axr[row, j].plot(t_eval[two], law[two, 3 * row + j], "k--", lw=0.8, label="ideal")
                 axr[row, j].set_title(f"platform {c} {name}", fontsize=9)
+                axr[row, j].ticklabel_format(axis="y", useOffset=False)
+        for j in range(3):
+            axr[2, j].set_xlabel("t [s]")
         axr[0, 0].legend(fontsize=8)
         fig_r.suptitle("Platform with the S2 clearance vs the ideal motion law (acceleration: "
                        "derivative of the exact velocity on the output grid)", fontsize=9)
@@ -208,6 +249,12 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                       executor=ex)
         bmu = analysis.bifurcation(str(path), "S2.mu", s["mu_values"], **common)
         bc = analysis.bifurcation(str(path), "S2.clearance", s["clearance_values"], **common)
+        bs = bt = None
+        if s["sensitivity"]:
+            sens_common = dict(common, load_options=None)
+            bs = analysis.bifurcation(sensitivity_mechanism, "variant", list(SENS_VARIANTS), **sens_common)
+            bt = analysis.bifurcation(sensitivity_mechanism, "variant", list(SENS_VARIANTS)[:1],
+                                      sim_options={"rtol": SENS_RTOL}, **sens_common)
     finally:
         if close is not None:
             close()
@@ -216,7 +263,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
 
     portraits = [r for r in bmu.runs if any(abs(float(r.value) - m) < 1e-9 for m in (0.01, 0.05, 0.10))]
     if portraits:
-        fig, axes = plt.subplots(len(portraits), 4, figsize=(14, 3.4 * len(portraits)), squeeze=False)
+        fig, axes = plt.subplots(len(portraits), 4, figsize=(16, 3.8 * len(portraits)), squeeze=False)
         for row, r in zip(axes, portraits):
             for k, sig in enumerate(("platform.z", "S2.eccentricity[1]")):
                 if sig not in r.portraits:
@@ -224,11 +271,22 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                     continue
                 _, x, xd = r.portraits[sig]
                 sec = r.sections[sig]
-                row[2 * k].plot(x, xd, lw=0.4)
+                # portrait in mm and mm/s; Poincaré points as offsets from their mean in um and um/s
+                # (a period-1 map is a cluster far smaller than the orbit: absolute values would
+                # need offset notation)
+                row[2 * k].plot(1e3 * np.asarray(x), 1e3 * np.asarray(xd), lw=0.4)
                 row[2 * k].set_title(f"mu {r.value}: {sig} phase portrait", fontsize=9)
-                row[2 * k + 1].plot(sec.x, sec.xdot, ".", ms=3, color="C3")
+                row[2 * k].set_xlabel(f"{sig} [mm]")
+                row[2 * k].set_ylabel(f"d/dt {sig} [mm/s]")
+                sx, sv = np.asarray(sec.x), np.asarray(sec.xdot)
+                row[2 * k + 1].plot(1e6 * (sx - sx.mean()), 1e6 * (sv - sv.mean()), ".", ms=3, color="C3")
                 c = r.classifications[sig]
-                row[2 * k + 1].set_title(f"Poincaré map: {c.kind}", fontsize=9)
+                row[2 * k + 1].set_title(f"Poincaré map: {c.kind}\nabout {1e3 * sx.mean():.4g} mm, "
+                                         f"{1e3 * sv.mean():.4g} mm/s", fontsize=8.5)
+                row[2 * k + 1].set_xlabel(f"{sig} - mean [um]")
+                row[2 * k + 1].set_ylabel("velocity - mean [um/s]")
+                for a in row[2 * k:2 * k + 2]:
+                    a.ticklabel_format(useOffset=False)
         fig.tight_layout()
         fig.savefig(out / "phase_poincare_mu.png", dpi=80)
         plt.close(fig)
@@ -237,7 +295,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
         fig, axes = plt.subplots(2, 3, figsize=(14, 7))
         for ax, sig in zip(axes.ravel(), PLATFORM + CLEARANCE):
             analysis.plot_bifurcation(res, signal=sig, ax=ax)
-            ax.set_title(f"{sig}: relative velocity at the section", fontsize=9)
+            ax.set_title(f"{sig}: velocity at the Poincaré section", fontsize=9)
+            ax.set_ylabel(f"d/dt {sig} [mm/s]")
+            ax.yaxis.set_major_formatter(MM)
             ax.set_xlabel(label)
         fig.tight_layout()
         fig.savefig(out / name, dpi=80)
@@ -256,6 +316,42 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                 notes.append(f"{label} {r.value:.4g}: Poincaré points spread: platform Z {1e6 * np.ptp(sec.x):.3g} um "
                              f"(velocity {1e3 * np.ptp(sec.xdot):.3g} mm/s), clearance Y "
                              f"{1e6 * np.ptp(r.sections['S2.eccentricity[1]'].x):.3g} um over {len(sec)} cycles")
+    sens = []
+    if bs is not None:
+        rows = []
+        for res, rtol in ((bs, "1e-8 (default)"), (bt, f"{SENS_RTOL:g}")):
+            for r in res.runs:
+                row = [r.value, rtol]
+                for sig in ("S2.eccentricity[1]", "platform.z"):
+                    c, sec = r.classifications.get(sig), r.sections.get(sig)
+                    row += [(c.kind if c else r.status),
+                            (1e6 * float(np.ptp(sec.x)) if sec is not None and len(sec) else float("nan"))]
+                rows.append(row)
+        sens.append({"title": f"what the motion at mu = {SENS_MU} (the paper's chaotic end, 0.5 mm gap) hinges on: "
+                              "one reconstructed quantity changed at a time",
+                     "columns": ["variant", "rtol", "clearance Y", "Poincaré spread of clearance Y [um]", "platform Z",
+                                 "Poincaré spread of platform Z [um]"],
+                     "rows": rows,
+                     "note": f"{s['transient']} transient + {s['cycles']} recorded periods per run. A period-1 "
+                             "orbit's Poincaré points coincide to the integration error (spread << 1 um); the paper "
+                             "reports chaos of the clearance at mu 0.010-0.022. A variant that changed the verdict "
+                             "would name a quantity the paper's chaos depends on. The masses, inertias and platform "
+                             "joint angles (the lost Tables 1-3) are not varied here: they need regenerated models"})
+    lam_m, _ = ideal_reaction(np.linspace(0.0, T, 401), gravity_sign=-1.0)
+    lam_p, _ = ideal_reaction(np.linspace(0.0, T, 401))
+    rows = []
+    for name, lm in (("+X (paper 000, sec. 3.1: rods' x axes point down)", lam_p), ("-X", lam_m)):
+        f = np.linalg.norm(lm, axis=1)
+        rows.append([name, float(f.mean()), float(f.min()), float(f.max()), float(f.min() / f.max())])
+    rows.append(["paper (Figs. 5-7, the three mu)", float(np.mean([0.5 * (a + b) for a, b in PAPER_FORCE.values()])),
+                 min(a for a, _ in PAPER_FORCE.values()), max(b for _, b in PAPER_FORCE.values()),
+                 "0.71-0.84"])
+    sens.append({"title": "gravity direction: the ideal S2 load over one period (the contact force follows it "
+                          "within 3 %, check above)",
+                 "columns": ["gravity", "mean [N]", "min [N]", "max [N]", "min / max"], "rows": rows,
+                 "note": "the paper's band and its min/max ratio fit +X; -X gives the right mean but a band several "
+                         "times too wide"})
+
     def kinds(sig):
         ks = [r["kind"] if r["status"] == "success" else r["status"] for res in (bmu, bc) for r in res.table(sig)]
         return ", ".join(f"{k} ({ks.count(k)} of {len(ks)} runs)" for k in sorted(set(ks), key=str))
@@ -277,7 +373,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                          "force window": f"{s['window_periods']} periods ending at {t_end:g} s",
                          "bifurcation cycles": f"{s['transient']} transient + {s['cycles']} recorded",
                          "mu values": len(s["mu_values"]), "clearance values": len(s["clearance_values"])},
-            "results": results, "notes": notes, "checks": checks, "figures": figures,
+            "results": results, "notes": notes, "checks": checks, "figures": figures, "sensitivity": sens,
             "classification": {"mu": {sig: bmu.table(sig) for sig in SIGNALS},
                                "clearance": {sig: bc.table(sig) for sig in SIGNALS}},
             "paper_kind": PAPER_KIND}
