@@ -5,13 +5,24 @@ lives in the user's cache folder, never inside the installed package: files writ
 sources of a non-editable install outlive an uninstall and can shadow a later install (a
 leftover ``site-packages/pinclear/contact/__pycache__`` acted as a namespace package).
 ``PINCLEAR_CACHE_DIR`` or ``NUMBA_CACHE_DIR`` override the folder.
+
+Compiling is kept apart from running: the first run on a machine compiles the kernels it uses
+(~30 s), later runs load them from the cache. :func:`compile_cpu` counts the CPU seconds this
+process spent compiling, so a run's ``cpu_s``, its ``max_cpu`` budget and the benchmarks
+measure the run alone (pinclear.simulate subtracts it and reports it as ``compile_s``), and
+the first compile prints one line on stderr saying what the wait is. ``pinclear warmup``
+compiles everything ahead of time.
 """
 from __future__ import annotations
 
 import os
+import sys
+import threading
+import time
 from pathlib import Path
 
 import numba
+from numba.core import event as _event
 
 
 #: bump when the compile options of the kernels change (names the cache folder, see below)
@@ -47,3 +58,59 @@ if not os.environ.get("NUMBA_CACHE_DIR"):
     # numba's index keys a cached kernel on its source file, not on the compile options: a
     # change of options (as error_model above) needs a new folder, or stale kernels load
     numba.config.CACHE_DIR = str(cache_dir() / f"numba-{KERNEL_OPTIONS}")
+
+
+#: the line printed (once per process, on stderr) when pinclear starts compiling kernels
+COMPILE_NOTICE = "pinclear: compiling pinclear's kernels, once per machine, about 30 s"
+
+
+class _CompileClock(_event.Listener):
+    """CPU seconds spent in numba compilations (outermost ones: a kernel compiling the kernels it
+    calls counts once). numba announces only real compilations ("numba:compile"), never loads
+    from the on-disk cache, so a warm run adds nothing here."""
+
+    def __init__(self):
+        self.cpu = 0.0
+        self.count = 0
+        self.announced = False
+        self._depth = 0
+        self._start = 0.0
+        self._lock = threading.Lock()
+
+    def on_start(self, ev):
+        with self._lock:
+            if self._depth == 0:
+                self._start = time.process_time()
+                if not self.announced and _ours(ev.data.get("dispatcher")):
+                    self.announced = True
+                    if not os.environ.get("PINCLEAR_QUIET_COMPILE"):
+                        print(COMPILE_NOTICE, file=sys.stderr, flush=True)
+            self._depth += 1
+
+    def on_end(self, ev):
+        with self._lock:
+            self._depth -= 1
+            if self._depth == 0:
+                self.cpu += time.process_time() - self._start
+                self.count += 1
+
+
+def _ours(dispatcher) -> bool:
+    """A pinclear kernel (the package's or a generated wrapper/loop in the cache folder)."""
+    mod = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+    return mod.startswith("pinclear") or mod.startswith("_pinclear")
+
+
+_CLOCK = _CompileClock()
+_event.register("numba:compile", _CLOCK)
+
+
+def compile_cpu() -> float:
+    """CPU seconds this process has spent compiling numba kernels so far (any kernel: a user's
+    numba drive law compiled inside a run is not run time either)."""
+    return _CLOCK.cpu
+
+
+def compile_count() -> int:
+    """Outermost numba compilations in this process so far."""
+    return _CLOCK.count
