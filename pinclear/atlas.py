@@ -1,4 +1,4 @@
-"""Stability atlas (issue 12): every scene x formulation x integrator x tolerance, each cell run
+"""Stability atlas: every scene x formulation x integrator x tolerance, each cell run
 under a CPU budget, recorded as success or failure with its reason, its error against a reference
 from an independent path, its energy drift (or energy-balance error), its closure residual and its
 cost. Writes OUT/atlas.json, OUT/atlas.csv, OUT/heatmap_<scene>.png, OUT/work_precision_<scene>.png.

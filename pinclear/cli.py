@@ -327,17 +327,26 @@ DELEGATED = (("view", "pinclear.viz.cli", "view_main", "meshcat viewer / standal
 
 
 def _version() -> str:
-    """The installed distribution's version, else the source tree's (a checkout on PYTHONPATH)."""
-    from importlib import metadata
+    """The version, where the package was imported from, and whether its C++ extension is in use
+    (and why not): the one check that works from any folder (`python3 -c "import pinclear"` in
+    the repository root imports the source folder, which has no built extension)."""
+    from . import __version__, native
+    from ._jit import cache_dir
 
-    from . import __version__
+    ext = "in use" if native.available() else f"not in use: {native.reason}"
+    return (f"pinclear {__version__} from {Path(__file__).resolve().parent}\n"
+            f"C++ extension pinclear._passes: {ext}\nkernel cache: {cache_dir()}")
 
-    try:
-        installed = metadata.version("pinclear")
-    except metadata.PackageNotFoundError:
-        installed = None
-    where = Path(__file__).resolve().parent
-    return f"pinclear {installed or __version__} ({where})"
+
+class _VersionAction(argparse.Action):
+    """--version: printed as is (argparse's own action re-wraps the lines)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings=option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(_version())
+        parser.exit(0)
 
 
 def _add_run_args(s, rtol):
@@ -358,7 +367,9 @@ def build_parser():
                        description="Dynamics of parallel mechanisms with joint clearance. `pinclear COMMAND --help` "
                        "describes a command; --debug anywhere shows tracebacks.",
                        epilog="Without a command pinclear prints this help and exits 2.")
-    p.add_argument("--version", action="version", version=_version(), help="print the version and exit")
+    p.add_argument("--version", action=_VersionAction,
+                   help="print the version, where pinclear is installed, whether its C++ extension is in use "
+                        "(and why not) and the kernel cache folder; exit")
     p.set_defaults(func=lambda args: _bare(p))
     sub = p.add_subparsers(dest="cmd", metavar="COMMAND", parser_class=_OneLineParser)
 

@@ -68,6 +68,7 @@ def test_version_and_bare_invocation_from_the_entry_point():
     r = subprocess.run([sys.executable, "-m", "pinclear.cli", "--version"], capture_output=True, text=True,
                        timeout=300, cwd=ROOT)
     assert r.returncode == 0 and r.stdout.startswith(f"pinclear {pinclear.__version__}"), r
+    assert "C++ extension pinclear._passes: " in r.stdout and "kernel cache: " in r.stdout
     r = subprocess.run([sys.executable, "-m", "pinclear.cli"], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert r.returncode == 2
     assert all(c in r.stdout for c in COMMANDS), r.stdout
@@ -130,3 +131,20 @@ def test_usage_errors_are_one_line(argv, tmp_path, capsys, monkeypatch):
     assert _main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("pinclear: error: "), err
+
+
+def test_version_says_whether_the_extension_is_in_use_from_any_folder(tmp_path):
+    """The README's extension check: `pinclear --version` reports the imported package's
+    extension and why it is not in use, run from any folder."""
+    import os
+
+    from pinclear import native
+
+    env = {**os.environ, "PYTHONPATH": str(Path(pinclear.__file__).resolve().parents[1])}
+    r = subprocess.run([sys.executable, "-m", "pinclear.cli", "--version"], capture_output=True, text=True,
+                       timeout=300, cwd=tmp_path, env=env)
+    assert r.returncode == 0
+    assert ("C++ extension pinclear._passes: in use" in r.stdout) == native.available(), r.stdout
+    r = subprocess.run([sys.executable, "-m", "pinclear.cli", "--version"], capture_output=True, text=True,
+                       timeout=300, cwd=tmp_path, env={**env, "PINCLEAR_NATIVE": "0"})
+    assert "not in use: turned off by PINCLEAR_NATIVE=0" in r.stdout, r.stdout
