@@ -61,7 +61,7 @@ if not os.environ.get("NUMBA_CACHE_DIR"):
 
 
 #: the line printed (once per process, on stderr) when pinclear starts compiling kernels
-COMPILE_NOTICE = "pinclear: compiling pinclear's kernels, once per machine, about 30 s"
+COMPILE_NOTICE = "pinclear: compiling pinclear's kernels, once per machine, about 30-60 s"
 
 
 class _CompileClock(_event.Listener):
