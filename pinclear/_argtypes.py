@@ -11,17 +11,17 @@ from __future__ import annotations
 import argparse
 import math
 
-_BOUNDS = {"positive": (lambda x: x > 0, "> 0"), "nonnegative": (lambda x: x >= 0, ">= 0"),
-           "any": (lambda x: True, "")}
+_BOUNDS = {"positive": lambda x: x > 0, "nonnegative": lambda x: x >= 0, "any": lambda x: True}
 
 
 def number(kind: str = "positive", unit: str = ""):
     """An argparse ``type=``: a finite float, > 0 (``positive``), >= 0 (``nonnegative``) or any
     finite value (``any``); ``unit`` is only shown in the error."""
-    ok, rule = _BOUNDS[kind]
+    ok = _BOUNDS[kind]
 
     def parse(text):
-        what = f"a finite number {rule}".rstrip() + (f" [{unit}]" if unit else "")
+        what = {"positive": "a positive finite number", "nonnegative": "a finite number >= 0",
+                "any": "a finite number"}[kind] + (f" [{unit}]" if unit else "")
         try:
             x = float(text)
         except (TypeError, ValueError):

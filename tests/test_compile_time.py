@@ -23,15 +23,16 @@ def _run(env):
 def test_first_run_on_a_fresh_cache_costs_what_the_second_costs(tmp_path):
     """Two identical runs in fresh processes, the first on an empty kernel cache: the first
     compiles (tens of CPU seconds, reported as compile_s, announced on stderr), the second loads
-    the cache; their cpu_s agree within 2x (the run itself is ~1 CPU s; before compile time was
-    kept apart the first counted ~20-40x the second). The 2x bound leaves room for a loaded
-    machine and the cache loads, which are run time."""
+    the cache (also in compile_s); their cpu_s agree within 2x (the run itself is ~1 CPU s; before
+    compile time was kept apart the first counted ~20-40x the second). The 2x bound leaves room
+    for a loaded machine."""
     env = {**os.environ, "PINCLEAR_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(ROOT)}
     env.pop("NUMBA_CACHE_DIR", None)
     env.pop("PINCLEAR_QUIET_COMPILE", None)
     cold, err_cold = _run(env)
     warm, err_warm = _run(env)
     assert cold["status"] == warm["status"] == "success"
-    assert cold["compile_s"] > 1.0 and warm["compile_s"] == 0.0, (cold, warm)
+    # compile_s: compiling (cold: tens of CPU s) or loading the cached kernels (warm: ~0.3 s)
+    assert cold["compile_s"] > 1.0 and warm["compile_s"] < cold["compile_s"] / 3, (cold, warm)
     assert "compiling pinclear's kernels" in err_cold and "compiling" not in err_warm
     assert 0.5 < cold["cpu_s"] / warm["cpu_s"] < 2.0, (cold, warm)
