@@ -285,7 +285,7 @@ def test_5_unreadable_files_are_clear_errors(tmp_path, capsys):
 # ------------------------------------------------------------------ 6. nothing silently wrong
 @pytest.mark.parametrize("argv, words", [
     (["--rtol", "1e300"], ["rtol"]),
-    (["--max-step", "0"], ["max_step"]),
+    (["--max-step", "0"], ["--max-step", "positive"]),
     (["--h", "0.01"], ["h", "RK4"]),
     (["--integrator", "RK4", "--h", "0.001", "--max-step", "0.1"], ["max_step"]),
     (["--set", "S2.clearance=1e-3"], ["inactive"]),
