@@ -1,7 +1,9 @@
 """Route to chaos of a forced double-well (buckled-spring) oscillator: bifurcation diagram
 against the forcing amplitude, with the motion classified per value.
 
-    python examples/analysis_double_well.py [--out DIR] [--values 0.2:1.6:36] [--cycles 80]
+    python examples/analysis_double_well.py [--out DIR] [--values 0.2:1.6:36] [--cycles 80] [--quick]
+
+``--quick``: a smoke run (2 amplitudes, 20 + 20 periods, 2 workers). DIR is created if missing.
 
 The mechanism (tests/data/analysis_double_well.yaml) is a 2 kg slider held by a spring
 anchored 1 m to its side whose free length sqrt(2) m exceeds that distance, so it has two

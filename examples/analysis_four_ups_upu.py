@@ -15,7 +15,7 @@ and socket centres, the rate of the eccentricity in the socket frame ("S2.eccent
 The paper's cycle count is not given; 100 as in paper 002. A full sweep is long (every run
 simulates transient + cycles periods of 2 s): --max-cpu bounds each run, --workers spreads them.
 
-Needs the clearance entry S2 in urdf/four_ups_upu.yaml (issue 4); the script says so if it is
+Needs the clearance entry S2 in urdf/four_ups_upu.yaml (bundled); the script says so if it is
 missing. Writes PNG figures and bifurcation_<study>.npz to --out and prints the motion per
 value (period-k / quasi-periodic / chaotic, with the 0-1 test K).
 """
@@ -60,7 +60,7 @@ def main(argv=None):
 
     sidecar = yaml.safe_load(SIDECAR.read_text())
     if "S2" not in {c.get("name") for c in sidecar.get("clearances") or []}:
-        print(f"analysis_four_ups_upu: {SIDECAR} has no clearance entry S2 yet (issue 4 adds it); "
+        print(f"analysis_four_ups_upu: {SIDECAR} has no clearance entry S2; "
               "nothing to analyse", file=sys.stderr)
         return 2
 

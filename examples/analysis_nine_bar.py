@@ -12,7 +12,7 @@ eccentricity (journal centre relative to the bearing centre, bearing axes): the 
 velocity the paper plots. Each run simulates transient + cycles crank periods; with the paper's
 100 cycles a full sweep is long: --max-cpu bounds each run, --workers spreads them over cores.
 
-Needs the clearance entries A and B in urdf/nine_bar.yaml (issue 4); the script says so if
+Needs the clearance entries A and B in urdf/nine_bar.yaml (bundled); the script says so if
 they are missing. Writes PNG figures and bifurcation_<study>.npz to --out, prints a table of
 the motion per value and joint (period-k / quasi-periodic / chaotic, with the 0-1 test K;
 "unresolved" when no period shows and fewer than 40 cycles were recorded).
@@ -68,7 +68,7 @@ def main(argv=None):
     have = {c.get("name") for c in sidecar.get("clearances") or []}
     missing = [j for j in JOINTS if j not in have]
     if missing:
-        print(f"analysis_nine_bar: {SIDECAR} has no clearance entries {missing} yet (issue 4 adds them); "
+        print(f"analysis_nine_bar: {SIDECAR} has no clearance entries {missing} "
               "nothing to analyse", file=sys.stderr)
         return 2
 

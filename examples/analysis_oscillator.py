@@ -1,7 +1,9 @@
 """Phase portrait, Poincaré map and bifurcation diagram of a driven linear oscillator, checked
 against its transfer function (the model of tests/test_analysis.py).
 
-    python examples/analysis_oscillator.py [--out DIR] [--workers N]
+    python examples/analysis_oscillator.py [--out DIR] [--workers N] [--quick]
+
+``--quick``: a smoke run (4 frequencies, 2 workers). DIR is created if missing.
 
 The sweep runs over the driving frequency w (the period follows: T = 2 pi / w); every run is
 period-1 and its Poincaré point is the steady state (-X sin phi, X w cos phi) with

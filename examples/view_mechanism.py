@@ -10,6 +10,8 @@ Nothing opens a browser; open the HTML file yourself (it plays offline).
 ``--quick``: a 0.05 s smoke run; ``--out DIR``: where the page goes when --html is not given.
 """
 import argparse
+from pathlib import Path
+
 import pinclear
 from pinclear.viz import show
 from pinclear.viz.animate import loudest_frame_time
@@ -38,7 +40,9 @@ def main(argv=None):
     t_end = a.t_end or (0.05 if a.quick else period)
     traj = pinclear.simulate(mech, t_end, dt_out=1e-3, rtol=1e-7)   # impacts last ~ms
     print(traj.summary()["status"], traj.message)
-    scene = show(mech, traj, html=a.html or f"{a.out}/{a.mechanism}.html", slowdown=None)
+    html = Path(a.html or f"{a.out}/{a.mechanism}.html")
+    html.parent.mkdir(parents=True, exist_ok=True)
+    scene = show(mech, traj, html=str(html), slowdown=None)
     print(f"wrote {scene.html_path}")
     if a.screenshot:
         t = a.t if a.t is not None else (loudest_frame_time(scene, traj) or min(t_shot, t_end))

@@ -1,4 +1,4 @@
-"""Stability atlas (issue 12): every scene x formulation x integrator x tolerance, each cell run
+"""Stability atlas: every scene x formulation x integrator x tolerance, each cell run
 under a CPU budget, recorded as success or failure with its reason, its error against a reference
 from an independent path, its energy drift (or energy-balance error), its closure residual and its
 cost. Writes OUT/atlas.json, OUT/atlas.csv, OUT/heatmap_<scene>.png, OUT/work_precision_<scene>.png.
@@ -20,6 +20,7 @@ from scipy.integrate import simpson, solve_ivp
 
 from . import bench, formulations, integrators, kinematics
 from .errors import InputError, PinclearError
+from .simulate import _run_clock
 
 #: columns of atlas.csv, in order (the JSON rows carry the same keys)
 COLUMNS = ["scene", "method", "integrator", "tol", "h", "status", "reason", "message", "t_failed", "t_end", "error",
@@ -154,14 +155,14 @@ def reference(mech, label, t_end, max_cpu=BUDGET_REFERENCE):
     (A02, parallelogram: their 1-dof branch motion); else projection + DOP853 at rtol 1e-13 as
     pinclear.bench.work_precision, falling back to a given first step, projection + Radau at rtol
     1e-12, then proximal + DOP853; the description says which. q_ref is None if all fail."""
-    t0 = time.process_time()
+    t0 = _run_clock()
     m = re.fullmatch(r"a02_nfourbar_(\d+)", label)
     if m:
         q, what = _a02_reference(mech, int(m.group(1)), t_end)
-        return q, what, time.process_time() - t0
+        return q, what, _run_clock() - t0
     if label == "parallelogram":
         q, what = _parallelogram_reference(mech, t_end)
-        return q, what, time.process_time() - t0
+        return q, what, _run_clock() - t0
     notes = []
     # SciPy's initial-step selection can divide by zero at rtol 1e-13 on a stiff contact (retry
     # with a first step); explicit stages can overshoot into wild contact states (then Radau)
@@ -180,9 +181,9 @@ def reference(mech, label, t_end, max_cpu=BUDGET_REFERENCE):
             n_ev = len(tr.stats["events"])
             return tr.q[-1], (what + (f" (after: {'; '.join(notes)})" if notes else "")
                               + (f"; {n_ev} contact events in the window" if mech.clearances else "")), \
-                time.process_time() - t0
+                _run_clock() - t0
         notes.append(f"{what}: {tr.message}")
-    return None, "none: " + "; ".join(notes), time.process_time() - t0
+    return None, "none: " + "; ".join(notes), _run_clock() - t0
 
 
 # ------------------------------------------------------------------------------------ one cell
@@ -370,12 +371,7 @@ def run_atlas(files=None, out="benchmarks/atlas", quick=False, peers=(), budget=
                     scene["skipped"][f"{m}+{i}"] = f"{m} projects the state after each step; {i} cannot absorb it"
                     continue
                 combos.append((m, i))
-            with warnings.catch_warnings():    # compiled kernels load (or compile) outside the cells' clocks
-                warnings.simplefilter("ignore")
-                try:
-                    bench.run_cell(mech, min(te, 1e-3), m, "RK45", 1e-6, t_eval=[0.0, min(te, 1e-3)], max_cpu=30.0)
-                except PinclearError:
-                    pass
+        warm_up(mech, combos, min(te, 1e-3), h0)
         for m, i in combos:
             for tol in ladder:
                 if progress is not None:
@@ -398,6 +394,48 @@ def run_atlas(files=None, out="benchmarks/atlas", quick=False, peers=(), budget=
     if not info:
         raise InputError("the atlas found no scene to run", key="files")
     return res
+
+
+def warm_up(mech, combos, t_warm, h0):
+    """A short run of every (method, integrator) the scene's cells use, before their clocks start:
+    each loads (or, on a fresh machine, compiles) the kernels of its formulation, integrator and
+    loop, so no cell waits for them. pinclear.simulate leaves compile time out of a run's CPU
+    and budget in any case (stats['compile_s']); the warm-up keeps that time out of the cells'
+    wall time and the progress lines too."""
+    for m, i in combos:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            try:
+                bench.run_cell(mech, t_warm, m, i, 1e-6 if i != "RK4" else min(h0, t_warm / 4),
+                               t_eval=[0.0, t_warm], max_cpu=30.0)
+            except PinclearError:
+                pass
+
+
+def warm_up_all(files=None, progress=None) -> dict:
+    """Compile (or load) every kernel the given mechanisms' runs use -- by default every bundled
+    mechanism, each scene of ``pinclear.bench.scenes`` (ideal joints and each clearance), every
+    method with every integrator it takes: what ``pinclear warmup`` runs. Returns the compile
+    and total CPU seconds and the number of compilations (0 on a warm cache)."""
+    from ._jit import compile_count, compile_cpu
+    from .sidecar import load
+
+    c0, n0, t0 = compile_cpu(), compile_count(), time.process_time()
+    for label, path, clr in bench.scenes(files):
+        if progress is not None:
+            progress(label)
+        mech = load(path, clearances=clr or None)
+        combos = []
+        for m in formulations.METHODS:
+            try:
+                form = formulations.get(m)(mech)
+            except PinclearError:
+                continue
+            combos += [(m, i) for i in integrators.INTEGRATORS
+                       if not (form.supports_projection and not integrators.get(i).corrects_state)]
+        warm_up(mech, combos, 1e-3, 1e-4)
+    return {"compile_cpu_s": compile_cpu() - c0, "compilations": compile_count() - n0,
+            "cpu_s": time.process_time() - t0}
 
 
 def _peer_row(peer, mech, label, path, t_end, tol, q_ref):

@@ -19,6 +19,7 @@ from pathlib import Path
 import numpy as np
 
 
+from ._argtypes import HelpFormatter, count, number
 from .errors import InputError, PinclearError
 
 
@@ -474,6 +475,24 @@ def cmd_sweep(args):
     return 0 if not res.failures else 1
 
 
+def cmd_warmup(args):
+    from . import atlas
+
+    res = atlas.warm_up_all(args.files or None,
+                            progress=lambda s: print(f"warmup: {s}", file=sys.stderr, flush=True))
+    from ._jit import cache_dir
+
+    print(f"pinclear warmup: {res['compilations']} kernels compiled in {res['compile_cpu_s']:.1f} CPU s "
+          f"({res['cpu_s']:.1f} s in all); cache {cache_dir()}")
+    return 0
+
+
+def _bare(parser):
+    """`pinclear` alone: the command list (exit 2, as for any missing argument)."""
+    parser.print_help()
+    return 2
+
+
 def _delegate(module, func):
     def run(args):
         import importlib
@@ -482,97 +501,172 @@ def _delegate(module, func):
     return run
 
 
-def build_parser():
-    p = _OneLineParser(prog="pinclear", description="Dynamics of parallel mechanisms with joint clearance "
-                       "(--debug anywhere shows tracebacks)")
-    sub = p.add_subparsers(dest="cmd", required=True, parser_class=_OneLineParser)
+#: subcommands that parse their own arguments: (name, module, function, one-line help)
+DELEGATED = (("view", "pinclear.viz.cli", "view_main", "meshcat viewer / standalone HTML of a mechanism or a run"),
+             ("plot", "pinclear.viz.cli", "plot_main", "standard figures of a saved trajectory"),
+             ("inverse-dynamics", "pinclear.screw", "cli_main", "screw-theory inverse dynamics (paper 004)"),
+             ("analyse", "pinclear.analysis", "cli_main", "phase portraits, Poincare maps, bifurcation diagrams"),
+             ("reproduce", "pinclear.reproduce", "cli_main", "a source paper's study with its numbers beside ours"))
 
-    s = sub.add_parser("simulate", help="forward dynamics; writes OUT/trajectory.npz and OUT/summary.json")
+
+def _version() -> str:
+    """The version, where the package was imported from, and whether its C++ extension is in use
+    (and why not): the one check that works from any folder (`python3 -c "import pinclear"` in
+    the repository root imports the source folder, which has no built extension)."""
+    from . import __version__, native
+    from ._jit import cache_dir
+
+    ext = "in use" if native.available() else f"not in use: {native.reason}"
+    return (f"pinclear {__version__} from {Path(__file__).resolve().parent}\n"
+            f"C++ extension pinclear._passes: {ext}\nkernel cache: {cache_dir()}")
+
+
+class _VersionAction(argparse.Action):
+    """--version: printed as is (argparse's own action re-wraps the lines)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings=option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(_version())
+        parser.exit(0)
+
+
+def _add_run_args(s, rtol):
+    """--method/--integrator/--rtol as simulate and sweep take them; the choices are the
+    registries' (pinclear.formulations.METHODS, pinclear.integrators.INTEGRATORS)."""
+    from .formulations import METHODS
+    from .integrators import INTEGRATORS
+
+    s.add_argument("--method", default="lagrange", choices=list(METHODS),
+                   help="forward-dynamics formulation (README: formulations)")
+    s.add_argument("--integrator", default="RK45", choices=list(INTEGRATORS),
+                   help="time integrator (RK4: fixed step --h)")
+    s.add_argument("--rtol", type=number(), default=rtol, help="relative tolerance of the adaptive integrators")
+
+
+def build_parser():
+    p = _OneLineParser(prog="pinclear", formatter_class=HelpFormatter,
+                       description="Dynamics of parallel mechanisms with joint clearance. `pinclear COMMAND --help` "
+                       "describes a command; --debug anywhere shows tracebacks.",
+                       epilog="Without a command pinclear prints this help and exits 2.")
+    p.add_argument("--version", action=_VersionAction,
+                   help="print the version, where pinclear is installed, whether its C++ extension is in use "
+                        "(and why not) and the kernel cache folder; exit")
+    p.set_defaults(func=lambda args: _bare(p))
+    sub = p.add_subparsers(dest="cmd", metavar="COMMAND", parser_class=_OneLineParser)
+
+    s = sub.add_parser("simulate", help="forward dynamics; writes OUT/trajectory.npz and OUT/summary.json",
+                       formatter_class=HelpFormatter)
     s.add_argument("file", nargs="?", help="mechanism sidecar (urdf/NAME.yaml) or a bundled mechanism's name")
     _add_model_args(s, file_required=False)
-    s.add_argument("--t-end", type=float, default=None, help="end time [s]")
-    s.add_argument("--method", default="lagrange", help="lagrange | projection | pinocchio | proximal")
-    s.add_argument("--integrator", default="RK45", help="RK45 | DOP853 | Radau | BDF | LSODA | RK4")
-    s.add_argument("--rtol", type=float, default=1e-8)
-    s.add_argument("--atol", type=float, default=None)
-    s.add_argument("--h", type=float, default=None, help="fixed step for RK4 [s]")
-    s.add_argument("--max-step", type=float, default=None)
-    s.add_argument("--dt-out", type=float, default=None, help="output interval [s]")
-    s.add_argument("--alpha", type=float, default=None, help="Baumgarte alpha [1/s]")
-    s.add_argument("--beta", type=float, default=None, help="Baumgarte beta [1/s]")
-    s.add_argument("--out", default="out")
-    s.add_argument("--max-cpu", type=float, default=None, help="CPU budget [s]: the run ends as failed, samples kept")
-    s.add_argument("--min-mean-step", type=float, default=None, metavar="SECONDS",
+    s.add_argument("--t-end", type=number(unit="s"), default=None, help="end time [s] (required unless --resume)")
+    _add_run_args(s, rtol=1e-8)
+    s.add_argument("--atol", type=number(), default=None, help="absolute tolerance (default: rtol * 1e-2)")
+    s.add_argument("--h", type=number(unit="s"), default=None, help="fixed step for RK4 [s]")
+    s.add_argument("--max-step", type=number(unit="s"), default=None, help="largest step [s] (default: unbounded)")
+    s.add_argument("--dt-out", type=number(unit="s"), default=None,
+                   help="output interval [s] (default: 500 intervals over the run)")
+    s.add_argument("--alpha", type=number("nonnegative", "1/s"), default=None,
+                   help="Baumgarte alpha [1/s] (default: the formulation's)")
+    s.add_argument("--beta", type=number("nonnegative", "1/s"), default=None,
+                   help="Baumgarte beta [1/s] (default: the formulation's)")
+    s.add_argument("--out", default="out", help="output folder (created if missing)")
+    s.add_argument("--max-cpu", type=number(unit="s"), default=None,
+                   help="CPU budget [s] of the integration (kernel compilation excluded): the run ends as failed, "
+                        "samples kept (default: no budget)")
+    s.add_argument("--min-mean-step", type=number("nonnegative", "s"), default=None, metavar="SECONDS",
                    help="stall test: the run fails as a step-size collapse when its last 1000 steps average less "
                         "(default 1e-9 of the run's span, at most 1e-8 s; 0: off)")
-    s.add_argument("--checkpoint-every", type=float, default=None, metavar="SECONDS",
-                   help="write OUT/checkpoint.npz every SECONDS of CPU, so a killed run can be resumed")
+    s.add_argument("--checkpoint-every", type=number(unit="s"), default=None, metavar="SECONDS",
+                   help="write OUT/checkpoint.npz every SECONDS of CPU, so a killed run can be resumed "
+                        "(default: only when the run ends early)")
     s.add_argument("--resume", default=None, metavar="DIR",
                    help="continue the interrupted or stopped run saved in DIR (same options, same steps)")
     s.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
                    help="progress bar (auto: on an interactive terminal outside CI)")
     s.set_defaults(func=cmd_simulate)
 
-    s = sub.add_parser("sweep", help="one run per point of a parameter grid, resumable, local or on Dask")
+    s = sub.add_parser("sweep", help="one run per point of a parameter grid, resumable, local or on Dask",
+                       formatter_class=HelpFormatter)
     _add_model_args(s)
     s.add_argument("--vary", action="append", required=True, metavar="KEY=a:b:n",
                    help="a load() key (NAME.key, a key path or a scene option) and its values: a:b:n "
                         "(linear), a:b:n:log, or v1,v2,... (repeatable: the grid of all combinations)")
-    s.add_argument("--t-end", type=float, required=True, help="simulated time per point [s]")
+    s.add_argument("--t-end", type=number(unit="s"), required=True, help="simulated time per point [s]")
     s.add_argument("--out", required=True, help="sweep folder (rerun into it to resume)")
-    s.add_argument("--method", default="lagrange")
-    s.add_argument("--integrator", default="RK45")
-    s.add_argument("--rtol", type=float, default=1e-6)
-    s.add_argument("--dt-out", type=float, default=None, help="output interval [s]")
-    s.add_argument("--max-cpu", type=float, default=None, help="CPU budget per point [s]")
-    s.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per CPU)")
+    _add_run_args(s, rtol=1e-6)
+    s.add_argument("--dt-out", type=number(unit="s"), default=None,
+                   help="output interval [s] (default: 500 intervals per run)")
+    s.add_argument("--max-cpu", type=number(unit="s"), default=None,
+                   help="CPU budget per point [s] (default: no budget)")
+    s.add_argument("--workers", type=count(1), default=None, help="local worker processes (default: one per CPU)")
     s.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
-                   help="run the points on this Dask distributed cluster instead")
-    s.add_argument("--progress", choices=["auto", "on", "off"], default="auto")
+                   help="run the points on this Dask distributed cluster instead (default: local processes)")
+    s.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
+                   help="progress bar (auto: on an interactive terminal outside CI)")
     s.set_defaults(func=cmd_sweep)
 
-    s = sub.add_parser("info", help="assemble and print the mechanism: mobility, redundancy, parameters")
+    s = sub.add_parser("info", help="assemble and print the mechanism: mobility, redundancy, parameters",
+                       formatter_class=HelpFormatter)
     _add_model_args(s)
-    s.add_argument("--along", type=float, default=None, metavar="T_END",
+    s.add_argument("--along", type=number(unit="s"), default=None, metavar="T_END",
                    help="also simulate to T_END [s] and test planarity and each body's inertia along the run")
-    s.add_argument("--threshold", type=float, default=0.01,
-                   help="relative drive-force change below which a body's inertia is droppable (default 0.01)")
+    s.add_argument("--threshold", type=number(), default=0.01,
+                   help="relative drive-force change below which a body's inertia is droppable")
     s.set_defaults(func=cmd_info)
 
     s = sub.add_parser("bench", help="bench rhs FILE | bench runs [FILES] | bench work-precision FILE | "
-                       "bench restitution | bench atlas [FILES] [--quick]")
-    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution", "atlas"])
-    s.add_argument("file", nargs="?")
-    s.add_argument("--clearance", action="append", metavar="NAME")
-    s.add_argument("--set", action="append", metavar="NAME.KEY=VALUE")
-    s.add_argument("--option", action="append", metavar="KEY=VALUE")
-    s.add_argument("--trust", action="store_true")
-    s.add_argument("--methods", default=None, help="comma-separated formulations (rhs: all; atlas: all but manifold)")
-    s.add_argument("--t-end", type=float, default=None, help="simulated time [s] (work-precision 2, runs 0.5)")
-    s.add_argument("--out", default="benchmarks")
+                       "bench restitution | bench atlas [FILES] [--quick]", formatter_class=HelpFormatter)
+    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution", "atlas"], help="which benchmark")
+    s.add_argument("file", nargs="?", help="mechanism sidecar or bundled name (runs, atlas: default all scenes)")
+    s.add_argument("--clearance", action="append", metavar="NAME", help="activate a clearance joint (repeatable)")
+    s.add_argument("--set", action="append", metavar="NAME.KEY=VALUE",
+                   help="override a clearance key or a scene option (repeatable)")
+    s.add_argument("--option", action="append", metavar="KEY=VALUE", help="set a scene option (repeatable)")
+    s.add_argument("--trust", action="store_true",
+                   help="allow the mechanism file to import Python code outside pinclear (see README: trust)")
+    s.add_argument("--methods", default=None, help="comma-separated formulations (default: rhs all; atlas all but "
+                   "manifold)")
+    s.add_argument("--t-end", type=number(unit="s"), default=None,
+                   help="simulated time [s] (default: work-precision 2, runs 0.5)")
+    s.add_argument("--out", default="benchmarks", help="output folder (atlas: benchmarks/atlas)")
     s.add_argument("--quick", action="store_true", help="atlas: reduced grid (few tolerances/integrators, short runs)")
-    s.add_argument("--budget", type=float, default=None, help="atlas: CPU seconds per cell (default 5 rigid, 4 clearance)")
+    s.add_argument("--budget", type=number(unit="s"), default=None,
+                   help="atlas: CPU seconds per cell, compilation excluded (default 5 rigid, 4 clearance)")
     s.add_argument("rest", nargs="*", help=argparse.SUPPRESS)
     s.set_defaults(func=cmd_bench)
 
-    for name, module, func, helptext in (
-            ("view", "pinclear.viz.cli", "view_main", "meshcat viewer / standalone HTML of a mechanism or a run"),
-            ("plot", "pinclear.viz.cli", "plot_main", "standard figures of a saved trajectory"),
-            ("inverse-dynamics", "pinclear.screw", "cli_main", "screw-theory inverse dynamics (paper 004)"),
-            ("analyse", "pinclear.analysis", "cli_main", "phase portraits, Poincare maps, bifurcation diagrams"),
-            ("reproduce", "pinclear.reproduce", "cli_main", "a source paper's study with its numbers beside ours")):
-        s = sub.add_parser(name, help=helptext, add_help=False)
-        s.add_argument("rest", nargs=argparse.REMAINDER)
+    s = sub.add_parser("warmup", help="compile pinclear's kernels now (once per machine, cached), not in a first run",
+                       formatter_class=HelpFormatter)
+    s.add_argument("files", nargs="*", metavar="FILE",
+                   help="mechanism sidecars or bundled names to prepare (default: every bundled mechanism)")
+    s.set_defaults(func=cmd_warmup)
+
+    for name, module, func, helptext in DELEGATED:
+        # everything after the name, --help included, goes to the subcommand's own parser
+        s = sub.add_parser(name, help=helptext, add_help=False, passthrough=True)
         s.set_defaults(func=_delegate(module, func))
     return p
 
 
 class _OneLineParser(argparse.ArgumentParser):
-    """argparse prints a usage block on a bad argument; pinclear's errors are one line."""
+    """argparse prints a usage block on a bad argument; pinclear's errors are one line.
+    ``passthrough=True``: a subcommand that parses its own arguments (all of them, --help too)."""
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args, passthrough=False, **kwargs):
         kwargs.setdefault("allow_abbrev", False)   # "--h" must not silently mean "--help"
         super().__init__(*args, **kwargs)
+        self.passthrough = passthrough
+
+    def parse_known_args(self, args=None, namespace=None):
+        if not self.passthrough:
+            return super().parse_known_args(args, namespace)
+        namespace = namespace if namespace is not None else argparse.Namespace()
+        for k, v in self._defaults.items():
+            setattr(namespace, k, v)
+        namespace.rest = list(sys.argv[1:] if args is None else args)
+        return namespace, []
 
     def error(self, message):
         raise InputError(f"{self.prog}: {message} (see {self.prog} --help)")

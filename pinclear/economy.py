@@ -1,4 +1,4 @@
-"""Model economy: what a scene could drop without changing its answer (issue 12).
+"""Model economy: what a scene could drop without changing its answer.
 
 Three questions, each answered from the mechanism itself, at the assembled configuration and
 optionally along a run:

@@ -2,8 +2,8 @@
 
 Why: on the Python path each right-hand side crosses from Python into Pinocchio four times and
 into numba three to five times, and every step runs the simulator's bookkeeping in Python (events,
-samples, stall test): 10-16 us per evaluation on trees whose Pinocchio work costs 2-4 us (issue 10,
-``pinclear bench runs``). Here the whole step loop is one numba function. A stage calls
+samples, stall test): 10-16 us per evaluation on trees whose Pinocchio work costs 2-4 us
+(``pinclear bench runs``). Here the whole step loop is one numba function. A stage calls
 Pinocchio's passes through the C function of pinclear._passes (pinclear.native), on the very
 pin.Data whose arrays the kernels read, then the same bound kernels the Python path calls
 (placements, force elements, drive laws, the Lagrange KKT solve), in the same order, on the same

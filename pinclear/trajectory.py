@@ -299,7 +299,7 @@ class Trajectory:
              "cpu_s": self.stats.get("cpu_s"), "events": len(self.stats.get("events", [])),
              "method": self.meta.get("method", {}).get("method"), "integrator": self.meta.get("integrator"),
              "rtol": self.meta.get("rtol")}
-        for k in ("mobility", "redundant_constraints", "redundant_rows", "rank_loss", "cpu_per_sim_s"):
+        for k in ("mobility", "redundant_constraints", "redundant_rows", "rank_loss", "cpu_per_sim_s", "compile_s"):
             if k in self.stats:
                 s[k] = self.stats[k]
         if self.mech is not None and len(self.t):

@@ -276,7 +276,7 @@ def test_cli_errors_in_process(capsys, tmp_path):
     _one_line_error(capsys, sim + [four, "--method", "nope"], "nope", "lagrange")
     _one_line_error(capsys, sim + [four, "--integrator", "Euler"], "Euler", "RK45")
     _one_line_error(capsys, sim + [four, "--rtol=-1e-6"], "rtol")
-    _one_line_error(capsys, ["simulate", four, "--t-end", "-1", "--out", out], "t_end")
+    _one_line_error(capsys, ["simulate", four, "--t-end", "-1", "--out", out], "--t-end", "positive")
     _one_line_error(capsys, sim + [four, "--integrator", "RK4", "--h=-0.01"], "h", "positive")
     _one_line_error(capsys, sim + [str(tmp_path / "missing.yaml")], "missing.yaml", "no such file")
     assert not (tmp_path / "out" / "trajectory.npz").exists()

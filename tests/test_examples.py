@@ -3,6 +3,7 @@
 that physics bounds: a closed loop stays closed, a prescribed motion is tracked."""
 from __future__ import annotations
 
+import ast
 import re
 import subprocess
 import sys
@@ -14,11 +15,25 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.examples
 
 
-def run_example(name, tmp_path, *args, timeout=600):
-    out = subprocess.run([sys.executable, str(ROOT / "examples" / name), *args, "--quick", "--out", str(tmp_path)],
-                         cwd=tmp_path, capture_output=True, text=True, timeout=timeout)
+def _out(tmp_path):
+    """The output folder an example is given: new, two levels deep, as a user's first run."""
+    return tmp_path / "new" / "dir"
+
+
+def run_example(name, tmp_path, *args, timeout=900):
+    """The example as a user runs it, in quick mode, into a folder that does not exist yet (the
+    example creates it)."""
+    assert not _out(tmp_path).exists()
+    out = subprocess.run([sys.executable, str(ROOT / "examples" / name), *args, "--quick", "--out",
+                          str(_out(tmp_path))], cwd=tmp_path, capture_output=True, text=True, timeout=timeout)
     assert out.returncode == 0, out.stderr[-3000:]
     return out.stdout
+
+
+@pytest.mark.parametrize("script", sorted(p.name for p in (ROOT / "examples").glob("*.py")))
+def test_every_example_documents_quick_in_its_header(script):
+    doc = ast.get_docstring(ast.parse((ROOT / "examples" / script).read_text(encoding="utf-8")))
+    assert doc and "--quick" in doc, f"{script}: the header docstring does not say what --quick does"
 
 
 def number(text, label):
@@ -35,14 +50,14 @@ def test_ideal_examples(tmp_path, script, png):
     assert "status success" in text
     # the loops stay closed to the integrator's tolerance (rtol 1e-8 on metre-sized links)
     assert number(text, "max closure residual") < 1e-6
-    assert (tmp_path / png).stat().st_size > 10_000
+    assert (_out(tmp_path) / png).stat().st_size > 10_000
 
 
 def test_four_ups_upr_ideal(tmp_path):
     text = run_example("four_ups_upr_ideal.py", tmp_path)
     assert "status success" in text
     assert number(text, "max closure residual") < 1e-6
-    assert (tmp_path / "four_ups_upr_ideal_high.png").stat().st_size > 10_000
+    assert (_out(tmp_path) / "four_ups_upr_ideal_high.png").stat().st_size > 10_000
 
 
 def test_four_ups_upr_inverse_dynamics(tmp_path):
@@ -52,13 +67,13 @@ def test_four_ups_upr_inverse_dynamics(tmp_path):
     for lay in "abcde":
         assert re.search(rf"\({lay}\) of Fig. 2 at the initial configuration: rank 5 of 6", text), text
     assert number(text, r"\(f\) of Fig. 2 at the initial configuration: rank 6 of 6, condition") < 1e3
-    assert (tmp_path / "drive_forces.png").stat().st_size > 10_000
+    assert (_out(tmp_path) / "drive_forces.png").stat().st_size > 10_000
 
 
 def test_view_mechanism(tmp_path):
     """The standalone page embeds meshcat's viewer (three.js included) and the scene."""
     run_example("view_mechanism.py", tmp_path, "nine_bar")
-    assert (tmp_path / "nine_bar.html").stat().st_size > 100_000
+    assert (_out(tmp_path) / "nine_bar.html").stat().st_size > 100_000
 
 
 @pytest.mark.parametrize("script", ["four_ups_upu_clearance.py", "nine_bar_clearance.py",
@@ -66,7 +81,7 @@ def test_view_mechanism(tmp_path):
 def test_clearance_examples(tmp_path, script):
     text = run_example(script, tmp_path)
     assert "status success" in text
-    assert list(tmp_path.glob("*.png"))
+    assert list(_out(tmp_path).glob("*.png"))
 
 
 def test_analysis_oscillator(tmp_path):
@@ -74,7 +89,7 @@ def test_analysis_oscillator(tmp_path):
     closed-form steady state (transfer function) to integration accuracy."""
     text = run_example("analysis_oscillator.py", tmp_path)
     assert number(text, "from the closed form:") < 1e-6
-    assert (tmp_path / "oscillator_poincare.png").exists()
+    assert (_out(tmp_path) / "oscillator_poincare.png").exists()
 
 
 def test_analysis_double_well(tmp_path):

@@ -142,7 +142,7 @@ def test_loop_option_is_checked():
 def test_without_the_extension_runs_take_the_python_loop():
     code = ("import pinclear; tr = pinclear.simulate(pinclear.load('four_bar'), 0.05); "
             "print(tr.status, tr.stats['loop'])")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300,
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=900,
                          env={**os.environ, "PINCLEAR_NATIVE": "0"})
     assert out.returncode == 0, out.stderr
     assert out.stdout.startswith("success python: ") and "PINCLEAR_NATIVE" in out.stdout

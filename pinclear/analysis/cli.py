@@ -70,14 +70,13 @@ def _period_of_speed(w):
     return 2 * math.pi / abs(float(w))
 
 
-def cli_main(argv) -> int:
-    """`pinclear analyse bifurcation|poincare ...` (see --help)."""
-    import argparse
-    import json
+def build_parser():
+    """The parser of `pinclear analyse bifurcation|poincare`."""
+    from .._argtypes import OneLineParser, count, number, run_choices
 
-    ap = argparse.ArgumentParser(prog="pinclear analyse",
-                                 description="phase portraits, Poincaré maps and bifurcation diagrams")
-    sub = ap.add_subparsers(dest="cmd", required=True)
+    methods, integrators = run_choices()
+    ap = OneLineParser(prog="pinclear analyse", description="phase portraits, Poincaré maps and bifurcation diagrams")
+    sub = ap.add_subparsers(dest="cmd", required=True, metavar="{bifurcation,poincare}", parser_class=OneLineParser)
     b = sub.add_parser("bifurcation", help="Poincaré samples against a swept parameter (parallel runs)")
     b.add_argument("file", help="mechanism sidecar (urdf/NAME.yaml)")
     b.add_argument("--param", action="append", required=True, metavar="PATH[*FACTOR]",
@@ -86,34 +85,42 @@ def cli_main(argv) -> int:
                         "each to FACTOR*value")
     b.add_argument("--values", required=True, help="'start:stop:count' or a comma list")
     grp = b.add_mutually_exclusive_group(required=True)
-    grp.add_argument("--period", type=float, help="driving period [s]")
+    grp.add_argument("--period", type=number(unit="s"), help="driving period [s]")
     grp.add_argument("--period-from-speed", action="store_true",
                      help="the swept value is a driving speed w [rad/s]: period 2 pi / |w|")
     b.add_argument("--signal", action="append", required=True,
                    help="joint name, FRAME.x|y|z, ELEMENT.output[k] (e.g. S2.eccentricity[1]); repeatable")
-    b.add_argument("--cycles", type=int, default=100)
-    b.add_argument("--transient", type=int, default=20)
-    b.add_argument("--phase", type=float, default=0.0, help="section phase [s] within the period")
-    b.add_argument("--per-period", type=int, default=8, help="output samples per period")
+    b.add_argument("--cycles", type=count(1), default=100, help="periods simulated per value")
+    b.add_argument("--transient", type=count(0), default=20, help="first periods dropped as transient")
+    b.add_argument("--phase", type=number("nonnegative", "s"), default=0.0, help="section phase [s] within the period")
+    b.add_argument("--per-period", type=count(1), default=8, help="output samples per period")
     b.add_argument("--clearance", action="append", metavar="NAME", help="activate a clearance joint")
     b.add_argument("--set", action="append", metavar="NAME.KEY=VALUE", help="fixed override (repeatable)")
     b.add_argument("--option", action="append", metavar="KEY=VALUE", help="scene option (repeatable)")
-    b.add_argument("--method", default="lagrange")
-    b.add_argument("--integrator", default="RK45")
-    b.add_argument("--rtol", type=float, default=1e-6)
-    b.add_argument("--max-cpu", type=float, default=None, help="CPU seconds per run before it is stopped")
-    b.add_argument("--workers", type=int, default=None, help="worker processes (default: all cores)")
-    b.add_argument("--out", default="out")
+    b.add_argument("--method", default="lagrange", choices=methods, help="forward-dynamics formulation")
+    b.add_argument("--integrator", default="RK45", choices=integrators, help="time integrator")
+    b.add_argument("--rtol", type=number(), default=1e-6, help="relative tolerance of the runs")
+    b.add_argument("--max-cpu", type=number(unit="s"), default=None,
+                   help="CPU seconds per run before it is stopped (default: no budget)")
+    b.add_argument("--workers", type=count(1), default=None, help="worker processes (default: all cores)")
+    b.add_argument("--out", default="out", help="output folder (created if missing)")
     p = sub.add_parser("poincare", help="phase portrait + Poincaré map of a saved run (trajectory.npz)")
     p.add_argument("trajectory", help="trajectory.npz written by `pinclear simulate`")
     p.add_argument("--file", help="mechanism sidecar (default: the one recorded in the run)")
     p.add_argument("--clearance", action="append", metavar="NAME", help="clearance joints active in the run")
-    p.add_argument("--period", type=float, required=True, help="driving period [s]")
+    p.add_argument("--period", type=number(unit="s"), required=True, help="driving period [s]")
     p.add_argument("--signal", action="append", required=True, help="as for bifurcation; repeatable")
-    p.add_argument("--skip", type=int, default=0, help="transient periods to drop")
-    p.add_argument("--phase", type=float, default=0.0)
-    p.add_argument("--out", default="out")
-    args = ap.parse_args(argv)
+    p.add_argument("--skip", type=count(0), default=0, help="transient periods to drop")
+    p.add_argument("--phase", type=number("nonnegative", "s"), default=0.0, help="section phase [s] within the period")
+    p.add_argument("--out", default="out", help="output folder (created if missing)")
+    return ap
+
+
+def cli_main(argv) -> int:
+    """`pinclear analyse bifurcation|poincare ...` (see --help)."""
+    import json
+
+    args = build_parser().parse_args(argv)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
 

@@ -1,4 +1,4 @@
-"""Clearance joints (issue 4): a sidecar ``clearances:`` entry replaces an ideal closure by a
+"""Clearance joints: a sidecar ``clearances:`` entry replaces an ideal closure by a
 contact force element. See laws.py (normal and friction laws), spherical.py, revolute.py,
 prismatic.py (geometry per joint type) and base.py (forces, events, energy bookkeeping).
 

@@ -194,7 +194,7 @@ def a02_sidecar(n):
              "source": "IFToMM A02 specification: uniformly distributed mass of 1 kg (thin rod, I = m L^2/12)"},
             {"name": "g", "value": G, "unit": "m/s^2", "source": "IFToMM A02 specification: 9.81 N/kg along -y"},
             {"name": "theta0", "value": A02_THETA0, "unit": "rad",
-             "source": "IFToMM A02 figure: cranks at 45 deg (issue 12: pi/4)"},
+             "source": "IFToMM A02 figure: cranks at 45 deg (pi/4)"},
             {"name": "vB0x", "value": A02_VB0X, "unit": "m/s",
              "source": "IFToMM A02 specification: initial x-velocity of point B0 (crank 0 tip) 1 m/s"},
             {"name": "omega0", "value": w0, "unit": "rad/s",

@@ -1,4 +1,4 @@
-"""The clearance scenes of the papers (issue 4), shared by examples/*_clearance.py and
+"""The clearance scenes of the papers, shared by examples/*_clearance.py and
 benchmarks/bench_clearance.py. The clearance parameters live in the mechanisms' sidecars
 (``clearances:`` entries, inactive by default); a scene names which to activate.
 """

@@ -33,16 +33,23 @@ def reproduce(paper, out, quick=False, workers=None, scheduler=None) -> dict:
     return report
 
 
-def cli_main(argv=None) -> int:
-    import argparse
+def build_parser():
+    """The parser of `pinclear reproduce`."""
+    from .._argtypes import OneLineParser
 
-    ap = argparse.ArgumentParser(prog="pinclear reproduce", description=__doc__.splitlines()[0])
-    ap.add_argument("paper", choices=sorted(PAPERS))
+    ap = OneLineParser(prog="pinclear reproduce", description=__doc__.splitlines()[0])
+    ap.add_argument("paper", choices=sorted(PAPERS), help="the source paper's study to run")
     ap.add_argument("--quick", action="store_true", help="a reduced study (smoke run)")
     ap.add_argument("--out", default=None, help="report folder (default: reproduce_PAPER)")
     ap.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per CPU)")
     ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                    help="run the simulations on the Dask cluster at ADDRESS (tcp://HOST:8786)")
+                    help="run the simulations on the Dask cluster at ADDRESS (tcp://HOST:8786) "
+                         "(default: local processes)")
+    return ap
+
+
+def cli_main(argv=None) -> int:
+    ap = build_parser()
     args = ap.parse_args(argv)
     out = Path(args.out or f"reproduce_{args.paper}")
     if args.workers is not None and args.workers < 1:

@@ -27,25 +27,35 @@ def _onoff(s):
     raise argparse.ArgumentTypeError(f"expected on/off, got {s!r}")
 
 
-def cli_main(argv=None) -> int:
-    """``pinclear inverse-dynamics SIDECAR [--law NAME] [--limbs on|off] [--option KEY=VALUE]
-    [--out DIR]``: the law names are the sidecar's ``screw: motions:``; without ``--law`` the
-    platform follows the sidecar's ``platform.motion``."""
-    p = argparse.ArgumentParser(prog="pinclear inverse-dynamics",
-                                description="screw-theory inverse dynamics (paper 004) along a platform motion")
+def build_parser():
+    """The parser of `pinclear inverse-dynamics`."""
+    from .._argtypes import OneLineParser, count, number
+
+    p = OneLineParser(prog="pinclear inverse-dynamics",
+                      description="screw-theory inverse dynamics (paper 004) along a platform motion")
     p.add_argument("sidecar", help="mechanism sidecar (urdf/NAME.yaml) or a bundled mechanism's name")
     p.add_argument("--law", default=None,
                    help="platform motion named in the sidecar's screw.motions (default: its platform.motion)")
-    p.add_argument("--limbs", type=_onoff, default=True, help="limb inertia on|off (default on)")
+    p.add_argument("--limbs", type=_onoff, default=True, help="limb inertia on|off (default: on)")
     p.add_argument("--gravity", type=_onoff, default=None, help="gravity on|off (default: the sidecar's)")
     p.add_argument("--option", action="append", metavar="KEY=VALUE", help="set a scene option (repeatable)")
     p.add_argument("--trust", action="store_true",
                    help="allow the sidecar to name Python functions outside the pinclear package")
-    p.add_argument("--t-end", type=float, default=None,
-                   help=f"default: the motion's period when the sidecar declares one, else {DEFAULT_T_END:g} s")
-    p.add_argument("--n", type=int, default=1001, help="samples")
-    p.add_argument("--threshold", type=float, default=1e3, help="condition-number threshold")
-    p.add_argument("--out", default="inverse_dynamics_out")
+    p.add_argument("--t-end", type=number(unit="s"), default=None,
+                   help=f"end time [s] (default: the motion's period when the sidecar declares one, "
+                        f"else {DEFAULT_T_END:g} s)")
+    p.add_argument("--n", type=count(2), default=1001, help="samples along the motion")
+    p.add_argument("--threshold", type=number(), default=1e3,
+                   help="condition number above which a sample is marked ill-conditioned")
+    p.add_argument("--out", default="inverse_dynamics_out", help="output folder (created if missing)")
+    return p
+
+
+def cli_main(argv=None) -> int:
+    """``pinclear inverse-dynamics SIDECAR [--law NAME] [--limbs on|off] [--option KEY=VALUE]
+    [--out DIR]``: the law names are the sidecar's ``screw: motions:``; without ``--law`` the
+    platform follows the sidecar's ``platform.motion``."""
+    p = build_parser()
     args = p.parse_args(argv)
     try:
         from ..sidecar import load, parse_assignments

@@ -97,15 +97,17 @@ def check_same_tree(mech, ref_mech, file, ref_file):
 
 
 def _scene_args(ap):
-    ap.add_argument("--slowdown", type=float, default=None,
+    from pinclear._argtypes import count, number
+
+    ap.add_argument("--slowdown", type=number(), default=None,
                     help="playback seconds per simulated second (default: real time, or slowed by a round "
                          "factor so that runs shorter than 5 s play for 5 s)")
-    ap.add_argument("--fps", type=float, default=30.0, help="animation frames per playback second")
-    ap.add_argument("--max-frames", type=int, default=1500, help="cap on animation frames (resampled)")
-    ap.add_argument("--ecc-scale", type=float, default=None,
+    ap.add_argument("--fps", type=number(unit="1/s"), default=30.0, help="animation frames per playback second")
+    ap.add_argument("--max-frames", type=count(2), default=1500, help="cap on animation frames (resampled)")
+    ap.add_argument("--ecc-scale", type=number(), default=None,
                     help="magnification of the clearance eccentricity vector (default: a 1-2-5 factor that "
                          "draws the clearance at most 8 %% of the mechanism's size; printed)")
-    ap.add_argument("--force-scale", type=float, default=None,
+    ap.add_argument("--force-scale", type=number(unit="m/N"), default=None,
                     help="metres of arrow per newton (default: longest force arrow = 1/4 of the mechanism)")
     ap.add_argument("--no-urdf-visuals", action="store_true", help="automatic primitives even if the URDF has visuals")
 
@@ -129,18 +131,22 @@ def _checked_scene_args(a):
     return int(w), int(h)
 
 
-def view_main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(prog="pinclear view",
-                                 description="Show a mechanism (FILE.yaml / FILE.urdf) or animate a saved run "
-                                             "(trajectory.npz) with meshcat.")
+def build_view_parser():
+    """The parser of `pinclear view`."""
+    from pinclear._argtypes import OneLineParser, number
+
+    ap = OneLineParser(prog="pinclear view",
+                       description="Show a mechanism (FILE.yaml / FILE.urdf) or animate a saved run "
+                                   "(trajectory.npz) with meshcat.")
     ap.add_argument("file", help="sidecar .yaml, .urdf, or a trajectory .npz")
     ap.add_argument("--html", help="write a standalone HTML page (plays offline) instead of starting a server")
     ap.add_argument("--screenshot", help="also render the page to this PNG with headless Chromium")
-    ap.add_argument("--t", type=float, default=None, help="simulated time shown in the screenshot")
-    ap.add_argument("--size", default="960x720", help="screenshot size WxH (default 960x720)")
+    ap.add_argument("--t", type=number("nonnegative", "s"), default=None,
+                    help="simulated time shown in the screenshot (default: the run's start)")
+    ap.add_argument("--size", default="960x720", help="screenshot size WxH in pixels")
     ap.add_argument("--no-block", action="store_true", help="start the server, print its URL and return")
     ap.add_argument("--open", action="store_true", help="open the viewer in a web browser")
-    ap.add_argument("--zmq-url", default=None, help="use a running meshcat server")
+    ap.add_argument("--zmq-url", default=None, help="use a running meshcat server (default: start one on loopback)")
     ap.add_argument("--mech", default=None, help="mechanism file of a run (default: recorded in the .npz)")
     ap.add_argument("--clearance", action="append", default=[], metavar="NAME", help="activate a clearance joint")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
@@ -150,7 +156,14 @@ def view_main(argv: list[str]) -> int:
                     help="trust the mechanism file (and a run's recorded one): allow its Python functions "
                          "outside pinclear and URDF meshes outside its folders (README: trust)")
     _scene_args(ap)
-    a = ap.parse_args(argv)
+    return ap
+
+
+def view_main(argv: list[str]) -> int:
+    try:
+        a = build_view_parser().parse_args(argv)
+    except SystemExit as exc:          # --help (0) or a one-line usage error (2): a return code
+        return int(exc.code or 0)
 
     import pinclear
     from pinclear.errors import PinclearError
@@ -215,10 +228,13 @@ def _report(scene):
     print(line)
 
 
-def plot_main(argv: list[str]) -> int:
-    ap = argparse.ArgumentParser(prog="pinclear plot", description="Write the standard figures of a saved run.")
+def build_plot_parser():
+    """The parser of `pinclear plot`."""
+    from pinclear._argtypes import OneLineParser
+
+    ap = OneLineParser(prog="pinclear plot", description="Write the standard figures of a saved run.")
     ap.add_argument("file", help="trajectory .npz (from pinclear simulate --out)")
-    ap.add_argument("--out", required=True, help="output directory")
+    ap.add_argument("--out", required=True, help="output folder (created if missing)")
     ap.add_argument("--ref", default=None, help="a second run (e.g. ideal joints) drawn dashed on the platform plot")
     ap.add_argument("--mech", default=None, help="mechanism file (default: recorded in the .npz)")
     ap.add_argument("--frame", default=None,
@@ -226,7 +242,14 @@ def plot_main(argv: list[str]) -> int:
     ap.add_argument("--format", default="png", choices=["png", "pdf", "svg"], help="image format")
     ap.add_argument("--trust", action="store_true",
                     help="trust the run's mechanism file (allow its Python functions outside pinclear)")
-    a = ap.parse_args(argv)
+    return ap
+
+
+def plot_main(argv: list[str]) -> int:
+    try:
+        a = build_plot_parser().parse_args(argv)
+    except SystemExit as exc:          # --help (0) or a one-line usage error (2): a return code
+        return int(exc.code or 0)
 
     from pinclear.errors import PinclearError
 

@@ -73,10 +73,16 @@ class Primitive:
         return T
 
 
+#: HSV saturation and value of the body colours: pastel, so the fully saturated overlay colours
+#: (force arrows, eccentricity, traces: pinclear.viz.scene) never look like a body
+BODY_SATURATION, BODY_VALUE = 0.32, 0.93
+
+
 def body_color(k: int, n: int) -> int:
-    """Distinct saturated colours (hue wheel), so bodies stand out against meshcat's grey."""
+    """Distinct pastel colours (hue wheel), so bodies stand out against meshcat's grey and the
+    saturated force arrows stand out against the bodies."""
     h = (0.61803398875 * k) % 1.0
-    r, g, b = colorsys.hsv_to_rgb(h, 0.75, 0.92)
+    r, g, b = colorsys.hsv_to_rgb(h, BODY_SATURATION, BODY_VALUE)
     return (int(r * 255) << 16) | (int(g * 255) << 8) | int(b * 255)
 
 

@@ -43,11 +43,13 @@ from .geometry import (body_names, mechanism_extent, mechanism_primitives, mesh_
                        rotation_y_to, viewer_trust)
 
 ROOT = "pinclear"
-ECC_COLOR = 0xE0218A     # magenta: eccentricity
-NORMAL_COLOR = 0x1F77B4  # blue: normal force
-FRICTION_COLOR = 0xFF7F0E  # orange: friction force
-TRACE_COLOR = 0x17BECF
-PRESCRIBED_COLOR = 0xD62728
+# overlays: fully saturated, darker or more vivid than any body (bodies are pastel, see
+# pinclear.viz.geometry.body_color), so an arrow is never mistaken for a link
+ECC_COLOR = 0xD400D4     # magenta: eccentricity
+NORMAL_COLOR = 0x0028FF  # blue: normal force
+FRICTION_COLOR = 0xFF6A00  # orange: friction force
+TRACE_COLOR = 0x00A0A0   # teal: platform trace
+PRESCRIBED_COLOR = 0xE00000  # red: prescribed path
 
 
 # --------------------------------------------------------------------------- recorder
