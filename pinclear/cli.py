@@ -620,12 +620,7 @@ def build_parser():
                        "bench restitution | bench atlas [FILES] [--quick]", formatter_class=HelpFormatter)
     s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution", "atlas"], help="which benchmark")
     s.add_argument("file", nargs="?", help="mechanism sidecar or bundled name (runs, atlas: default all scenes)")
-    s.add_argument("--clearance", action="append", metavar="NAME", help="activate a clearance joint (repeatable)")
-    s.add_argument("--set", action="append", metavar="NAME.KEY=VALUE",
-                   help="override a clearance key or a scene option (repeatable)")
-    s.add_argument("--option", action="append", metavar="KEY=VALUE", help="set a scene option (repeatable)")
-    s.add_argument("--trust", action="store_true",
-                   help="allow the mechanism file to import Python code outside pinclear (see README: trust)")
+    _add_model_args(s, file_required=False)
     s.add_argument("--methods", default=None, help="comma-separated formulations (default: rhs all; atlas all but "
                    "manifold)")
     s.add_argument("--t-end", type=number(unit="s"), default=None,

@@ -226,6 +226,19 @@ def memoryless_friction(code, par, Fn, vt, Ft):
 
 
 @njit(cache=True)
+def channel_force(k, f, vt, n, fcode, fpar, F2):
+    """Channel k's force on body 2 from its normal load f: -f n plus memoryless friction
+    -mu(|vt|) f vt/|vt|. Returns the friction's dissipated power -Ft . vt (>= 0)."""
+    t0, t1, t2 = vt[k, 0], vt[k, 1], vt[k, 2]
+    s = (t0 * t0 + t1 * t1 + t2 * t2) ** 0.5
+    g = friction_scale(fcode, fpar, s, f)
+    F2[k, 0] = -g * t0 - f * n[k, 0]
+    F2[k, 1] = -g * t1 - f * n[k, 1]
+    F2[k, 2] = -g * t2 - f * n[k, 2]
+    return g * s * s
+
+
+@njit(cache=True)
 def contact_forces(delta, dd, vt, n, dd0, code, P0, P1, chi, W, fcode, fpar, Fn, Fel, F2):
     """Per channel a normal law (its own code, parameters and chi, times the weight W: the share
     of a line or plane load a corner carries) and one memoryless friction law: fills Fn, Fel, F2
@@ -242,13 +255,7 @@ def contact_forces(delta, dd, vt, n, dd0, code, P0, P1, chi, W, fcode, fpar, Fn,
             F2[k, 1] = 0.0
             F2[k, 2] = 0.0
             continue
-        t0, t1, t2 = vt[k, 0], vt[k, 1], vt[k, 2]
-        s = (t0 * t0 + t1 * t1 + t2 * t2) ** 0.5
-        g = friction_scale(fcode, fpar, s, f)
-        F2[k, 0] = -g * t0 - f * n[k, 0]
-        F2[k, 1] = -g * t1 - f * n[k, 1]
-        F2[k, 2] = -g * t2 - f * n[k, 2]
-        loss += (f - fe) * dd[k] + g * s * s
+        loss += (f - fe) * dd[k] + channel_force(k, f, vt, n, fcode, fpar, F2)
     return loss
 
 
@@ -673,13 +680,7 @@ def lumped_forces(Fel, dd, vt, n, dd0, chi, fcode, fpar, Fn, F2):
             continue
         f = damped(fe, dd[k], dd0[k], chi)
         Fn[k] = f
-        t0, t1, t2 = vt[k, 0], vt[k, 1], vt[k, 2]
-        s = (t0 * t0 + t1 * t1 + t2 * t2) ** 0.5
-        g = friction_scale(fcode, fpar, s, f)
-        F2[k, 0] = -g * t0 - f * n[k, 0]
-        F2[k, 1] = -g * t1 - f * n[k, 1]
-        F2[k, 2] = -g * t2 - f * n[k, 2]
-        loss += (f - fe) * dd[k] + g * s * s
+        loss += (f - fe) * dd[k] + channel_force(k, f, vt, n, fcode, fpar, F2)
     return loss
 
 
