@@ -372,6 +372,14 @@ class Trajectory:
             if not isinstance(meta.get(k), (types, type(None))) or isinstance(meta.get(k), bool):
                 raise V._err(path, f"metadata {k!r}: expected {getattr(types, '__name__', 'a number')}, "
                                    f"got {type(meta.get(k)).__name__}")
+        # the tolerances and step count the energy audit and the residual bound read back
+        V.number(meta.get("rtol"), path, "rtol", positive=True, allow_none=True)
+        atol = meta.get("atol")
+        for a in (atol if isinstance(atol, list) and atol else [atol]):
+            if (a is not None or isinstance(atol, list)) and V.number(a, path, "atol") < 0:
+                raise V._err(path, f"atol: expected a number >= 0, got {a!r}")
+        for k in ("steps", "rhs_evals"):
+            V.number(meta["stats"].get(k), path, f"stats.{k}", integer=True, allow_none=True)
         tr.meta, tr.status, tr.message, tr.stats = meta, meta["status"], meta["message"], dict(meta["stats"])
         tr.mech_path = meta.get("mech_path")
         rec = meta.get("mechanism") or {}

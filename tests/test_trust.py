@@ -549,3 +549,25 @@ def test_a_broken_closure_is_not_success(tmp_path, capsys):
     # the same scene from its ordinary start is a success, its residual far inside the bound
     ok = pinclear.simulate(pinclear.load("parallelogram"), 0.25)
     assert ok.status == "success" and "constraint_violation" not in ok.stats
+
+
+@pytest.mark.parametrize("key, value", [("atol", []), ("atol", [None, []]), ("atol", [1e-9, None]), ("atol", -1.0),
+                                        ("rtol", 0.0), ("rtol", [1e-8]), ("stats.steps", "abc"),
+                                        ("stats.steps", 1.5), ("stats.rhs_evals", -3)])
+def test_a_saved_run_with_tampered_tolerances_or_counts_is_refused_on_load(tmp_path, key, value):
+    # the energy audit and the residual bound read these back: a saved run must not reach them
+    # with a list, a negative or a non-integer where a number belongs (found by the fuzz under
+    # another Hypothesis version: atol [None, []] reached np.max in summary())
+    run = tmp_path / "run.npz"
+    pinclear.simulate(pinclear.load("four_bar"), 0.02).save(run)
+    arrays = dict(np.load(run))
+    meta = json.loads(str(arrays["meta"]))
+    if key.startswith("stats."):
+        meta["stats"][key[6:]] = value
+    else:
+        meta[key] = value
+    arrays["meta"] = np.array(json.dumps(meta))
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **arrays)
+    with pytest.raises(InputError, match=key.split(".")[-1]):
+        pinclear.Trajectory.load(bad)
