@@ -69,8 +69,7 @@ def meter_rates(form, v, zdot):
     """Write the work meter's rate into ``zdot`` after ``form.accelerations`` at velocity v
     (the Python loop; the compiled loop calls :func:`drive_power` the same way)."""
     mech = form.mech
-    rows = form.rows if form.rows.dtype == np.int64 else form.rows.astype(np.int64)
-    drive_power(form.ws.lam, 1, rows, v, mech.driverows.iv, mech.compiled.m, zdot, mech.z_work.start)
+    drive_power(form.ws.lam, 1, form.rows, v, mech.driverows.iv, mech.compiled.m, zdot, mech.z_work.start)
 
 
 def _cumtrapz(y, t):

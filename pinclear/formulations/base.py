@@ -67,7 +67,7 @@ class Formulation(abc.ABC):
         gains = {k: float(v) for k, v in (mech.sidecar.get("baumgarte") or {}).items() if k in self.options}
         self.opts = {**self.options, **gains, **options}
         self.ws = mech.workspace()
-        self.rows = np.arange(mech.m)      # constraint rows used (redundant ones may be dropped)
+        self.rows = np.arange(mech.m, dtype=np.int64)      # constraint rows used (redundant ones may be dropped)
         self.row_changes = []              # (t, names of the rows dropped from then on), when re-chosen
         self._last_finite = True
 

@@ -39,7 +39,7 @@ class Lagrange(Formulation):
 
     def use_rows(self, independent):
         if self.opts["drop_redundant"]:
-            self.rows = np.array(independent, dtype=int)
+            self.rows = np.array(independent, dtype=np.int64)
 
     def _reselect_rows(self, t):
         """The kept rows are losing rank while the full set may not be (a redundant row chosen at
@@ -51,7 +51,7 @@ class Lagrange(Formulation):
         _, indep, _ = kinematics.rank_analysis(self.ws.J.copy(), mech.row_names())
         if len(indep) != len(self.rows) or np.array_equal(indep, self.rows):
             return False
-        self.rows = np.array(indep, dtype=int)
+        self.rows = np.array(indep, dtype=np.int64)
         names = mech.row_names()
         self.row_changes.append((float(t), [names[i] for i in range(mech.m) if i not in set(indep)]))
         self._bind()
