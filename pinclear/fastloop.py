@@ -29,10 +29,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from llvmlite import ir
-from numba import types
-from numba.extending import intrinsic
-
 from . import native
 from ._bind import DYN, bind, load_generated
 from ._jit import njit
@@ -41,6 +37,7 @@ from .contact._kernels import channel_penetrations
 from .energy import drive_power
 from .formulations.base import SINGULAR_DIP
 from .formulations.lagrange import RESELECT_DIP
+from .stepping.call import call_passes  # noqa: F401  (the generated loop imports it from here)
 from .timelaws import eval_laws
 
 #: accepted steps per compiled call; between calls Python looks at progress, checkpoints and
@@ -52,21 +49,6 @@ LOCATE_MAXITER = 500
 
 #: what a chunk ended with
 QUIET, FINISHED, HANDLE, PYSTEP, STALLED = 0, 1, 2, 3, 4
-
-
-@intrinsic
-def call_passes(typingctx, fn, model, data, q_addr, v_addr, flags):
-    """Call ``void pinclear_passes(int64 model, int64 data, int64 q, int64 v, int64 flags)`` at
-    address ``fn``: an int argument rather than a ctypes global keeps the caller cacheable."""
-    sig = types.void(types.int64, types.int64, types.int64, types.int64, types.int64, types.int64)
-
-    def codegen(context, builder, signature, args):
-        i64 = ir.IntType(64)
-        fnty = ir.FunctionType(ir.VoidType(), [i64] * 5)
-        ptr = builder.inttoptr(args[0], fnty.as_pointer())
-        builder.call(ptr, list(args[1:]))
-        return context.get_dummy_value()
-    return sig, codegen
 
 
 @njit(cache=True)
