@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 
 import numpy as np
+import pinocchio as pin
 
 from .. import analysis, kinematics
 from ..errors import InputError
@@ -59,7 +60,12 @@ SENS_VARIANTS = {
     "impact-speed floor 1 um/s": {"S2.v_impact_min": 1e-6},
     "impact-speed floor 1 mm/s": {"S2.v_impact_min": 1e-3},
     "gravity -X (the other reading of sec. 3.1)": {"gravity": -1.0},
+    "moving platform mass and inertia x1.5": {"masses": ("moving_platform",)},
+    "limb rods' masses and inertias x1.5": {"masses": tuple(f"rod{i}_{p}" for i in range(1, 6)
+                                                            for p in ("lower", "upper"))},
 }
+#: the factor of the mass variants: the reconstructed bodies' sizes are guesses of that order
+SENS_MASS_FACTOR = 1.5
 SENS_RTOL = 1e-10
 SMOOTH = T / 20          # moving-average window for the force band: removes the impact ringing, keeps the load
 WHY_FORCE = ("reconstructed masses and platform joint angles (docs/papers.md, paper 000: Tables 1-3 are lost); the "
@@ -73,10 +79,23 @@ def sensitivity_mechanism(variant):
     (SENS_VARIANTS); module-level so that it pickles to worker processes."""
     change = dict(SENS_VARIANTS[variant])
     flip = change.pop("gravity", None)
+    bodies = change.pop("masses", ())
     mech = load(model_path("four_ups_upu"), clearances=["S2"], overrides={"S2.mu": SENS_MU, **change})
     if flip is not None:
         mech.model.gravity.linear = flip * np.asarray(mech.model.gravity.linear)
+    for body in bodies:
+        scale_body(mech.model, body, SENS_MASS_FACTOR)
     return mech
+
+
+def scale_body(model, body, factor):
+    """Scale the mass and rotational inertia of the joint that carries URDF link ``body`` by
+    ``factor`` (centre of mass kept), before any workspace is made. In this model every scaled
+    link is the only body of its joint (the URDF gives each rod and the platform a joint of
+    their own), so this scales exactly that link."""
+    j = model.frames[model.getFrameId(body)].parentJoint
+    y = model.inertias[j]
+    model.inertias[j] = pin.Inertia(y.mass * factor, y.lever, y.inertia * factor)
 
 
 def executor_for(workers, scheduler, n_jobs):
@@ -335,8 +354,10 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                      "note": f"{s['transient']} transient + {s['cycles']} recorded periods per run. A period-1 "
                              "orbit's Poincaré points coincide to the integration error (spread << 1 um); the paper "
                              "reports chaos of the clearance at mu 0.010-0.022. A variant that changed the verdict "
-                             "would name a quantity the paper's chaos depends on. The masses, inertias and platform "
-                             "joint angles (the lost Tables 1-3) are not varied here: they need regenerated models"})
+                             "would name a quantity the paper's chaos depends on. The masses of the moving platform and "
+                             f"of the rods (the lost Tables 1-3) are scaled by {SENS_MASS_FACTOR:g} one group at a time; "
+                             "the platform joint angles are not varied (the drives' inverse kinematics is built "
+                             "from them, so a layout variant needs a regenerated model and law)"})
     lam_m, _ = ideal_reaction(np.linspace(0.0, T, 401), gravity_sign=-1.0)
     lam_p, _ = ideal_reaction(np.linspace(0.0, T, 401))
     rows = []
