@@ -56,7 +56,14 @@ def test_report_files_and_keys(report):
     assert "| AB 0.5 mm: impact force peak at B |" in md and "![bifurcation_clearance.png]" in md
     assert (out / "report.html").read_text().count("data:image/png;base64,") == len(doc["figures"])
     # the measured sensitivity: journal radius x K form (3 x 2 runs) and the longer 0.01 mm run
-    radius, long = doc["sensitivity"]
+    radius, start, long = doc["sensitivity"]
+    # the start-eccentricity table: the centred run, then one run per direction whose assembled
+    # start lies START_E off centre (assembly error ~ second order in 0.25 mm over ~0.1 m links)
+    assert start["rows"][0][0].startswith("centred") and len(start["rows"]) == 1 + len(p002.START_ANGLES)
+    for r, a in zip(start["rows"][1:], p002.START_ANGLES):
+        assert abs(r[1] - 1e3 * p002.START_E) < 0.01 * 1e3 * p002.START_E
+        assert abs((r[2] - math.degrees(a) + 180) % 360 - 180) < 1.0
+        assert r[3] == "success" and r[4] > 0
     assert sorted((r[0], r[1]) for r in radius["rows"]) == sorted(
         (1e3 * a, k) for a in p002.SENS_RADII for k in p002.SENS_K)
     assert all(r[2] == "success" and r[3] > 0 for r in radius["rows"])
