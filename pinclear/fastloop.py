@@ -38,6 +38,7 @@ from .energy import drive_power
 from .formulations.base import SINGULAR_DIP
 from .formulations.lagrange import RESELECT_DIP
 from .stepping.call import call_passes  # noqa: F401  (the generated loop imports it from here)
+from .stepping.checks import monitor  # the pivot monitor, once for both loops
 from .timelaws import eval_laws
 
 #: accepted steps per compiled call; between calls Python looks at progress, checkpoints and
@@ -49,24 +50,6 @@ LOCATE_MAXITER = 500
 
 #: what a chunk ended with
 QUIET, FINISHED, HANDLE, PYSTEP, STALLED = 0, 1, 2, 3, 4
-
-
-@njit(cache=True)
-def monitor(r, mon):
-    """The Lagrange formulation's checks on the pivot ratio r of an evaluation, as
-    Lagrange.accelerations makes them (mon: smallest ratio since the last step, the first
-    ratio (nan before), the rank floor, the ratio below which dropped rows are chosen again
-    (relative to the first)). False: Python must take this evaluation (non-finite, rank loss,
-    rows to choose again); True: the monitor is updated."""
-    if not r >= mon[2]:
-        return False
-    if r >= 0.0 and r < mon[3] * mon[1]:
-        return False
-    if r < mon[0]:
-        mon[0] = r
-        if mon[1] != mon[1]:
-            mon[1] = r
-    return True
 
 
 @njit(cache=True)
