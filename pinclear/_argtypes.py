@@ -80,8 +80,8 @@ class OneLineParser(argparse.ArgumentParser):
 
 def run_choices():
     """(methods, integrators) as registered (pinclear.formulations.METHODS,
-    pinclear.integrators.INTEGRATORS): a new formulation appears in every --method at once."""
+    pinclear.stepping.INTEGRATORS): a new formulation appears in every --method at once."""
     from .formulations import METHODS
-    from .integrators import INTEGRATORS
+    from .stepping import INTEGRATORS
 
     return list(METHODS), list(INTEGRATORS)

@@ -18,9 +18,9 @@ import numpy as np
 import pinocchio as pin
 from scipy.integrate import simpson, solve_ivp
 
-from . import bench, formulations, integrators, kinematics
+from . import bench, formulations, kinematics, stepping as integrators
 from .errors import InputError, PinclearError
-from .simulate import _run_clock
+from .stepping.run import run_clock as _run_clock
 
 #: columns of atlas.csv, in order (the JSON rows carry the same keys)
 COLUMNS = ["scene", "method", "integrator", "tol", "h", "status", "reason", "message", "t_failed", "t_end", "error",

@@ -534,9 +534,9 @@ class _VersionAction(argparse.Action):
 
 def _add_run_args(s, rtol):
     """--method/--integrator/--rtol as simulate and sweep take them; the choices are the
-    registries' (pinclear.formulations.METHODS, pinclear.integrators.INTEGRATORS)."""
+    registries' (pinclear.formulations.METHODS, pinclear.stepping.INTEGRATORS)."""
     from .formulations import METHODS
-    from .integrators import INTEGRATORS
+    from .stepping import INTEGRATORS
 
     s.add_argument("--method", default="lagrange", choices=list(METHODS),
                    help="forward-dynamics formulation (README: formulations)")

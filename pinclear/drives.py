@@ -95,6 +95,39 @@ class DriveRows:
             f[:, k] = law.eval(t)
         return f
 
+    def stages(self, d: DriveData, errors) -> tuple:
+        """The stages filling ``d.f`` at the evaluation time in a run (pinclear.stepping): one
+        compiled call for the compiled laws (constant, sines, polynomial), one per shared vector
+        function with a compiled filler (``func.kernel``) covering every drive, and a Python
+        stage for the rest (at Python's cost: the laws' functions run through a C callback)."""
+        from .stepping.stage import T, bind, python_stage
+
+        out = []
+        python_groups = []
+        for g, (law, ks, ix, direct) in enumerate(self.groups):
+            made = law.compiled_filler() if direct is not None else None
+            if made is None:
+                python_groups.append(g)
+                continue
+            kernel, args = made
+            out.append(bind(kernel, (T,) + tuple(args) + (d.f,), name=f"drive law {law.name}"))
+        if self.law_table is not None:
+            lt = self.law_table
+            out.append(bind(eval_laws, (lt[0], lt[1], lt[2], T, lt[3], d.f), name="drive laws"))
+        if python_groups or self.single:
+            def python_laws(t):
+                f = d.f
+                for g in python_groups:
+                    law, ks, ix, _ = self.groups[g]
+                    y, yd, ydd = law.vector(t)
+                    f[0, ks], f[1, ks], f[2, ks] = y[ix], yd[ix], ydd[ix]
+                for k, law in self.single:
+                    f[:, k] = law.eval(t)
+                return np.inf
+            names = [self.groups[g][0].name for g in python_groups] + [self.drives[k].name for k, _ in self.single]
+            out.append(python_stage(python_laws, errors, name=f"python drive laws ({', '.join(names)})"))
+        return tuple(out)
+
     def rows(self, t, q, v, d: DriveData):
         f = self.values(t, d)
         return q[self.iq] - f[0], v[self.iv] - f[1], f[2]

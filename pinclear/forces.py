@@ -50,6 +50,17 @@ class ForceElement(abc.ABC):
     9. :meth:`outputs` returns the per-sample records (arrays) a trajectory keeps, named
        ``"<element>.<key>"`` there. A trajectory asks for a sample's potential, power loss and
        outputs in one :meth:`record` call, which may reuse what :meth:`add_force` left in ``d``.
+    10. Compiled evaluation is declared: :meth:`force_kernel` returns ``(kernel, args)``, a
+        compiled function that does what :meth:`add_force` does (ADD the force into ``ws.tau``,
+        WRITE the state rates into ``zdot``), and :meth:`event_kernel` one that writes what
+        :meth:`event_values` returns into ``g``; ``args`` are the kernel's arguments: buffers
+        that keep their address for the workspace's life (workspace arrays and views, the
+        element data's arrays, frozen parameters), numbers, NamedTuples of those, and
+        ``pinclear.stepping.stage.T`` where the time goes. The state is read from the
+        workspace's state buffer (``ws.q``, ``ws.v`` and the element's ``z``), which a run fills
+        before the stages run; Pinocchio's passes (contract 3) have run on ``ws.data``. None
+        (the default): the run calls the Python method through a Python stage, at Python's cost.
+        The Python method and the kernel give the same numbers (tests compare them).
     """
 
     name: str = ""
@@ -75,9 +86,15 @@ class ForceElement(abc.ABC):
     def add_force(self, mech, ws, d, t, q, v, z, tau, zdot) -> None:
         """Add the generalized force into ``tau``; write internal-state rates into ``zdot``."""
 
-    def rhs_kernel(self):
-        """(kernel, args) when add_force is one compiled call ``kernel(*args(ws, d, v, z, tau,
-        zdot))`` (the compiled integration loop calls it, pinclear.fastloop); None otherwise."""
+    def force_kernel(self, mech, ws, d, z, zdot):
+        """(kernel, args) of the compiled add_force (contract 10): z and zdot are this element's
+        views of the state buffer and of ws.zdot. None: Python only."""
+        return None
+
+    def event_kernel(self, mech, ws, d, g):
+        """(kernel, args) writing every event channel's value into g (contract 10), after the
+        placements of ``kinematic_frames`` (event_level "placements") or the position passes
+        were computed. None: Python only."""
         return None
 
     def potential(self, mech, ws, d, q) -> float:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._bind import DYN, bind
 from ._kernels import J_PRISMATIC, J_REVOLUTE, constraint_rows_all, frame_kinematics, joint_placements
 import pinocchio as pin
 
@@ -131,14 +130,19 @@ class FrameKinematics:
 
         self.chain = joint_chain(model)
         if self.chain is not None:
-            a = self.chain + (np.zeros((model.njoints, 4, 4)), np.array(self.joints, dtype=np.int64), self.Hj)
-            self._placements = bind(joint_placements, a[:5] + (DYN,) + a[5:])
+            self._O = np.zeros((model.njoints, 4, 4))
+            self._want = np.array(self.joints, dtype=np.int64)
+
+    def placement_args(self, q):
+        """Arguments of the compiled placement kernel (_kernels.joint_placements) at q, for a
+        tree of 1-dof joints (``chain`` not None)."""
+        return self.chain + (q, self._O, self._want, self.Hj)
 
     def load_placements(self, data, q):
         """Placements of the parent joints at q: computed in one compiled call for trees of
         1-dof joints, else copied out of data.oMi (one Python access per joint)."""
         if self.chain is not None and q is not None:
-            self._placements(q)
+            joint_placements(*self.placement_args(q))
             return
         oMi, Hj = data.oMi, self.Hj
         for k, j in enumerate(self.joints):
@@ -193,10 +197,8 @@ def constraint_rows(mech, ws, t, q, v, baumgarte=None):
     gamma is the right-hand side of J a = gamma; with ``baumgarte=(alpha, beta)`` it includes
     -2 alpha dPhi - beta^2 Phi (the papers' stabilisation)."""
     alpha, beta = baumgarte if baumgarte is not None else (0.0, 0.0)
-    kernel = ws.rows_kernel
-    if kernel is None:
-        kernel = ws.rows_kernel = bind(constraint_rows_all, static_args(mech, ws) + (DYN,) * 5)
-    kernel(float(alpha), float(beta), q, v, mech.driverows.values(t, ws.drive_data))
+    constraint_rows_all(*static_args(mech, ws), float(alpha), float(beta), np.ascontiguousarray(q, float),
+                        np.ascontiguousarray(v, float), mech.driverows.values(t, ws.drive_data))
 
 
 def static_args(mech, ws):

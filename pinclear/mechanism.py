@@ -177,8 +177,25 @@ class Workspace:
             self.J[mech.compiled.m:] = mech.driverows.J
         self.tau = np.zeros(nv)
         self.zdot = np.zeros(mech.nz)
+        # the state buffer x = [c, v, z] every compiled kernel reads (pinclear.stepping.system):
+        # c is q itself on a Euclidean tree, a chart around an anchor otherwise (q then has its
+        # own buffer); a run copies each evaluation's state here before the stages run
+        nc = mech.nq if mech.euclidean else nv
+        self.x = np.zeros(nc + nv + mech.nz)
+        self.q = self.x[:nc] if mech.euclidean else np.zeros(mech.nq)
+        self.v = self.x[nc:nc + nv]
+        self.z = self.x[nc + nv:]
+        #: each force element's slice of z and of zdot (views)
+        self.z_views = [self.z[sl] for sl in mech.z_slices]
+        self.zdot_views = [self.zdot[sl] for sl in mech.z_slices]
+        self.a = np.zeros(nv)         # accelerations, written by the formulation's solve
         self.zero_v = np.zeros(nv)
         self.lam = np.zeros(m)
         self.drive_data = mech.driverows.create_data()
         self.force_data = [f.create_data(mech) for f in mech.forces]
-        self.rows_kernel = None     # constraint_rows' compiled kernel bound to these buffers
+
+    def load_state(self, q, v, z):
+        """Copy (q, v, z) into the state buffer (a no-op for its own views)."""
+        for dst, src in ((self.q, q), (self.v, v), (self.z, z)):
+            if src is not dst:
+                dst[:] = src

@@ -3,8 +3,8 @@
 ``pip install`` compiles the extension ``pinclear._passes`` against the ``pin`` wheel's own
 headers and libraries. It is optional: without a C++ compiler, or when the installed ``pin`` is
 not the one it was built against (a mismatched C++ ABI would corrupt memory), pinclear runs the
-same passes through Pinocchio's Python bindings and the integration loop stays in Python
-(pinclear.fastloop says which path a run took). ``PINCLEAR_NATIVE=0`` turns it off.
+same passes through Pinocchio's Python bindings, as a Python stage of the run's evaluation
+(``stats['loop']`` says so). ``PINCLEAR_NATIVE=0`` turns it off.
 """
 from __future__ import annotations
 
@@ -12,6 +12,9 @@ import importlib
 import os
 
 import pinocchio as pin
+
+from ._jit import njit
+from .stepping.call import call_passes
 
 _mod = None
 #: why the compiled passes are not in use ("" when they are)
@@ -49,3 +52,27 @@ def addresses(model, data) -> tuple:
     """Addresses of the C++ Model and Data behind a pin.Model and a pin.Data (valid while the
     Python objects live)."""
     return _mod.model_address(model), _mod.data_address(data)
+
+
+@njit(cache=True)
+def run_passes(fn, model, data, q, v, flags):
+    """Pinocchio's passes of one evaluation at the state buffer's (q, v) (passes.cpp, the same
+    sequence as kinematics.update)."""
+    call_passes(fn, model, data, q.ctypes.data, v.ctypes.data, flags)
+
+
+def passes_stage(mech, ws, mass=True, errors=None):
+    """The stage running Pinocchio's passes of an evaluation on ``ws.data`` at (ws.q, ws.v): the
+    compiled passes, or kinematics.update through Python when the extension is not in use."""
+    from .stepping.stage import bind, python_stage
+
+    if _mod is None:
+        from . import kinematics
+
+        def passes(t):
+            kinematics.update(mech, ws, ws.q, ws.v, mass)
+            return float("inf")
+        return python_stage(passes, errors, name="Pinocchio's passes (Python bindings)")
+    flags = (FRAMES if mech.forces else 0) | (MASS if mass else 0)   # frames as kinematics.update
+    model_addr, data_addr = addresses(mech.model, ws.data)
+    return bind(run_passes, (passes_address(), model_addr, data_addr, ws.q, ws.v, flags), name="Pinocchio's passes")

@@ -210,7 +210,7 @@ class Callable(TimeLaw):
     def compiled_filler(self):
         """(kernel, args) with kernel(t, *args, out) a compiled function that fills what
         :meth:`filler` fills (``func.kernel(**args)``, declared next to ``func.into``); None when
-        the function declares none. The compiled integration loop calls it (pinclear.fastloop)."""
+        the function declares none. A run calls it as a compiled stage (pinclear.drives)."""
         make = getattr(self.func, "kernel", None)
         return make(**self.args) if callable(make) else None
 

@@ -137,6 +137,10 @@ def atomic_write_text(path, text: str):
 ENERGY_KEYS = ("kinetic", "potential", "spring", "dissipated_power")
 #: the statuses a run can end with
 STATUSES = ("success", "failed", "interrupted", "empty")
+#: the kinds of a run's failure (Trajectory.failure = (kind, t, detail)): what a program reading
+#: results (pinclear.atlas, sweeps) tells apart, without parsing the message
+FAILURE_KINDS = ("step-size collapse", "rank loss", "singular matrix", "non-finite", "budget", "exception",
+                 "interrupted", "constraint violated")
 
 
 def _rows(V, arrays, key, path, n):
@@ -144,6 +148,20 @@ def _rows(V, arrays, key, path, n):
     if a.dtype.kind not in "fiub" or a.ndim < 1 or len(a) != n:
         raise V._err(path, f"array {key!r} has shape {a.shape} and dtype {a.dtype}, expected {n} rows of numbers")
     return np.asarray(a, float)
+
+
+def _read_failure(V, rec, path):
+    """Trajectory.failure from its saved record, checked as data."""
+    if rec is None:
+        return None
+    if not isinstance(rec, dict) or set(rec) != {"kind", "t", "detail"}:
+        raise V._err(path, "metadata 'failure': expected a mapping of kind, t, detail")
+    if rec["kind"] not in FAILURE_KINDS:
+        raise V._err(path, f"metadata 'failure.kind': {rec['kind']!r} is not a failure kind (valid: "
+                           f"{', '.join(FAILURE_KINDS)})")
+    if not isinstance(rec["detail"], str):
+        raise V._err(path, "metadata 'failure.detail': expected a string")
+    return rec["kind"], V.number(rec["t"], path, "failure.t", allow_none=True), rec["detail"]
 
 
 class Trajectory:
@@ -160,6 +178,8 @@ class Trajectory:
         self.energies: dict[str, np.ndarray] = {}
         self.stats: dict = {}
         self.status, self.message = "empty", ""
+        #: why the run did not succeed, as data: (kind in FAILURE_KINDS, time s, detail), or None
+        self.failure = None
         self.meta: dict = {}
         self.mech = None
         self.mech_path = None
@@ -292,7 +312,8 @@ class Trajectory:
         return res
 
     def summary(self) -> dict:
-        s = {"status": self.status, "message": self.message, "t_end": float(self.t[-1]) if len(self.t) else None,
+        s = {"status": self.status, "message": self.message, "failure": self._failure_record(),
+             "t_end": float(self.t[-1]) if len(self.t) else None,
              "samples": len(self.t),
              "max_closure_residual": float(np.max(self.residual)) if len(self.residual) else None,
              "rhs_evals": self.stats.get("rhs_evals"), "steps": self.stats.get("steps"),
@@ -314,6 +335,12 @@ class Trajectory:
                 s["tracking_error"] = te
         s["energy_balance"] = self.energy_balance()
         return _jsonable(s)
+
+    def _failure_record(self):
+        if self.failure is None:
+            return None
+        kind, t, detail = self.failure
+        return {"kind": kind, "t": None if t is None else float(t), "detail": detail}
 
     def _summary_for_saving(self) -> dict:
         """The summary, or why it could not be computed: the summary calls user code (the
@@ -337,7 +364,7 @@ class Trajectory:
             arrays[f"out/{k}"] = v
         for k, v in self.energies.items():
             arrays[f"energy/{k}"] = v
-        meta = dict(self.meta, status=self.status, message=self.message, stats=self.stats,
+        meta = dict(self.meta, status=self.status, message=self.message, failure=self._failure_record(), stats=self.stats,
                     mech_path=str(Path(self.mech_path).resolve()) if self.mech_path else None,
                     load_args=getattr(self.mech, "load_args", None),
                     lam_names=list(self.lam), summary=self._summary_for_saving())
@@ -381,6 +408,7 @@ class Trajectory:
         for k in ("steps", "rhs_evals"):
             V.number(meta["stats"].get(k), path, f"stats.{k}", integer=True, allow_none=True)
         tr.meta, tr.status, tr.message, tr.stats = meta, meta["status"], meta["message"], dict(meta["stats"])
+        tr.failure = _read_failure(V, meta.get("failure"), path)
         tr.mech_path = meta.get("mech_path")
         rec = meta.get("mechanism") or {}
         dims = {}

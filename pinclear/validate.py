@@ -300,3 +300,27 @@ def _check_on_manifold(ck, mech, path, ws, identity):
             if not r <= bound:
                 raise _err(path, f"{name} is off the constraint manifold: closure residual {r:.3g} exceeds "
                                  f"{bound:.3g} (the bound of the run so far)")
+
+
+def check_residual(traj, mech, rtol, atol):
+    """Honest status: a run whose closure residual exceeds the bound its tolerances allow
+    (:func:`residual_bound`) ends as failed, samples kept, naming the residual, when it first
+    exceeded the bound, and the bound (docs/security.md, 'honest status'). True if so."""
+    if not len(traj.t) or not mech.compiled.m:
+        return False
+    res = np.nan_to_num(traj.residual, nan=0.0)
+    bound = residual_bound(mech, rtol, atol, traj.stats.get("steps", 0),
+                           q_scale=float(np.max(np.abs(traj.q), initial=1.0)))
+    bound += float(res[0])                 # what the assembly left at the start
+    if np.all(res <= bound):
+        return False
+    k = int(np.argmax(res > bound))
+    traj.stats["constraint_violation"] = {"t": float(traj.t[k]), "max_residual": float(res.max()), "bound": bound}
+    traj.status = "failed"
+    traj.message = (f"constraint violated: closure residual {res.max():.3g} exceeds {bound:.3g}, the bound "
+                    f"rtol = {rtol:g} allows over {traj.stats.get('steps', 0)} steps (first at t = "
+                    f"{traj.t[k]:.9g} s); the motion left its constraint manifold (a singular start, a "
+                    "huge initial velocity, an ill-conditioned mass matrix?): try method projection or a "
+                    f"smaller rtol (samples kept up to t = {traj.t[-1]:.6g} s)")
+    traj.failure = ("constraint violated", float(traj.t[k]), traj.message)
+    return True

@@ -195,7 +195,7 @@ def test_brent_search_compiled_and_python_take_the_same_points():
     from numba import njit
     from scipy.optimize import minimize_scalar
 
-    from pinclear._kernels import BRENT_STATE, brent_next, brent_start
+    from pinclear.stepping.roots import BRENT_STATE, brent_next, brent_start
 
     @njit
     def wavy(x, p):

@@ -450,6 +450,14 @@ def channel_penetrations(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, delta, 
 
 
 @njit(cache=True)
+def event_penetrations(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, delta, n, p1, p2, snap, g):
+    """channel_penetrations into the event values g (ForceElement.event_kernel)."""
+    channel_penetrations(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, delta, n, p1, p2, snap)
+    for k in range(delta.shape[0]):
+        g[k] = delta[k]
+
+
+@njit(cache=True)
 def channel_forces(J, idx1, idx2, v, z, vmin, lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0,
                    Fn, Fel, F2, tau, zdot):
     """After the geometry: relative velocity, normal and memoryless friction laws, wrenches into

@@ -261,6 +261,18 @@ class ClearanceJoint(ForceElement):
         d, v, z, tau, zdot)); None when a law has no compiled form (see _freeze)."""
         return None if self._fused is None else (_kernels.clearance_force, self._fused_args)
 
+    def force_kernel(self, mech, ws, d, z, zdot):
+        k = self.rhs_kernel()
+        return None if k is None else (k[0], k[1](ws, d, ws.v, z, ws.tau, zdot))
+
+    def event_kernel(self, mech, ws, d, g):
+        geo = self._geom
+        if geo is None:
+            return None
+        fk = ws.fk
+        return _kernels.event_penetrations, (geo[0], geo[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, d.delta,
+                                             d.n, d.p1, d.p2, self.event_snap, g)
+
     def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
         k = self.rhs_kernel()
         if k is not None:

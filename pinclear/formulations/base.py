@@ -3,19 +3,18 @@ a formulation maps (t, q, v, z) to accelerations and multipliers; the simulator 
 from __future__ import annotations
 
 import abc
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import cho_factor
 
 from .. import kinematics
 from ..errors import InputError, RankLossError
+from ..stepping.call import OK
 
 #: condition number of the constraint Schur complement beyond which a plain solve is garbage
 RANK_COND = 1e12
 
-#: a step whose Schur-complement pivot ratio dips below this fraction of its initial value may
-#: have stepped over a singular configuration (see Formulation.pivot_dip)
-SINGULAR_DIP = 1e-3
 
 
 class Formulation(abc.ABC):
@@ -30,20 +29,44 @@ class Formulation(abc.ABC):
        leaves the multipliers of every constraint row (closures, then drives) in ``ws.lam`` and
        the internal-state rates of the force elements in ``ws.zdot``. Sign convention:
        ``M a + b = tau + J^T lam``.
-    3. :meth:`finite` says whether the last evaluation was finite. A trial stage of an explicit
-       integrator may overflow in a stiff contact; the simulator rejects it rather than stopping.
+    3. A non-finite evaluation leaves the code NONFINITE (contract 7). A trial stage of an
+       explicit integrator may overflow in a stiff contact; the step logic rejects it rather
+       than stopping.
     4. A configuration the formulation cannot pass (rank loss of the constraint Jacobian) raises
-       RankLossError with the time, the rank and the condition number.
+       RankLossError with the time, the rank and the condition number from
+       :meth:`accelerations` (its compiled solve returns the code RANK or a ratio below the
+       monitor's floor).
     5. Capabilities are declared, not probed:
        - ``supports_projection``: :meth:`project` ``(t, q, v) -> (q, v)`` puts a state back on the
          constraint manifold; the simulator calls it after every accepted step and on samples.
        - :meth:`use_rows` receives the independent rows found at the initial configuration; a
          formulation that needs a full-rank Schur complement keeps only those, and may choose
-         them again during the run (recorded in ``row_changes``) when the kept rows lose rank.
-       - :meth:`pivot_dip` / :meth:`reset_pivot_monitor`: a formulation that watches the pivots
-         of its constraint solve reports when they dipped during a step, so the simulator can
-         search the step for a singular configuration it may have jumped over.
+         them again during the run (recorded in ``row_changes``) when the kept rows lose rank
+         (contract 8).
     6. :meth:`describe` returns a JSON-safe mapping of the method and its options (saved with runs).
+    7. Compiled evaluation. :meth:`compiled` returns the formulation's stages
+       (pinclear.stepping.stage: kernels bound to the workspace's buffers), which the run calls
+       from compiled step logic, or None when it has no compiled form (the run then calls
+       :meth:`accelerations` through a Python stage, at Python's cost):
+       - ``before``: stages run before Pinocchio's passes (they may rewrite the state buffer's
+         q and v: the manifold method's projection);
+       - ``solve``: stages run after the force elements and the drive laws (the state in
+         ``ws.q``, ``ws.v``, ``ws.z``, the passes' results in ``ws.data``, the applied forces
+         in ``ws.tau``, the drive values in ``ws.drive_data.f``): they write the
+         accelerations into ``ws.a`` and every row's multiplier into ``ws.lam``; the last
+         returns the evaluation's code (pinclear.stepping.call: the pivot ratio of the
+         constraint solve, OK when not watched, RANK or NONFINITE);
+       - ``project``: the projection of the state buffer's (q, v) onto the constraint manifold
+         (``supports_projection``), returning a code (negative: failed);
+       - ``mass``: whether Pinocchio's passes must compute the mass matrix.
+       The Python path computes the same thing with the same kernels on the same buffers:
+       :meth:`accelerations` leaves the evaluation's code in ``self.code`` and raises
+       RankLossError where the code says rank loss, :meth:`project` moves (q, v) as the
+       ``project`` stages do.
+    8. The pivot monitor (pinclear.stepping.checks) runs in the step logic on the codes:
+       :meth:`monitor` gives its rank floor (a code below it is a bad evaluation) and reselect
+       factor (a ratio below it times the run's first asks :meth:`reselect_rows` to choose the
+       independent rows again at the state of the last evaluation; -inf: never).
     """
 
     name = "base"
@@ -56,6 +79,9 @@ class Formulation(abc.ABC):
     #: whether accelerations() also leaves ws.phi, the residual of every closure and drive row at
     #: (t, q), so outputs need not evaluate the rows again
     fills_rows = False
+
+    #: the code of the last evaluation of :meth:`accelerations` (contract 7)
+    code = OK
 
     def __init__(self, mech, **options):
         bad = set(options) - set(self.options)
@@ -99,29 +125,35 @@ class Formulation(abc.ABC):
     def accelerations(self, t, q, v, z):
         """Return a (nv,); leave multipliers in ws.lam and internal-state rates in ws.zdot."""
 
-    def finite(self, a) -> bool:
-        """Whether the last evaluation (which returned ``a``) was finite."""
-        return bool(np.isfinite(a.sum()))
-
     def project(self, t, q, v):
         return q, v
 
     def use_rows(self, independent):
         """Rows found independent at the initial configuration (default: keep every row)."""
 
-    def pivot_dip(self) -> bool:
-        """True when the constraint solve's pivots dipped during the current step."""
+    def compiled(self):
+        """The formulation's compiled stages (contract 7); None: none."""
+        return None
+
+    def monitor(self):
+        """(rank floor, reselect factor) of the pivot monitor (contract 8): not watched."""
+        return (-np.inf, -np.inf)
+
+    def reselect_rows(self, t) -> bool:
+        """Choose the independent constraint rows again at the last evaluation's state
+        (contract 8); True when they changed."""
         return False
-
-    def reset_pivot_monitor(self):
-        """Start watching the pivots afresh (called after every step)."""
-
-    def pivot_ratio(self) -> float:
-        """Smallest pivot ratio of the constraint solve since the last reset (inf: not watched)."""
-        return np.inf
 
     def describe(self) -> dict:
         return {"method": self.name, **self.opts}
+
+
+class Compiled(NamedTuple):
+    """A formulation's compiled stages (Formulation contract 7)."""
+    before: tuple = ()
+    solve: tuple = ()
+    project: tuple = ()
+    mass: bool = True
 
 
 def apply_forces(mech, ws, t, q, v, z):

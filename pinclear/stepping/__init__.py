@@ -1,8 +1,23 @@
-"""The stepping engine: compiled step logic shared by every formulation, integrator and force
-element (pinclear.simulate drives it; docs/design.md, "The stepping engine").
+"""The stepping engine: one step logic, compiled once, for every formulation, integrator and
+force element (docs/design.md, "The stepping engine").
 
-A run's right-hand side, event values and state projection are compiled per mechanism as C
-callbacks (``RHS``, ``EVENTS``, ``PROJECT`` below); everything else — Runge-Kutta steps with
-their step-size control and dense output, event crossings, the stall test, the pivot monitor —
-is ordinary compiled code in this package, called with the callbacks' addresses.
+A run's evaluation is a list of stages (``stage``: kernels bound to the workspace's buffers,
+called through C addresses: ``call``), assembled from the plug-ins (``build``) into a ``System``
+(``system``: evaluate, event values, projection). The integrators (``base.Method``: ``rk`` for
+RK45, DOP853, RK4; ``rosenbrock``; ``external`` for SciPy's) give their coefficients to the
+shared step logic (``chunk``: chunks of accepted steps, and after each the singular-passage
+search, events, samples, projection and the stall test, with ``checks`` and ``roots``);
+``run.Run`` drives the chunks from Python.
 """
+from ..errors import InputError
+from . import external, rk
+
+#: the integrators by name
+INTEGRATORS = {m.name: m for m in (rk.RK45(), rk.DOP853(), rk.RK4(), *external.METHODS)}
+
+
+def get(name):
+    try:
+        return INTEGRATORS[name]
+    except (KeyError, TypeError):
+        raise InputError(f"unknown integrator {name!r}", key="integrator", choices=INTEGRATORS) from None

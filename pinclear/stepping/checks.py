@@ -1,11 +1,25 @@
-"""The per-step checks of a run, compiled once and called by both the compiled loop and the
-Python driver (pinclear.simulate): event crossings, the stall test and the pivot monitor of a
-constraint solve."""
+"""The per-step checks of a run, compiled once for every integrator: event crossings, the stall
+test and the pivot monitor of a constraint solve (pinclear.stepping.chunk calls them)."""
 from __future__ import annotations
 
 import numpy as np
 
 from .._jit import njit
+from .call import ERROR
+from .state import BAD as BAD_COUNT, CODE_BAD, NO_RESELECT, T_BAD
+
+#: monitor verdicts on one evaluation
+GOOD, BAD, RESELECT, FAILED = 0, 1, 2, 3
+
+#: the monitor array: smallest ratio since the last accepted step, first ratio of the run (nan
+#: before), rank floor, reselect factor (relative to the first ratio; -inf: never)
+MON_MIN, MON_REF, MON_FLOOR, MON_RESELECT = range(4)
+
+
+def new_monitor(floor=0.0, reselect=-np.inf):
+    """A fresh monitor. floor: a code below it is a bad evaluation (rank loss); reselect: a ratio
+    below reselect times the first asks for the constraint rows to be chosen again."""
+    return np.array([np.inf, np.nan, floor, reselect])
 
 
 @njit(cache=True)
@@ -17,15 +31,6 @@ def first_crossing(g0, g1, dirs, start):
         if (a < 0 <= b and d >= 0) or (a > 0 >= b and d <= 0):
             return k
     return -1
-
-
-def crossings(g0, g1, dirs):
-    """Every channel that crossed (see first_crossing), as a list of indices."""
-    out, k = [], first_crossing(g0, g1, dirs, 0)
-    while k >= 0:
-        out.append(k)
-        k = first_crossing(g0, g1, dirs, k + 1)
-    return out
 
 
 @njit(cache=True)
@@ -42,28 +47,47 @@ def stalled(ring, n_acc, t, h_stall, finished):
 
 
 @njit(cache=True)
-def monitor(r, mon):
-    """The pivot monitor of a constraint solve, for an evaluation whose pivot ratio (or code) is
-    r. mon = [smallest ratio since the last step, first ratio (nan before), rank floor, ratio
-    below which dropped rows are chosen again (relative to the first; -inf: never)]. False:
-    Python must take this evaluation (non-finite, rank loss, rows to choose again); True: the
-    monitor is updated."""
-    if not r >= mon[2]:
-        return False
-    if r >= 0.0 and r < mon[3] * mon[1]:
-        return False
-    if r < mon[0]:
-        mon[0] = r
-        if mon[1] != mon[1]:
-            mon[1] = r
-    return True
+def monitor(r, mon, reselect=True):
+    """The verdict on an evaluation whose code is r: FAILED (a Python stage raised), BAD (below
+    the rank floor or non-finite: the trial step is rejected), RESELECT (the pivots of the kept
+    constraint rows fell below the reselect factor: the rows are chosen again) or GOOD, the
+    monitor then holding the smallest ratio since the last step and the run's first ratio.
+    ``reselect`` False: no RESELECT verdict (the rows were chosen again during this step)."""
+    if r == ERROR:
+        return FAILED
+    if not r >= mon[MON_FLOOR]:
+        return BAD
+    if reselect and r < mon[MON_RESELECT] * mon[MON_REF]:
+        return RESELECT
+    if r < mon[MON_MIN]:
+        mon[MON_MIN] = r
+        if mon[MON_REF] != mon[MON_REF]:
+            mon[MON_REF] = r
+    return GOOD
 
 
 @njit(cache=True)
 def dipped(mon, dip):
     """Whether the pivots dipped below ``dip`` times their first value during the step."""
-    return mon[1] == mon[1] and mon[0] < dip * mon[1]
+    return mon[MON_REF] == mon[MON_REF] and mon[MON_MIN] < dip * mon[MON_REF]
 
 
-def new_monitor(floor, reselect=-np.inf):
-    return np.array([np.inf, np.nan, floor, reselect])
+@njit(cache=True)
+def observe(st, code, t, x):
+    """The monitor's verdict on an evaluation at (t, x) during a step (see :func:`monitor`). A bad
+    evaluation is recorded in ``st`` (its time, code and state: the run reports it if the steps
+    cannot get past it); a good one resets the count of consecutive bad ones."""
+    v = monitor(code, st.mon, st.i[NO_RESELECT] == 0)
+    if v == GOOD:
+        st.i[BAD_COUNT] = 0
+    elif v == BAD:
+        st.i[BAD_COUNT] += 1
+        st.r[T_BAD] = t
+        st.r[CODE_BAD] = code
+        for k in range(x.shape[0]):
+            st.xb[k] = x[k]
+    elif v == RESELECT:
+        st.r[T_BAD] = t
+        for k in range(x.shape[0]):
+            st.xb[k] = x[k]
+    return v

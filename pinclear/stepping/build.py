@@ -1,0 +1,211 @@
+"""A run's System from its formulation: the stages of one evaluation, compiled where the plug-ins
+declare a compiled form (Formulation contract 7, ForceElement contract 10, compiled drive laws),
+Python stages elsewhere.
+
+The evaluation, in order: the formulation's ``before`` stages; Pinocchio's passes; the
+placements of the frames the kernels read; zeroing the applied forces; every force element; the
+drive laws; the formulation's solve; the drive work meter. Events: the placements (or the
+position passes), then every element's event values. Projection: the formulation's.
+
+``loop="python"`` evaluates the whole right-hand side, the events and the projection through
+the plug-ins' Python methods (one Python stage each): the reference the compiled stages are
+tested against, and the debugging path. The step logic is the same.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from .. import energy, kinematics, native
+from .._jit import njit
+from .._kernels import joint_placements
+from ..errors import RankLossError
+from .call import NONFINITE, RANK
+from .stage import bind, python_stage
+from .system import System
+
+
+@njit(cache=True)
+def zero(x):
+    """x = 0 (the applied forces before the elements add theirs)."""
+    x[:] = 0.0
+
+
+class Built:
+    """A run's System, its stages (kept alive: they own the buffers' tables) and what runs in
+    Python (``python``: names of the Python stages; ``why``: the reason the whole evaluation does)."""
+
+    def __init__(self, system, stages, python, why, channels):
+        self.system, self.stages, self.python, self.why, self.channels = system, stages, python, why, channels
+
+
+def _table(stages):
+    return np.array([[s.fn, s.ctx] for s in stages], dtype=np.int64).reshape(len(stages), 2)
+
+
+def event_channels(mech):
+    """(element index, channel index, direction) of every event channel, in the run's order."""
+    return [(fi, k, d) for fi, f in enumerate(mech.forces) for k, (_, d) in enumerate(f.events)]
+
+
+def build(form, loop, errors, anchor=None) -> Built:
+    """The System of one run of ``form`` (see the module doc). ``errors``: the list a Python
+    stage appends its exception to; ``anchor``: the chart's anchor holder of a non-Euclidean
+    tree (a one-element list, see Chart)."""
+    mech, ws = form.mech, form.ws
+    channels = event_channels(mech)
+    g = np.zeros(len(channels))
+    why = ""
+    if loop == "python":
+        why = "asked for (loop='python')"
+    elif not mech.euclidean:
+        why = "configurations on a Lie group other than R^n (free-flyer, spherical or planar joints)"
+    elif form.compiled() is None:
+        why = f"method {form.name!r} has no compiled form"
+    chart = None if mech.euclidean else Chart(mech, ws, anchor)
+    if why:
+        stages, events, project = _python_stages(form, errors, g, chart)
+        python = [s.name for s in stages + events + project]
+    else:
+        stages, events, project = _compiled_stages(form, errors, g)
+        python = [s.name for s in stages + events + project if s.ctx == 0]
+    crate = chart.rate if chart is not None else np.zeros(0)
+    system = System(_table(stages), _table(events), _table(project), ws.x, ws.a, ws.zdot, g, crate,
+                    np.zeros(1, dtype=np.int64))
+    return Built(system, stages + events + project, python, why, channels)
+
+
+def _placements(mech, ws, errors):
+    """The stage computing the joint placements the kernels read (ws.fk), after the passes."""
+    fk = ws.fk
+    if fk.chain is not None:
+        return bind(joint_placements, fk.placement_args(ws.q), name="placements")
+
+    def copy_placements(t):
+        fk.load_placements(ws.data, ws.q)
+        return np.inf
+    return python_stage(copy_placements, errors, name="placements (copied from Pinocchio's data)")
+
+
+def _compiled_stages(form, errors, g):
+    mech, ws = form.mech, form.ws
+    comp = form.compiled()
+    stages = list(comp.before) + [native.passes_stage(mech, ws, comp.mass, errors)]
+    if native.available():
+        stages.append(_placements(mech, ws, errors))
+    if mech.forces:
+        stages.append(bind(zero, (ws.tau,), name="zero forces"))
+    for fi, (f, d) in enumerate(zip(mech.forces, ws.force_data)):
+        z, zdot = ws.z_views[fi], ws.zdot_views[fi]
+        made = f.force_kernel(mech, ws, d, z, zdot)
+        if made is not None:
+            stages.append(bind(made[0], made[1], name=f"force {f.name}"))
+            continue
+
+        def python_force(t, f=f, d=d, z=z, zdot=zdot):
+            f.add_force(mech, ws, d, t, ws.q, ws.v, z, ws.tau, zdot)
+            return np.inf
+        stages.append(python_stage(python_force, errors, name=f"force {f.name} ({type(f).__name__}.add_force)"))
+    stages += mech.driverows.stages(ws.drive_data, errors)
+    stages += list(comp.solve)
+    if mech.n_work:
+        stages.append(bind(energy.drive_power, (ws.lam, 1, np.arange(mech.m, dtype=np.int64), ws.v,
+                                                mech.driverows.iv, mech.compiled.m, ws.zdot, mech.z_work.start),
+                           name="drive work meter"))
+    events = []
+    if len(g):
+        if all(f.event_level == "placements" for f in mech.forces if f.events) and ws.fk.chain is not None:
+            events.append(bind(joint_placements, ws.fk.placement_args(ws.q), name="placements"))
+        else:
+            def positions(t):
+                kinematics.update_positions(mech, ws, ws.q)
+                return np.inf
+            events.append(python_stage(positions, errors, name="position passes (events)"))
+        k0 = 0
+        for fi, (f, d) in enumerate(zip(mech.forces, ws.force_data)):
+            if not f.events:
+                continue
+            gi = g[k0:k0 + len(f.events)]
+            k0 += len(f.events)
+            made = f.event_kernel(mech, ws, d, gi)
+            if made is not None:
+                events.append(bind(made[0], made[1], name=f"events {f.name}"))
+                continue
+
+            def python_events(t, f=f, d=d, fi=fi, gi=gi):
+                gi[:] = f.event_values(mech, ws, d, t, ws.q, ws.v, ws.z_views[fi])
+                return np.inf
+            events.append(python_stage(python_events, errors, name=f"events {f.name} (Python)"))
+    project = list(comp.project)
+    if form.supports_projection and not project:
+        project = [_python_project(form, errors, None)]
+    return stages, events, project
+
+
+def _python_project(form, errors, chart):
+    ws = form.ws
+
+    def python_project(t):
+        if chart is not None:
+            chart.load(ws.x)
+        q, v = form.project(t, ws.q.copy(), ws.v.copy())
+        ws.q[:], ws.v[:] = q, v
+        if chart is not None:
+            chart.store(ws.x)
+        return np.inf
+    return python_stage(python_project, errors, name=f"{form.name} projection (Python)")
+
+
+def _python_stages(form, errors, g, chart):
+    """One Python stage each for the right-hand side, the events and the projection."""
+    mech, ws = form.mech, form.ws
+
+    def python_rhs(t):
+        if chart is not None:
+            chart.load(ws.x)
+        try:
+            ws.a[:] = form.accelerations(t, ws.q, ws.v, ws.z)
+        except (RankLossError, np.linalg.LinAlgError):
+            ws.a[:] = np.nan
+            return RANK
+        if mech.n_work:
+            energy.meter_rates(form, ws.v, ws.zdot)
+        return form.code if np.isfinite(ws.a.sum() + ws.zdot.sum()) else NONFINITE
+    stages = [python_stage(python_rhs, errors, name=f"{form.name} right-hand side (Python)")]
+    events = []
+    if len(g):
+        def python_events(t):
+            if chart is not None:
+                chart.load(ws.x)
+            q = ws.q.copy()
+            kinematics.update_positions(mech, ws, q)
+            k0 = 0
+            for fi, (f, d) in enumerate(zip(mech.forces, ws.force_data)):
+                if f.events:
+                    g[k0:k0 + len(f.events)] = f.event_values(mech, ws, d, t, q, ws.v, ws.z_views[fi])
+                    k0 += len(f.events)
+            return np.inf
+        events.append(python_stage(python_events, errors, name="events (Python)"))
+    project = [_python_project(form, errors, chart)] if form.supports_projection else []
+    return stages, events, project
+
+
+class Chart:
+    """Configurations of a non-Euclidean tree in the state as a chart around an anchor:
+    q = pin.integrate(anchor, c), dc/dt = (d integrate / d c)^-1 v. The run moves the anchor
+    when |c| grows (pinclear.stepping.chunk.CHART_LIMIT)."""
+
+    def __init__(self, mech, ws, anchor):
+        self.mech, self.ws, self.anchor = mech, ws, anchor
+        self.rate = np.zeros(mech.nv)
+
+    def load(self, x):
+        """ws.q from the chart coordinates in x, and the chart's rate."""
+        mech, nv = self.mech, self.mech.nv
+        c = x[:nv]
+        self.ws.q[:] = pin.integrate(mech.model, self.anchor[0], c)
+        self.rate[:] = np.linalg.solve(pin.dIntegrate(mech.model, self.anchor[0], c, pin.ARG1), x[nv:2 * nv])
+
+    def store(self, x):
+        """The chart coordinates of ws.q into x."""
+        x[:self.mech.nv] = pin.difference(self.mech.model, self.anchor[0], self.ws.q)

@@ -1,0 +1,115 @@
+"""SciPy's implicit integrators (Radau, BDF, LSODA) in the run's step logic: SciPy takes each
+step in Python (its Newton iterations, its finite-difference Jacobian over the compiled
+right-hand side), through a callback of the compiled chunk, which does everything after the step
+as for every other method (events, samples, projection, the monitor, the stall test).
+
+They stay for comparison and for users who know them; pinclear's own implicit method
+(pinclear.stepping.rosenbrock) runs compiled and is the one to use for stiff contact.
+"""
+from __future__ import annotations
+
+
+import numpy as np
+from scipy import integrate as spi
+
+from .base import Method
+from .call import NONFINITE
+from .checks import GOOD, observe
+from .rk import ACCEPTED, BAD_EVALS, MAX_BAD, TOO_SMALL
+from .stage import python_stage
+from .state import BAD, EXTERNAL, H_ABS, H_PREV, MAX_STEP, RTOL, T, T_BOUND, T_OLD, tableau
+from .system import evaluate
+
+
+class _Bad(Exception):
+    """A bad evaluation inside SciPy's step (recorded by observe): the step stops there."""
+
+
+class _Driver:
+    """The callbacks of one run's SciPy solver (step, dense output, reset after a projection)."""
+
+    def __init__(self, method, run):
+        self.method, self.run, self.solver, self.dense = method, run, None, None
+
+    def fun(self, t, y):
+        run = self.run
+        y = np.ascontiguousarray(y, float)
+        dx = np.empty(len(y))
+        code = evaluate(run.system, float(t), y, dx)
+        v = observe(run.st, code, float(t), y)
+        # an overflow is SciPy's to handle (its Newton iteration fails and the step shrinks) until
+        # it keeps happening; a rank loss or a failed Python stage ends the step at once
+        if v != GOOD and not (code == NONFINITE and run.st.i[BAD] <= MAX_BAD):
+            raise _Bad(v)
+        return dx
+
+    def restart(self, t, x, hint):
+        run, st = self.run, self.run.st
+        kw = {"rtol": st.r[RTOL], "atol": st.atol}
+        if np.isfinite(st.r[MAX_STEP]):
+            kw["max_step"] = st.r[MAX_STEP]
+        if hint is not None:
+            kw["first_step"] = min(hint, st.r[T_BOUND] - t)
+        self.solver = self.method.cls(self.fun, t, x, st.r[T_BOUND], **kw)
+        self.dense = None
+
+    def step(self, t):
+        st, solver = self.run.st, self.solver
+        try:
+            msg = solver.step()
+        except _Bad:
+            return float(BAD_EVALS)
+        if solver.status == "failed":
+            self.run.message = msg
+            return float(TOO_SMALL)
+        st.y[:] = solver.y
+        st.r[T_OLD], st.r[T] = solver.t_old, solver.t
+        st.r[H_PREV] = solver.t - solver.t_old
+        st.r[H_ABS] = vars(solver).get("h_abs", solver.step_size or 0.0)
+        self.dense = None
+        return float(ACCEPTED)
+
+    def dense_at(self, t):
+        if self.dense is None:
+            self.dense = self.solver.dense_output()
+        self.run.st.xe[:] = self.dense(t)
+        return 0.0
+
+    def reset(self, t):
+        """The projected state (st.y, st.f) goes into the solver."""
+        st, solver = self.run.st, self.solver
+        self.method.reset_state(solver, st.y.copy(), st.f.copy())
+        return 0.0
+
+
+class Scipy(Method):
+    kind = EXTERNAL
+
+    def __init__(self, name, cls, corrects_state=True):
+        self.name, self.cls, self.corrects_state = name, cls, corrects_state
+
+    def tableau(self, run):
+        d = run.external = _Driver(self, run)
+        stages = [python_stage(f, run.errors, name=f"{self.name} {f.__name__}") for f in (d.step, d.dense_at, d.reset)]
+        run.keep.extend(stages)
+        return tableau(EXTERNAL, 0, ext=[s.fn for s in stages])
+
+    def start(self, run, t, x, hint, zero):
+        code = super().start(run, t, x, hint, zero)      # f, event values (SciPy chooses the step)
+        run.external.restart(float(t), np.array(x, float), hint)
+        return code
+
+    def reset_state(self, solver, y, f):
+        solver.y = y
+        solver.f = f
+
+
+class _BDF(Scipy):
+    def reset_state(self, solver, y, f):
+        solver.y = y
+        solver.D[0] = y
+
+
+METHODS = (Scipy("Radau", spi.Radau), _BDF("BDF", spi.BDF),
+           # LSODA keeps an internal history that a corrected state cannot enter
+           Scipy("LSODA", spi.LSODA, corrects_state=False))

@@ -1,0 +1,271 @@
+"""Explicit Runge-Kutta methods: RK45 (Dormand-Prince 5(4)), DOP853 (Dormand-Prince 8(5,3))
+and the classical fixed-step RK4. The coefficients are SciPy's (scipy.integrate.RK45 / DOP853),
+and so are the error norms, the step-size control and the dense output (E. Hairer, S. P.
+Norsett, G. Wanner, Solving ODEs I, sec. II.4, II.6 and II.10), so a run takes the steps SciPy's
+solve_ivp takes on the same right-hand side; every stage runs compiled.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import integrate as spi
+from scipy.integrate._ivp import dop853_coefficients as dop
+
+from .._jit import njit
+from .checks import BAD, FAILED, RESELECT, observe
+from .state import (BAD as BAD_COUNT, DENSE, H_ABS, H_FIXED, H_PREV, H_START, MAX_STEP, REJECTS, RK_DOP853,
+                    RK_EMBEDDED, RK_FIXED, RTOL, T, T_BOUND, T_OLD, tableau)
+from .system import evaluate
+
+#: outcomes of one step (chunk.advance passes the failures on)
+ACCEPTED, TOO_SMALL, BAD_EVALS, ASK_RESELECT, STAGE_ERROR = range(5)
+#: consecutive bad evaluations (rejected trial stages) before a run fails
+MAX_BAD = 50
+
+
+def rk45():
+    c = spi.RK45
+    return tableau(RK_EMBEDDED, c.error_estimator_order, A=c.A, B=c.B, C=c.C, E=c.E, P=c.P)
+
+
+def dop853():
+    s = dop.N_STAGES
+    return tableau(RK_DOP853, spi.DOP853.error_estimator_order, A=dop.A[:s, :s], B=dop.B, C=dop.C[:s], E3=dop.E3,
+                   E5=dop.E5, AX=dop.A[s + 1:], CX=dop.C[s + 1:], DX=dop.D)
+
+
+def rk4():
+    """The classical RK4 (Kutta 1901); its step is Steps.r[H_FIXED]."""
+    return tableau(RK_FIXED, 3, A=[[0, 0, 0, 0], [0.5, 0, 0, 0], [0, 0.5, 0, 0], [0, 0, 1, 0]],
+                   B=[1 / 6, 1 / 3, 1 / 3, 1 / 6], C=[0, 0.5, 0.5, 1])
+
+
+@njit(cache=True)
+def stage_state(y, K, a, s, h, out):
+    """out = y + h sum_{j<s} a_j K_j: the state of stage s."""
+    for i in range(y.shape[0]):
+        acc = 0.0
+        for j in range(s):
+            acc += K[j, i] * a[j]
+        out[i] = y[i] + acc * h
+
+
+@njit(cache=True)
+def _stages(sys, tab, st, t, h):
+    """Stages 1..s-1 and f at the proposed state (into K[s]); the first verdict that is not
+    GOOD stops them (a rejected trial step needs no more)."""
+    K, ns = st.K, tab.B.shape[0]
+    for i in range(st.y.shape[0]):
+        K[0, i] = st.f[i]
+    for s in range(1, ns + 1):
+        if s < ns:
+            stage_state(st.y, K, tab.A[s], s, h, st.ys)
+            x, ts = st.ys, t + tab.C[s] * h
+        else:
+            stage_state(st.y, K, tab.B, ns, h, st.y_new)
+            x, ts = st.y_new, t + h
+        v = observe(st, evaluate(sys, ts, x, K[s]), ts, x)
+        if v != 0:
+            return v
+    return 0
+
+
+@njit(cache=True)
+def error_norm(tab, st, h):
+    """SciPy's error norm of the step just computed: RMS of (sum E_j K_j) h / scale for RK45;
+    DOP853's err5^2 / sqrt(err5^2 + 0.01 err3^2) (both with scale = atol + max(|y|, |y_new|) rtol)."""
+    K, n, rtol = st.K, st.y.shape[0], st.r[RTOL]
+    if tab.kind == RK_DOP853:
+        e5 = e3 = 0.0
+        for i in range(n):
+            sc = st.atol[i] + max(abs(st.y[i]), abs(st.y_new[i])) * rtol
+            a5 = a3 = 0.0
+            for j in range(tab.E5.shape[0]):
+                a5 += K[j, i] * tab.E5[j]
+                a3 += K[j, i] * tab.E3[j]
+            e5 += (a5 / sc) ** 2
+            e3 += (a3 / sc) ** 2
+        if e5 == 0.0 and e3 == 0.0:
+            return 0.0
+        return abs(h) * e5 / np.sqrt((e5 + 0.01 * e3) * n)
+    acc = 0.0
+    for i in range(n):
+        e = 0.0
+        for j in range(tab.E.shape[0]):
+            e += K[j, i] * tab.E[j]
+        e = e * h / (st.atol[i] + max(abs(st.y[i]), abs(st.y_new[i])) * rtol)
+        acc += e * e
+    return (acc / n) ** 0.5
+
+
+@njit(cache=True)
+def _accept(st, t_new, h, h_abs, ns):
+    """The proposed state becomes the current one (as OdeSolver.step)."""
+    n = st.y.shape[0]
+    for i in range(n):
+        st.y_old[i] = st.y[i]
+        st.f_old[i] = st.f[i]
+        st.y[i] = st.y_new[i]
+        st.f[i] = st.K[ns, i]
+    st.r[T_OLD] = st.r[T]
+    st.r[T] = t_new
+    st.r[H_PREV] = h
+    st.r[H_ABS] = h_abs
+    st.i[DENSE] = 0
+
+
+@njit(cache=True)
+def rk_step(sys, tab, st):
+    """One accepted step from (t, y, f) with SciPy's step-size control (RungeKutta._step_impl),
+    or why not: TOO_SMALL (the step fell below 10 ulp of t), BAD_EVALS (MAX_BAD bad evaluations
+    in a row, or one with the fixed step, which cannot be retried), ASK_RESELECT (the monitor
+    asks for other constraint rows: nothing has changed, the step is redone after) or
+    STAGE_ERROR (a Python stage raised). A bad trial stage (rank loss, non-finite) rejects the
+    attempt like an error norm above one, shrinking the step by 5."""
+    t, ns = st.r[T], tab.B.shape[0]
+    t_bound = st.r[T_BOUND]
+    h_start = st.r[H_ABS]
+    st.r[H_START] = h_start
+    if tab.kind == RK_FIXED:
+        h = min(st.r[H_FIXED], t_bound - t)
+        v = _stages(sys, tab, st, t, h)
+        if v != 0:
+            return STAGE_ERROR if v == FAILED else (ASK_RESELECT if v == RESELECT else BAD_EVALS)
+        _accept(st, t + h if t + h < t_bound else t_bound, h, h_start, ns)
+        return ACCEPTED
+    min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
+    h_abs = min(h_start, st.r[MAX_STEP])
+    if h_abs < min_step:
+        h_abs = min_step
+    expo = -1.0 / (tab.order + 1)
+    rejected = False
+    while True:
+        if h_abs < min_step:
+            st.r[H_ABS] = h_abs
+            return TOO_SMALL
+        t_new = t + h_abs
+        if t_new - t_bound > 0:
+            t_new = t_bound
+        h = t_new - t
+        h_abs = abs(h)
+        v = _stages(sys, tab, st, t, h)
+        if v == FAILED:
+            return STAGE_ERROR
+        if v == RESELECT:
+            st.r[H_ABS] = h_start
+            return ASK_RESELECT
+        if v == BAD:
+            if st.i[BAD_COUNT] > MAX_BAD:
+                return BAD_EVALS
+            err = np.nan
+        else:
+            err = error_norm(tab, st, h)
+        if err < 1.0:
+            factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** expo)
+            if rejected:
+                factor = min(1.0, factor)
+            _accept(st, t_new, h, h_abs * factor, ns)
+            return ACCEPTED
+        factor = 0.9 * err ** expo
+        h_abs *= factor if factor > 0.2 else 0.2       # NaN (a bad stage) shrinks by 5 too
+        rejected = True
+        st.i[REJECTS] += 1
+
+
+@njit(cache=True)
+def rk_dense(sys, tab, st):
+    """The dense output coefficients of the last step into st.D (SciPy's RkDenseOutput /
+    Dop853DenseOutput); DOP853 evaluates its three extra stages here, only for steps whose
+    dense output is needed."""
+    K, D, n = st.K, st.D, st.y.shape[0]
+    h = st.r[H_PREV]
+    if tab.kind == RK_DOP853:
+        ns = tab.B.shape[0]
+        t_old = st.r[T_OLD]
+        for e in range(tab.CX.shape[0]):
+            s = ns + 1 + e
+            for i in range(n):
+                acc = 0.0
+                for j in range(s):
+                    acc += K[j, i] * tab.AX[e, j]
+                st.ys[i] = st.y_old[i] + acc * h
+            observe(st, evaluate(sys, t_old + tab.CX[e] * h, st.ys, K[s]), t_old + tab.CX[e] * h, st.ys)
+        for i in range(n):
+            dy = st.y[i] - st.y_old[i]
+            D[0, i] = dy
+            D[1, i] = h * st.f_old[i] - dy
+            D[2, i] = 2.0 * dy - h * (st.f[i] + st.f_old[i])
+            for r in range(tab.DX.shape[0]):
+                acc = 0.0
+                for j in range(tab.DX.shape[1]):
+                    acc += tab.DX[r, j] * K[j, i]
+                D[3 + r, i] = h * acc
+    elif tab.kind == RK_EMBEDDED:
+        for k in range(tab.P.shape[1]):
+            for i in range(n):
+                acc = 0.0
+                for j in range(tab.P.shape[0]):
+                    acc += K[j, i] * tab.P[j, k]
+                D[k, i] = acc
+    else:                                   # cubic Hermite over the step (RK4)
+        for i in range(n):
+            D[0, i] = st.y_old[i]
+            D[1, i] = st.y[i]
+            D[2, i] = st.f_old[i]
+            D[3, i] = st.f[i]
+
+
+@njit(cache=True)
+def rk_dense_at(tab, st, t, out):
+    """The last step's dense output at t (after rk_dense)."""
+    D, n = st.D, st.y.shape[0]
+    h, t_old = st.r[H_PREV], st.r[T_OLD]
+    x = (t - t_old) / h
+    if tab.kind == RK_DOP853:
+        for i in range(n):
+            acc = 0.0
+            for r in range(6, -1, -1):
+                acc += D[r, i]
+                acc *= x if (6 - r) % 2 == 0 else 1.0 - x
+            out[i] = acc + st.y_old[i]
+    elif tab.kind == RK_EMBEDDED:
+        for i in range(n):
+            acc, p = 0.0, 1.0
+            for k in range(tab.P.shape[1]):
+                p *= x
+                acc += D[k, i] * p
+            out[i] = h * acc + st.y_old[i]
+    else:
+        h00, h10 = (2.0 * x - 3.0) * x * x + 1.0, ((x - 2.0) * x + 1.0) * x
+        h01, h11 = (3.0 - 2.0 * x) * x * x, (x - 1.0) * x * x
+        for i in range(n):
+            out[i] = h00 * D[0, i] + h10 * h * D[2, i] + h01 * D[1, i] + h11 * h * D[3, i]
+
+
+# --------------------------------------------------------------------------------- the methods
+from .base import Method  # noqa: E402  (the compiled functions above do not depend on it)
+
+
+class RK45(Method):
+    """Dormand-Prince 5(4) (SciPy's RK45): the default; explicit, for non-stiff motion and contact
+    resolved by the tolerance."""
+    name, rows = "RK45", 7
+
+    def tableau(self, run):
+        return rk45()
+
+
+class DOP853(Method):
+    """Dormand-Prince 8(5,3) (SciPy's DOP853): tight tolerances (rtol 1e-9 and below)."""
+    name, rows = "DOP853", 16
+
+    def tableau(self, run):
+        return dop853()
+
+
+class RK4(Method):
+    """Classical fixed-step Runge-Kutta 4 (step h); a failed evaluation ends the run (a fixed step
+    cannot be retried)."""
+    name, rows, adaptive = "RK4", 5, False
+
+    def tableau(self, run):
+        return rk4()

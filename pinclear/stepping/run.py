@@ -1,0 +1,249 @@
+"""One integration as an object: the compiled chunks of steps and what only Python does between
+them (pinclear.simulate builds a Run and calls :meth:`Run.execute`).
+
+Between chunks Python reports progress, writes checkpoints, watches the CPU budget and handles
+what a chunk hands back: an event's effect on the element's internal state (then a restart at
+the event), constraint rows to choose again, a new chart anchor, and failures. A failure is kept
+as data, ``failure = (kind, t, detail)`` with kind one of FAILURE_KINDS, next to its message.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pinocchio as pin
+
+from .. import kinematics
+from .._jit import compile_cpu
+from ..errors import RankLossError
+from ..trajectory import Checkpoint
+from . import chunk as C
+from .build import build
+from .checks import new_monitor
+from .state import (BAD, CHART, CODE_BAD, EVENT_K, H_ABS, H_FIXED, H_STALL, MAX_STEP, N_ACC, NI, NO_RESELECT, NR,
+                    OUT_I, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, Steps)
+
+#: accepted steps per compiled call; between calls Python looks at progress, checkpoints and
+#: the CPU budget (a chunk of a clearance run takes well under a millisecond)
+CHUNK = 128
+#: the stall test's window of accepted steps (pinclear.simulate documents the test)
+STALL_STEPS = 1000
+NONFINITE_MESSAGE = ("non-finite accelerations (check parameters, stiffness, and that the mass matrix is "
+                     "positive definite)")
+EPS = np.finfo(float).eps
+
+
+def run_clock() -> float:
+    """This process's CPU time less the time numba spent compiling kernels: a run's cpu_s, its
+    max_cpu budget and its checkpoint interval count the run, not the once-per-machine compile
+    (reported apart as stats['compile_s'], see pinclear._jit)."""
+    return time.process_time() - compile_cpu()
+
+
+class Stop(Exception):
+    """A failure found by the run itself: (kind, t, message)."""
+
+    def __init__(self, kind, t, message):
+        super().__init__(message)
+        self.kind, self.t = kind, t
+
+
+class Run:
+    """An integration of ``form``'s mechanism with ``method`` (pinclear.stepping.base.Method)."""
+
+    def __init__(self, form, method, *, t_end, t_eval, rtol, atol, h, max_step, h_stall, loop, stats, identity,
+                 progress=None, checkpoint=None, checkpoint_every=None, max_cpu=None):
+        self.form, self.mech, self.method = form, form.mech, method
+        self.stats, self.identity = stats, identity
+        self.progress, self.checkpoint, self.checkpoint_every, self.max_cpu = progress, checkpoint, checkpoint_every, max_cpu
+        self.errors, self.keep, self.anchor, self.message = [], [], [None], ""
+        self.built = build(form, loop, self.errors, self.anchor)
+        self.system = self.built.system
+        mech, n = self.mech, len(form.ws.x)
+        self.nc = n - mech.nv - mech.nz
+        self.t_eval = np.ascontiguousarray(t_eval, float)
+        r, i = np.zeros(NR), np.zeros(NI, dtype=np.int64)
+        r[T_BOUND], r[MAX_STEP], r[H_STALL] = t_end, np.inf if max_step is None else max_step, h_stall
+        r[RTOL] = max(rtol, 100 * EPS) if rtol is not None else 0.0     # as SciPy: tighter only stalls
+        r[H_FIXED] = h or 0.0
+        i[CHART] = int(not mech.euclidean)
+        atol_v = np.ascontiguousarray(np.broadcast_to(np.asarray(0.0 if atol is None else atol, float), (n,)))
+        if mech.n_work:
+            # the drive work meter is a quadrature (nothing depends on it): out of the error test, as
+            # CVODES treats quadratures by default (pinclear.energy)
+            atol_v[self.nc + mech.nv + mech.z_work.start] = np.inf
+        ng = len(self.built.channels)
+        self.st = Steps(*(np.zeros(n) for _ in range(4)), K=np.zeros((max(method.rows, 1), n)),
+                        W=np.zeros((method.work, n)), ys=np.zeros(n), y_new=np.zeros(n), D=np.zeros((7, n)),
+                        atol=atol_v, xe=np.zeros(n), xb=np.zeros(n), dx=np.zeros(n), r=r, i=i,
+                        mon=new_monitor(*form.monitor()), ring=np.zeros(STALL_STEPS),
+                        dirs=np.array([float(c[2]) for c in self.built.channels]), g_prev=np.zeros(ng),
+                        g_new=np.zeros(ng), g_work=np.zeros(ng), t_eval=self.t_eval,
+                        samples=np.zeros((len(self.t_eval), n)), search=np.zeros(C.SEARCH_STATE))
+        self.tab = method.tableau(self)
+        self.samples = []            # (t, q, v, z) of the output samples so far
+        self.good = None             # the state after the last completed chunk (checkpoints)
+
+    # ----------------------------------------------------------------- the state vector
+    def pack(self, q, v, z):
+        """x = [c, v, z]; a non-Euclidean tree gets a new chart anchored at q."""
+        if self.mech.euclidean:
+            c = q
+        else:
+            self.anchor[0] = np.array(q, float)
+            c = np.zeros(self.mech.nv)
+        return np.concatenate([c, v, z])
+
+    def split(self, x, anchor=None):
+        nc, nv = self.nc, self.mech.nv
+        c = x[:nc]
+        q = c if self.mech.euclidean else pin.integrate(self.mech.model, self.anchor[0] if anchor is None else anchor, c)
+        return q, x[nc:nc + nv], x[nc + nv:]
+
+    # ----------------------------------------------------------------- driving
+    def start(self, t, x, hint=None, zero=-1):
+        code = self.method.start(self, t, x, hint, zero)
+        if code != C.QUIET:
+            self.fail(code)
+
+    def execute(self, t, x, hint, samples, first):
+        """Integrate from (t, x) to t_end; ``samples``: those of a resumed run. Raises Stop (or
+        the exception a Python stage raised) on failure; the samples so far stay in self.samples."""
+        st = self.st
+        self.samples = list(samples)
+        st.i[OUT_I] = np.searchsorted(self.t_eval, samples[-1][0], side="right") if samples else 0
+        self.start(t, x, hint)
+        if first:
+            while st.i[OUT_I] < len(self.t_eval) and self.t_eval[st.i[OUT_I]] <= t + 1e-15:
+                k = st.i[OUT_I]
+                st.samples[k] = st.y
+                C.project(self.system, self.t_eval[k], st.samples[k])
+                st.i[OUT_I] += 1
+        self.collect()
+        self.mark_good()
+        self.last_ckpt = run_clock()
+        code = C.QUIET if st.r[T] < st.r[T_BOUND] else C.FINISHED
+        while code != C.FINISHED:
+            n_acc, steps = st.i[N_ACC], st.i[STEPS]
+            code = C.advance(self.system, self.tab, st, CHUNK)
+            self.stats["steps"] += int(st.i[STEPS] - steps)
+            self.collect()
+            times = st.ring[np.arange(n_acc, st.i[N_ACC]) % STALL_STEPS].tolist()
+            self.bookkeeping(times + ([float(st.r[T])] if code == C.STALLED else []))
+            if code == C.EVENT:
+                code = self.handle_event()
+            elif code == C.ASK_ROWS:
+                st.i[NO_RESELECT] = not self.form.reselect_rows(float(st.r[T_BAD]))
+            elif code == C.RECHART:
+                q, v, z = self.split(st.y)
+                self.stats["restarts"] += 1
+                self.start(st.r[T], self.pack(q, v, z), st.r[H_ABS])
+            elif code not in (C.QUIET, C.FINISHED):
+                self.fail(code)
+
+    def collect(self):
+        """The samples the last chunk wrote, as (t, q, v, z) (split with the current anchor)."""
+        for k in range(len(self.samples), int(self.st.i[OUT_I])):
+            q, v, z = self.split(self.st.samples[k])
+            self.samples.append((float(self.t_eval[k]), q, v, z))
+
+    def handle_event(self):
+        """The event the chunk located: the element's handle_event at its time and state, then a
+        restart there (an impact changes the time scale: the first step is chosen anew)."""
+        st, mech, ws = self.st, self.mech, self.form.ws
+        k, te = int(st.i[EVENT_K]), float(st.r[T_EVENT])
+        fi, ch, _ = self.built.channels[k]
+        f, sl = mech.forces[fi], mech.z_slices[fi]
+        q, v, z = (np.array(a) for a in self.split(st.xe))
+        kinematics.update(mech, ws, q, v)
+        z[sl] = f.handle_event(ch, mech, ws, ws.force_data[fi], te, q, v, z[sl])
+        self.stats["events"].append({"t": te, "element": f.name, "event": f.events[ch][0]})
+        self.stats["restarts"] += 1
+        if te >= st.r[T_BOUND]:
+            return C.FINISHED
+        self.start(te, self.pack(q, v, z), None, k)
+        return C.QUIET
+
+    # ----------------------------------------------------------------- bookkeeping
+    def mark_good(self):
+        st = self.st
+        self.good = (float(st.r[T]), st.y.copy(), self.anchor[0], float(st.r[H_ABS]), len(self.samples),
+                     len(self.stats["events"]))
+
+    def bookkeeping(self, times):
+        """After a chunk: progress, checkpoints, the CPU budget (a Stop when spent)."""
+        self.mark_good()
+        if self.progress is not None:
+            stop = False
+            for tp in times:
+                stop = self.progress(tp) or stop
+            if stop:
+                raise KeyboardInterrupt       # the caller asked to stop (a signal handler, a GUI)
+        now = run_clock()
+        if self.checkpoint_every is not None and now - self.last_ckpt >= self.checkpoint_every:
+            self.save_checkpoint()
+            self.last_ckpt = now
+        if self.max_cpu is not None and now - self.cpu0 > self.max_cpu and self.st.r[T] < self.st.r[T_BOUND]:
+            self.save_checkpoint()
+            raise Stop("budget", float(self.st.r[T]),
+                       f"stopped at t = {self.st.r[T]:.9g} s: CPU budget max_cpu = {self.max_cpu} s exhausted")
+
+    def save_checkpoint(self):
+        """Hand the state after the last completed chunk to the checkpoint callback; samples or
+        events recorded past it (an interrupt inside a chunk's handling) are dropped so a
+        resume redoes them."""
+        if self.good is None:
+            return
+        tg, xg, anchor, hg, ns, ne = self.good
+        del self.samples[ns:]
+        del self.stats["events"][ne:]
+        if self.checkpoint is None:
+            return
+        qg, vg, zg = (np.array(a) for a in self.split(xg, anchor))
+        self.stats["rhs_evals"] = self.evaluations()
+        self.stats["cpu_s"] = self.cpu_prior + run_clock() - self.cpu0
+        q0, v0, z0 = self.initial
+        self.checkpoint(Checkpoint(t0=self.t0, q=q0, v=v0, z=z0, t=tg, q_now=qg, v_now=vg, z_now=zg, h_next=hg,
+                                   samples=list(self.samples), stats=dict(self.stats, events=list(self.stats["events"])),
+                                   identity=self.identity))
+
+    def evaluations(self):
+        return self.evals0 + int(self.system.count[0])
+
+    # ----------------------------------------------------------------- failures
+    def fail(self, code):
+        """Raise what a chunk's failure code means (the Python path's own error where it has one)."""
+        st = self.st
+        if code == C.PYTHON_ERROR:
+            raise self.errors[0]
+        t = float(st.r[T])
+        if code in (C.START_FAILED, C.BAD_EVALUATIONS, C.RANK_LOSS) or (code == C.STEP_TOO_SMALL and st.i[BAD]):
+            self.python_error(float(st.r[T_BAD]), st.xb.copy())
+        if code == C.STEP_TOO_SMALL:
+            msg = self.message or "Required step size is less than spacing between numbers."
+            raise Stop("step-size collapse", t,
+                       f"integrator {self.method.name} failed at t = {t:.9g} s: {msg} (step-size collapse, last step "
+                       f"{st.r[H_ABS]:.3g} s; the problem may be stiff: try ROS34PW2, or the contact stiffness/tolerance)")
+        if code == C.STALLED:
+            self.save_checkpoint()
+            t_back = st.ring[st.i[N_ACC] % STALL_STEPS]
+            raise Stop("step-size collapse", t,
+                       f"integrator {self.method.name} stalled at t = {t:.9g} s: its last {STALL_STEPS} steps "
+                       f"advanced t by {t - t_back:.3g} s (mean step below min_mean_step = {st.r[H_STALL]:.3g} s; "
+                       "step-size collapse: a singular configuration or a contact the tolerance cannot resolve; "
+                       "try another method, a looser rtol, or ROS34PW2 for stiff contact)")
+        if code == C.NONFINITE_STATE:
+            raise Stop("non-finite", t, f"non-finite state at t = {t:.9g} s")
+        if code == C.PROJECTION_FAILED:
+            q, v, _ = self.split(st.y)
+            self.form.project(t, q, v)
+            raise Stop("non-finite", t, f"the projection onto the constraint manifold failed at t = {t:.9g} s")
+        raise Stop("exception", t, f"the step logic stopped with code {code} at t = {t:.9g} s")
+
+    def python_error(self, t, x):
+        """The Python path's error at a bad evaluation (t, x): a RankLossError or LinAlgError from
+        the formulation, else a FloatingPointError for non-finite accelerations."""
+        q, v, z = self.split(x)
+        if self.st.r[CODE_BAD] != self.st.r[CODE_BAD] or self.st.r[CODE_BAD] >= -1.0:
+            self.form.accelerations(t, np.array(q), np.array(v), np.array(z))
+        raise FloatingPointError(f"at t = {t:.9g} s: {NONFINITE_MESSAGE}")

@@ -1,0 +1,103 @@
+"""The data of the step logic: an integrator's coefficients (``Tableau``) and a run's stepping
+state (``Steps``), both NamedTuples of arrays so the compiled step functions take them as two
+structured arguments. Scalars live in ``Steps.r`` (floats) and ``Steps.i`` (ints) under the
+names below."""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+#: integrator kinds (Tableau.kind)
+RK_EMBEDDED, RK_DOP853, RK_FIXED, ROSENBROCK, EXTERNAL = range(5)
+
+#: Steps.r: current time, time before the last accepted step, next step size, the last step
+#: (signed), end of the integration, largest step, rtol, the stall test's mean step, the time and
+#: code of the last bad evaluation, the located event's time, the step size an aborted step
+#: started from, the fixed step (RK4)
+(T, T_OLD, H_ABS, H_PREV, T_BOUND, MAX_STEP, RTOL, H_STALL, T_BAD, CODE_BAD, T_EVENT, H_START,
+ H_FIXED) = range(13)
+NR = 13
+#: Steps.i: accepted steps (since the counters were reset), accepted steps of the run (the
+#: stall ring's count), next output sample, consecutive bad evaluations, whether the dense
+#: output of the last step is ready, the located event's channel, whether row reselection is
+#: off until the next accepted step, whether x holds a chart (non-Euclidean tree), rejected
+#: step attempts, Jacobian evaluations (implicit methods)
+(STEPS, N_ACC, OUT_I, BAD, DENSE, EVENT_K, NO_RESELECT, CHART, REJECTS, NJAC) = range(10)
+NI = 10
+
+
+class Tableau(NamedTuple):
+    """An integrator's coefficients; fields a kind does not use are empty arrays."""
+    kind: int
+    #: error estimator order (the step-size exponent is -1 / (order + 1))
+    order: int
+    #: Runge-Kutta (or Rosenbrock) coefficients: stage matrix, weights, nodes
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    #: error estimator weights over the stages and the final derivative (RK45); E3, E5: DOP853's
+    E: np.ndarray
+    E3: np.ndarray
+    E5: np.ndarray
+    #: RK45's dense output polynomial (stages + 1, 4)
+    P: np.ndarray
+    #: DOP853's extra dense-output stages and interpolation coefficients
+    AX: np.ndarray
+    CX: np.ndarray
+    DX: np.ndarray
+    #: Rosenbrock: the stage coupling matrix Gamma and its diagonal gamma
+    G: np.ndarray
+    gamma: float
+    #: external (SciPy) integrators: addresses of the step, dense and reset callbacks
+    ext: np.ndarray
+
+
+_EMPTY1 = np.zeros(0)
+_EMPTY2 = np.zeros((0, 0))
+
+
+def tableau(kind, order, **fields) -> Tableau:
+    """A Tableau with the given fields (float64, contiguous) and empty arrays for the others."""
+    out = {}
+    for name in Tableau._fields[2:]:
+        default = {"gamma": 0.0, "ext": np.zeros(3, dtype=np.int64)}.get(
+            name, _EMPTY2 if name in ("A", "P", "AX", "DX", "G") else _EMPTY1)
+        v = fields.pop(name, default)
+        if name == "gamma":
+            out[name] = float(v)
+        elif name == "ext":
+            out[name] = np.ascontiguousarray(v, dtype=np.int64)
+        else:
+            out[name] = np.ascontiguousarray(v, dtype=float)
+    if fields:
+        raise TypeError(f"unknown tableau fields {sorted(fields)}")
+    return Tableau(int(kind), int(order), **out)
+
+
+class Steps(NamedTuple):
+    """A run's stepping state (one per run; see the module doc for r and i)."""
+    y: np.ndarray          # (n,) state after the last accepted step
+    f: np.ndarray          # (n,) f(t, y)
+    y_old: np.ndarray      # (n,) state before it
+    f_old: np.ndarray      # (n,) f(t_old, y_old)
+    K: np.ndarray          # (stages, n) stage derivatives (work of the method)
+    W: np.ndarray          # (rows, n) method work (Rosenbrock: Jacobian and stage solves)
+    ys: np.ndarray         # (n,) stage state
+    y_new: np.ndarray      # (n,) proposed state
+    D: np.ndarray          # (7, n) dense output coefficients of the last step
+    atol: np.ndarray       # (n,) absolute tolerance (inf: out of the error test)
+    xe: np.ndarray         # (n,) state at an event / dense-output work
+    xb: np.ndarray         # (n,) state of the last bad evaluation
+    dx: np.ndarray         # (n,) derivative work
+    r: np.ndarray          # (NR,) scalars
+    i: np.ndarray          # (NI,) int64 counters and flags
+    mon: np.ndarray        # (4,) pivot monitor (checks.monitor)
+    ring: np.ndarray       # (STALL_STEPS,) times of the last accepted steps (stall test, progress)
+    dirs: np.ndarray       # (ng,) event directions
+    g_prev: np.ndarray     # (ng,) event values after the last accepted step
+    g_new: np.ndarray      # (ng,)
+    g_work: np.ndarray     # (ng,)
+    t_eval: np.ndarray     # (ns,) output times
+    samples: np.ndarray    # (ns, n) output samples (written once each)
+    search: np.ndarray     # Brent's state (roots.BRENT_STATE / ROOT_STATE, the larger)

@@ -1,0 +1,92 @@
+"""A run's ODE system as data: the stages of one evaluation and the buffers they share.
+
+The state is x = [c, v, z]: c the configuration coordinates (q itself for a Euclidean tree, a chart
+around an anchor otherwise), v the joint velocities, z the force elements' internal states and
+the drive work meter. An evaluation copies x into the run's state buffer ``System.x`` (the
+workspace's ``ws.x``, whose views ``ws.q``, ``ws.v``, ``ws.z`` every kernel reads), runs the
+stages in order — Pinocchio's passes, placements, force elements, drive laws, the formulation's
+solve, the work meter — and assembles dx = [dc/dt, a, dz/dt] from the buffers they wrote.
+The same three functions serve every integrator, compiled or Python-driven (Python calls them
+through numba's dispatcher).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .._jit import njit
+from .call import NONFINITE, run_stages
+
+
+class System(NamedTuple):
+    """The compiled view of a run's evaluation (built by pinclear.stepping.build)."""
+    #: (k, 2) int64 rows (fn, ctx) of the right-hand side's stages, in order
+    stages: np.ndarray
+    #: (k, 2) stages writing every event channel's value into ``g``
+    events: np.ndarray
+    #: (k, 2) stages moving the state buffer onto the constraint manifold (none: no projection)
+    project: np.ndarray
+    #: (n,) the state buffer the stages read (and the projection writes)
+    x: np.ndarray
+    #: (nv,) accelerations written by the solve
+    a: np.ndarray
+    #: (nz,) internal-state rates written by the elements and the work meter
+    zdot: np.ndarray
+    #: (ng,) event values written by the event stages
+    g: np.ndarray
+    #: (nc,) dc/dt written by the chart stage of a non-Euclidean tree; empty: dc/dt = v
+    crate: np.ndarray
+    #: int64 counters: [evaluations]
+    count: np.ndarray
+
+
+@njit(cache=True)
+def evaluate(sys, t, x, dx):
+    """dx = f(t, x). Returns the evaluation's code (pinclear.stepping.call): the smallest of its
+    stages' codes, NONFINITE when dx is not finite."""
+    n, nv, nz = x.shape[0], sys.a.shape[0], sys.zdot.shape[0]
+    nc = n - nv - nz
+    for i in range(n):
+        sys.x[i] = x[i]
+    sys.count[0] += 1
+    code = run_stages(sys.stages, t)
+    if sys.crate.shape[0]:
+        for i in range(nc):
+            dx[i] = sys.crate[i]
+    else:
+        for i in range(nc):
+            dx[i] = x[nc + i]
+    s = 0.0
+    for i in range(nv):
+        dx[nc + i] = sys.a[i]
+        s += sys.a[i]
+    for i in range(nz):
+        dx[nc + nv + i] = sys.zdot[i]
+        s += sys.zdot[i]
+    if code >= 0.0 and not np.isfinite(s):
+        return NONFINITE
+    return code
+
+
+@njit(cache=True)
+def event_values(sys, t, x, g):
+    """g = every event channel's value at (t, x) (functions of position, ForceElement contract)."""
+    for i in range(x.shape[0]):
+        sys.x[i] = x[i]
+    run_stages(sys.events, t)
+    for i in range(g.shape[0]):
+        g[i] = sys.g[i]
+
+
+@njit(cache=True)
+def project(sys, t, x):
+    """x moved onto the constraint manifold in place (no-op without projection stages); the code."""
+    if sys.project.shape[0] == 0:
+        return np.inf
+    for i in range(x.shape[0]):
+        sys.x[i] = x[i]
+    code = run_stages(sys.project, t)
+    for i in range(x.shape[0]):
+        x[i] = sys.x[i]
+    return code
