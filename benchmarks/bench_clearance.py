@@ -24,7 +24,7 @@ import numpy as np
 import pinclear
 from pinclear import formulations, kinematics
 from pinclear.mechanisms import clearance_scenes as scenes
-from pinclear.simulate import OdeSystem
+from pinclear.stepping.build import Evaluation
 
 #: simulated window per scene for the integrator comparison (s)
 WINDOW = {"four_ups_upu_S2": 1.0, "nine_bar_A": 0.5, "nine_bar_B": 0.5, "nine_bar_AB": 0.5,
@@ -45,7 +45,7 @@ def _time(fn, budget):
 
 
 def rhs_time(mech, q, v, z):
-    sysf = OdeSystem(formulations.get("lagrange")(mech))
+    sysf = Evaluation(formulations.get("lagrange")(mech))
     x = sysf.pack(q, v, z)
     # the same state every call: the contact caches hit after the first (an upper bound on speed;
     # `pinclear bench runs` measures along real trajectories)

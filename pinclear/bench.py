@@ -13,7 +13,8 @@ import pinocchio as pin
 from . import formulations, kinematics
 from .closures import PINOCCHIO_TYPES
 from .errors import InputError, PinclearError
-from .simulate import OdeSystem, simulate
+from .simulate import simulate
+from .stepping.build import Evaluation
 
 
 def baseline_constraints(mech):
@@ -72,7 +73,7 @@ def bench_rhs(mech, methods=None, t_end=None, n_states=200, repeat=3, rtol=1e-6)
         except PinclearError as exc:  # a formulation that refuses this mechanism says why
             out["methods"][name] = {"skipped": str(exc)}
             continue
-        sysf = OdeSystem(form)
+        sysf = Evaluation(form)
         X = [sysf.pack(Q[k], V[k], Z[k]) for k in range(n)]
         try:
             sysf(T[0], X[0])

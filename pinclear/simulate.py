@@ -185,7 +185,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
             f"interrupted at t = {t_at:.9g} s (SIGINT/SIGTERM); continue with simulate(..., resume=checkpoint) / the "
             "same pinclear simulate command and --resume DIR"))
     except Exception as exc:        # every failure, a user function's exception included: keep the samples
-        status, failure = "failed", _failure(exc, integrator, run.samples, t0)
+        status, failure = "failed", _failure(exc, integrator, run.samples(), t0)
         if isinstance(exc, RankLossError):
             stats["rank_loss"] = {"t": exc.t, "rank": exc.rank, "rows": exc.rows, "cond": exc.cond}
     stats["rhs_evals"] = run.evaluations()
@@ -195,10 +195,11 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in form.row_changes]
     traj.status, traj.failure = status, failure
     traj.message = failure[2] if failure else "reached t_end"
+    samples = run.samples()
     try:
-        traj.fill(run.samples, form)
+        traj.fill(samples, form)
     except KeyboardInterrupt:
-        traj.fill_states(run.samples)
+        traj.fill_states(samples)
         traj.status, traj.message = "interrupted", traj.message + " (outputs not evaluated)"
     if traj.status == "success" and integ.adaptive:
         validate.check_residual(traj, mech, rtol, atol)
@@ -211,7 +212,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
             from .errors import IntegrationError
 
             raise IntegrationError(traj.message, trajectory=traj)
-        warnings.warn(f"pinclear.simulate: {traj.message} ({len(run.samples)} of {len(t_eval)} samples kept)",
+        warnings.warn(f"pinclear.simulate: {traj.message} ({len(samples)} of {len(t_eval)} samples kept)",
                       RuntimeWarning, stacklevel=2)
     return traj
 

@@ -20,9 +20,9 @@ from .. import energy, kinematics, native
 from .._jit import njit
 from .._kernels import joint_placements
 from ..errors import RankLossError
-from .call import NONFINITE, RANK
+from .call import ERROR, NONFINITE, RANK
 from .stage import bind, python_stage
-from .system import System
+from .system import System, evaluate
 
 
 @njit(cache=True)
@@ -37,6 +37,43 @@ class Built:
 
     def __init__(self, system, stages, python, why, channels):
         self.system, self.stages, self.python, self.why, self.channels = system, stages, python, why, channels
+
+
+class Evaluation:
+    """A formulation's right-hand side f(t, x) as a run evaluates it, with the state layout:
+    ``pack(q, v, z)`` -> x (a new chart anchored at q on a non-Euclidean tree), ``split(x)``,
+    ``f(t, x)`` -> dx. For benchmarks and analysis; a Run holds one."""
+
+    def __init__(self, form, loop="auto"):
+        self.form, self.mech = form, form.mech
+        self.errors, self.anchor = [], [None]
+        self.built = build(form, loop, self.errors, self.anchor)
+        self.system = self.built.system
+        self.nc = len(form.ws.x) - self.mech.nv - self.mech.nz
+
+    def pack(self, q, v, z):
+        if self.mech.euclidean:
+            c = q
+        else:
+            self.anchor[0] = np.array(q, float)
+            c = np.zeros(self.mech.nv)
+        return np.concatenate([c, v, z])
+
+    def split(self, x, anchor=None):
+        nc, nv = self.nc, self.mech.nv
+        c = x[:nc]
+        q = c if self.mech.euclidean else pin.integrate(self.mech.model, self.anchor[0] if anchor is None else anchor, c)
+        return q, x[nc:nc + nv], x[nc + nv:]
+
+    def __call__(self, t, x):
+        """dx = f(t, x); raises what a Python stage raised; returns NaN where the formulation
+        reports a rank loss or overflow (see ``code``)."""
+        x = np.ascontiguousarray(x, float)
+        dx = np.empty(len(x))
+        self.code = evaluate(self.system, float(t), x, dx)
+        if self.code == ERROR:
+            raise self.errors.pop()
+        return dx
 
 
 def _table(stages):

@@ -6,20 +6,17 @@ import numpy as np
 
 from .._jit import njit
 from .call import ERROR
-from .state import BAD as BAD_COUNT, CODE_BAD, NO_RESELECT, T_BAD
+from .state import BAD as BAD_COUNT, CODE_BAD, MON_FLOOR, MON_MIN, MON_REF, MON_RESELECT, NO_RESELECT, T_BAD
 
 #: monitor verdicts on one evaluation
 GOOD, BAD, RESELECT, FAILED = 0, 1, 2, 3
 
-#: the monitor array: smallest ratio since the last accepted step, first ratio of the run (nan
-#: before), rank floor, reselect factor (relative to the first ratio; -inf: never)
-MON_MIN, MON_REF, MON_FLOOR, MON_RESELECT = range(4)
 
 
-def new_monitor(floor=0.0, reselect=-np.inf):
-    """A fresh monitor. floor: a code below it is a bad evaluation (rank loss); reselect: a ratio
-    below reselect times the first asks for the constraint rows to be chosen again."""
-    return np.array([np.inf, np.nan, floor, reselect])
+def reset_monitor(r, floor=0.0, reselect=-np.inf):
+    """A fresh monitor in Steps.r. floor: a code below it is a bad evaluation (rank loss);
+    reselect: a ratio below reselect times the run's first asks for the rows to be chosen again."""
+    r[MON_MIN], r[MON_REF], r[MON_FLOOR], r[MON_RESELECT] = np.inf, np.nan, floor, reselect
 
 
 @njit(cache=True)
@@ -47,47 +44,49 @@ def stalled(ring, n_acc, t, h_stall, finished):
 
 
 @njit(cache=True)
-def monitor(r, mon, reselect=True):
-    """The verdict on an evaluation whose code is r: FAILED (a Python stage raised), BAD (below
-    the rank floor or non-finite: the trial step is rejected), RESELECT (the pivots of the kept
-    constraint rows fell below the reselect factor: the rows are chosen again) or GOOD, the
-    monitor then holding the smallest ratio since the last step and the run's first ratio.
-    ``reselect`` False: no RESELECT verdict (the rows were chosen again during this step)."""
-    if r == ERROR:
+def monitor(code, rr, reselect=True):
+    """The verdict on an evaluation whose code is ``code``, for the monitor in ``rr`` (Steps.r):
+    FAILED (a Python stage raised), BAD (below the rank floor or non-finite: the trial step is
+    rejected), RESELECT (the pivots of the kept constraint rows fell below the reselect factor
+    times the run's first ratio: the rows are chosen again) or GOOD, the monitor then holding the
+    smallest ratio since the last step and the run's first ratio. ``reselect`` False: no
+    RESELECT verdict (the rows were chosen again during this step)."""
+    if code == ERROR:
         return FAILED
-    if not r >= mon[MON_FLOOR]:
+    if not code >= rr[MON_FLOOR]:
         return BAD
-    if reselect and r < mon[MON_RESELECT] * mon[MON_REF]:
+    if reselect and code < rr[MON_RESELECT] * rr[MON_REF]:
         return RESELECT
-    if r < mon[MON_MIN]:
-        mon[MON_MIN] = r
-        if mon[MON_REF] != mon[MON_REF]:
-            mon[MON_REF] = r
+    if code < rr[MON_MIN]:
+        rr[MON_MIN] = code
+        if rr[MON_REF] != rr[MON_REF]:
+            rr[MON_REF] = code
     return GOOD
 
 
 @njit(cache=True)
-def dipped(mon, dip):
-    """Whether the pivots dipped below ``dip`` times their first value during the step."""
-    return mon[MON_REF] == mon[MON_REF] and mon[MON_MIN] < dip * mon[MON_REF]
+def dipped(rr, dip):
+    """Whether the pivots dipped below ``dip`` times the run's first ratio during the step."""
+    return rr[MON_REF] == rr[MON_REF] and rr[MON_MIN] < dip * rr[MON_REF]
 
 
 @njit(cache=True)
-def observe(st, code, t, x):
-    """The monitor's verdict on an evaluation at (t, x) during a step (see :func:`monitor`). A bad
-    evaluation is recorded in ``st`` (its time, code and state: the run reports it if the steps
-    cannot get past it); a good one resets the count of consecutive bad ones."""
-    v = monitor(code, st.mon, st.i[NO_RESELECT] == 0)
+def observe(rr, ii, xb, code, t, x):
+    """The monitor's verdict on an evaluation at (t, x) during a step (see :func:`monitor`), for
+    the step state's floats ``rr`` and ints ``ii`` (Steps.r, .i) and bad-state buffer ``xb``. A
+    bad evaluation is recorded (its time, code and state: the run reports it if the steps cannot
+    get past it); a good one resets the count of consecutive bad ones."""
+    v = monitor(code, rr, ii[NO_RESELECT] == 0)
     if v == GOOD:
-        st.i[BAD_COUNT] = 0
+        ii[BAD_COUNT] = 0
     elif v == BAD:
-        st.i[BAD_COUNT] += 1
-        st.r[T_BAD] = t
-        st.r[CODE_BAD] = code
+        ii[BAD_COUNT] += 1
+        rr[T_BAD] = t
+        rr[CODE_BAD] = code
         for k in range(x.shape[0]):
-            st.xb[k] = x[k]
+            xb[k] = x[k]
     elif v == RESELECT:
-        st.r[T_BAD] = t
+        rr[T_BAD] = t
         for k in range(x.shape[0]):
-            st.xb[k] = x[k]
+            xb[k] = x[k]
     return v

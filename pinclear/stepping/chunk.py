@@ -26,11 +26,12 @@ import numpy as np
 
 from .._jit import njit
 from .call import call_stage
-from .checks import BAD, FAILED, GOOD, MON_MIN, dipped, first_crossing, observe, stalled
+from .checks import BAD, FAILED, GOOD, dipped, first_crossing, observe, stalled
 from .rk import ACCEPTED, ASK_RESELECT, BAD_EVALS, STAGE_ERROR, TOO_SMALL, rk_dense, rk_dense_at, rk_step
 from .roots import BRENT_STATE, ROOT_STATE, brent_next, brent_root_next, brent_root_start, brent_start
-from .state import (BAD as BAD_COUNT, CHART, DENSE, EVENT_K, EXTERNAL, H_ABS, H_STALL, MAX_STEP, N_ACC,
-                    NO_RESELECT, OUT_I, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, T_OLD)
+from .state import (ATOL, BAD as BAD_COUNT, CHART, DENSE, DIRS, DX, EVENT_K, EXTERNAL, F, G_NEW, G_PREV, G_WORK,
+                    H_ABS, H_PREV, H_STALL, MAX_STEP, MON_MIN, N_ACC, NO_RESELECT, OUT_I, RTOL, STEPS, T, T_BAD,
+                    T_BOUND, T_EVENT, T_OLD, XB, XE, Y, Y_OLD, YS)
 from .system import evaluate, event_values, project
 
 #: what a chunk ended with
@@ -55,14 +56,13 @@ SEARCH_STATE = max(BRENT_STATE, ROOT_STATE)
 def dense_at(sys, tab, st, t, out):
     """The last accepted step's dense output at t, prepared on first use in the step."""
     if tab.kind == EXTERNAL:
-        call_stage(tab.ext[1], 0, t)          # the Python integrator writes it into st.xe
-        for i in range(out.shape[0]):
-            out[i] = st.xe[i]
+        call_stage(tab.ext[1], 0, t)          # the Python integrator writes it into V[XE]
+        out[:] = st.V[XE]
         return
     if not st.i[DENSE]:
         rk_dense(sys, tab, st)
         st.i[DENSE] = 1
-    rk_dense_at(tab, st, t, out)
+    rk_dense_at(tab, st.D, st.V[Y_OLD], st.r[T_OLD], st.r[H_PREV], t, out)
 
 
 @njit(cache=True)
@@ -70,10 +70,19 @@ def write_samples(sys, tab, st, t_stop, strict):
     """Output samples at the times up to t_stop (before it when ``strict``) from the last step's
     dense output, each moved onto the manifold by the formulation's projection, if any."""
     te, j = st.t_eval, st.i[OUT_I]
+    if tab.kind != EXTERNAL and not st.i[DENSE]:
+        rk_dense(sys, tab, st)
+        st.i[DENSE] = 1
+    D, y_old, t_old, h = st.D, st.V[Y_OLD], st.r[T_OLD], st.r[H_PREV]
+    projects = sys.project.shape[0] > 0
     while j < te.shape[0] and (te[j] < t_stop if strict else te[j] <= t_stop):
         row = st.samples[j]
-        dense_at(sys, tab, st, te[j], row)
-        project(sys, te[j], row)
+        if tab.kind == EXTERNAL:
+            dense_at(sys, tab, st, te[j], row)
+        else:
+            rk_dense_at(tab, D, y_old, t_old, h, te[j], row)
+        if projects:
+            project(sys, te[j], row)
         j += 1
     st.i[OUT_I] = j
 
@@ -83,35 +92,37 @@ def write_samples(sys, tab, st, t_stop, strict):
 def initial_step(sys, tab, st, t):
     """SciPy's initial step (select_initial_step; Hairer, Norsett & Wanner, Solving ODEs I,
     II.4), bounded by the span and the largest step; -1 when its trial evaluation is bad."""
-    n = st.y.shape[0]
-    span = abs(st.r[T_BOUND] - t)
+    V, r = st.V, st.r
+    y, f, ys, dx, atol = V[Y], V[F], V[YS], V[DX], V[ATOL]
+    n = y.shape[0]
+    span = abs(r[T_BOUND] - t)
     if n == 0:
         return np.inf
     if span == 0.0:
         return 0.0
-    rtol = st.r[RTOL]
+    rtol = r[RTOL]
     d0 = d1 = 0.0
     for i in range(n):
-        sc = st.atol[i] + abs(st.y[i]) * rtol
-        d0 += (st.y[i] / sc) ** 2
-        d1 += (st.f[i] / sc) ** 2
+        sc = atol[i] + abs(y[i]) * rtol
+        d0 += (y[i] / sc) ** 2
+        d1 += (f[i] / sc) ** 2
     d0, d1 = (d0 / n) ** 0.5, (d1 / n) ** 0.5
     h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
     h0 = min(h0, span)
     for i in range(n):
-        st.ys[i] = st.y[i] + h0 * st.f[i]
-    if observe(st, evaluate(sys, t + h0, st.ys, st.dx), t + h0, st.ys) != GOOD:
+        ys[i] = y[i] + h0 * f[i]
+    if observe(r, st.i, V[XB], evaluate(sys, t + h0, ys, dx), t + h0, ys) != GOOD:
         return -1.0
     d2 = 0.0
     for i in range(n):
-        sc = st.atol[i] + abs(st.y[i]) * rtol
-        d2 += ((st.dx[i] - st.f[i]) / sc) ** 2
+        sc = atol[i] + abs(y[i]) * rtol
+        d2 += ((dx[i] - f[i]) / sc) ** 2
     d2 = (d2 / n) ** 0.5 / h0
     if d1 <= 1e-15 and d2 <= 1e-15:
         h1 = max(1e-6, h0 * 1e-3)
     else:
         h1 = (0.01 / max(d1, d2)) ** (1.0 / (tab.order + 1))
-    return min(100.0 * h0, h1, span, st.r[MAX_STEP])
+    return min(100.0 * h0, h1, span, r[MAX_STEP])
 
 
 @njit(cache=True)
@@ -120,27 +131,28 @@ def start(sys, tab, st, t, x, h_hint, zero_channel):
     choice), the event values (channel ``zero_channel`` >= 0 set to zero: it sits on its event
     right after it, and is stepped off in its sense). Returns QUIET, or START_FAILED /
     PYTHON_ERROR when an evaluation there is bad (the run reports it)."""
-    for i in range(x.shape[0]):
-        st.y[i] = x[i]
-    st.r[T] = t
-    st.r[T_OLD] = t
+    V, r = st.V, st.r
+    y = V[Y]
+    y[:] = x
+    r[T] = t
+    r[T_OLD] = t
     st.i[DENSE] = 0
-    v = observe(st, evaluate(sys, t, st.y, st.f), t, st.y)
+    v = observe(r, st.i, V[XB], evaluate(sys, t, y, V[F]), t, y)
     if v == FAILED:
         return PYTHON_ERROR
     if v == BAD:
         return START_FAILED
     if h_hint > 0.0:
-        st.r[H_ABS] = h_hint
+        r[H_ABS] = h_hint
     elif tab.kind != EXTERNAL:
         h = initial_step(sys, tab, st, t)
         if h < 0.0:
             return PYTHON_ERROR if st.i[BAD_COUNT] == 0 else START_FAILED
-        st.r[H_ABS] = h
-    if st.g_prev.shape[0]:
-        event_values(sys, t, st.y, st.g_prev)
+        r[H_ABS] = h
+    if st.G.shape[1]:
+        event_values(sys, t, y, st.G[G_PREV])
         if zero_channel >= 0:
-            st.g_prev[zero_channel] = 0.0
+            st.G[G_PREV, zero_channel] = 0.0
     return QUIET
 
 
@@ -150,84 +162,90 @@ def search_dip(sys, tab, st):
     """Brent's minimiser on the pivot ratio along the step's dense output (the search's
     evaluations leave the step's monitor as it was). Returns GOOD, or BAD with the rank loss's
     time and state recorded (observe), or FAILED."""
-    t_old, t = st.r[T_OLD], st.r[T]
+    r, V = st.r, st.V
+    t_old, t = r[T_OLD], r[T]
+    xe, dx, xb = V[XE], V[DX], V[XB]
     xatol = 1e-13 * max(1.0, t)
-    keep = st.mon[MON_MIN]
+    keep = r[MON_MIN]
     s = brent_start(t_old, t, xatol, st.search)
     while True:
-        dense_at(sys, tab, st, s, st.xe)
-        code = evaluate(sys, s, st.xe, st.dx)
-        st.mon[MON_MIN] = np.inf
-        v = observe(st, code, s, st.xe)
+        dense_at(sys, tab, st, s, xe)
+        code = evaluate(sys, s, xe, dx)
+        r[MON_MIN] = np.inf
+        v = observe(r, st.i, xb, code, s, xe)
         if v == BAD or v == FAILED:
-            st.mon[MON_MIN] = keep
+            r[MON_MIN] = keep
             return v
         s, done = brent_next(st.search, code, LOCATE_MAXITER)
         if done:
-            st.mon[MON_MIN] = keep
+            r[MON_MIN] = keep
             return GOOD
 
 
 @njit(cache=True)
 def locate_event(sys, tab, st):
     """The earliest event crossing in the last step: its channel (-1 if none) with its time in
-    st.r[T_EVENT] and its state in st.xe; st.g_new holds the values at the step's end."""
-    t_old, t = st.r[T_OLD], st.r[T]
-    g0, g1, g = st.g_prev, st.g_new, st.g_work
-    event_values(sys, t, st.y, g1)
+    st.r[T_EVENT] and its state in V[XE]; G[G_NEW] holds the values at the step's end."""
+    r, G, xe = st.r, st.G, st.V[XE]
+    t_old, t = r[T_OLD], r[T]
+    g0, g1, g, dirs = G[G_PREV], G[G_NEW], G[G_WORK], G[DIRS]
+    event_values(sys, t, st.V[Y], g1)
     hit, te = -1, t
-    k = first_crossing(g0, g1, st.dirs, 0)
+    k = first_crossing(g0, g1, dirs, 0)
     while k >= 0:
         s, done = brent_root_start(t_old, t, g0[k], g1[k], 1e-14, 4.0 * np.finfo(np.float64).eps, st.search)
         while not done:
-            dense_at(sys, tab, st, s, st.xe)
-            event_values(sys, s, st.xe, g)
+            dense_at(sys, tab, st, s, xe)
+            event_values(sys, s, xe, g)
             s, done = brent_root_next(st.search, g[k], ROOT_MAXITER)
         if hit < 0 or s < te:
             hit, te = k, s
-        k = first_crossing(g0, g1, st.dirs, k + 1)
+        k = first_crossing(g0, g1, dirs, k + 1)
     if hit >= 0:
-        st.r[T_EVENT] = te
-        dense_at(sys, tab, st, te, st.xe)
+        r[T_EVENT] = te
+        dense_at(sys, tab, st, te, xe)
     return hit
 
 
 @njit(cache=True)
 def after_step(sys, tab, st):
     """The checks after an accepted step (the module doc); -1 to go on, else a chunk code."""
-    t = st.r[T]
-    if dipped(st.mon, SINGULAR_DIP):
+    r, ii, y = st.r, st.i, st.V[Y]
+    t = r[T]
+    if dipped(r, SINGULAR_DIP):
         v = search_dip(sys, tab, st)
         if v == FAILED:
             return PYTHON_ERROR
         if v == BAD:
-            write_samples(sys, tab, st, st.r[T_BAD], True)
+            write_samples(sys, tab, st, r[T_BAD], True)
             return RANK_LOSS
-    st.mon[MON_MIN] = np.inf
-    st.i[NO_RESELECT] = 0
-    if not np.isfinite(st.y.sum()):
+    r[MON_MIN] = np.inf
+    ii[NO_RESELECT] = 0
+    if not np.isfinite(y.sum()):
         return NONFINITE_STATE
-    hit = locate_event(sys, tab, st) if st.g_prev.shape[0] else -1
-    write_samples(sys, tab, st, st.r[T_EVENT] if hit >= 0 else t, False)
+    hit = locate_event(sys, tab, st) if st.G.shape[1] else -1
+    t_stop = r[T_EVENT] if hit >= 0 else t
+    if ii[OUT_I] < st.t_eval.shape[0] and st.t_eval[ii[OUT_I]] <= t_stop:
+        write_samples(sys, tab, st, t_stop, False)
     if hit >= 0:
-        st.i[EVENT_K] = hit
+        ii[EVENT_K] = hit
         return EVENT
-    for k in range(st.g_prev.shape[0]):
-        st.g_prev[k] = st.g_new[k]
+    if st.G.shape[1]:
+        st.G[G_PREV, :] = st.G[G_NEW]
     if sys.project.shape[0]:
-        if not project(sys, t, st.y) >= 0.0:
+        if not project(sys, t, y) >= 0.0:
             return PROJECTION_FAILED
-        v = observe(st, evaluate(sys, t, st.y, st.f), t, st.y)
+        v = observe(r, ii, st.V[XB], evaluate(sys, t, y, st.V[F]), t, y)
         if v == FAILED:
             return PYTHON_ERROR
         if tab.kind == EXTERNAL:
             call_stage(tab.ext[2], 0, t)      # the state goes back into the Python integrator
-    if st.i[CHART]:
-        nc = st.y.shape[0] - sys.a.shape[0] - sys.zdot.shape[0]
+    if ii[CHART]:
+        nc = y.shape[0] - sys.a.shape[0] - sys.zdot.shape[0]
         for i in range(nc):
-            if abs(st.y[i]) > 0.5:
+            if abs(y[i]) > CHART_LIMIT:
                 return RECHART
-    stop, st.i[N_ACC] = stalled(st.ring, st.i[N_ACC], t, st.r[H_STALL], t - st.r[T_BOUND] >= 0)
+    stop, ii[N_ACC] = stalled(st.ring, ii[N_ACC], t, r[H_STALL], t - r[T_BOUND] >= 0)
     if stop:
         return STALLED
     return -1

@@ -17,7 +17,7 @@ from .call import NONFINITE
 from .checks import GOOD, observe
 from .rk import ACCEPTED, BAD_EVALS, MAX_BAD, TOO_SMALL
 from .stage import python_stage
-from .state import BAD, EXTERNAL, H_ABS, H_PREV, MAX_STEP, RTOL, T, T_BOUND, T_OLD, tableau
+from .state import ATOL, BAD, EXTERNAL, F, H_ABS, H_PREV, MAX_STEP, RTOL, T, T_BOUND, T_OLD, XB, XE, Y, tableau
 from .system import evaluate
 
 
@@ -36,7 +36,7 @@ class _Driver:
         y = np.ascontiguousarray(y, float)
         dx = np.empty(len(y))
         code = evaluate(run.system, float(t), y, dx)
-        v = observe(run.st, code, float(t), y)
+        v = observe(run.st.r, run.st.i, run.st.V[XB], code, float(t), y)
         # an overflow is SciPy's to handle (its Newton iteration fails and the step shrinks) until
         # it keeps happening; a rank loss or a failed Python stage ends the step at once
         if v != GOOD and not (code == NONFINITE and run.st.i[BAD] <= MAX_BAD):
@@ -45,7 +45,7 @@ class _Driver:
 
     def restart(self, t, x, hint):
         run, st = self.run, self.run.st
-        kw = {"rtol": st.r[RTOL], "atol": st.atol}
+        kw = {"rtol": st.r[RTOL], "atol": st.V[ATOL].copy()}
         if np.isfinite(st.r[MAX_STEP]):
             kw["max_step"] = st.r[MAX_STEP]
         if hint is not None:
@@ -62,7 +62,7 @@ class _Driver:
         if solver.status == "failed":
             self.run.message = msg
             return float(TOO_SMALL)
-        st.y[:] = solver.y
+        st.V[Y] = solver.y
         st.r[T_OLD], st.r[T] = solver.t_old, solver.t
         st.r[H_PREV] = solver.t - solver.t_old
         st.r[H_ABS] = vars(solver).get("h_abs", solver.step_size or 0.0)
@@ -72,13 +72,13 @@ class _Driver:
     def dense_at(self, t):
         if self.dense is None:
             self.dense = self.solver.dense_output()
-        self.run.st.xe[:] = self.dense(t)
+        self.run.st.V[XE] = self.dense(t)
         return 0.0
 
     def reset(self, t):
-        """The projected state (st.y, st.f) goes into the solver."""
+        """The projected state (V[Y], V[F]) goes into the solver."""
         st, solver = self.run.st, self.solver
-        self.method.reset_state(solver, st.y.copy(), st.f.copy())
+        self.method.reset_state(solver, st.V[Y].copy(), st.V[F].copy())
         return 0.0
 
 

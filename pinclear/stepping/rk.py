@@ -12,8 +12,8 @@ from scipy.integrate._ivp import dop853_coefficients as dop
 
 from .._jit import njit
 from .checks import BAD, FAILED, RESELECT, observe
-from .state import (BAD as BAD_COUNT, DENSE, H_ABS, H_FIXED, H_PREV, H_START, MAX_STEP, REJECTS, RK_DOP853,
-                    RK_EMBEDDED, RK_FIXED, RTOL, T, T_BOUND, T_OLD, tableau)
+from .state import (ATOL, BAD as BAD_COUNT, DENSE, F, F_OLD, H_ABS, H_FIXED, H_PREV, H_START, MAX_STEP, REJECTS,
+                    RK_DOP853, RK_EMBEDDED, RK_FIXED, RTOL, T, T_BOUND, T_OLD, XB, Y, Y_NEW, Y_OLD, YS, tableau)
 from .system import evaluate
 
 #: outcomes of one step (chunk.advance passes the failures on)
@@ -53,17 +53,17 @@ def stage_state(y, K, a, s, h, out):
 def _stages(sys, tab, st, t, h):
     """Stages 1..s-1 and f at the proposed state (into K[s]); the first verdict that is not
     GOOD stops them (a rejected trial step needs no more)."""
-    K, ns = st.K, tab.B.shape[0]
-    for i in range(st.y.shape[0]):
-        K[0, i] = st.f[i]
+    K, V, rr, ii, ns = st.K, st.V, st.r, st.i, tab.B.shape[0]
+    y, ys, y_new, xb = V[Y], V[YS], V[Y_NEW], V[XB]
+    K[0, :] = V[F]
     for s in range(1, ns + 1):
         if s < ns:
-            stage_state(st.y, K, tab.A[s], s, h, st.ys)
-            x, ts = st.ys, t + tab.C[s] * h
+            stage_state(y, K, tab.A[s], s, h, ys)
+            x, ts = ys, t + tab.C[s] * h
         else:
-            stage_state(st.y, K, tab.B, ns, h, st.y_new)
-            x, ts = st.y_new, t + h
-        v = observe(st, evaluate(sys, ts, x, K[s]), ts, x)
+            stage_state(y, K, tab.B, ns, h, y_new)
+            x, ts = y_new, t + h
+        v = observe(rr, ii, xb, evaluate(sys, ts, x, K[s]), ts, x)
         if v != 0:
             return v
     return 0
@@ -73,11 +73,13 @@ def _stages(sys, tab, st, t, h):
 def error_norm(tab, st, h):
     """SciPy's error norm of the step just computed: RMS of (sum E_j K_j) h / scale for RK45;
     DOP853's err5^2 / sqrt(err5^2 + 0.01 err3^2) (both with scale = atol + max(|y|, |y_new|) rtol)."""
-    K, n, rtol = st.K, st.y.shape[0], st.r[RTOL]
+    K, V, rtol = st.K, st.V, st.r[RTOL]
+    y, y_new, atol = V[Y], V[Y_NEW], V[ATOL]
+    n = y.shape[0]
     if tab.kind == RK_DOP853:
         e5 = e3 = 0.0
         for i in range(n):
-            sc = st.atol[i] + max(abs(st.y[i]), abs(st.y_new[i])) * rtol
+            sc = atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol
             a5 = a3 = 0.0
             for j in range(tab.E5.shape[0]):
                 a5 += K[j, i] * tab.E5[j]
@@ -92,25 +94,23 @@ def error_norm(tab, st, h):
         e = 0.0
         for j in range(tab.E.shape[0]):
             e += K[j, i] * tab.E[j]
-        e = e * h / (st.atol[i] + max(abs(st.y[i]), abs(st.y_new[i])) * rtol)
+        e = e * h / (atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol)
         acc += e * e
     return (acc / n) ** 0.5
 
 
 @njit(cache=True)
-def _accept(st, t_new, h, h_abs, ns):
-    """The proposed state becomes the current one (as OdeSolver.step)."""
-    n = st.y.shape[0]
-    for i in range(n):
-        st.y_old[i] = st.y[i]
-        st.f_old[i] = st.f[i]
-        st.y[i] = st.y_new[i]
-        st.f[i] = st.K[ns, i]
-    st.r[T_OLD] = st.r[T]
-    st.r[T] = t_new
-    st.r[H_PREV] = h
-    st.r[H_ABS] = h_abs
-    st.i[DENSE] = 0
+def accept(V, r, ii, f_new, t_new, h, h_abs):
+    """The proposed state becomes the current one (as OdeSolver.step); f_new is f there."""
+    V[Y_OLD, :] = V[Y]
+    V[F_OLD, :] = V[F]
+    V[Y, :] = V[Y_NEW]
+    V[F, :] = f_new
+    r[T_OLD] = r[T]
+    r[T] = t_new
+    r[H_PREV] = h
+    r[H_ABS] = h_abs
+    ii[DENSE] = 0
 
 
 @njit(cache=True)
@@ -121,26 +121,26 @@ def rk_step(sys, tab, st):
     asks for other constraint rows: nothing has changed, the step is redone after) or
     STAGE_ERROR (a Python stage raised). A bad trial stage (rank loss, non-finite) rejects the
     attempt like an error norm above one, shrinking the step by 5."""
-    t, ns = st.r[T], tab.B.shape[0]
-    t_bound = st.r[T_BOUND]
-    h_start = st.r[H_ABS]
-    st.r[H_START] = h_start
+    r, ii, ns = st.r, st.i, tab.B.shape[0]
+    t, t_bound = r[T], r[T_BOUND]
+    h_start = r[H_ABS]
+    r[H_START] = h_start
     if tab.kind == RK_FIXED:
-        h = min(st.r[H_FIXED], t_bound - t)
+        h = min(r[H_FIXED], t_bound - t)
         v = _stages(sys, tab, st, t, h)
         if v != 0:
             return STAGE_ERROR if v == FAILED else (ASK_RESELECT if v == RESELECT else BAD_EVALS)
-        _accept(st, t + h if t + h < t_bound else t_bound, h, h_start, ns)
+        accept(st.V, r, ii, st.K[ns], t + h if t + h < t_bound else t_bound, h, h_start)
         return ACCEPTED
     min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
-    h_abs = min(h_start, st.r[MAX_STEP])
+    h_abs = min(h_start, r[MAX_STEP])
     if h_abs < min_step:
         h_abs = min_step
     expo = -1.0 / (tab.order + 1)
     rejected = False
     while True:
         if h_abs < min_step:
-            st.r[H_ABS] = h_abs
+            r[H_ABS] = h_abs
             return TOO_SMALL
         t_new = t + h_abs
         if t_new - t_bound > 0:
@@ -151,10 +151,10 @@ def rk_step(sys, tab, st):
         if v == FAILED:
             return STAGE_ERROR
         if v == RESELECT:
-            st.r[H_ABS] = h_start
+            r[H_ABS] = h_start
             return ASK_RESELECT
         if v == BAD:
-            if st.i[BAD_COUNT] > MAX_BAD:
+            if ii[BAD_COUNT] > MAX_BAD:
                 return BAD_EVALS
             err = np.nan
         else:
@@ -163,12 +163,12 @@ def rk_step(sys, tab, st):
             factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** expo)
             if rejected:
                 factor = min(1.0, factor)
-            _accept(st, t_new, h, h_abs * factor, ns)
+            accept(st.V, r, ii, st.K[ns], t_new, h, h_abs * factor)
             return ACCEPTED
         factor = 0.9 * err ** expo
         h_abs *= factor if factor > 0.2 else 0.2       # NaN (a bad stage) shrinks by 5 too
         rejected = True
-        st.i[REJECTS] += 1
+        ii[REJECTS] += 1
 
 
 @njit(cache=True)
@@ -176,24 +176,28 @@ def rk_dense(sys, tab, st):
     """The dense output coefficients of the last step into st.D (SciPy's RkDenseOutput /
     Dop853DenseOutput); DOP853 evaluates its three extra stages here, only for steps whose
     dense output is needed."""
-    K, D, n = st.K, st.D, st.y.shape[0]
+    K, D, V = st.K, st.D, st.V
+    y, y_old, f, f_old = V[Y], V[Y_OLD], V[F], V[F_OLD]
+    n = y.shape[0]
     h = st.r[H_PREV]
     if tab.kind == RK_DOP853:
         ns = tab.B.shape[0]
         t_old = st.r[T_OLD]
+        ys = V[YS]
         for e in range(tab.CX.shape[0]):
             s = ns + 1 + e
             for i in range(n):
                 acc = 0.0
                 for j in range(s):
                     acc += K[j, i] * tab.AX[e, j]
-                st.ys[i] = st.y_old[i] + acc * h
-            observe(st, evaluate(sys, t_old + tab.CX[e] * h, st.ys, K[s]), t_old + tab.CX[e] * h, st.ys)
+                ys[i] = y_old[i] + acc * h
+            te = t_old + tab.CX[e] * h
+            observe(st.r, st.i, V[XB], evaluate(sys, te, ys, K[s]), te, ys)
         for i in range(n):
-            dy = st.y[i] - st.y_old[i]
+            dy = y[i] - y_old[i]
             D[0, i] = dy
-            D[1, i] = h * st.f_old[i] - dy
-            D[2, i] = 2.0 * dy - h * (st.f[i] + st.f_old[i])
+            D[1, i] = h * f_old[i] - dy
+            D[2, i] = 2.0 * dy - h * (f[i] + f_old[i])
             for r in range(tab.DX.shape[0]):
                 acc = 0.0
                 for j in range(tab.DX.shape[1]):
@@ -207,18 +211,16 @@ def rk_dense(sys, tab, st):
                     acc += K[j, i] * tab.P[j, k]
                 D[k, i] = acc
     else:                                   # cubic Hermite over the step (RK4)
-        for i in range(n):
-            D[0, i] = st.y_old[i]
-            D[1, i] = st.y[i]
-            D[2, i] = st.f_old[i]
-            D[3, i] = st.f[i]
+        D[0, :] = y_old
+        D[1, :] = y
+        D[2, :] = f_old
+        D[3, :] = f
 
 
 @njit(cache=True)
-def rk_dense_at(tab, st, t, out):
+def rk_dense_at(tab, D, y_old, t_old, h, t, out):
     """The last step's dense output at t (after rk_dense)."""
-    D, n = st.D, st.y.shape[0]
-    h, t_old = st.r[H_PREV], st.r[T_OLD]
+    n = y_old.shape[0]
     x = (t - t_old) / h
     if tab.kind == RK_DOP853:
         for i in range(n):
@@ -226,14 +228,14 @@ def rk_dense_at(tab, st, t, out):
             for r in range(6, -1, -1):
                 acc += D[r, i]
                 acc *= x if (6 - r) % 2 == 0 else 1.0 - x
-            out[i] = acc + st.y_old[i]
+            out[i] = acc + y_old[i]
     elif tab.kind == RK_EMBEDDED:
         for i in range(n):
             acc, p = 0.0, 1.0
             for k in range(tab.P.shape[1]):
                 p *= x
                 acc += D[k, i] * p
-            out[i] = h * acc + st.y_old[i]
+            out[i] = h * acc + y_old[i]
     else:
         h00, h10 = (2.0 * x - 3.0) * x * x + 1.0, ((x - 2.0) * x + 1.0) * x
         h01, h11 = (3.0 - 2.0 * x) * x * x, (x - 1.0) * x * x

@@ -11,17 +11,16 @@ from __future__ import annotations
 import time
 
 import numpy as np
-import pinocchio as pin
 
 from .. import kinematics
 from .._jit import compile_cpu
 from ..errors import RankLossError
 from ..trajectory import Checkpoint
 from . import chunk as C
-from .build import build
-from .checks import new_monitor
-from .state import (BAD, CHART, CODE_BAD, EVENT_K, H_ABS, H_FIXED, H_STALL, MAX_STEP, N_ACC, NI, NO_RESELECT, NR,
-                    OUT_I, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, Steps)
+from .build import Evaluation
+from .checks import reset_monitor
+from .state import (ATOL, BAD, CHART, CODE_BAD, DIRS, EVENT_K, H_ABS, H_FIXED, H_STALL, MAX_STEP, N_ACC, NI,
+                    NO_RESELECT, NR, OUT_I, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, XB, XE, Y, new_steps)
 
 #: accepted steps per compiled call; between calls Python looks at progress, checkpoints and
 #: the CPU budget (a chunk of a clearance run takes well under a millisecond)
@@ -56,11 +55,12 @@ class Run:
         self.form, self.mech, self.method = form, form.mech, method
         self.stats, self.identity = stats, identity
         self.progress, self.checkpoint, self.checkpoint_every, self.max_cpu = progress, checkpoint, checkpoint_every, max_cpu
-        self.errors, self.keep, self.anchor, self.message = [], [], [None], ""
-        self.built = build(form, loop, self.errors, self.anchor)
-        self.system = self.built.system
+        self.keep, self.message = [], ""
+        self.rhs = Evaluation(form, loop)
+        self.errors, self.anchor, self.built, self.system = self.rhs.errors, self.rhs.anchor, self.rhs.built, self.rhs.system
+        self.pack, self.split = self.rhs.pack, self.rhs.split
         mech, n = self.mech, len(form.ws.x)
-        self.nc = n - mech.nv - mech.nz
+        self.nc = self.rhs.nc
         self.t_eval = np.ascontiguousarray(t_eval, float)
         r, i = np.zeros(NR), np.zeros(NI, dtype=np.int64)
         r[T_BOUND], r[MAX_STEP], r[H_STALL] = t_end, np.inf if max_step is None else max_step, h_stall
@@ -72,33 +72,16 @@ class Run:
             # the drive work meter is a quadrature (nothing depends on it): out of the error test, as
             # CVODES treats quadratures by default (pinclear.energy)
             atol_v[self.nc + mech.nv + mech.z_work.start] = np.inf
-        ng = len(self.built.channels)
-        self.st = Steps(*(np.zeros(n) for _ in range(4)), K=np.zeros((max(method.rows, 1), n)),
-                        W=np.zeros((method.work, n)), ys=np.zeros(n), y_new=np.zeros(n), D=np.zeros((7, n)),
-                        atol=atol_v, xe=np.zeros(n), xb=np.zeros(n), dx=np.zeros(n), r=r, i=i,
-                        mon=new_monitor(*form.monitor()), ring=np.zeros(STALL_STEPS),
-                        dirs=np.array([float(c[2]) for c in self.built.channels]), g_prev=np.zeros(ng),
-                        g_new=np.zeros(ng), g_work=np.zeros(ng), t_eval=self.t_eval,
-                        samples=np.zeros((len(self.t_eval), n)), search=np.zeros(C.SEARCH_STATE))
+        self.st = st = new_steps(n, len(self.built.channels), t_eval, method.rows, method.work, C.SEARCH_STATE,
+                                 STALL_STEPS)
+        st.r[:] = r
+        st.i[:] = i
+        st.V[ATOL] = atol_v
+        st.G[DIRS] = [float(c[2]) for c in self.built.channels]
+        reset_monitor(st.r, *form.monitor())
         self.tab = method.tableau(self)
-        self.samples = []            # (t, q, v, z) of the output samples so far
+        self.n_collected = 0         # output samples written so far (their rows in st.samples)
         self.good = None             # the state after the last completed chunk (checkpoints)
-
-    # ----------------------------------------------------------------- the state vector
-    def pack(self, q, v, z):
-        """x = [c, v, z]; a non-Euclidean tree gets a new chart anchored at q."""
-        if self.mech.euclidean:
-            c = q
-        else:
-            self.anchor[0] = np.array(q, float)
-            c = np.zeros(self.mech.nv)
-        return np.concatenate([c, v, z])
-
-    def split(self, x, anchor=None):
-        nc, nv = self.nc, self.mech.nv
-        c = x[:nc]
-        q = c if self.mech.euclidean else pin.integrate(self.mech.model, self.anchor[0] if anchor is None else anchor, c)
-        return q, x[nc:nc + nv], x[nc + nv:]
 
     # ----------------------------------------------------------------- driving
     def start(self, t, x, hint=None, zero=-1):
@@ -108,15 +91,18 @@ class Run:
 
     def execute(self, t, x, hint, samples, first):
         """Integrate from (t, x) to t_end; ``samples``: those of a resumed run. Raises Stop (or
-        the exception a Python stage raised) on failure; the samples so far stay in self.samples."""
+        the exception a Python stage raised) on failure; the samples so far stay (``samples()``)."""
         st = self.st
-        self.samples = list(samples)
-        st.i[OUT_I] = np.searchsorted(self.t_eval, samples[-1][0], side="right") if samples else 0
+        nc, nv = self.nc, self.mech.nv
+        self.q_rows = st.samples[:, :nc] if self.mech.euclidean else np.zeros((len(self.t_eval), self.mech.nq))
+        for k, (_, q, v, z) in enumerate(samples):
+            self.q_rows[k], st.samples[k, nc:nc + nv], st.samples[k, nc + nv:] = q, v, z
+        st.i[OUT_I] = self.n_collected = len(samples)
         self.start(t, x, hint)
         if first:
             while st.i[OUT_I] < len(self.t_eval) and self.t_eval[st.i[OUT_I]] <= t + 1e-15:
                 k = st.i[OUT_I]
-                st.samples[k] = st.y
+                st.samples[k] = st.V[Y]
                 C.project(self.system, self.t_eval[k], st.samples[k])
                 st.i[OUT_I] += 1
         self.collect()
@@ -135,17 +121,25 @@ class Run:
             elif code == C.ASK_ROWS:
                 st.i[NO_RESELECT] = not self.form.reselect_rows(float(st.r[T_BAD]))
             elif code == C.RECHART:
-                q, v, z = self.split(st.y)
+                q, v, z = self.split(st.V[Y])
                 self.stats["restarts"] += 1
                 self.start(st.r[T], self.pack(q, v, z), st.r[H_ABS])
             elif code not in (C.QUIET, C.FINISHED):
                 self.fail(code)
 
     def collect(self):
-        """The samples the last chunk wrote, as (t, q, v, z) (split with the current anchor)."""
-        for k in range(len(self.samples), int(self.st.i[OUT_I])):
-            q, v, z = self.split(self.st.samples[k])
-            self.samples.append((float(self.t_eval[k]), q, v, z))
+        """The configurations of the samples the last chunk wrote (a non-Euclidean tree's rows
+        hold chart coordinates around the current anchor); v and z stay in the sample rows."""
+        if not self.mech.euclidean:
+            for k in range(self.n_collected, int(self.st.i[OUT_I])):
+                self.q_rows[k] = self.split(self.st.samples[k])[0]
+        self.n_collected = int(self.st.i[OUT_I])
+
+    def samples(self, n=None):
+        """The output samples so far (the first n) as (t, q, v, z) tuples, views of the rows."""
+        n = self.n_collected if n is None else n
+        X, nc, nv = self.st.samples[:n], self.nc, self.mech.nv
+        return list(zip(self.t_eval[:n].tolist(), self.q_rows[:n], X[:, nc:nc + nv], X[:, nc + nv:]))
 
     def handle_event(self):
         """The event the chunk located: the element's handle_event at its time and state, then a
@@ -154,7 +148,7 @@ class Run:
         k, te = int(st.i[EVENT_K]), float(st.r[T_EVENT])
         fi, ch, _ = self.built.channels[k]
         f, sl = mech.forces[fi], mech.z_slices[fi]
-        q, v, z = (np.array(a) for a in self.split(st.xe))
+        q, v, z = (np.array(a) for a in self.split(st.V[XE]))
         kinematics.update(mech, ws, q, v)
         z[sl] = f.handle_event(ch, mech, ws, ws.force_data[fi], te, q, v, z[sl])
         self.stats["events"].append({"t": te, "element": f.name, "event": f.events[ch][0]})
@@ -167,7 +161,7 @@ class Run:
     # ----------------------------------------------------------------- bookkeeping
     def mark_good(self):
         st = self.st
-        self.good = (float(st.r[T]), st.y.copy(), self.anchor[0], float(st.r[H_ABS]), len(self.samples),
+        self.good = (float(st.r[T]), st.V[Y].copy(), self.anchor[0], float(st.r[H_ABS]), self.n_collected,
                      len(self.stats["events"]))
 
     def bookkeeping(self, times):
@@ -195,7 +189,7 @@ class Run:
         if self.good is None:
             return
         tg, xg, anchor, hg, ns, ne = self.good
-        del self.samples[ns:]
+        self.n_collected = self.st.i[OUT_I] = ns
         del self.stats["events"][ne:]
         if self.checkpoint is None:
             return
@@ -204,7 +198,8 @@ class Run:
         self.stats["cpu_s"] = self.cpu_prior + run_clock() - self.cpu0
         q0, v0, z0 = self.initial
         self.checkpoint(Checkpoint(t0=self.t0, q=q0, v=v0, z=z0, t=tg, q_now=qg, v_now=vg, z_now=zg, h_next=hg,
-                                   samples=list(self.samples), stats=dict(self.stats, events=list(self.stats["events"])),
+                                   samples=[(t, q.copy(), v.copy(), z.copy()) for t, q, v, z in self.samples()],
+                                   stats=dict(self.stats, events=list(self.stats["events"])),
                                    identity=self.identity))
 
     def evaluations(self):
@@ -218,7 +213,7 @@ class Run:
             raise self.errors[0]
         t = float(st.r[T])
         if code in (C.START_FAILED, C.BAD_EVALUATIONS, C.RANK_LOSS) or (code == C.STEP_TOO_SMALL and st.i[BAD]):
-            self.python_error(float(st.r[T_BAD]), st.xb.copy())
+            self.python_error(float(st.r[T_BAD]), st.V[XB].copy())
         if code == C.STEP_TOO_SMALL:
             msg = self.message or "Required step size is less than spacing between numbers."
             raise Stop("step-size collapse", t,
@@ -235,7 +230,7 @@ class Run:
         if code == C.NONFINITE_STATE:
             raise Stop("non-finite", t, f"non-finite state at t = {t:.9g} s")
         if code == C.PROJECTION_FAILED:
-            q, v, _ = self.split(st.y)
+            q, v, _ = self.split(st.V[Y])
             self.form.project(t, q, v)
             raise Stop("non-finite", t, f"the projection onto the constraint manifold failed at t = {t:.9g} s")
         raise Stop("exception", t, f"the step logic stopped with code {code} at t = {t:.9g} s")

@@ -14,10 +14,12 @@ RK_EMBEDDED, RK_DOP853, RK_FIXED, ROSENBROCK, EXTERNAL = range(5)
 #: Steps.r: current time, time before the last accepted step, next step size, the last step
 #: (signed), end of the integration, largest step, rtol, the stall test's mean step, the time and
 #: code of the last bad evaluation, the located event's time, the step size an aborted step
-#: started from, the fixed step (RK4)
+#: started from, the fixed step (RK4); then the pivot monitor (pinclear.stepping.checks): the
+#: smallest ratio since the last accepted step, the run's first ratio (nan before), the rank floor
+#: and the reselect factor
 (T, T_OLD, H_ABS, H_PREV, T_BOUND, MAX_STEP, RTOL, H_STALL, T_BAD, CODE_BAD, T_EVENT, H_START,
- H_FIXED) = range(13)
-NR = 13
+ H_FIXED, MON_MIN, MON_REF, MON_FLOOR, MON_RESELECT) = range(17)
+NR = 17
 #: Steps.i: accepted steps (since the counters were reset), accepted steps of the run (the
 #: stall ring's count), next output sample, consecutive bad evaluations, whether the dense
 #: output of the last step is ready, the located event's channel, whether row reselection is
@@ -25,6 +27,15 @@ NR = 13
 #: step attempts, Jacobian evaluations (implicit methods)
 (STEPS, N_ACC, OUT_I, BAD, DENSE, EVENT_K, NO_RESELECT, CHART, REJECTS, NJAC) = range(10)
 NI = 10
+#: rows of Steps.V: the state after the last accepted step and f there, the state before it and
+#: f there, a stage state, the proposed state, the absolute tolerance (inf: out of the error
+#: test), the state at an event (and dense-output work), the state of the last bad evaluation,
+#: derivative work
+(Y, F, Y_OLD, F_OLD, YS, Y_NEW, ATOL, XE, XB, DX) = range(10)
+NV = 10
+#: rows of Steps.G (event channels): direction, values after the last accepted step, values at
+#: the step's end, work
+(DIRS, G_PREV, G_NEW, G_WORK) = range(4)
 
 
 class Tableau(NamedTuple):
@@ -76,28 +87,24 @@ def tableau(kind, order, **fields) -> Tableau:
 
 
 class Steps(NamedTuple):
-    """A run's stepping state (one per run; see the module doc for r and i)."""
-    y: np.ndarray          # (n,) state after the last accepted step
-    f: np.ndarray          # (n,) f(t, y)
-    y_old: np.ndarray      # (n,) state before it
-    f_old: np.ndarray      # (n,) f(t_old, y_old)
+    """A run's stepping state (one per run; the module doc names the rows and entries). Few arrays
+    on purpose: a compiled call that is not inlined reference-counts every array of its
+    arguments (~3 ns each), and the step functions pass this tuple around at every step."""
+    V: np.ndarray          # (NV, n) state vectors
     K: np.ndarray          # (stages, n) stage derivatives (work of the method)
     W: np.ndarray          # (rows, n) method work (Rosenbrock: Jacobian and stage solves)
-    ys: np.ndarray         # (n,) stage state
-    y_new: np.ndarray      # (n,) proposed state
     D: np.ndarray          # (7, n) dense output coefficients of the last step
-    atol: np.ndarray       # (n,) absolute tolerance (inf: out of the error test)
-    xe: np.ndarray         # (n,) state at an event / dense-output work
-    xb: np.ndarray         # (n,) state of the last bad evaluation
-    dx: np.ndarray         # (n,) derivative work
-    r: np.ndarray          # (NR,) scalars
+    r: np.ndarray          # (NR,) scalars and the pivot monitor
     i: np.ndarray          # (NI,) int64 counters and flags
-    mon: np.ndarray        # (4,) pivot monitor (checks.monitor)
     ring: np.ndarray       # (STALL_STEPS,) times of the last accepted steps (stall test, progress)
-    dirs: np.ndarray       # (ng,) event directions
-    g_prev: np.ndarray     # (ng,) event values after the last accepted step
-    g_new: np.ndarray      # (ng,)
-    g_work: np.ndarray     # (ng,)
+    G: np.ndarray          # (4, ng) event channels
     t_eval: np.ndarray     # (ns,) output times
     samples: np.ndarray    # (ns, n) output samples (written once each)
     search: np.ndarray     # Brent's state (roots.BRENT_STATE / ROOT_STATE, the larger)
+
+
+def new_steps(n, ng, t_eval, rows, work, search, ring):
+    """Zeroed stepping state for a state of n components and ng event channels."""
+    return Steps(np.zeros((NV, n)), np.zeros((max(rows, 1), n)), np.zeros((work, n)), np.zeros((7, n)),
+                 np.zeros(NR), np.zeros(NI, dtype=np.int64), np.zeros(ring), np.zeros((4, ng)),
+                 np.ascontiguousarray(t_eval, float), np.zeros((len(t_eval), n)), np.zeros(search))
