@@ -23,7 +23,7 @@ from .errors import InputError, PinclearError
 from .stepping.run import run_clock as _run_clock
 
 #: columns of atlas.csv, in order (the JSON rows carry the same keys)
-COLUMNS = ["scene", "method", "integrator", "tol", "h", "status", "reason", "message", "t_failed", "t_end", "error",
+COLUMNS = ["scene", "method", "integrator", "tol", "h", "status", "reason", "failure_kind", "message", "t_failed", "t_end", "error",
            "energy_drift", "energy_kind", "max_residual", "branch_spread", "cpu_s", "rhs_evals", "steps"]
 REASONS = ("rank loss", "step-size collapse", "non-finite", "budget", "branch switch", "other")
 
@@ -187,49 +187,27 @@ def reference(mech, label, t_end, max_cpu=BUDGET_REFERENCE):
 
 
 # ------------------------------------------------------------------------------------ one cell
-_T_RE = re.compile(r"(?:at|after) t = ([0-9.eE+-]+) s")
-_KEPT_RE = re.compile(r"samples kept up to t = ([0-9.eE+-]+) s")
-_RANK_WORDS = ("lost rank", "did not converge")       # pinclear.formulations' RankLossError messages
+#: the atlas's reason for each kind of Trajectory.failure (the run's failure as data: no message
+#: is parsed, so rewording a message cannot change an atlas)
+REASON_OF = {"non-finite": "non-finite", "step-size collapse": "step-size collapse", "budget": "budget",
+             "rank loss": "rank loss", "singular matrix": "rank loss"}
 
 
-def classify(message, t_end, t_rank=None):
-    """(reason, t_failed, note) of a failed run from pinclear.simulate's message (and the time of
-    stats['rank_loss'] if any).
+def classify(traj, t_end):
+    """(reason, t_failed, note) of a failed run from its ``failure`` (kind, t, detail).
 
-    A rank loss or singular matrix raised at a stage state of a long step (an explicit step
-    overshooting into a stiff contact) is told apart from a rank loss on the trajectory (located
-    by pinclear.simulate along the accepted step, samples kept up to it): its time lies more than
-    two output intervals beyond the last sample kept.
-    It stays 'rank loss' (what the formulation saw) with a note, and t_failed is the time the
-    trajectory reached."""
-    m = _T_RE.search(message)
-    t = t_rank if t_rank is not None else (float(m.group(1)) if m else None)
-    k = _KEPT_RE.search(message)
-    kept = float(k.group(1)) if k else None
-    if "infs or NaNs" in message or "non-finite" in message:
-        return "non-finite", t, ""
-    if "step-size collapse" in message:
-        return "step-size collapse", t, ""
-    if "CPU budget" in message:
-        return "budget", t, ""
-    if any(w in message for w in _RANK_WORDS) or "singular matrix" in message:
-        if t is not None and kept is not None and t - kept > 2 * t_end / SAMPLES:
-            return "rank loss", kept, (f"at an integrator stage {t - kept:.3g} s beyond the last sample kept, "
-                                       "not on the computed trajectory")
-        return "rank loss", t, ""
-    return "other", t if t is not None else kept, ""
-
-
-def reclassify(res):
-    """Apply :func:`classify` again to the failed pinclear rows of an atlas result (no rerun)."""
-    for r in res["rows"]:
-        if r["status"] != "failed" or r["reason"] == "branch switch" or r["method"] == r["integrator"]:
-            continue
-        msg = r["message"].split(" [", 1)[0]
-        t_rank = r["t_failed"] if r["reason"] == "rank loss" and any(w in msg for w in _RANK_WORDS) else None
-        r["reason"], r["t_failed"], note = classify(msg, r["t_end"], t_rank)
-        r["message"] = msg + (f" [{note}]" if note else "")
-    return res
+    A rank loss raised at the stage state of a trial step (an explicit step overshooting into a
+    stiff contact, rejected until the steps could not get past it) is told apart from a rank loss
+    on the trajectory (located along an accepted step, samples kept up to it): its time lies more
+    than two output intervals beyond the last sample kept. It stays 'rank loss' (what the
+    formulation saw) with a note, and t_failed is the time the trajectory reached."""
+    kind, t, _ = traj.failure
+    reason = REASON_OF.get(kind, "other")
+    kept = float(traj.t[-1]) if len(traj.t) else None
+    if reason == "rank loss" and t is not None and kept is not None and t - kept > 2 * t_end / SAMPLES:
+        return reason, kept, (f"at an integrator stage {t - kept:.3g} s beyond the last sample kept, "
+                              "not on the computed trajectory")
+    return reason, t if t is not None else kept, ""
 
 
 def energy_error(traj, mech):
@@ -279,8 +257,8 @@ def run_cell(mech, label, t_end, method, integrator, tol, h, q_ref, max_cpu):
     if tr.status == "success":
         reason, t_failed = "", None
     else:
-        rl = tr.stats.get("rank_loss") or {}
-        reason, t_failed, note = classify(tr.message, t_end, rl.get("t"))
+        reason, t_failed, note = classify(tr, t_end)
+        row["failure_kind"] = tr.failure[0]
         if note:
             row["message"] += f" [{note}]"
     spread = branch_spread(mech, tr.q) if len(tr.t) else None

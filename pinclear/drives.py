@@ -24,11 +24,11 @@ class Drive:
 
 
 class DriveData:
-    """Per-workspace drive buffers: law values (3, nd) and the last time of each shared group."""
+    """Per-workspace drive buffers: law values (3, nd). No cache by time: a run's compiled
+    stages write these values too, so a value remembered by time would go stale."""
 
     def __init__(self, nd, ngroups):
         self.f = np.zeros((3, nd))
-        self.t_group = [None] * ngroups
 
 
 class DriveRows:
@@ -80,14 +80,12 @@ class DriveRows:
     def values(self, t, d: DriveData):
         """(3, nd) law values, first and second derivatives at t (written into ``d.f``)."""
         f = d.f
-        for g, (law, ks, ix, direct) in enumerate(self.groups):
-            if d.t_group[g] != t:            # the same instant is asked for by many evaluations
-                if direct is not None:
-                    direct(t, f)
-                else:
-                    y, yd, ydd = law.vector(t)
-                    f[0, ks], f[1, ks], f[2, ks] = y[ix], yd[ix], ydd[ix]
-                d.t_group[g] = t
+        for law, ks, ix, direct in self.groups:
+            if direct is not None:
+                direct(t, f)
+            else:
+                y, yd, ydd = law.vector(t)
+                f[0, ks], f[1, ks], f[2, ks] = y[ix], yd[ix], ydd[ix]
         lt = self.law_table
         if lt is not None:
             eval_laws(lt[0], lt[1], lt[2], float(t), lt[3], f)

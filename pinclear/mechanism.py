@@ -195,7 +195,8 @@ class Workspace:
         self.force_data = [f.create_data(mech) for f in mech.forces]
 
     def load_state(self, q, v, z):
-        """Copy (q, v, z) into the state buffer (a no-op for its own views)."""
+        """Copy (q, v, z) into the state buffer (a no-op for its own views). z may stop before
+        the drive work meter, which no kernel reads."""
         for dst, src in ((self.q, q), (self.v, v), (self.z, z)):
             if src is not dst:
-                dst[:] = src
+                dst[:len(src)] = src

@@ -14,7 +14,7 @@ import pinclear
 from pinclear import cli
 from pinclear.analysis import cli as analysis_cli
 from pinclear.formulations import METHODS
-from pinclear.integrators import INTEGRATORS
+from pinclear.stepping import INTEGRATORS
 from pinclear.reproduce import build_parser as reproduce_parser
 from pinclear.screw import cli as screw_cli
 from pinclear.viz import cli as viz_cli

@@ -130,8 +130,8 @@ def test_python_law_with_index_evaluates_once_per_time():
 
 def test_python_law_through_drives_in_a_simulation(double_pendulum_urdf, sim):
     """Both joints of the double pendulum driven by components of ONE vector law: the law is
-    evaluated once per evaluation time (never twice in a row at the same t, as two separate
-    laws would be), and the motion follows it."""
+    evaluated once per evaluation (two separate laws would cost two calls each), and the motion
+    follows it."""
     from pinclear.drives import Drive
 
     def law2(t):
@@ -152,8 +152,9 @@ def test_python_law_through_drives_in_a_simulation(double_pendulum_urdf, sim):
     assert traj.status == "success"
     np.testing.assert_allclose(traj.q[:, 0], 0.3 * np.sin(2 * traj.t), atol=1e-8)
     np.testing.assert_allclose(traj.q[:, 1], 0.2 * traj.t, atol=1e-8)
-    assert len(CALLS) >= traj.stats["rhs_evals"] // 2
-    assert all(a != b for a, b in zip(CALLS, CALLS[1:]))
+    # once per right-hand side, plus the samples' output evaluations (at most two per sample)
+    n = traj.stats["rhs_evals"]
+    assert n <= len(CALLS) <= n + 2 * len(traj.t) < 2 * n
 
 
 def test_law_spec_errors_name_key_and_choices():

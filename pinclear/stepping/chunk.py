@@ -29,7 +29,7 @@ from .call import call_stage
 from .checks import BAD, FAILED, GOOD, dipped, first_crossing, observe, stalled
 from .rk import ACCEPTED, ASK_RESELECT, BAD_EVALS, STAGE_ERROR, TOO_SMALL, rk_dense, rk_dense_at, rk_step
 from .roots import BRENT_STATE, ROOT_STATE, brent_next, brent_root_next, brent_root_start, brent_start
-from .state import (ATOL, BAD as BAD_COUNT, CHART, DENSE, DIRS, DX, EVENT_K, EXTERNAL, F, G_NEW, G_PREV, G_WORK,
+from .state import (ATOL, BAD as BAD_COUNT, CHART, DENSE, DIRS, DX, EVENT_K, EXTERNAL, F, G_NEW, G_PREV, G_WORK, RK_FIXED,
                     H_ABS, H_PREV, H_STALL, MAX_STEP, MON_MIN, N_ACC, NO_RESELECT, OUT_I, RTOL, STEPS, T, T_BAD,
                     T_BOUND, T_EVENT, T_OLD, XB, XE, Y, Y_OLD, YS)
 from .system import evaluate, event_values, project
@@ -70,16 +70,18 @@ def write_samples(sys, tab, st, t_stop, strict):
     """Output samples at the times up to t_stop (before it when ``strict``) from the last step's
     dense output, each moved onto the manifold by the formulation's projection, if any."""
     te, j = st.t_eval, st.i[OUT_I]
-    if tab.kind != EXTERNAL and not st.i[DENSE]:
-        rk_dense(sys, tab, st)
-        st.i[DENSE] = 1
-    D, y_old, t_old, h = st.D, st.V[Y_OLD], st.r[T_OLD], st.r[H_PREV]
+    D, y, y_old, t, t_old, h = st.D, st.V[Y], st.V[Y_OLD], st.r[T], st.r[T_OLD], st.r[H_PREV]
     projects = sys.project.shape[0] > 0
     while j < te.shape[0] and (te[j] < t_stop if strict else te[j] <= t_stop):
         row = st.samples[j]
-        if tab.kind == EXTERNAL:
+        if te[j] == t:
+            row[:] = y                        # the step's own end (DOP853 saves its extra stages)
+        elif tab.kind == EXTERNAL:
             dense_at(sys, tab, st, te[j], row)
         else:
+            if not st.i[DENSE]:
+                rk_dense(sys, tab, st)
+                st.i[DENSE] = 1
             rk_dense_at(tab, D, y_old, t_old, h, te[j], row)
         if projects:
             project(sys, te[j], row)
@@ -144,7 +146,7 @@ def start(sys, tab, st, t, x, h_hint, zero_channel):
         return START_FAILED
     if h_hint > 0.0:
         r[H_ABS] = h_hint
-    elif tab.kind != EXTERNAL:
+    elif tab.kind != EXTERNAL and tab.kind != RK_FIXED:
         h = initial_step(sys, tab, st, t)
         if h < 0.0:
             return PYTHON_ERROR if st.i[BAD_COUNT] == 0 else START_FAILED
