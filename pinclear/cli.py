@@ -138,7 +138,10 @@ class _StopRequest:
 
     def __exit__(self, *exc):
         for sig, old in self._old.items():
-            signal.signal(sig, old)
+            # after a stop request the command is ending with 130 with everything saved: a
+            # signal arriving now (the second of two quick ones) must not turn that into a
+            # death by signal
+            signal.signal(sig, signal.SIG_IGN if self.requested else old)
         return False
 
 
