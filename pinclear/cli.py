@@ -261,7 +261,6 @@ def _simulate(args, stop):
             if not ck_path.exists():
                 raise InputError(f"--resume {str(out)!r}: no checkpoint.npz (the run finished, or never wrote one)")
             resume = Checkpoint.load(ck_path)
-            resume.path = str(ck_path)
         mech = _load(args)
         if stop.requested:
             print("pinclear: interrupted before the run started; nothing computed", file=sys.stderr)

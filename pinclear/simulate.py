@@ -144,7 +144,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     if resume is not None:
         # a checkpoint is data: checked against this mechanism and this run before any compiled
         # code reads it (a wrong-length state would be written out of bounds)
-        validate.check_checkpoint(resume, mech, getattr(resume, "path", "<checkpoint>"), identity, form.ws)
+        validate.check_checkpoint(resume, mech, resume.path or "<checkpoint>", identity, form.ws)
         q, v, z = resume.q, resume.v, resume.z
     else:
         q, v, z = initial_state(mech, form, q0, v0, t0, assemble)
@@ -219,10 +219,11 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
 
 def _loop_note(run) -> str:
     """stats['loop']: how the run's evaluation ran, and what ran in Python (at Python's cost)."""
-    b = run.built
+    b, m = run.built, run.method
+    steps = f"; steps taken by SciPy's {m.name} in Python" if m.python_steps else ""
     if b.why:
-        return f"python: {b.why}"
-    return "compiled" if not b.python else f"compiled; python stages: {'; '.join(b.python)}"
+        return f"python: {b.why}{steps}"
+    return ("compiled" if not b.python else f"compiled; python stages: {'; '.join(b.python)}") + steps
 
 
 def _failure(exc, integrator, samples, t0):

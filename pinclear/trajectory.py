@@ -59,6 +59,7 @@ class Checkpoint:
     samples: list = field(default_factory=list)      # (t, q, v, z) output samples so far
     stats: dict = field(default_factory=dict)
     identity: dict | None = None  # the run it belongs to (pinclear.validate.run_identity)
+    path: str | None = None       # the file it was loaded from (named in errors)
 
     def save(self, path):
         """NPZ, written atomically (a temporary file renamed into place)."""
@@ -99,7 +100,7 @@ class Checkpoint:
         return cls(t0=V.number(meta["t0"], path, "t0"), q=vec["q"], v=vec["v"], z=vec["z"],
                    t=V.number(meta["t"], path, "t"), q_now=vec["q_now"], v_now=vec["v_now"], z_now=vec["z_now"],
                    h_next=V.number(meta["h_next"], path, "h_next", positive=True, allow_none=True),
-                   samples=samples, stats=dict(meta["stats"]), identity=identity)
+                   samples=samples, stats=dict(meta["stats"]), identity=identity, path=str(path))
 
 
 def atomic_savez(path, arrays: dict):

@@ -68,6 +68,20 @@ def test_compiled_stages_take_the_python_paths_steps(name, clr, t_end):
         np.testing.assert_allclose(fast.lam[k], slow.lam[k], rtol=0, atol=1e-9 * max(1.0, np.abs(slow.lam[k]).max()))
 
 
+@pytest.mark.parametrize("integrator, kw", [("DOP853", {}), ("RK4", {"h": 1e-5}), ("Radau", {}), ("LSODA", {})])
+def test_every_integrator_takes_the_same_steps_on_both_paths(integrator, kw):
+    """The integrators share the step logic and evaluate through the same stages: on a clearance
+    scene with events the compiled stages and the Python path take the same steps."""
+    rtol = {} if kw else {"rtol": 1e-6}
+    mech = pinclear.load("clr_planar_pendulum", clearances=["A"])
+    fast = _quiet(pinclear.simulate, mech, 0.05, integrator=integrator, **rtol, **kw)
+    slow = _quiet(pinclear.simulate, mech, 0.05, integrator=integrator, loop="python", **rtol, **kw)
+    assert fast.status == slow.status == "success" and fast.stats["events"]
+    assert fast.stats["loop"].startswith("compiled")
+    assert ("SciPy's" in fast.stats["loop"]) == (integrator in ("Radau", "LSODA"))
+    _same_run(fast, slow)
+
+
 @pytest.mark.parametrize("name, t_end", [("parallelogram", 0.5), ("a02_nfourbar_10", 0.5), ("a02_nfourbar_2", 3.0)])
 def test_both_paths_stop_at_the_same_singular_passage(name, t_end):
     """Lagrange cannot pass a flat position: the step logic searches the step whose pivots

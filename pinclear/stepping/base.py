@@ -24,11 +24,14 @@ class Method(abc.ABC):
     4. ``corrects_state`` says whether a state changed after a step (projection) can be put into
        its running state; if not, projection methods cannot use it.
     5. :meth:`stats` adds the method's own counters to a run's stats (Jacobians, LU).
+    6. ``python_steps`` says whether its steps are taken in Python (SciPy's solvers), which a
+       run's ``stats["loop"]`` reports.
     """
 
     name = ""
     adaptive = True
     corrects_state = True
+    python_steps = False
     rows = 0
     work = 0
 

@@ -83,7 +83,7 @@ class _Driver:
 
 
 class Scipy(Method):
-    kind = EXTERNAL
+    python_steps = True
 
     def __init__(self, name, cls, corrects_state=True):
         self.name, self.cls, self.corrects_state = name, cls, corrects_state
