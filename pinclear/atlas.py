@@ -481,7 +481,7 @@ def write(res, out, figures=None):
         if not srows or (figures is not None and label not in figures):
             continue
         heatmap(srows, out / f"heatmap_{_fname(label)}.png", label, sc)
-        bench._chart(srows, out / f"work_precision_{_fname(label)}.png",
+        bench.draw_chart(srows, out / f"work_precision_{_fname(label)}.png",
                      f"{label}: error at t = {sc['t_end']:g} s vs CPU time (ref: {sc['reference'].split(':')[0].split(',')[0]})")
 
 

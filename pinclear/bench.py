@@ -141,7 +141,7 @@ def work_precision(mech, t_end=2.0, combos=None, tols=(1e-4, 1e-5, 1e-6, 1e-7, 1
         for r in rows:
             w.writerow(r)
     png_path = out_dir / f"work_precision_{mech.name}.png"
-    _chart(rows, png_path, f"{mech.name}: error at t = {t_end} s vs CPU time")
+    draw_chart(rows, png_path, f"{mech.name}: error at t = {t_end} s vs CPU time")
     best = {}
     for target in (1e-6, 1e-9):
         ok = [r for r in rows if np.isfinite(r["error"]) and r["error"] <= target]
@@ -174,7 +174,7 @@ def q_error(model, q_ref, q):
     return float(np.max(np.abs(pin.difference(model, np.asarray(q_ref, float), np.asarray(q, float)))))
 
 
-def _chart(rows, path, title, ax=None):
+def draw_chart(rows, path, title, ax=None):
     """Error vs CPU seconds, one line per (method, integrator) of ``rows`` (failed points, error
     NaN, left out). With ``ax`` it draws there and the caller saves the figure."""
     import matplotlib

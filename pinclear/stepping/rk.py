@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import integrate as spi
-from scipy.integrate._ivp import dop853_coefficients as dop
 
 from .._jit import njit
 from .checks import BAD, FAILED, RESELECT, observe
@@ -28,9 +27,9 @@ def rk45():
 
 
 def dop853():
-    s = dop.N_STAGES
-    return tableau(RK_DOP853, spi.DOP853.error_estimator_order, A=dop.A[:s, :s], B=dop.B, C=dop.C[:s], E3=dop.E3,
-                   E5=dop.E5, AX=dop.A[s + 1:], CX=dop.C[s + 1:], DX=dop.D)
+    c = spi.DOP853
+    return tableau(RK_DOP853, c.error_estimator_order, A=c.A, B=c.B, C=c.C, E3=c.E3, E5=c.E5, AX=c.A_EXTRA,
+                   CX=c.C_EXTRA, DX=c.D)
 
 
 def rk4():
