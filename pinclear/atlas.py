@@ -44,7 +44,9 @@ T_END = {"parallelogram": 1.0, "a02_nfourbar_1": 3.0, "a02_nfourbar_2": 3.0, "a0
          # python drive laws (inverse kinematics per evaluation): ~10x the cost of a sines law
          "four_ups_upr": 0.5,
          # 5000 rpm: 4 crank revolutions
-         "slider_crank_clearance": 0.05}
+         "slider_crank_clearance": 0.05,
+         # the Test Set's interval: beta turns 2.5 revolutions and reaches ~1100 rad/s in it
+         "squeezer": 0.03}
 T_END_RIGID = 2.0
 #: clearance scenes cost 1-70 CPU s per simulated s (benchmarks/bench_runs.md, RK45 rtol 1e-6):
 #: windows sized so that one RK45 rtol-1e-6 cell costs about 0.3 s
@@ -52,7 +54,8 @@ T_END_CLEARANCE = {"clr_hinge+R": 0.04, "clr_pendulum+S": 0.05, "clr_planar_pend
                    "clr_slider+P": 0.015, "four_ups_upu+S2": 0.2, "nine_bar+A": 0.1, "nine_bar+B": 0.1,
                    "slider_crank_clearance+P": 0.01, "three_upru_up+P_UP": 0.005}
 T_END_CLEARANCE_DEFAULT = 0.02
-QUICK_T_END = {"parallelogram": 0.5, "a02_nfourbar_1": 1.0, "a02_nfourbar_2": 1.0, "a02_nfourbar_10": 1.0}
+QUICK_T_END = {"parallelogram": 0.5, "a02_nfourbar_1": 1.0, "a02_nfourbar_2": 1.0, "a02_nfourbar_10": 1.0,
+               "squeezer": 0.03}
 QUICK_T_END_RIGID = 0.5
 QUICK_CLEARANCE_FACTOR = 0.25
 

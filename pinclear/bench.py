@@ -249,68 +249,173 @@ def _integration_cpu(tr):
     return tr.stats["cpu_s"] - tr.stats["setup_cpu_s"]
 
 
-def bench_runs(files=None, t_end=0.5, rtol=1e-6, integrator="RK45", max_cpu=120.0, progress=None, repeat=20):
-    """Simulate every scene for ``t_end`` simulated seconds (RK45, rtol 1e-6: the clearance
-    default) and report per scene: CPU s per simulated s, set-up CPU, right-hand-side evaluations,
-    steps, us per evaluation inside the run (the integration's CPU over evaluations: integrator,
-    events and output sampling included, set-up not) and its ratio over the Pinocchio floor
-    measured at the run's own samples in the same process. Each scene's figures come from the best
-    of ``repeat`` runs, fewer once they used a CPU second; ``loop`` says which integration loop ran."""
+def check_run_names(methods, integrators, keys=("methods", "integrators")):
+    """The method and integrator names of a benchmark, checked against the registries
+    (pinclear.formulations.METHODS, pinclear.integrators.INTEGRATORS) before anything runs;
+    ``keys`` name the arguments in the error (the command line passes its option names)."""
+    from . import integrators as integ_mod
+
+    methods, integrators = tuple(methods), tuple(integrators)
+    adaptive = [k for k, v in integ_mod.INTEGRATORS.items() if v.adaptive]
+    if not methods:
+        raise InputError("give at least one method", key=keys[0], choices=formulations.METHODS)
+    if not integrators:
+        raise InputError("give at least one integrator", key=keys[1], choices=adaptive)
+    for m in methods:
+        if m not in formulations.METHODS:
+            raise InputError(f"unknown method {m!r}", key=keys[0], choices=formulations.METHODS)
+    for i in integrators:
+        if i not in integ_mod.INTEGRATORS:
+            raise InputError(f"unknown integrator {i!r}", key=keys[1], choices=integ_mod.INTEGRATORS)
+        # every cell runs at one rtol: a fixed-step integrator has no rtol to run at
+        if i not in adaptive:
+            raise InputError(f"integrator {i!r} is fixed-step (h), and bench runs compares runs at one rtol",
+                             key=keys[1], choices=adaptive)
+    return methods, integrators
+
+
+def _run_cell(mech, t_end, rtol, method, integrator, max_cpu, repeat):
+    """Warm-up, then the best of up to ``repeat`` runs of one (scene, method, integrator) cell;
+    None and the reason when the method or integrator refuses the scene."""
     import warnings
 
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            # warm-up: compiled kernels load from the cache (or compile) on a scene's first run
+            simulate(mech, min(t_end, 1e-3), method=method, rtol=rtol, integrator=integrator, max_cpu=max_cpu)
+        except PinclearError as exc:         # e.g. a closure type the method cannot express
+            return None, f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+        # best of up to `repeat` runs (while they took under a CPU second together): a short
+        # run's few hundred microseconds are at the mercy of the machine's other work
+        tr, spent = None, 0.0
+        for _ in range(repeat):
+            run = simulate(mech, t_end, method=method, rtol=rtol, integrator=integrator, max_cpu=max_cpu,
+                           dt_out=t_end / 100)
+            spent += run.stats["cpu_s_total"]
+            if tr is None or _integration_cpu(run) < _integration_cpu(tr):
+                tr = run
+            if spent > 1.0:
+                break
+    return tr, None
+
+
+def bench_runs(files=None, t_end=0.5, rtol=1e-6, methods=("lagrange",), integrators=("RK45",), max_cpu=120.0,
+               progress=None, repeat=20, integrator=None):
+    """Simulate every scene for ``t_end`` simulated seconds with every (method, integrator) pair
+    (default lagrange + RK45, rtol 1e-6: the clearance default) and report per cell: CPU s per
+    simulated s, set-up CPU, right-hand-side evaluations, steps, events, us per evaluation
+    inside the run (the integration's CPU over evaluations: integrator, events and output
+    sampling included, set-up not) and its ratio over the Pinocchio floor measured at the run's
+    own samples in the same process. Each cell's figures come from the best of ``repeat`` runs,
+    fewer once they used a CPU second; ``loop`` says which integration loop ran. A cell whose
+    method or integrator refuses the scene (a PinclearError before the run starts) is recorded
+    with status ``skipped`` and the reason. ``integrator`` (one name) is the older spelling of
+    ``integrators``. Result: ``scenes``, one row per cell (scene, method, integrator)."""
     from .sidecar import load
 
+    if integrator is not None:
+        integrators = (integrator,)
+    methods, integrators = check_run_names(methods, integrators)
     rows = []
     for label, path, clr in scenes(files):
-        if progress is not None:
-            progress(label)
         mech = load(path, clearances=clr or None)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            # warm-up: compiled kernels load from the cache (or compile) on a scene's first run
-            simulate(mech, min(t_end, 1e-3), rtol=rtol, integrator=integrator, max_cpu=max_cpu)
-            # best of up to `repeat` runs (while they took under a CPU second together): a short
-            # run's few hundred microseconds are at the mercy of the machine's other work
-            tr, spent = None, 0.0
-            for _ in range(repeat):
-                run = simulate(mech, t_end, rtol=rtol, integrator=integrator, max_cpu=max_cpu, dt_out=t_end / 100)
-                spent += run.stats["cpu_s_total"]
-                if tr is None or _integration_cpu(run) < _integration_cpu(tr):
-                    tr = run
-                if spent > 1.0:
-                    break
-        st = tr.stats
-        row = {"scene": label, "nv": mech.nv, "closure_rows": mech.compiled.m, "drives": len(mech.drives),
-               "clearances": [f.name for f in mech.clearances], "status": tr.status,
-               "t_reached": float(tr.t[-1]) if len(tr.t) else 0.0, "cpu_s": st["cpu_s"], "rhs_evals": st["rhs_evals"],
-               "steps": st["steps"], "events": len(st["events"]), "loop": st["loop"]}
-        sim_t = max(row["t_reached"], 1e-12)
-        row["cpu_per_sim_s"] = st["cpu_s"] / sim_t
-        # set-up (assembly, rank analysis, buffers) has its own target; an evaluation's cost
-        # inside the run is the integration's CPU (integrator, events, samples) over evaluations
-        row["setup_ms"] = 1e3 * st["setup_cpu_s"]
-        row["us_per_eval"] = 1e6 * _integration_cpu(tr) / max(st["rhs_evals"], 1)
-        row["us_per_eval_with_setup"] = 1e6 * st["cpu_s"] / max(st["rhs_evals"], 1)
-        if len(tr.t):
-            floor = pinocchio_floor(mech, tr.q, tr.v, repeat=10)
-            row["floor_us"] = 1e6 * floor
-            row["ratio_over_floor"] = row["us_per_eval"] / row["floor_us"]
-        if tr.status != "success":
-            row["message"] = tr.message
-        rows.append(row)
-    return {"t_end": t_end, "rtol": rtol, "integrator": integrator, "max_cpu": max_cpu, "repeat": repeat,
-            "scenes": rows}
+        for integ in integrators:
+            for method in methods:
+                if progress is not None:
+                    progress(label if len(methods) * len(integrators) == 1 else f"{label} {method} + {integ}")
+                row = {"scene": label, "method": method, "integrator": integ, "nv": mech.nv,
+                       "closure_rows": mech.compiled.m, "drives": len(mech.drives),
+                       "clearances": [f.name for f in mech.clearances]}
+                tr, why = _run_cell(mech, t_end, rtol, method, integ, max_cpu, repeat)
+                if tr is None:
+                    rows.append({**row, "status": "skipped", "reason": why})
+                    continue
+                st = tr.stats
+                row.update({"status": tr.status, "t_reached": float(tr.t[-1]) if len(tr.t) else 0.0,
+                            "cpu_s": st["cpu_s"], "rhs_evals": st["rhs_evals"], "steps": st["steps"],
+                            "events": len(st["events"]), "loop": st["loop"]})
+                sim_t = max(row["t_reached"], 1e-12)
+                row["cpu_per_sim_s"] = st["cpu_s"] / sim_t
+                # set-up (assembly, rank analysis, buffers) has its own target; an evaluation's cost
+                # inside the run is the integration's CPU (integrator, events, samples) over evaluations
+                row["setup_ms"] = 1e3 * st["setup_cpu_s"]
+                row["us_per_eval"] = 1e6 * _integration_cpu(tr) / max(st["rhs_evals"], 1)
+                row["us_per_eval_with_setup"] = 1e6 * st["cpu_s"] / max(st["rhs_evals"], 1)
+                if len(tr.t):
+                    floor = pinocchio_floor(mech, tr.q, tr.v, repeat=10)
+                    row["floor_us"] = 1e6 * floor
+                    row["ratio_over_floor"] = row["us_per_eval"] / row["floor_us"]
+                if tr.status != "success":
+                    row["message"] = tr.message
+                rows.append(row)
+    return {"t_end": t_end, "rtol": rtol, "methods": list(methods), "integrators": list(integrators),
+            "max_cpu": max_cpu, "repeat": repeat, "scenes": rows}
 
 
 def runs_table(res) -> str:
-    """Markdown table of a bench_runs result."""
-    lines = ["| scene | status | CPU s / sim s | set-up ms | rhs evals | steps | us / eval | floor us | ratio |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    """Markdown table of a bench_runs result (one row per cell; method and integrator columns
+    when the result has more than one of either)."""
+    many = len(res.get("methods", ())) > 1 or len(res.get("integrators", ())) > 1
+    head = "| scene | " + ("method | integrator | " if many else "")
+    lines = [head + "status | CPU s / sim s | set-up ms | rhs evals | steps | us / eval | floor us | ratio |",
+             "|---|" + ("---|---|" if many else "") + "---|---|---|---|---|---|---|---|"]
     for r in res["scenes"]:
-        lines.append(f"| {r['scene']} | {r['status']} | {r['cpu_per_sim_s']:.3g} | {r['setup_ms']:.1f} | {r['rhs_evals']} | "
+        lead = f"| {r['scene']} | " + (f"{r['method']} | {r['integrator']} | " if many else "")
+        if r["status"] == "skipped":
+            lines.append(lead + f"skipped: {r['reason'][:100]} | | | | | | | |")
+            continue
+        lines.append(lead + f"{r['status']} | {r['cpu_per_sim_s']:.3g} | {r['setup_ms']:.1f} | {r['rhs_evals']} | "
                      f"{r['steps']} | {r['us_per_eval']:.0f} | {r.get('floor_us', float('nan')):.1f} | "
                      f"{r.get('ratio_over_floor', float('nan')):.1f} |")
     return "\n".join(lines)
+
+
+#: a cell costing more than this many times the Pinocchio floor per evaluation is counted
+MATRIX_THRESHOLD = 3.0
+
+
+def runs_matrix_table(res, threshold=MATRIX_THRESHOLD) -> str:
+    """One markdown table per integrator of a bench_runs result: scenes as rows, methods as
+    columns, each cell "ratio (us/eval)" (ratio over the Pinocchio floor); a failed run's cell
+    is marked "failed:" before its figures, a skipped one "skipped". Then a summary line: the
+    worst cell and how many cells exceed ``threshold`` times the floor (of the cells measured)."""
+    methods, integs = res["methods"], res["integrators"]
+    cells = {(r["scene"], r["method"], r["integrator"]): r for r in res["scenes"]}
+    labels = list(dict.fromkeys(r["scene"] for r in res["scenes"]))
+    out = []
+    for integ in integs:
+        out += [f"### {integ} (t_end {res['t_end']:g} s, rtol {res['rtol']:g}): ratio over the Pinocchio floor "
+                "(us per evaluation)", "", "| scene | " + " | ".join(methods) + " |",
+                "|---|" + "---|" * len(methods)]
+        for label in labels:
+            row = []
+            for m in methods:
+                r = cells.get((label, m, integ))
+                if r is None:
+                    row.append("-")
+                elif r["status"] == "skipped":
+                    row.append("skipped")
+                elif "ratio_over_floor" not in r:
+                    row.append(f"{r['status']}: no samples")
+                else:
+                    mark = "" if r["status"] == "success" else f"{r['status']}: "
+                    row.append(f"{mark}{r['ratio_over_floor']:.1f} ({r['us_per_eval']:.0f})")
+            out.append(f"| {label} | " + " | ".join(row) + " |")
+        out.append("")
+    measured = [r for r in res["scenes"] if "ratio_over_floor" in r]
+    n_skip = sum(r["status"] == "skipped" for r in res["scenes"])
+    n_fail = sum(r["status"] not in ("success", "skipped") for r in res["scenes"])
+    if measured:
+        w = max(measured, key=lambda r: r["ratio_over_floor"])
+        over = sum(r["ratio_over_floor"] > threshold for r in measured)
+        out.append(f"Summary: worst cell {w['scene']} / {w['method']} + {w['integrator']} at "
+                   f"{w['ratio_over_floor']:.1f}x the floor ({w['us_per_eval']:.0f} us/eval, {w['status']}); "
+                   f"{over} of {len(measured)} measured cells exceed {threshold:g}x; {n_fail} failed, "
+                   f"{n_skip} skipped.")
+    else:
+        out.append(f"Summary: no cell measured; {n_fail} failed, {n_skip} skipped.")
+    return "\n".join(out)
 
 
 def main_rhs(path, methods=None, options=None, clearances=None, overrides=None):

@@ -393,9 +393,19 @@ def cmd_info(args):
     return 0
 
 
+def _split_names(text, default):
+    """A comma-separated option value as a list of names (the default when not given)."""
+    if text is None:
+        return [default]
+    return [n.strip() for n in text.split(",") if n.strip()]
+
+
 def cmd_bench(args):
     from . import bench, formulations
 
+    runs_only = [o for o, v in (("--integrators", args.integrators), ("--max-cpu", args.max_cpu)) if v is not None]
+    if runs_only and args.what != "runs":
+        raise InputError(f"bench {args.what}: {runs_only[0]} applies to bench runs only")
     if args.what == "restitution":
         from .contact import bench as cbench
 
@@ -417,15 +427,26 @@ def cmd_bench(args):
     if args.what == "runs":
         from .trajectory import atomic_write_text
 
+        # names first: a typo is refused before the folder is made or anything runs
+        methods, integrators = bench.check_run_names(_split_names(args.methods, "lagrange"),
+                                                     _split_names(args.integrators, "RK45"),
+                                                     keys=("--methods", "--integrators"))
         out = Path(args.out)
         _check_out_dir(out)
         files = [args.file] + list(args.rest or []) if args.file else None
-        res = bench.bench_runs(files, t_end=0.5 if args.t_end is None else args.t_end,
-                               progress=lambda s: print(f"bench runs: {s}", file=sys.stderr, flush=True))
+        kw = {} if args.max_cpu is None else {"max_cpu": args.max_cpu}
+        res = bench.bench_runs(files, t_end=0.5 if args.t_end is None else args.t_end, methods=methods,
+                               integrators=integrators,
+                               progress=lambda s: print(f"bench runs: {s}", file=sys.stderr, flush=True), **kw)
         atomic_write_text(out / "bench_runs.json", json.dumps(res, indent=2, default=str))
         table = bench.runs_table(res)
         atomic_write_text(out / "bench_runs.md", table + "\n")
         print(table)
+        if len(methods) > 1 or len(integrators) > 1:
+            matrix = bench.runs_matrix_table(res)
+            atomic_write_text(out / "bench_runs_matrix.md", matrix + "\n")
+            print()
+            print(matrix)
         return 0
     if args.rest:
         raise InputError(f"bench {args.what}: unrecognized arguments: {' '.join(args.rest)}")
@@ -624,7 +645,13 @@ def build_parser():
     s.add_argument("file", nargs="?", help="mechanism sidecar or bundled name (runs, atlas: default all scenes)")
     _add_model_args(s, file_required=False)
     s.add_argument("--methods", default=None, help="comma-separated formulations (default: rhs all; atlas all but "
-                   "manifold)")
+                   "manifold; runs lagrange)")
+    s.add_argument("--integrators", default=None,
+                   help="runs: comma-separated adaptive integrators (default RK45); with several methods or "
+                        "integrators it also writes OUT/bench_runs_matrix.md, one table per integrator")
+    s.add_argument("--max-cpu", type=number(unit="s"), default=None,
+                   help="runs: CPU budget [s] of one run, compilation excluded (default 120): a longer run ends "
+                        "as failed, its figures kept")
     s.add_argument("--t-end", type=number(unit="s"), default=None,
                    help="simulated time [s] (default: work-precision 2, runs 0.5)")
     s.add_argument("--out", default="benchmarks", help="output folder (atlas: benchmarks/atlas)")
