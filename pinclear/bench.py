@@ -251,9 +251,9 @@ def _integration_cpu(tr):
 
 def check_run_names(methods, integrators, keys=("methods", "integrators")):
     """The method and integrator names of a benchmark, checked against the registries
-    (pinclear.formulations.METHODS, pinclear.integrators.INTEGRATORS) before anything runs;
+    (pinclear.formulations.METHODS, pinclear.stepping.INTEGRATORS) before anything runs;
     ``keys`` name the arguments in the error (the command line passes its option names)."""
-    from . import integrators as integ_mod
+    from . import stepping as integ_mod
 
     methods, integrators = tuple(methods), tuple(integrators)
     adaptive = [k for k, v in integ_mod.INTEGRATORS.items() if v.adaptive]

@@ -10,7 +10,7 @@ import re
 
 import pytest
 
-from pinclear import bench, formulations, integrators
+from pinclear import bench, formulations, stepping as integrators
 from pinclear.cli import main
 from pinclear.errors import InputError
 
