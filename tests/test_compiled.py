@@ -286,34 +286,38 @@ def test_fused_clearance_events_and_records_equal_the_python_path(scene, name):
 # ------------------------------------------------------------------ bound kernels
 @pytest.mark.parametrize("name,clearance", [("four_ups_upu", "S2"), ("nine_bar", "A"), ("parallelogram", None)])
 def test_bound_kernels_equal_the_direct_calls(name, clearance):
-    """pinclear._bind passes a kernel's buffers as addresses rebuilt into views inside compiled
-    code. Bound and direct calls run the same arithmetic on the same memory, so every output
-    buffer must be bitwise equal, at random states and times; a wrong address, shape or layout
-    (Pinocchio's M and J are column-major) would give different numbers or garbage."""
-    from pinclear._bind import DYN, bind
-    from pinclear._kernels import lagrange_accel, proximal_accel
+    """pinclear.stepping.stage.bind passes a kernel's buffers (NamedTuples of them: Rows, Solve)
+    as addresses rebuilt into views inside compiled code. The formulation's solve stage and a
+    direct call of its kernel on the same buffers run the same arithmetic on the same memory, so
+    every output buffer must be bitwise equal, at random states and times; a wrong address,
+    shape or layout (Pinocchio's M and J are column-major) would give different numbers or
+    garbage."""
+    from pinclear._kernels import Solve, lagrange_accel, proximal_accel
 
     mech = pinclear.load(name, clearances=[clearance] if clearance else None)
+    nv, m = mech.nv, mech.m
     for method, kernel in (("lagrange", lagrange_accel), ("proximal", proximal_accel)):
         form = formulations.get(method)(mech)
         ws = form.ws
-        q0, v0 = _random_consistent_state(mech, 9)
-        form.accelerations(0.0, q0, v0, np.zeros(mech.nz))    # binds the kernel's buffers
-        bound = bind(kernel, form._args + (DYN, DYN, DYN))
-        assert hasattr(bound, "bound")                       # really bound, not the fallback
-        out = [ws.lam, ws.J, ws.gamma, ws.phi, form._buf["a"]]
+        stage = form.compiled().solve[0]
+        o = form.opts
+        extra = (float(o["alpha"]), float(o["beta"])) + ((float(o["rho"]), o["max_iter"]) if method == "proximal" else ())
+        K = Solve(ws.q, ws.v, ws.drive_data.f, ws.data.M, ws.parent, ws.tau, ws.data.nle, np.arange(m),
+                  np.zeros((nv, nv)), np.zeros((m, nv)), np.zeros((m, m)), np.zeros((m, m)), np.zeros(m), np.zeros(m),
+                  np.zeros(nv), np.zeros(m))
         for seed in range(3):
             q, v = _random_consistent_state(mech, seed)
             t = 0.37 * seed
-            form.applied(t, q, v, np.zeros(mech.nz))
-            f = mech.driverows.values(t, ws.drive_data)
-            r1 = kernel(*form._args, q, v, f)
-            first = [x.copy() for x in out]
-            for x in (ws.lam, ws.gamma, ws.phi, form._buf["a"]):   # J's drive rows are constant inputs
+            ws.load_state(q, v, np.zeros(mech.nz))
+            form.applied(t, ws.q, ws.v, ws.z)
+            mech.driverows.values(t, ws.drive_data)
+            r1 = kernel(form.row_buffers, K, *extra)
+            first = [x.copy() for x in (K.a, K.lam, ws.J, ws.gamma, ws.phi)]
+            for x in (ws.a, ws.lam, ws.gamma, ws.phi):     # J's drive rows are constant inputs
                 x[...] = np.nan
-            r2 = bound(q, v, f)
+            r2 = stage(t)
             assert r1 == r2
-            for a, b in zip(first, out):
+            for a, b in zip(first, (ws.a, ws.lam, ws.J, ws.gamma, ws.phi)):
                 assert np.array_equal(a, b)
 
 
@@ -330,14 +334,15 @@ def test_bound_kernel_falls_back_on_a_strided_view_and_lives_in_the_user_cache()
     S = B @ B.T
     r = rng.standard_normal(4)
     ref = np.zeros(4)
-    proximal_filter(S, r, 1e-3, 5.0, ref)
+    F, d = np.zeros((4, 4)), np.zeros(4)
+    proximal_filter(S, r, 1e-3, 5, F, d, ref)
     out = np.zeros(4)
-    bound = _bind.bind(proximal_filter, (S, _bind.DYN, 1e-3, 5.0, out))
+    bound = _bind.bind(proximal_filter, (S, _bind.DYN, 1e-3, 5, F, d, out))
     bound(r)
     assert hasattr(bound, "bound") and np.array_equal(out, ref)
     big = np.zeros(8)
     strided = big[::2]                                       # a view with stride 2: not bindable
-    direct = _bind.bind(proximal_filter, (S, _bind.DYN, 1e-3, 5.0, strided))
+    direct = _bind.bind(proximal_filter, (S, _bind.DYN, 1e-3, 5, F, d, strided))
     assert not hasattr(direct, "bound")
     direct(r)
     assert np.array_equal(strided, ref) and np.all(big[1::2] == 0.0)
