@@ -10,7 +10,7 @@ from scipy.linalg import cho_factor
 
 from .. import kinematics
 from ..errors import InputError, RankLossError
-from ..stepping.call import OK
+from ..stepping.call import ERROR, OK
 
 #: condition number of the constraint Schur complement beyond which a plain solve is garbage
 RANK_COND = 1e12
@@ -130,6 +130,15 @@ class Formulation(abc.ABC):
         if self._drives is None:
             self._drives = self.mech.driverows.stages(self.ws.drive_data, self.errors)
         return self._drives
+
+    def drive_values(self, t):
+        """The drive values at t (``ws.drive_data.f``) for the Python path, through the run's own
+        drive stages: the same kernels as the compiled run and no per-time cache, which a
+        compiled stage writing the values would leave stale (DriveRows.values keeps one)."""
+        for stage in self.drive_stages():
+            if stage(t) == ERROR:
+                raise self.errors.pop()
+        return self.ws.drive_data.f
 
     # -------------------------------------------------------------- interface
     @abc.abstractmethod

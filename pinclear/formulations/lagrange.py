@@ -45,7 +45,6 @@ class Lagrange(Formulation):
         # them again (same count) rewrites it in place, so bound stages stay valid
         self._rows_all = np.arange(m, dtype=np.int64)
         self._stages = None
-        self._drive_data = ws.drive_data
 
     def use_rows(self, independent):
         if self.opts["drop_redundant"]:
@@ -98,7 +97,7 @@ class Lagrange(Formulation):
         ws = self.ws
         ws.load_state(q, v, z)
         self.applied(t, ws.q, ws.v, ws.z)
-        self.mech.driverows.values(t, self._drive_data)
+        self.drive_values(t)
         code = np.inf
         for stage in self.compiled().solve:
             code = min(code, stage(t))

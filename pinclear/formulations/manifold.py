@@ -160,7 +160,7 @@ class Manifold(Formulation):
             return q, v
         ws = self.ws
         ws.q[:], ws.v[:] = q, v
-        self.mech.driverows.values(t, ws.drive_data)
+        self.drive_values(t)
         self._check(self._bound()[1](t), t)
         return ws.q.copy(), ws.v.copy()
 
@@ -171,7 +171,7 @@ class Manifold(Formulation):
         if self.mech.m == 0:
             self.applied(t, ws.q, ws.v, ws.z)
         else:
-            self.mech.driverows.values(t, ws.drive_data)
+            self.drive_values(t)
             self._check(before(t), t)
             # the dynamics pass at the projected state; P left M and its factor at q1
             self.applied(t, ws.q, ws.v, ws.z, mass=False)

@@ -273,7 +273,7 @@ def run_projection(form, stage, t, q, v):
         ws.q[:] = q
     if v is not ws.v:
         ws.v[:] = v
-    form.mech.driverows.values(t, ws.drive_data)
+    form.drive_values(t)
     code = stage(t)
     if code == ERROR:
         raise form.errors.pop()

@@ -77,7 +77,7 @@ class Proximal(Formulation):
         ws = self.ws
         ws.load_state(q, v, z)
         self.applied(t, ws.q, ws.v, ws.z)
-        self.mech.driverows.values(t, ws.drive_data)
+        self.drive_values(t)
         self.code = code = self.solve_stage()(t)
         if code == RANK:
             raise np.linalg.LinAlgError(f"{self.mech.name}: the mass matrix is not positive definite at "
