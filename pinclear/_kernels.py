@@ -406,38 +406,42 @@ def joint_placements(parent, jP, kind, axis, iq, q, O, want, Hj):
     X_j(q), with X_j a rotation about (revolute) or a translation along (prismatic) the unit
     ``axis[j]`` by q[iq[j]] (Rodrigues); then Hj[k] = O[want[k]]. Replaces one Python access to
     data.oMi per joint, which cost more than Pinocchio's whole forward pass."""
-    O[0, :, :] = 0.0
-    for i in range(4):
-        O[0, i, i] = 1.0
-    X = np.empty((4, 4))
-    T = np.empty((4, 4))
+    # placements are affine (last row 0 0 0 1): only the 3 x 4 top rows are multiplied, in the
+    # order of the 4 x 4 products (the zero terms dropped change no bit)
+    for j in range(parent.shape[0]):
+        O[j, 3, 0] = O[j, 3, 1] = O[j, 3, 2] = 0.0
+        O[j, 3, 3] = 1.0
+    for i in range(3):
+        for c2 in range(4):
+            O[0, i, c2] = 1.0 if i == c2 else 0.0
+    X = np.empty((3, 3))
+    T = np.empty((3, 4))
     for j in range(1, parent.shape[0]):
         qj = q[iq[j]]
         ax, ay, az = axis[j, 0], axis[j, 1], axis[j, 2]
-        X[:, :] = 0.0
-        X[3, 3] = 1.0
+        p = parent[j]
+        for r in range(3):                     # T = O[parent] jP
+            o0, o1, o2 = O[p, r, 0], O[p, r, 1], O[p, r, 2]
+            for c2 in range(3):
+                T[r, c2] = 0.0 + o0 * jP[j, 0, c2] + o1 * jP[j, 1, c2] + o2 * jP[j, 2, c2]
+            T[r, 3] = 0.0 + o0 * jP[j, 0, 3] + o1 * jP[j, 1, 3] + o2 * jP[j, 2, 3] + O[p, r, 3]
         if kind[j] == J_REVOLUTE:
             c, s = np.cos(qj), np.sin(qj)
             C = 1.0 - c
             X[0, 0], X[0, 1], X[0, 2] = c + ax * ax * C, ax * ay * C - az * s, ax * az * C + ay * s
             X[1, 0], X[1, 1], X[1, 2] = ay * ax * C + az * s, c + ay * ay * C, ay * az * C - ax * s
             X[2, 0], X[2, 1], X[2, 2] = az * ax * C - ay * s, az * ay * C + ax * s, c + az * az * C
+            for r in range(3):                 # O[j] = T X: rotation about the axis
+                t0, t1, t2 = T[r, 0], T[r, 1], T[r, 2]
+                for c2 in range(3):
+                    O[j, r, c2] = 0.0 + t0 * X[0, c2] + t1 * X[1, c2] + t2 * X[2, c2]
+                O[j, r, 3] = T[r, 3]
         else:
-            X[0, 0] = X[1, 1] = X[2, 2] = 1.0
-            X[0, 3], X[1, 3], X[2, 3] = ax * qj, ay * qj, az * qj
-        p = parent[j]
-        for r in range(4):
-            for c2 in range(4):
-                acc = 0.0
-                for k in range(4):
-                    acc += O[p, r, k] * jP[j, k, c2]
-                T[r, c2] = acc
-        for r in range(4):
-            for c2 in range(4):
-                acc = 0.0
-                for k in range(4):
-                    acc += T[r, k] * X[k, c2]
-                O[j, r, c2] = acc
+            dx, dy, dz = ax * qj, ay * qj, az * qj
+            for r in range(3):                 # O[j] = T X: translation along the axis
+                for c2 in range(3):
+                    O[j, r, c2] = T[r, c2]
+                O[j, r, 3] = 0.0 + T[r, 0] * dx + T[r, 1] * dy + T[r, 2] * dz + T[r, 3]
     for k in range(want.shape[0]):
         Hj[k, :, :] = O[want[k]]
 
@@ -472,21 +476,25 @@ def proximal_iterations(F, d, rho, k, r, lam):
     against an eigensolver's ~9 m^3 and its allocations; and closer to it in rounding: the
     iterations contract (factor rho / (s + rho) <= 1 per step), while the eigenvectors of S's
     nearly equal eigenvalues are determined only to eps over their gap (measured against a
-    50-digit evaluation, m = 2..20: 3e-11 relative against 2e-8 for eigh)."""
+    50-digit evaluation, m = 2..20: 3e-11 relative against 2e-8 for eigh). The substitutions
+    run column-wise (axpy along a contiguous row of F's mirrored triangle), which vectorises
+    without reassociating sums."""
     m = r.shape[0]
     for i in range(m):
         lam[i] = 0.0
     for _ in range(k):
+        for i in range(m):                   # y = r + rho lam, then F y' = y (forward)
+            lam[i] = r[i] + rho * lam[i]
         for i in range(m):
-            s = r[i] + rho * lam[i]
-            for p in range(i):
-                s -= F[i, p] * lam[p]
-            lam[i] = s * d[i]
-        for i in range(m - 1, -1, -1):
-            s = lam[i]
+            yi = lam[i] * d[i]
+            lam[i] = yi
             for p in range(i + 1, m):
-                s -= F[i, p] * lam[p]
-            lam[i] = s * d[i]
+                lam[p] -= F[i, p] * yi       # F[i, p] = F[p, i] (mirrored)
+        for i in range(m - 1, -1, -1):       # F^T lam = y' (backward)
+            xi = lam[i] * d[i]
+            lam[i] = xi
+            for p in range(i):
+                lam[p] -= F[i, p] * xi
 
 
 @njit(cache=True)
@@ -538,15 +546,18 @@ def proximal_accel(R, K, alpha, beta, rho_rel, k):
 
 
 # ------------------------------------------------------------------ minimum-norm solves
+# The QR below factorises B^T (nv x m) for a B stored row-wise as an (m, nv) array A (B = J or
+# J L^-1): B^T's columns are A's rows, so every inner loop runs along a contiguous row.
 @njit(cache=True)
 def qr_pivoted(A, piv, beta, rcond):
-    """In place Householder QR with column pivoting, A P = Q R (A is (n, m)): R in the upper
-    triangle, the reflectors' vectors below it (unit first entry implied) with factors beta.
-    Stops at the first pivot below rcond times the first: returns the rank k kept. A
-    rank-revealing factorization of A's columns (not of A A^T), so a pivot ~ eps divides
-    round-off once, not twice; and without truncation the solves below do not depend on the
-    pivot order (Golub & Van Loan, Matrix Computations, 4th ed., sec. 5.4.2)."""
-    n, m = A.shape
+    """In place Householder QR with column pivoting of X = A^T (A is (m, n), X's columns are A's
+    rows): X P = Q R. R[i, j] (i <= j) is left in A[j, i], the reflectors' vectors beyond the
+    diagonal (unit first entry implied) in A[j, j+1:], with factors beta. Stops at the first
+    pivot below rcond times the first: returns the rank k kept. A rank-revealing factorization
+    of X's columns (not of X^T X), so a pivot ~ eps divides round-off once, not twice; and
+    without truncation the solves below do not depend on the pivot order (Golub & Van Loan,
+    Matrix Computations, 4th ed., sec. 5.4.2)."""
+    m, n = A.shape
     for j in range(m):
         piv[j] = j
     r00 = 0.0
@@ -555,12 +566,12 @@ def qr_pivoted(A, piv, beta, rcond):
         for c in range(j, m):
             s = 0.0
             for i in range(j, n):
-                s += A[i, c] * A[i, c]
+                s += A[c, i] * A[c, i]
             if s > bn:
                 best, bn = c, s
         if best != j:
             for i in range(n):
-                A[i, j], A[i, best] = A[i, best], A[i, j]
+                A[j, i], A[best, i] = A[best, i], A[j, i]
             piv[j], piv[best] = piv[best], piv[j]
         norm = np.sqrt(bn)
         if j == 0:
@@ -570,31 +581,31 @@ def qr_pivoted(A, piv, beta, rcond):
         alpha = -norm if A[j, j] >= 0.0 else norm
         v0 = A[j, j] - alpha
         for i in range(j + 1, n):
-            A[i, j] /= v0
-        beta[j] = -v0 / alpha                 # H = I - beta u u^T, u = (1, A[j+1:, j])
+            A[j, i] /= v0
+        beta[j] = -v0 / alpha                 # H = I - beta u u^T, u = (1, A[j, j+1:])
         A[j, j] = alpha
         for c in range(j + 1, m):
-            s = A[j, c]
+            s = A[c, j]
             for i in range(j + 1, n):
-                s += A[i, j] * A[i, c]
+                s += A[j, i] * A[c, i]
             s *= beta[j]
-            A[j, c] -= s
+            A[c, j] -= s
             for i in range(j + 1, n):
-                A[i, c] -= s * A[i, j]
+                A[c, i] -= s * A[j, i]
     return min(n, m)
 
 
 @njit(cache=True)
 def reflect(Qr, hb, j, x):
-    """x <- H_j x, H_j = I - hb[j] u u^T with u = (1, Qr[j+1:, j]) below row j."""
-    n = Qr.shape[0]
+    """x <- H_j x, H_j = I - hb[j] u u^T with u = (1, Qr[j, j+1:]) from index j on."""
+    n = Qr.shape[1]
     s = x[j]
     for i in range(j + 1, n):
-        s += Qr[i, j] * x[i]
+        s += Qr[j, i] * x[i]
     s *= hb[j]
     x[j] -= s
     for i in range(j + 1, n):
-        x[i] -= s * Qr[i, j]
+        x[i] -= s * Qr[j, i]
 
 
 @njit(cache=True)
@@ -623,13 +634,13 @@ def project_out(Qr, hb, k, x):
 
 @njit(cache=True)
 def min_norm_solve(A, piv, beta, k, r, x, lam):
-    """From qr_pivoted of A = B^T: x = B^+ r (minimum norm; r's rows beyond the rank dropped)
-    and, when lam has entries, lam = (B B^T)^+ r with B^T lam = x."""
+    """From qr_pivoted of B^T (A holding B row-wise): x = B^+ r (minimum norm; r's rows beyond
+    the rank dropped) and, when lam has entries, lam = (B B^T)^+ r with B^T lam = x."""
     z = np.zeros(k)
     for j in range(k):                       # R^T z = P^T r
         s = r[piv[j]]
         for i in range(j):
-            s -= A[i, j] * z[i]
+            s -= A[j, i] * z[i]
         z[j] = s / A[j, j]
     x[:] = 0.0
     for j in range(k):
@@ -640,5 +651,5 @@ def min_norm_solve(A, piv, beta, k, r, x, lam):
         for j in range(k - 1, -1, -1):       # R lam_p = z
             s = z[j]
             for i in range(j + 1, k):
-                s -= A[j, i] * lam[piv[i]]
+                s -= A[i, j] * lam[piv[i]]
             lam[piv[j]] = s / A[j, j]

@@ -68,11 +68,11 @@ class ManifoldWork(NamedTuple):
     S: np.ndarray        # (m, m) B B^T
     Fr: np.ndarray       # (m, m) complex L D L^T of S + i mu^2 I, real and imaginary parts
     Fi: np.ndarray
-    Qr: np.ndarray       # (nv, m) pivoted QR of B^T
+    Qr: np.ndarray       # (m, nv) pivoted QR of B^T (B row-wise: pinclear._kernels.qr_pivoted)
     piv: np.ndarray
     hb: np.ndarray
     kk: np.ndarray       # (1,) its rank
-    Qg: np.ndarray       # (nv, m) pivoted QR of J^T (the Gauss-Newton step)
+    Qg: np.ndarray       # (m, nv) pivoted QR of J^T (the Gauss-Newton step)
     pg: np.ndarray
     hg: np.ndarray
     v1: np.ndarray       # (nv,) the projected velocity
@@ -104,8 +104,8 @@ class Manifold(Formulation):
         self.row_buffers = kinematics.row_buffers(mech, ws)
         self._W = ManifoldWork(ws.q, ws.v, ws.drive_data.f, ws.data.M, ws.parent, ws.tau, ws.data.nle, ws.a, ws.lam,
                                np.arange(m, dtype=np.int64), np.zeros((nv, nv)), np.zeros((m, nv)), np.zeros((m, m)),
-                               np.zeros((m, m)), np.zeros((m, m)), np.zeros((nv, m)), np.zeros(m, dtype=np.int64),
-                               np.zeros(m), np.zeros(1, dtype=np.int64), np.zeros((nv, m)),
+                               np.zeros((m, m)), np.zeros((m, m)), np.zeros((m, nv)), np.zeros(m, dtype=np.int64),
+                               np.zeros(m), np.zeros(1, dtype=np.int64), np.zeros((m, nv)),
                                np.zeros(m, dtype=np.int64), np.zeros(m), np.zeros(nv), np.zeros(m), np.zeros(m),
                                np.zeros(nv), np.zeros(nv), np.zeros(nv))
         self._stages = None
@@ -196,7 +196,7 @@ def gauss_newton_step(R, q, zero_v, fdrv, rcond, Qr, piv, hb, dq):
     m, nv = Jc.shape
     for r in range(m):
         for c in range(nv):
-            Qr[c, r] = Jc[r, c]
+            Qr[r, c] = Jc[r, c]
     k = qr_pivoted(Qr, piv, hb, rcond)
     min_norm_solve(Qr, piv, hb, k, phi, dq, np.zeros(0))
     for i in range(nv):
@@ -240,7 +240,8 @@ def _bt_times(Y, w, x):
 @njit(cache=True)
 def velocity_projection(R, W, mu, rcond, exact):
     """At q (placements, Jacobians and M there): M = L^T L, B = J L^-1 (in Y), the pivoted QR
-    of B^T and the factor of S + i mu^2 I (shifted_factor; kept for projected_accelerations), and
+    of B^T and the factor of S + i mu^2 I (shifted_factor; kept for projected_accelerations; the
+    exact projection of a scleronomic system has no use for it and skips it), and
     the mass-metric projection v1 = L^-1 ((I - Q Q^T) L v - B^T g(S) Phi_t) onto
     J v1 + Phi_t = 0 (``exact``; otherwise v1 = v - L^-1 B^T g(S) (J v + Phi_t), the stages'
     filtered correction). Returns |Phi|_inf at q, or -1 if M is not PD; kk[0] = rank kept."""
@@ -251,37 +252,42 @@ def velocity_projection(R, W, mu, rcond, exact):
     Jc, dphi, pt = R.Jc, R.dphi, W.r
     m, nv = Jc.shape
     schur_complement(Lm, W.parent, Jc, W.rows, Y, W.S)
-    shifted_factor(W.S, mu, W.Fr, W.Fi)
     for r in range(m):
         for c in range(nv):
-            W.Qr[c, r] = Y[r, c]
+            W.Qr[r, c] = Y[r, c]
     k = qr_pivoted(W.Qr, W.piv, W.hb, rcond)
     W.kk[0] = k
+    rates = True
     if exact:
         ltl_mul(Lm, W.parent, v, v1)          # x = L v
         project_out(W.Qr, W.hb, k, v1)
-        # Phi_t = dphi - J v: the rheonomic rows' own rates (zero for closures)
+        # Phi_t: the rheonomic rows' own rates, -f'(t) of the drives (zero for closures)
+        mc = m - R.iq.shape[0]
+        rates = False
         for r in range(m):
-            s = dphi[r]
-            for c in range(nv):
-                s -= Jc[r, c] * v[c]
-            pt[r] = s
+            pt[r] = 0.0 if r < mc else -W.fdrv[1, r - mc]
+            rates = rates or pt[r] != 0.0
     else:
         for r in range(m):
             pt[r] = dphi[r]
         for c in range(nv):
             v1[c] = v[c]
-    corr = W.xs
-    filtered_solve(W.Fr, W.Fi, pt, W.w)
-    _bt_times(Y, W.w, corr)                    # the normal correction B^T g(S) pt
+    if rates:
+        # the filter's factor (the stages' solve reads it; the exact projection needs it only
+        # for the drives' rates: the step logic evaluates again after it)
+        shifted_factor(W.S, mu, W.Fr, W.Fi)
+        corr = W.xs
+        filtered_solve(W.Fr, W.Fi, pt, W.w)
+        _bt_times(Y, W.w, corr)                # the normal correction B^T g(S) pt
+        if exact:
+            for c in range(nv):
+                v1[c] -= corr[c]
+        else:
+            ltl_solve(Lm, W.parent, corr)
+            for c in range(nv):
+                v1[c] -= corr[c]
     if exact:
-        for c in range(nv):
-            v1[c] -= corr[c]
         ltl_solve(Lm, W.parent, v1)
-    else:
-        ltl_solve(Lm, W.parent, corr)
-        for c in range(nv):
-            v1[c] -= corr[c]
     res = 0.0
     for r in range(m):
         res = max(res, abs(R.phi[r]))

@@ -127,7 +127,7 @@ class Projector(NamedTuple):
     M: np.ndarray
     parent: np.ndarray
     rows: np.ndarray     # (k,)
-    Qr: np.ndarray       # (nv, k) pivoted QR of J^T, then of B^T
+    Qr: np.ndarray       # (k, nv) pivoted QR of J^T, then of B^T (row-wise: pinclear._kernels.qr_pivoted)
     piv: np.ndarray      # (k,) int64
     hb: np.ndarray       # (k,)
     Lm: np.ndarray       # (nv, nv) M = L^T L
@@ -143,7 +143,7 @@ class Projector(NamedTuple):
 def projector(form, rows):
     """The Projector of ``form``'s workspace over ``rows`` (bound as it is: keep the array)."""
     ws, nv, k = form.ws, form.mech.nv, len(rows)
-    return Projector(ws.v, ws.drive_data.f, ws.data.M, ws.parent, rows, np.zeros((nv, k)), np.zeros(k, dtype=np.int64),
+    return Projector(ws.v, ws.drive_data.f, ws.data.M, ws.parent, rows, np.zeros((k, nv)), np.zeros(k, dtype=np.int64),
                      np.zeros(k), np.zeros((nv, nv)), np.zeros((k, nv)), np.zeros((k, k)), np.zeros((k, k)),
                      np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(nv))
 
@@ -174,7 +174,7 @@ def gauss_newton_step(R, W, rcond, k_prox, rho_rel, dq):
     if k_prox == 0:
         for i in range(m):
             for c in range(nv):
-                W.Qr[c, i] = Jc[rows[i], c]
+                W.Qr[i, c] = Jc[rows[i], c]
         kk = qr_pivoted(W.Qr, W.piv, W.hb, rcond)
         min_norm_solve(W.Qr, W.piv, W.hb, kk, r, dq, np.zeros(0))
         for c in range(nv):
@@ -232,7 +232,7 @@ def project_state(P, R, W, t, tol, max_iter, rcond, k_prox, rho_rel):
         scaled_rows(Lm, W.parent, R.Jc, rows, Y)
         for i in range(m):
             for c in range(nv):
-                W.Qr[c, i] = Y[i, c]
+                W.Qr[i, c] = Y[i, c]
         kk = qr_pivoted(W.Qr, W.piv, W.hb, rcond)
         project_out(W.Qr, W.hb, kk, x)
         for i in range(m):
