@@ -38,7 +38,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .. import kinematics, native
+from .. import kinematics
 from .._jit import njit
 from .._kernels import (Solve, constraint_rows_all, lagrange_accel, ltl_factor, ltl_solve, ltl_solve_t, min_norm_solve,
                         project_out, qr_pivoted, schur_complement)
@@ -46,7 +46,7 @@ from ..errors import InputError
 from ..stepping.call import ERROR, OK, RANK
 from ..stepping.stage import T, bind
 from .base import Compiled, Formulation
-from .projection import at_positions, ltl_mul, move, position_passes, iterations
+from .projection import at_positions, iterations, ltl_mul, mass_only, move, position_passes
 
 
 class ManifoldWork(NamedTuple):
@@ -189,9 +189,8 @@ class Manifold(Formulation):
 
 # ------------------------------------------------------------------ kernels
 @njit(cache=True)
-def gauss_newton_step(R, q, zero_v, fdrv, rcond, Qr, piv, hb, dq):
-    """dq = -J^+ Phi at q (minimum norm, every row): one Gauss-Newton step."""
-    constraint_rows_all(R, 0.0, 0.0, q, zero_v, fdrv)
+def gauss_newton_step(R, rcond, Qr, piv, hb, dq):
+    """dq = -J^+ Phi from the rows in R (minimum norm, every row): one Gauss-Newton step."""
     Jc, phi = R.Jc, R.phi
     m, nv = Jc.shape
     for r in range(m):
@@ -206,21 +205,27 @@ def gauss_newton_step(R, q, zero_v, fdrv, rcond, Qr, piv, hb, dq):
 @njit(cache=True)
 def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
     """(q, v) <- P(q, v) in the state buffer (module doc, steps 1-2): at least one minimum-norm
-    Gauss-Newton step from q (more while |Phi| > tol, at most max_iter), then the mass-metric
-    velocity projection at q1 (``exact`` 0: the stages' filtered one; 1: the exact one after
-    steps). Leaves M = L^T L, B = J L^-1, B^T's pivoted QR and the factor of S + i mu^2 I at q1
-    for projected_accelerations. Returns OK, RANK (M not positive definite) or ERROR."""
+    Gauss-Newton step from q (more while |Phi| > tol, at most max_iter; each iterate costs the
+    position passes and the rows), then the mass matrix and the mass-metric velocity projection
+    at q1 (``exact`` 0: the stages' filtered one; 1: the exact one after steps). Leaves
+    M = L^T L, B = J L^-1, B^T's pivoted QR and the factor of S + i mu^2 I at q1 for
+    projected_accelerations. Returns OK, RANK (M not positive definite) or ERROR."""
+    q, zero = P.q, P.zero_v
     if at_positions(P, 0, t) == ERROR:
         return ERROR
-    res = 0.0
+    constraint_rows_all(R, 0.0, 0.0, q, zero, W.fdrv)
     for _ in range(max_iter):
-        gauss_newton_step(R, P.q, P.zero_v, W.fdrv, rcond, W.Qg, W.pg, W.hg, P.dq)
-        if move(P, t) == ERROR or at_positions(P, native.MASS, t) == ERROR:
+        gauss_newton_step(R, rcond, W.Qg, W.pg, W.hg, P.dq)
+        if move(P, t) == ERROR or at_positions(P, 0, t) == ERROR:
             return ERROR
-        res = velocity_projection(R, W, mu, rcond_v, exact)
+        constraint_rows_all(R, 0.0, 0.0, q, zero, W.fdrv)
+        res = 0.0
+        for r in range(R.phi.shape[0]):
+            res = max(res, abs(R.phi[r]))
         if res <= tol:
             break
-    if res == -1.0:
+    mass_only(P)
+    if not velocity_projection(R, W, mu, rcond_v, exact):
         return RANK
     for c in range(W.v.shape[0]):
         W.v[c] = W.v1[c]
@@ -239,16 +244,15 @@ def _bt_times(Y, w, x):
 
 @njit(cache=True)
 def velocity_projection(R, W, mu, rcond, exact):
-    """At q (placements, Jacobians and M there): M = L^T L, B = J L^-1 (in Y), the pivoted QR
-    of B^T and the factor of S + i mu^2 I (shifted_factor; kept for projected_accelerations; the
-    exact projection of a scleronomic system has no use for it and skips it), and
-    the mass-metric projection v1 = L^-1 ((I - Q Q^T) L v - B^T g(S) Phi_t) onto
-    J v1 + Phi_t = 0 (``exact``; otherwise v1 = v - L^-1 B^T g(S) (J v + Phi_t), the stages'
-    filtered correction). Returns |Phi|_inf at q, or -1 if M is not PD; kk[0] = rank kept."""
-    q, v, v1, Lm, Y = W.q, W.v, W.v1, W.Lm, W.Y
-    constraint_rows_all(R, 0.0, 0.0, q, v, W.fdrv)
+    """At q (the rows at (q, v = 0) in R: Phi, J and the rates Phi_t; M there): M = L^T L,
+    B = J L^-1 (in Y), the pivoted QR of B^T and the factor of S + i mu^2 I (shifted_factor;
+    kept for projected_accelerations; the exact projection of a scleronomic system has no use
+    for it and skips it), and the mass-metric projection v1 = L^-1 ((I - Q Q^T) L v -
+    B^T g(S) Phi_t) onto J v1 + Phi_t = 0 (``exact``; otherwise v1 = v - L^-1 B^T g(S)
+    (J v + Phi_t), the stages' filtered correction). False if M is not PD; kk[0] = rank kept."""
+    v, v1, Lm, Y = W.v, W.v1, W.Lm, W.Y
     if not ltl_factor(W.M, W.parent, Lm):
-        return -1.0
+        return False
     Jc, dphi, pt = R.Jc, R.dphi, W.r
     m, nv = Jc.shape
     schur_complement(Lm, W.parent, Jc, W.rows, Y, W.S)
@@ -268,8 +272,11 @@ def velocity_projection(R, W, mu, rcond, exact):
             pt[r] = 0.0 if r < mc else -W.fdrv[1, r - mc]
             rates = rates or pt[r] != 0.0
     else:
-        for r in range(m):
-            pt[r] = dphi[r]
+        for r in range(m):                     # J v + Phi_t (the rows' rates are at v = 0)
+            s = dphi[r]
+            for c in range(nv):
+                s += Jc[r, c] * v[c]
+            pt[r] = s
         for c in range(nv):
             v1[c] = v[c]
     if rates:
@@ -288,10 +295,7 @@ def velocity_projection(R, W, mu, rcond, exact):
                 v1[c] -= corr[c]
     if exact:
         ltl_solve(Lm, W.parent, v1)
-    res = 0.0
-    for r in range(m):
-        res = max(res, abs(R.phi[r]))
-    return res
+    return True
 
 
 @njit(cache=True)
