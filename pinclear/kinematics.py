@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._kernels import J_PRISMATIC, J_REVOLUTE, constraint_rows_all, frame_kinematics, joint_placements
+from ._kernels import J_PRISMATIC, J_REVOLUTE, Rows, constraint_rows_all, frame_kinematics, joint_placements
 import pinocchio as pin
 
 from .errors import AssemblyError
@@ -197,17 +197,18 @@ def constraint_rows(mech, ws, t, q, v, baumgarte=None):
     gamma is the right-hand side of J a = gamma; with ``baumgarte=(alpha, beta)`` it includes
     -2 alpha dPhi - beta^2 Phi (the papers' stabilisation)."""
     alpha, beta = baumgarte if baumgarte is not None else (0.0, 0.0)
-    constraint_rows_all(*static_args(mech, ws), float(alpha), float(beta), np.ascontiguousarray(q, float),
+    constraint_rows_all(row_buffers(mech, ws), float(alpha), float(beta), np.ascontiguousarray(q, float),
                         np.ascontiguousarray(v, float), mech.driverows.values(t, ws.drive_data))
 
 
-def static_args(mech, ws):
-    """The buffers the compiled constraint kernels read and write (see pinclear._kernels); all
-    are views that stay valid for the workspace's life (data.J etc. view Pinocchio's memory)."""
+def row_buffers(mech, ws) -> Rows:
+    """The buffers the compiled constraint kernels read and write (pinclear._kernels.Rows); all
+    are views that stay valid for the workspace's life (data.J etc. view Pinocchio's memory), so
+    a formulation builds them once and binds them into its stages."""
     fk, mc, dr = ws.fk, mech.compiled, mech.driverows
     # ws.J6: Pinocchio hands back (6,) for a 1-dof tree, the workspace views it as (6, nv)
-    return (fk.Hj, fk.jidx, fk.jMf, fk.H, fk.mask, ws.J6, ws.dJ6, mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv, fk.Jw, fk.V, fk.W,
-            fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma)
+    return Rows(fk.Hj, fk.jidx, fk.jMf, fk.H, fk.mask, ws.J6, ws.dJ6, mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv,
+                fk.Jw, fk.V, fk.W, fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma)
 
 
 def closure_residual(mech, ws, q, t=0.0, with_drives=False):

@@ -8,9 +8,12 @@ same passes through Pinocchio's Python bindings, as a Python stage of the run's 
 """
 from __future__ import annotations
 
+import ctypes
 import importlib
 import os
+from typing import NamedTuple
 
+import numpy as np
 import pinocchio as pin
 
 from ._jit import njit
@@ -38,14 +41,65 @@ def available() -> bool:
     return _mod is not None
 
 
-#: the flags of pinclear_passes (passes.cpp): frame placements, the mass matrix
-FRAMES, MASS = 1, 2
+#: the flags of pinclear_passes (passes.cpp): frame placements, the mass matrix; the position
+#: level instead of an evaluation's passes (placements and Jacobians at q, with FRAMES and MASS
+#: as asked); the mass matrix alone
+FRAMES, MASS, POSITIONS, MASS_ONLY = 1, 2, 4, 8
 
 
 def passes_address() -> int:
-    """Address of ``pinclear_passes(model, data, q, v, flags)`` (all int64; flags: FRAMES | MASS);
-    see passes.cpp."""
+    """Address of ``pinclear_passes(model, data, q, v, flags)`` (all int64; flags: FRAMES, MASS,
+    POSITIONS, MASS_ONLY); see passes.cpp."""
     return _mod.passes_address()
+
+
+def python_passes(model, data, q, v, flags):
+    """passes.cpp's sequence for ``flags`` through Pinocchio's Python bindings (the library
+    functions the extension calls, in the same order)."""
+    if flags & MASS_ONLY:
+        pin.crba(model, data, q)
+        return
+    if flags & POSITIONS:
+        pin.computeJointJacobians(model, data, q)
+    else:
+        pin.computeJointJacobiansTimeVariation(model, data, q, v)
+    if flags & FRAMES:
+        pin.updateFramePlacements(model, data)
+    if flags & MASS:
+        pin.crba(model, data, q)
+    if not flags & POSITIONS:
+        pin.nonLinearEffects(model, data, q, v)
+
+
+class Passes(NamedTuple):
+    """What compiled code needs to run Pinocchio's passes on one workspace's data:
+    ``call_passes(fn, model, data, q_address, v_address, flags)`` (pinclear.stepping.call)."""
+    fn: int
+    model: int
+    data: int
+
+
+#: the C type of pinclear_passes, for its Python twin
+_PASSES = ctypes.CFUNCTYPE(None, *[ctypes.c_int64] * 5)
+
+
+def passes_for(mech, ws):
+    """(Passes on ``ws.data``, what must stay alive while they are used). Without the extension
+    ``fn`` is a C callback running :func:`python_passes` (at Python's cost: ~10 us a call), so
+    kernels that call the passes themselves (the projections onto the constraint manifold) work
+    on every install. q and v are read at the addresses passed (nq and nv entries)."""
+    if _mod is not None:
+        model_addr, data_addr = addresses(mech.model, ws.data)
+        return Passes(passes_address(), model_addr, data_addr), None
+    model, data, nq, nv = mech.model, ws.data, mech.nq, mech.nv
+
+    def passes(model_addr, data_addr, q_addr, v_addr, flags):
+        q = np.ctypeslib.as_array((ctypes.c_double * nq).from_address(q_addr))
+        v = np.ctypeslib.as_array((ctypes.c_double * nv).from_address(v_addr))
+        python_passes(model, data, q, v, flags)
+
+    c = _PASSES(passes)
+    return Passes(ctypes.cast(c, ctypes.c_void_p).value, 0, 0), c
 
 
 def addresses(model, data) -> tuple:

@@ -19,18 +19,27 @@ import pytest
 import pinclear
 from pinclear import native
 
-FRAMES, MASS = native.FRAMES, native.MASS
+FRAMES, MASS, POSITIONS, MASS_ONLY = native.FRAMES, native.MASS, native.POSITIONS, native.MASS_ONLY
 PASSES_SIG = ctypes.CFUNCTYPE(None, *[ctypes.c_int64] * 5)
 
 
 def _python_sequence(model, data, q, v, flags):
-    """pinclear.kinematics.update's sequence through the Python bindings."""
-    pin.computeJointJacobiansTimeVariation(model, data, q, v)
+    """pinclear.kinematics.update's sequence through the Python bindings; the position level
+    (the projections' Gauss-Newton iterates: placements and Jacobians, no velocities) with
+    POSITIONS; crba alone with MASS_ONLY."""
+    if flags & MASS_ONLY:
+        pin.crba(model, data, q)
+        return
+    if flags & POSITIONS:
+        pin.computeJointJacobians(model, data, q)
+    else:
+        pin.computeJointJacobiansTimeVariation(model, data, q, v)
     if flags & FRAMES:
         pin.updateFramePlacements(model, data)
     if flags & MASS:
         pin.crba(model, data, q)
-    pin.nonLinearEffects(model, data, q, v)
+    if not flags & POSITIONS:
+        pin.nonLinearEffects(model, data, q, v)
 
 
 def _oMf(data):
@@ -51,11 +60,15 @@ def _model(name):
 
 
 @pytest.mark.parametrize("name", ["four_bar", "humanoid"])
-@pytest.mark.parametrize("flags", [FRAMES | MASS, FRAMES, MASS, 0])
+@pytest.mark.parametrize("flags", [FRAMES | MASS, FRAMES, MASS, 0, POSITIONS, POSITIONS | MASS, POSITIONS | FRAMES,
+                                   MASS_ONLY])
 def test_passes_equal_python_bindings(passes, name, flags):
+    """Also pinclear.native.python_passes, the same sequence run through a C callback when the
+    extension is missing (the projections call it from compiled code): equal to both."""
     model = _model(name)
-    ref, out = model.createData(), model.createData()
+    ref, out, twin = model.createData(), model.createData(), model.createData()
     maddr, daddr = native.addresses(model, out)
+    mass = flags & (MASS | MASS_ONLY)
     rng = np.random.default_rng(7)
     sentinel_M = np.full((model.nv, model.nv), 0.25)
     for _ in range(3):
@@ -64,16 +77,19 @@ def test_passes_equal_python_bindings(passes, name, flags):
         # a pass that is skipped must leave its outputs as they were. The C++ crba writes only
         # the upper-triangle entries of joints on one branch (the bindings' crba zeroes M
         # first), so with the mass pass M starts at zero, as in a fresh Data
-        out.M[:] = 0.0 if flags & MASS else sentinel_M
+        out.M[:] = 0.0 if mass else sentinel_M
         oMf_before = _oMf(out)
         _python_sequence(model, ref, q, v, flags)
         passes(maddr, daddr, q.ctypes.data, v.ctypes.data, flags)
+        native.python_passes(model, twin, q, v, flags)
+        for name_ in ("nle", "J", "dJ", "M"):
+            assert np.array_equal(getattr(twin, name_), getattr(ref, name_)), name_
         assert np.array_equal(out.nle, ref.nle)
         assert np.array_equal(out.J, ref.J)
         assert np.array_equal(out.dJ, ref.dJ)
         assert np.array_equal(np.array([m.homogeneous for m in out.oMi]),
                               np.array([m.homogeneous for m in ref.oMi]))
-        if flags & MASS:
+        if mass:
             # the bindings' crba also mirrors M into the lower triangle
             assert np.array_equal(np.triu(out.M), np.triu(ref.M))
         else:

@@ -1,16 +1,23 @@
 // pinclear's per-evaluation Pinocchio passes as one C function that compiled code can call.
 //
-// Why: the compiled integration loop (pinclear/fastloop.py) runs every stage of a Runge-Kutta
-// step inside numba; only Pinocchio's tree algorithms live outside it. numba calls
+// Why: the compiled step logic (pinclear/stepping) runs every stage of an evaluation inside
+// numba; only Pinocchio's tree algorithms live outside it. numba calls
 // pinclear_passes through its address, with the addresses of the pin.Model / pin.Data objects
 // the Python side owns (model_address / data_address below), so Pinocchio still computes M, b,
 // J and dJ, on the very Data whose arrays the kernels already read.
 //
-// The sequence is exactly pinclear.kinematics.update's, so results are bit-identical to it:
+// Without bits 4 and 8 the sequence is exactly pinclear.kinematics.update's, so results are
+// bit-identical to it:
 //   computeJointJacobiansTimeVariation(model, data, q, v)   oMi, J, dJ, v
 //   updateFramePlacements(model, data)        (flags & 1)   oMf (force elements read frames)
 //   crba(model, data, q, LOCAL)               (flags & 2)   M (upper triangle)
 //   nonLinearEffects(model, data, q, v)                     nle
+// The position level (flags & 4: the Gauss-Newton iterations of the projections onto the
+// constraint manifold, which need placements and Jacobians at each iterate, no velocities):
+//   computeJointJacobians(model, data, q)                   oMi, J
+//   updateFramePlacements / crba as above     (flags & 1, 2)
+// The mass matrix alone (flags & 8: the velocity projection at a q whose positions are done):
+//   crba(model, data, q, LOCAL)                             M (upper triangle)
 #include <Python.h>
 
 #include <pinocchio/multibody.hpp>
@@ -36,6 +43,18 @@ extern "C" __attribute__((visibility("default"))) void pinclear_passes(std::int6
   Data & data = *reinterpret_cast<Data *>(data_addr);
   VecMap q(reinterpret_cast<const double *>(q_addr), model.nq);
   VecMap v(reinterpret_cast<const double *>(v_addr), model.nv);
+  if (flags & 8) {
+    pinocchio::crba(model, data, q, pinocchio::Convention::LOCAL);
+    return;
+  }
+  if (flags & 4) {
+    pinocchio::computeJointJacobians(model, data, q);
+    if (flags & 1)
+      pinocchio::updateFramePlacements(model, data);
+    if (flags & 2)
+      pinocchio::crba(model, data, q, pinocchio::Convention::LOCAL);
+    return;
+  }
   pinocchio::computeJointJacobiansTimeVariation(model, data, q, v);
   if (flags & 1)
     pinocchio::updateFramePlacements(model, data);

@@ -10,7 +10,7 @@ from scipy.linalg import cho_factor
 
 from .. import kinematics
 from ..errors import InputError, RankLossError
-from ..stepping.call import OK
+from ..stepping.call import ERROR, OK
 
 #: condition number of the constraint Schur complement beyond which a plain solve is garbage
 RANK_COND = 1e12
@@ -95,7 +95,10 @@ class Formulation(abc.ABC):
         self.ws = mech.workspace()
         self.rows = np.arange(mech.m, dtype=np.int64)      # constraint rows used (redundant ones may be dropped)
         self.row_changes = []              # (t, names of the rows dropped from then on), when re-chosen
-        self._last_finite = True
+        #: exceptions of Python stages inside the formulation's own stages (a Python drive law
+        #: the projection evaluates, placements of a tree the compiled chain does not cover)
+        self.errors = []
+        self._drives = None
 
     # -------------------------------------------------------------- shared pieces
     def applied(self, t, q, v, z, mass=True):
@@ -120,6 +123,23 @@ class Formulation(abc.ABC):
             "continue through a singular or redundant configuration: use method='proximal'",
             t=t, rank=rank, rows=S.shape[0], cond=float(sv[0] / max(sv[-1], 1e-300)))
 
+    def drive_stages(self) -> tuple:
+        """The drive law stages on this workspace (pinclear.drives.DriveRows.stages), built once:
+        the formulation's own stages that need the drive values at their time (the projections)
+        run them first. Their Python stages report to ``self.errors``."""
+        if self._drives is None:
+            self._drives = self.mech.driverows.stages(self.ws.drive_data, self.errors)
+        return self._drives
+
+    def drive_values(self, t):
+        """The drive values at t (``ws.drive_data.f``) for the Python path, through the run's own
+        drive stages: the same kernels as the compiled run and no per-time cache, which a
+        compiled stage writing the values would leave stale (DriveRows.values keeps one)."""
+        for stage in self.drive_stages():
+            if stage(t) == ERROR:
+                raise self.errors.pop()
+        return self.ws.drive_data.f
+
     # -------------------------------------------------------------- interface
     @abc.abstractmethod
     def accelerations(self, t, q, v, z):
@@ -136,8 +156,10 @@ class Formulation(abc.ABC):
         return None
 
     def monitor(self):
-        """(rank floor, reselect factor) of the pivot monitor (contract 8): not watched."""
-        return (-np.inf, -np.inf)
+        """(rank floor, reselect factor) of the pivot monitor (contract 8). By default the
+        pivots are not watched, but a negative code (RANK, NONFINITE: pinclear.stepping.call)
+        is a failed evaluation, whose trial step the step logic rejects (contract 3)."""
+        return (0.0, -np.inf)
 
     def reselect_rows(self, t) -> bool:
         """Choose the independent constraint rows again at the last evaluation's state

@@ -9,7 +9,7 @@ from scipy.linalg import cho_solve
 
 from .. import kinematics
 from .._jit import njit
-from .._kernels import lagrange_accel
+from .._kernels import Solve, lagrange_accel
 from ..stepping.call import NONFINITE
 from ..stepping.stage import bind
 from .base import RANK_COND, Compiled, Formulation
@@ -38,12 +38,13 @@ class Lagrange(Formulation):
         nv, m = mech.nv, mech.m
         ws = self.ws
         self._buf = {"Lm": np.zeros((nv, nv)), "Y": np.zeros((m, nv)), "S": np.zeros((m, m)),
-                     "Ls": np.zeros((m, m)), "lam": np.zeros(m)}
+                     "Ls": np.zeros((m, m)), "d": np.zeros(m), "r": np.zeros(m), "lam": np.zeros(m)}
+        #: the frame-kinematics and constraint-row buffers every stage of the formulation reads
+        self.row_buffers = kinematics.row_buffers(mech, ws)
         # the kept rows live in one buffer whose first len(rows) entries are the rows: choosing
         # them again (same count) rewrites it in place, so bound stages stay valid
         self._rows_all = np.arange(m, dtype=np.int64)
         self._stages = None
-        self._drive_data = ws.drive_data
 
     def use_rows(self, independent):
         if self.opts["drop_redundant"]:
@@ -80,12 +81,13 @@ class Lagrange(Formulation):
 
     def compiled(self):
         if self._stages is None:
-            ws, mech, b = self.ws, self.mech, self._buf
+            ws, b = self.ws, self._buf
             al, be = self.baumgarte()
             lam = ws.lam if self._all_rows else b["lam"]
-            solve = bind(lagrange_accel, kinematics.static_args(mech, ws) + (
-                float(al), float(be), ws.data.M, ws.parent, ws.tau, ws.data.nle, self.rows, b["Lm"], b["Y"],
-                b["S"], b["Ls"], ws.a, lam, ws.q, ws.v, ws.drive_data.f), code=True, name=f"{self.name} solve")
+            K = Solve(ws.q, ws.v, ws.drive_data.f, ws.data.M, ws.parent, ws.tau, ws.data.nle, self.rows, b["Lm"],
+                      b["Y"], b["S"], b["Ls"], b["d"], b["r"], ws.a, lam)
+            solve = bind(lagrange_accel, (self.row_buffers, K, float(al), float(be)), code=True,
+                         name=f"{self.name} solve")
             # the multipliers of every row (ws.lam) from the kept rows' (contract 2)
             scatter = () if self._all_rows else (bind(scatter_multipliers, (b["lam"], self.rows, ws.lam)),)
             self._stages = (solve,) + scatter
@@ -95,7 +97,7 @@ class Lagrange(Formulation):
         ws = self.ws
         ws.load_state(q, v, z)
         self.applied(t, ws.q, ws.v, ws.z)
-        self.mech.driverows.values(t, self._drive_data)
+        self.drive_values(t)
         code = np.inf
         for stage in self.compiled().solve:
             code = min(code, stage(t))

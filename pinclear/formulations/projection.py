@@ -1,49 +1,335 @@
 """Exact acceleration-level constraints (no Baumgarte) plus projection of q and v back onto the
-constraint manifold after every accepted step: positions by Gauss-Newton on the manifold
-(pin.integrate), velocities by the mass-metric projection v <- v - M^-1 J^T S^-1 (J v + Phi_t)."""
+constraint manifold after every accepted step (and on every output sample):
+
+* positions: Gauss-Newton on Phi(q, t) = 0 over the kept rows with minimum-norm steps
+  dq = -J^+ Phi (J^T's pivoted Householder QR), until |Phi|_inf < ``tol`` or ``max_iter`` steps;
+* velocities: the mass-metric projection onto J v + Phi_t = 0,
+      v <- v - M^-1 J^T S^+ (J v + Phi_t),   S = J M^-1 J^T,
+  evaluated with M = L^T L (tree-sparse) and B = J L^-1 as
+      v <- L^-1 ((I - Q Q^T) L v - B^+ Phi_t),   Q an orthonormal basis of range(B^T),
+  so no normal equations are formed (B^T's pivoted QR gives Q and B^+).
+
+Both run in one compiled kernel (:func:`project_state`), which calls Pinocchio's position passes
+itself at every iterate (pinclear.native's passes, placements through a bound stage), so a run's
+projection never leaves compiled code; :meth:`Projection.project` calls the same stage from
+Python. The proximal formulation projects with the same kernel, its steps filtered by its
+proximal iterations instead of the pseudo-inverse.
+"""
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg import cho_solve
 
-from .. import kinematics
+from .. import native
+from .._jit import njit
+from .._kernels import (constraint_rows_all, joint_placements, ltl_factor, ltl_solve, min_norm_solve, project_out,
+                        proximal_filter, qr_pivoted, relative_rho, scaled_rows, schur_complement)
+from ..errors import InputError
+from ..stepping.call import ERROR, NONFINITE, OK, RANK, call_passes, call_stage
+from ..stepping.stage import T, bind, python_stage
 from .lagrange import Lagrange
 
+#: relative pivot below which a direction of J^T (or of B^T = (J L^-1)^T) is dropped from the
+#: minimum-norm steps: singular values below 1e-6 of the largest, as a least-squares solve of the
+#: normal equations J J^T x = Phi with rcond 1e-12 drops them (their squares), without forming them
+RCOND = 1e-6
 
-def project_to_manifold(form, t, q, v, tol, max_iter, solve=None):
-    """(q, v) moved onto Phi(q, t) = 0 and J v + Phi_t = 0 over the formulation's rows: the
-    shared projection of every formulation that offers one. ``solve(A, b)`` solves the normal
-    equations A x = b of both steps (default: least squares, minimum norm)."""
-    if solve is None:
-        def solve(A, b):
-            return np.linalg.lstsq(A, b, rcond=1e-12)[0]
-    mech, ws, rows = form.mech, form.ws, form.rows
+
+class Positions(NamedTuple):
+    """What a kernel needs to move q and run Pinocchio's position passes from compiled code (one
+    workspace): the passes (pinclear.native.Passes), the stage computing the placements of the
+    frames the rows read at ``q``, the stage integrating ``q`` along ``dq`` (0: plain addition,
+    a Euclidean tree), the configuration buffer (the state buffer's q), the step and v = 0."""
+    passes: int
+    model: int
+    data: int
+    place_fn: int
+    place_ctx: int
+    integ_fn: int
+    integ_ctx: int
+    q: np.ndarray
+    dq: np.ndarray
+    zero_v: np.ndarray
+
+
+def position_passes(form):
+    """(Positions of ``form``'s workspace, what must stay alive while they are bound). Trees the
+    compiled joint chain covers get compiled placements; others copy Pinocchio's data.oMi, and
+    non-Euclidean trees integrate with pin.integrate, both through Python stages (those trees run
+    the Python loop: pinclear.stepping.build)."""
+    mech, ws = form.mech, form.ws
+    passes, keep = native.passes_for(mech, ws)
+    if ws.fk.chain is not None:
+        place = bind(joint_placements, ws.fk.placement_args(ws.q), name="placements")
+    else:
+        def copy_placements(t):
+            ws.fk.load_placements(ws.data, ws.q)
+            return np.inf
+        place = python_stage(copy_placements, form.errors, name="placements (copied from Pinocchio's data)")
+    dq = np.zeros(mech.nv)
+    integ_fn = integ_ctx = 0
+    integ = None
+    if not mech.euclidean:
+        def integrate(t):
+            ws.q[:] = pin.integrate(mech.model, ws.q, dq)
+            return np.inf
+        integ = python_stage(integrate, form.errors, name="pin.integrate")
+        integ_fn, integ_ctx = integ.fn, integ.ctx
+    P = Positions(passes.fn, passes.model, passes.data, place.fn, place.ctx, integ_fn, integ_ctx, ws.q, dq, ws.zero_v)
+    return P, (keep, place, integ)
+
+
+@njit(cache=True)
+def at_positions(P, flags, t):
+    """Pinocchio's position passes at P.q (with native.MASS in ``flags``: crba too), then the
+    placements of the rows' frames; the placement stage's code (ERROR: a Python stage raised)."""
+    call_passes(P.passes, P.model, P.data, P.q.ctypes.data, P.zero_v.ctypes.data, native.POSITIONS | flags)
+    return call_stage(P.place_fn, P.place_ctx, t)
+
+
+@njit(cache=True)
+def move(P, t):
+    """q <- integrate(q, dq): plain addition on a Euclidean tree; the code."""
+    if P.integ_fn == 0:
+        for i in range(P.q.shape[0]):
+            P.q[i] += P.dq[i]
+        return OK
+    return call_stage(P.integ_fn, P.integ_ctx, t)
+
+
+@njit(cache=True)
+def mass_only(P):
+    """crba at P.q, whose positions are done."""
+    call_passes(P.passes, P.model, P.data, P.q.ctypes.data, P.zero_v.ctypes.data, native.MASS_ONLY)
+
+
+@njit(cache=True)
+def ltl_mul(Lm, parent, v, x):
+    """x = L v for M = L^T L, L upper-triangular in the tree pattern: (L v)_k sums over k and its
+    ancestors (pinclear._kernels.ltl_factor)."""
+    for c in range(v.shape[0]):
+        s = Lm[c, c] * v[c]
+        i = parent[c]
+        while i >= 0:
+            s += Lm[c, i] * v[i]
+            i = parent[i]
+        x[c] = s
+
+
+class Projector(NamedTuple):
+    """The buffers of :func:`project_state`: the velocity (the state buffer's v), the drive
+    values, Pinocchio's M, the tree's parents, the rows projected onto and work arrays sized by
+    them (k rows)."""
+    v: np.ndarray
+    fdrv: np.ndarray
+    M: np.ndarray
+    parent: np.ndarray
+    rows: np.ndarray     # (k,)
+    Qr: np.ndarray       # (k, nv) pivoted QR of J^T, then of B^T (row-wise: pinclear._kernels.qr_pivoted)
+    piv: np.ndarray      # (k,) int64
+    hb: np.ndarray       # (k,)
+    Lm: np.ndarray       # (nv, nv) M = L^T L
+    Y: np.ndarray        # (k, nv) B = J L^-1, row-wise
+    S: np.ndarray        # (k, k) J J^T, then B B^T (the proximal filter's matrix)
+    F: np.ndarray        # (k, k) its proximal factor
+    d: np.ndarray        # (k,)
+    r: np.ndarray        # (k,)
+    w: np.ndarray        # (k,)
+    x: np.ndarray        # (nv,)
+
+
+def projector(form, rows):
+    """The Projector of ``form``'s workspace over ``rows`` (bound as it is: keep the array)."""
+    ws, nv, k = form.ws, form.mech.nv, len(rows)
+    return Projector(ws.v, ws.drive_data.f, ws.data.M, ws.parent, rows, np.zeros((k, nv)), np.zeros(k, dtype=np.int64),
+                     np.zeros(k), np.zeros((nv, nv)), np.zeros((k, nv)), np.zeros((k, k)), np.zeros((k, k)),
+                     np.zeros(k), np.zeros(k), np.zeros(k), np.zeros(nv))
+
+
+@njit(cache=True)
+def _row_residual(phi, rows):
+    res = 0.0
+    for i in range(rows.shape[0]):
+        res = max(res, abs(phi[rows[i]]))
+    return res
+
+
+@njit(cache=True)
+def _filtered(W, k_prox, rho_rel):
+    """W.w = the proximal filter of W.S applied to W.r (k_prox iterations, rho relative to the
+    mean diagonal of S)."""
+    proximal_filter(W.S, W.r, relative_rho(W.S, rho_rel), k_prox, W.F, W.d, W.w)
+
+
+@njit(cache=True)
+def gauss_newton_step(R, W, rcond, k_prox, rho_rel, dq):
+    """dq = -J^+ Phi over W.rows (k_prox = 0: minimum norm by J^T's pivoted QR), or
+    dq = -J^T f(J J^T) Phi with the proximal filter f of k_prox iterations."""
+    Jc, phi, rows, r = R.Jc, R.phi, W.rows, W.r
+    m, nv = rows.shape[0], dq.shape[0]
+    for i in range(m):
+        r[i] = phi[rows[i]]
+    if k_prox == 0:
+        for i in range(m):
+            for c in range(nv):
+                W.Qr[i, c] = Jc[rows[i], c]
+        kk = qr_pivoted(W.Qr, W.piv, W.hb, rcond)
+        min_norm_solve(W.Qr, W.piv, W.hb, kk, r, dq, np.zeros(0))
+        for c in range(nv):
+            dq[c] = -dq[c]
+        return
+    S = W.S
+    for i in range(m):
+        for j in range(i + 1):
+            s = 0.0
+            for c in range(nv):
+                s += Jc[rows[i], c] * Jc[rows[j], c]
+            S[i, j] = s
+            S[j, i] = s
+    _filtered(W, k_prox, rho_rel)
+    for c in range(nv):
+        s = 0.0
+        for i in range(m):
+            s -= Jc[rows[i], c] * W.w[i]
+        dq[c] = s
+
+
+@njit(cache=True)
+def project_state(P, R, W, t, tol, max_iter, rcond, k_prox, rho_rel):
+    """The state buffer's (q, v) moved onto the constraint manifold over W.rows (module doc):
+    Gauss-Newton steps while |Phi|_inf >= tol (at most max_iter), then the mass-metric velocity
+    projection at the last iterate. ``k_prox`` = 0: minimum-norm steps (pseudo-inverses by
+    pivoted QR, pivots below ``rcond`` dropped); > 0: the proximal filter of ``k_prox``
+    iterations with rho = ``rho_rel`` times the mean diagonal (pinclear.formulations.proximal).
+    Returns OK, RANK (M not positive definite), NONFINITE, or ERROR (a Python stage raised)."""
+    q, v, rows, zero = P.q, W.v, W.rows, P.zero_v
+    m, nv = rows.shape[0], v.shape[0]
+    settled = False
     for _ in range(max_iter):
-        kinematics.update_positions(mech, ws, q)
-        kinematics.constraint_rows(mech, ws, t, q, ws.zero_v)
-        phi = ws.phi[rows]
-        if np.linalg.norm(phi, np.inf) < tol:
+        if at_positions(P, 0, t) == ERROR:
+            return ERROR
+        constraint_rows_all(R, 0.0, 0.0, q, zero, W.fdrv)
+        if _row_residual(R.phi, rows) < tol:
+            settled = True
             break
-        J = ws.J[rows]
-        # minimum-norm Gauss-Newton step J^T (J J^T)^+ phi, defined at a rank loss
-        q = pin.integrate(mech.model, q, -J.T @ solve(J @ J.T, phi))
-    kinematics.update(mech, ws, q, v)
-    kinematics.constraint_rows(mech, ws, t, q, v)
-    J = ws.J[rows]
-    c = form.mass_factor()
-    MiJt = cho_solve(c, J.T, check_finite=False)
-    v = v - MiJt @ solve(J @ MiJt, ws.dphi[rows])
-    return q, v
+        gauss_newton_step(R, W, rcond, k_prox, rho_rel, P.dq)
+        if move(P, t) == ERROR:
+            return ERROR
+    if not settled:                  # the last step's positions and rows, for the velocities
+        if at_positions(P, 0, t) == ERROR:
+            return ERROR
+        constraint_rows_all(R, 0.0, 0.0, q, zero, W.fdrv)
+    # R.dphi at v = 0 is Phi_t (the drive rows' -f'(t); zero for closures)
+    mass_only(P)
+    Lm, x, Y, dphi = W.Lm, W.x, W.Y, R.dphi
+    if not ltl_factor(W.M, W.parent, Lm):
+        return RANK
+    ltl_mul(Lm, W.parent, v, x)                  # x = L v
+    if k_prox == 0:
+        # x <- (I - Q Q^T) x - B^+ Phi_t, Q spanning range(B^T)
+        scaled_rows(Lm, W.parent, R.Jc, rows, Y)
+        for i in range(m):
+            for c in range(nv):
+                W.Qr[i, c] = Y[i, c]
+        kk = qr_pivoted(W.Qr, W.piv, W.hb, rcond)
+        project_out(W.Qr, W.hb, kk, x)
+        for i in range(m):
+            W.r[i] = dphi[rows[i]]
+        xs = P.dq
+        min_norm_solve(W.Qr, W.piv, W.hb, kk, W.r, xs, np.zeros(0))
+        for c in range(nv):
+            x[c] -= xs[c]
+    else:
+        # x <- x - B^T f(B B^T) (B x + Phi_t)
+        schur_complement(Lm, W.parent, R.Jc, rows, Y, W.S)
+        for i in range(m):
+            s = dphi[rows[i]]
+            for c in range(nv):
+                s += Y[i, c] * x[c]
+            W.r[i] = s
+        _filtered(W, k_prox, rho_rel)
+        for i in range(m):
+            wi = W.w[i]
+            for c in range(nv):
+                x[c] -= Y[i, c] * wi
+    ltl_solve(Lm, W.parent, x)
+    s = 0.0
+    for c in range(nv):
+        v[c] = x[c]
+        s += x[c]
+    for i in range(q.shape[0]):
+        s += q[i]
+    return OK if np.isfinite(s) else NONFINITE
+
+
+def run_projection(form, stage, t, q, v):
+    """(q, v) moved by a projection stage called from Python: the same kernel on the same
+    buffers as in a compiled run (the drive values at t first, as the run's drive stages). Raises
+    what a Python stage inside raised, or LinAlgError when M is not positive definite."""
+    ws = form.ws
+    if q is not ws.q:
+        ws.q[:] = q
+    if v is not ws.v:
+        ws.v[:] = v
+    form.drive_values(t)
+    code = stage(t)
+    if code == ERROR:
+        raise form.errors.pop()
+    if code == RANK:
+        raise np.linalg.LinAlgError(f"{form.mech.name}: the mass matrix is not positive definite at t = {t:.9g} s "
+                                    "(check the URDF inertias)")
+    return ws.q.copy(), ws.v.copy()
 
 
 class Projection(Lagrange):
     name = "projection"
     options = {"tol": 1e-12, "max_iter": 10, "drop_redundant": True}
-    supports_projection = True
+
+    def __init__(self, mech, **options):
+        super().__init__(mech, **options)
+        self.opts["max_iter"] = iterations(self.name, self.opts["max_iter"])
+        self._projection = None
+
+    @property
+    def supports_projection(self):
+        return self.mech.m > 0           # no rows: nothing to project onto
 
     def baumgarte(self):
         return (0.0, 0.0)
 
+    def use_rows(self, independent):
+        super().use_rows(independent)
+        self._projection = None          # its buffers are sized by the kept rows
+
+    def projection_stage(self):
+        """The bound projection kernel (minimum-norm steps over the kept rows)."""
+        if self._projection is None:
+            P, keep = position_passes(self)
+            W = projector(self, self.rows)
+            o = self.opts
+            self._projection = (bind(project_state, (P, self.row_buffers, W, T, float(o["tol"]), o["max_iter"], RCOND,
+                                                     0, 0.0), code=True, name=f"{self.name} projection"), keep)
+        return self._projection[0]
+
+    def compiled(self):
+        comp = super().compiled()
+        if not self.supports_projection:
+            return comp
+        return comp._replace(project=self.drive_stages()
+                             + (self.projection_stage(),))
+
     def project(self, t, q, v):
-        return project_to_manifold(self, t, q, v, self.opts["tol"], self.opts["max_iter"])
+        if not self.supports_projection:
+            return q, v
+        return run_projection(self, self.projection_stage(), t, q, v)
+
+
+def iterations(method, value, key="max_iter"):
+    """An option counting iterations as an int >= 1 (10.0 is accepted: range() and the bound
+    kernels need the int), or an InputError naming the key."""
+    if (isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.integer, np.floating))
+            or not float(value).is_integer() or value < 1):
+        raise InputError(f"method {method!r}: option {key!r} must be an integer >= 1, got {value!r}", key=key)
+    return int(value)
