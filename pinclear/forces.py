@@ -1,7 +1,9 @@
 """Force elements: anything that adds a generalized force computed from the state.
 
 Springs, applied joint forces and clearance contacts share one contract, so the formulations
-and the simulator never special-case them.
+and the simulator never special-case them. The compiled building blocks the elements share
+(their frames' placements from the workspace's frame kinematics, velocities of material points
+and their forces' generalized force through Pinocchio's WORLD joint Jacobian) live here too.
 """
 from __future__ import annotations
 
@@ -31,7 +33,8 @@ class ForceElement(abc.ABC):
     3. Every evaluation method receives ``(mech, ws, d, ...)``: the mechanism, the workspace and
        this element's data ``d``. Before any call the caller ran ``kinematics.update(mech, ws, q,
        v)`` at the same (q, v): ``ws.data`` holds placements, frame placements, joint Jacobians
-       and their time derivative. Elements never call Pinocchio's tree algorithms themselves.
+       and their time derivative, and ``ws.fk`` the joint placements its ``kinematic_frames``
+       need (item 8). Elements never call Pinocchio's tree algorithms themselves.
     4. :meth:`add_force` ADDS the element's generalized force into ``tau`` (nv) and WRITES the
        rates of its internal states into ``zdot`` (nz).
     5. :meth:`potential` is the stored elastic energy, :meth:`power_loss` the dissipated power
@@ -308,6 +311,7 @@ class SpringData:
         self.M = np.zeros((2, 4, 4))
         self.buffers = SpringBuffers(*(np.zeros((1, 3)) for _ in range(3)), np.zeros(1), np.zeros((1, 3)),
                                      np.zeros((1, 3)), np.zeros(3))
+        self.args = None             # the kernels' arguments in this workspace, built once
 
 
 def _readonly(a):
@@ -338,9 +342,11 @@ class SpringDamper(ForceElement):
         return SpringData(self.frame_slot(mech))
 
     def _args(self, ws, d):
-        fk = ws.fk
-        return (self.law, Frames(fk.Hj, fk.jidx, fk.jMf, d.slot, d.M), Bodies(ws.J6, self.idx1, self.idx2),
-                d.buffers)
+        if d.args is None:
+            fk = ws.fk
+            d.args = (self.law, Frames(fk.Hj, fk.jidx, fk.jMf, d.slot, d.M), Bodies(ws.J6, self.idx1, self.idx2),
+                      d.buffers)
+        return d.args
 
     def _state(self, ws, d, v):
         """(length, rate, tension) at the state of the last kinematics pass and velocity v."""
