@@ -184,7 +184,7 @@ def frame_placement(Hj, jidx, jMf, k, M):
     M[3, 3] = 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def place_frames(fr):
     """fr.M[i] = placement of the element's frame i (slots fr.slot + i)."""
     for i in range(fr.M.shape[0]):
@@ -271,7 +271,7 @@ class SpringBuffers(NamedTuple):
     state: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def spring_state(law, fr, bodies, b, v):
     """Length L = |p2 - p1| of the spring between the frames' origins, its rate (the relative
     velocity of the origins along n = (p2 - p1)/L) and its tension f = k (L - L0) + c dL/dt,

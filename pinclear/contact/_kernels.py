@@ -287,7 +287,7 @@ class Foundation(NamedTuple):
     Uf: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def channel_friction(k, fr, f, ch, z, zdot):
     """Channel k's force on body 2 (F2[k]) from its normal load f and the friction law; for a
     law with states, their rates into zdot (same layout as z: [onset speeds (nc) | dissipated
@@ -298,7 +298,7 @@ def channel_friction(k, fr, f, ch, z, zdot):
     return channel_force(k, f, ch.vt, ch.n, fr.code, fr.par, ch.F2)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def contact_forces(laws, fr, ch, z, zdot):
     """Per channel its normal law (times its weight W) and the joint's friction law, after the
     velocities: fills Fn, Fel, F2 (and the friction states' rates in zdot for channels in
@@ -500,7 +500,7 @@ def event_penetrations(geo, frames, ch, snap, g):
         g[k] = ch.delta[k]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def start_channels(bodies, vmin, ch, v, z, zdot, touching):
     """zdot = 0; with ``touching`` channels (else the forces are zeroed: free flight, no
     velocities computed, as in ClearanceJoint._compute) the relative velocities and the floored
@@ -519,7 +519,7 @@ def start_channels(bodies, vmin, ch, v, z, zdot, touching):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def channel_forces(bodies, laws, fr, ch, v, z, tau, zdot):
     """After the geometry: relative velocity, normal and friction laws, wrenches into tau;
     zdot = (0 per channel, dissipated power, friction-state rates). Returns the number of
@@ -720,7 +720,7 @@ def prismatic_foundation(gpar, kf, members, delta, poly, Fel, Uf):
     return on
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def lumped_forces(found, fr, ch, z, zdot):
     """Damping and friction on the lumped corner loads Fel: F = Fel (1 + chi dd/dd0) clipped at
     zero, friction at the corner from F. Fills Fn, F2 (and the friction states' rates of the
