@@ -170,7 +170,7 @@ class Bodies(NamedTuple):
     idx2: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def frame_placement(Hj, jidx, jMf, k, M):
     """M = oMi[parent of frame k] * jMf[k] (4x4), frame k of a FrameKinematics."""
     Hp = Hj[jidx[k]]
@@ -187,8 +187,10 @@ def frame_placement(Hj, jidx, jMf, k, M):
 @njit(cache=True, inline="always")
 def place_frames(fr):
     """fr.M[i] = placement of the element's frame i (slots fr.slot + i)."""
-    for i in range(fr.M.shape[0]):
-        frame_placement(fr.Hj, fr.jidx, fr.jMf, fr.slot + i, fr.M[i])
+    # the tuple's fields once, out of the loop: reading them inside it reference-counts them
+    Hj, jidx, jMf, slot, M = fr.Hj, fr.jidx, fr.jMf, fr.slot, fr.M
+    for i in range(M.shape[0]):
+        frame_placement(Hj, jidx, jMf, slot + i, M[i])
 
 
 @njit(cache=True)
@@ -276,23 +278,24 @@ def spring_state(law, fr, bodies, b, v):
     """Length L = |p2 - p1| of the spring between the frames' origins, its rate (the relative
     velocity of the origins along n = (p2 - p1)/L) and its tension f = k (L - L0) + c dL/dt,
     pulling the bodies together: the force on body 2 is -f n (b.state, b.F2)."""
+    n, p1, p2, dd, F2, state, M = b.n, b.p1, b.p2, b.dd, b.F2, b.state, fr.M
     place_frames(fr)
     L2 = 0.0
     for i in range(3):
-        a, c = fr.M[0, i, 3], fr.M[1, i, 3]
-        b.p1[0, i], b.p2[0, i] = a, c
-        b.n[0, i] = c - a
+        a, c = M[0, i, 3], M[1, i, 3]
+        p1[0, i], p2[0, i] = a, c
+        n[0, i] = c - a
         L2 += (c - a) * (c - a)
     L = math.sqrt(L2)
     # coincident origins: no direction, no force (the tension's direction is undefined)
     inv = 1.0 / L if L > 0.0 else 0.0
     for i in range(3):
-        b.n[0, i] *= inv
-    relative_velocity(bodies.J, bodies.idx1, bodies.idx2, v, b.n, b.p1, b.p2, b.dd, b.vt)
-    f = law.k * (L - law.L0) + law.c * b.dd[0]
+        n[0, i] *= inv
+    relative_velocity(bodies.J, bodies.idx1, bodies.idx2, v, n, p1, p2, dd, b.vt)
+    f = law.k * (L - law.L0) + law.c * dd[0]
     for i in range(3):
-        b.F2[0, i] = -f * b.n[0, i]
-    b.state[0], b.state[1], b.state[2] = L, b.dd[0], f
+        F2[0, i] = -f * n[0, i]
+    state[0], state[1], state[2] = L, dd[0], f
 
 
 @njit(cache=True)

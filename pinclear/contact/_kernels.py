@@ -23,7 +23,7 @@ F_NONE, F_COULOMB, F_MODIFIED, F_STICKSLIP, F_LUGRE = 0, 1, 2, 3, 4
 
 # The laws below exist once: pinclear.contact.laws calls them through the vectorised wrappers
 # (power_law_forces, damped_forces, friction_coefficients, memoryless_friction) and the joints
-# through the fused channel loop (contact_forces). Formulas and sources: laws.py.
+# through their kernels' channel loops (channel_forces, prismatic_energy_force). Formulas and sources: laws.py.
 
 
 @njit(cache=True)
@@ -287,34 +287,41 @@ class Foundation(NamedTuple):
     Uf: np.ndarray
 
 
+# The kernels below take the structured arguments above and unpack them once, at the top: the
+# helpers they call take plain arrays, because handing a tuple of arrays to a compiled call, or
+# reading its fields inside a loop of an inlined one, reference-counts every array each time
+# (measured: the prismatic kernel ran 1.6x slower).
+
+
 @njit(cache=True, inline="always")
-def channel_friction(k, fr, f, ch, z, zdot):
+def channel_friction(k, fcode, fpar, f, vt, n, F2, z, zdot):
     """Channel k's force on body 2 (F2[k]) from its normal load f and the friction law; for a
     law with states, their rates into zdot (same layout as z: [onset speeds (nc) | dissipated
     energy | 3 states per channel]). Returns the friction power -Ft . vt."""
-    if fr.code == F_LUGRE:
-        b = ch.delta.shape[0] + 1 + 3 * k
-        return lugre_channel(k, fr.par, f, ch.vt, ch.n, z[b:b + 3], zdot[b:b + 3], ch.F2)
-    return channel_force(k, f, ch.vt, ch.n, fr.code, fr.par, ch.F2)
+    if fcode == F_LUGRE:
+        b = n.shape[0] + 1 + 3 * k
+        return lugre_channel(k, fpar, f, vt, n, z[b:b + 3], zdot[b:b + 3], F2)
+    return channel_force(k, f, vt, n, fcode, fpar, F2)
 
 
 @njit(cache=True, inline="always")
-def contact_forces(laws, fr, ch, z, zdot):
-    """Per channel its normal law (times its weight W) and the joint's friction law, after the
-    velocities: fills Fn, Fel, F2 (and the friction states' rates in zdot for channels in
-    contact) and returns the dissipated power (Fn - Fel) dd - Ft . vt."""
-    loss = 0.0
-    for k in range(ch.delta.shape[0]):
-        f, fe = normal_force(laws.code[k], ch.delta[k], ch.dd[k], ch.dd0[k], laws.P0[k], laws.P1[k], laws.chi[k])
-        f *= laws.W[k]
-        fe *= laws.W[k]
-        ch.Fn[k] = f
-        ch.Fel[k] = fe
-        if ch.delta[k] <= 0.0:
-            ch.F2[k, 0] = ch.F2[k, 1] = ch.F2[k, 2] = 0.0
-            continue
-        loss += (f - fe) * ch.dd[k] + channel_friction(k, fr, f, ch, z, zdot)
-    return loss
+def free_flight(zdot, Fn, Fel, F2):
+    """No channel touches: no force, nothing to integrate."""
+    for k in range(zdot.shape[0]):
+        zdot[k] = 0.0
+    for k in range(Fn.shape[0]):
+        Fn[k] = 0.0
+        Fel[k] = 0.0
+        F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+
+
+@njit(cache=True, inline="always")
+def onset_speeds(z, vmin, dd0, zdot):
+    """dd0 = the recorded onset speeds floored at vmin (the damping divides by them); zdot = 0."""
+    for k in range(zdot.shape[0]):
+        zdot[k] = 0.0
+    for k in range(dd0.shape[0]):
+        dd0[k] = max(z[k], vmin)
 
 
 @njit(cache=True)
@@ -482,56 +489,60 @@ def channel_geometry(code, gpar, M1, M2, scratch, delta, n, p1, p2):
         p1[2, i] = p1[3, i] = p2[2, i] = p2[3, i] = M2[i, 3]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def channel_penetrations(geo, frames, ch, snap):
     """Penetration of every channel (the event values), values within ``snap`` of zero set to 0."""
+    M, delta = frames.M, ch.delta
     place_frames(frames)
-    channel_geometry(geo.code, geo.gpar, frames.M[0], frames.M[1], ch.scratch, ch.delta, ch.n, ch.p1, ch.p2)
-    for k in range(ch.delta.shape[0]):
-        if abs(ch.delta[k]) < snap:
-            ch.delta[k] = 0.0
+    channel_geometry(geo.code, geo.gpar, M[0], M[1], ch.scratch, delta, ch.n, ch.p1, ch.p2)
+    for k in range(delta.shape[0]):
+        if abs(delta[k]) < snap:
+            delta[k] = 0.0
 
 
 @njit(cache=True)
 def event_penetrations(geo, frames, ch, snap, g):
     """channel_penetrations into the event values g (ForceElement.event_kernel)."""
     channel_penetrations(geo, frames, ch, snap)
-    for k in range(ch.delta.shape[0]):
-        g[k] = ch.delta[k]
-
-
-@njit(cache=True, inline="always")
-def start_channels(bodies, vmin, ch, v, z, zdot, touching):
-    """zdot = 0; with ``touching`` channels (else the forces are zeroed: free flight, no
-    velocities computed, as in ClearanceJoint._compute) the relative velocities and the floored
-    onset speeds dd0. Returns whether there is contact."""
-    for k in range(zdot.shape[0]):
-        zdot[k] = 0.0
-    if touching == 0:
-        for k in range(ch.delta.shape[0]):
-            ch.Fn[k] = 0.0
-            ch.Fel[k] = 0.0
-            ch.F2[k, 0] = ch.F2[k, 1] = ch.F2[k, 2] = 0.0
-        return False
-    relative_velocity(bodies.J, bodies.idx1, bodies.idx2, v, ch.n, ch.p1, ch.p2, ch.dd, ch.vt)
-    for k in range(ch.delta.shape[0]):
-        ch.dd0[k] = max(z[k], vmin)
-    return True
+    delta = ch.delta
+    for k in range(delta.shape[0]):
+        g[k] = delta[k]
 
 
 @njit(cache=True, inline="always")
 def channel_forces(bodies, laws, fr, ch, v, z, tau, zdot):
-    """After the geometry: relative velocity, normal and friction laws, wrenches into tau;
-    zdot = (0 per channel, dissipated power, friction-state rates). Returns the number of
-    touching channels."""
+    """After the geometry: relative velocity, each channel's normal law (times its weight W: the
+    share of a line or plane load a corner carries) and the friction law, wrenches into tau;
+    zdot = (0 per channel, dissipated power (Fn - Fel) dd - Ft . vt, friction-state rates).
+    Returns the number of touching channels (0: free flight, no velocities computed, as in
+    ClearanceJoint._compute)."""
+    delta, n, p1, p2, dd, vt, dd0 = ch.delta, ch.n, ch.p1, ch.p2, ch.dd, ch.vt, ch.dd0
+    Fn, Fel, F2 = ch.Fn, ch.Fel, ch.F2
+    code, P0, P1, chi, W = laws.code, laws.P0, laws.P1, laws.chi, laws.W
+    fcode, fpar = fr.code, fr.par
+    nc = delta.shape[0]
     on = 0
-    for k in range(ch.delta.shape[0]):
-        if ch.delta[k] > 0.0:
+    for k in range(nc):
+        if delta[k] > 0.0:
             on += 1
-    if not start_channels(bodies, laws.vmin, ch, v, z, zdot, on):
+    if on == 0:
+        free_flight(zdot, Fn, Fel, F2)
         return 0
-    zdot[ch.delta.shape[0]] = contact_forces(laws, fr, ch, z, zdot)
-    add_wrenches(bodies.J, bodies.idx1, bodies.idx2, ch.F2, ch.p1, ch.p2, tau)
+    relative_velocity(bodies.J, bodies.idx1, bodies.idx2, v, n, p1, p2, dd, vt)
+    onset_speeds(z, laws.vmin, dd0, zdot)
+    loss = 0.0
+    for k in range(nc):
+        f, fe = normal_force(code[k], delta[k], dd[k], dd0[k], P0[k], P1[k], chi[k])
+        f *= W[k]
+        fe *= W[k]
+        Fn[k] = f
+        Fel[k] = fe
+        if delta[k] <= 0.0:
+            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+            continue
+        loss += (f - fe) * dd[k] + channel_friction(k, fcode, fpar, f, vt, n, F2, z, zdot)
+    zdot[nc] = loss
+    add_wrenches(bodies.J, bodies.idx1, bodies.idx2, F2, p1, p2, tau)
     return on
 
 
@@ -540,8 +551,9 @@ def clearance_force(geo, frames, bodies, laws, fr, ch, v, z, tau, zdot):
     """One spherical or revolute clearance joint's whole right-hand-side contribution in one call,
     the same steps as ClearanceJoint._compute + add_force: its frames' placements from the
     workspace's frame kinematics, the geometry, then channel_forces."""
+    M = frames.M
     place_frames(frames)
-    channel_geometry(geo.code, geo.gpar, frames.M[0], frames.M[1], ch.scratch, ch.delta, ch.n, ch.p1, ch.p2)
+    channel_geometry(geo.code, geo.gpar, M[0], M[1], ch.scratch, ch.delta, ch.n, ch.p1, ch.p2)
     return channel_forces(bodies, laws, fr, ch, v, z, tau, zdot)
 
 
@@ -550,10 +562,11 @@ def prismatic_force(geo, frames, bodies, modes, rows, laws, fr, ch, v, z, tau, z
     """The prismatic clearance's right-hand-side contribution in one call (model paper003):
     placements, corner geometry, the contact mode and each channel's law from the law table
     ``rows`` (into ``laws``' arrays), then channel_forces."""
+    M, delta, members, info = frames.M, ch.delta, modes.members, modes.info
     place_frames(frames)
-    prismatic_geometry(geo.gpar, frames.M[0], frames.M[1], ch.delta, ch.n, ch.p1, ch.p2)
-    prismatic_mode(ch.delta, modes.members, modes.table, modes.info)
-    prismatic_laws(modes.info, modes.members, rows, laws.code, laws.P0, laws.P1, laws.chi, laws.W)
+    prismatic_geometry(geo.gpar, M[0], M[1], delta, ch.n, ch.p1, ch.p2)
+    prismatic_mode(delta, members, modes.table, info)
+    prismatic_laws(info, members, rows, laws.code, laws.P0, laws.P1, laws.chi, laws.W)
     return channel_forces(bodies, laws, fr, ch, v, z, tau, zdot)
 
 
@@ -720,36 +733,36 @@ def prismatic_foundation(gpar, kf, members, delta, poly, Fel, Uf):
     return on
 
 
-@njit(cache=True, inline="always")
-def lumped_forces(found, fr, ch, z, zdot):
-    """Damping and friction on the lumped corner loads Fel: F = Fel (1 + chi dd/dd0) clipped at
-    zero, friction at the corner from F. Fills Fn, F2 (and the friction states' rates of the
-    loaded corners) and returns the dissipated power (F - Fel) dd - Ft . vt."""
-    loss = 0.0
-    for k in range(ch.Fel.shape[0]):
-        fe = ch.Fel[k]
-        if fe <= 0.0:
-            ch.Fn[k] = 0.0
-            ch.F2[k, 0] = ch.F2[k, 1] = ch.F2[k, 2] = 0.0
-            continue
-        f = damped(fe, ch.dd[k], ch.dd0[k], found.chi)
-        ch.Fn[k] = f
-        loss += (f - fe) * ch.dd[k] + channel_friction(k, fr, f, ch, z, zdot)
-    return loss
-
-
 @njit(cache=True)
 def prismatic_energy_force(geo, frames, bodies, modes, found, fr, ch, v, z, tau, zdot):
     """The energy-consistent prismatic clearance's right-hand-side contribution in one call:
     placements, corner geometry, the paper's mode (an output only), the foundation's corner
-    loads, damping, friction and wrenches. zdot = (0 per channel, dissipated power, friction
-    states' rates)."""
+    loads Fel, then per loaded corner the damping F = Fel (1 + chi dd/dd0) clipped at zero and
+    friction from F, and the wrenches. zdot = (0 per channel, dissipated power (F - Fel) dd -
+    Ft . vt, friction-state rates). Returns the number of faces in contact."""
+    delta, n, p1, p2, dd, vt, dd0 = ch.delta, ch.n, ch.p1, ch.p2, ch.dd, ch.vt, ch.dd0
+    Fn, Fel, F2 = ch.Fn, ch.Fel, ch.F2
+    M, gpar, members = frames.M, geo.gpar, modes.members
+    fcode, fpar, chi = fr.code, fr.par, found.chi
     place_frames(frames)
-    prismatic_geometry(geo.gpar, frames.M[0], frames.M[1], ch.delta, ch.n, ch.p1, ch.p2)
-    prismatic_mode(ch.delta, modes.members, modes.table, modes.info)
-    on = prismatic_foundation(geo.gpar, found.kf, modes.members, ch.delta, found.poly, ch.Fel, found.Uf)
-    if not start_channels(bodies, found.vmin, ch, v, z, zdot, on):
+    prismatic_geometry(gpar, M[0], M[1], delta, n, p1, p2)
+    prismatic_mode(delta, members, modes.table, modes.info)
+    on = prismatic_foundation(gpar, found.kf, members, delta, found.poly, Fel, found.Uf)
+    if on == 0:
+        free_flight(zdot, Fn, Fel, F2)
         return 0
-    zdot[ch.delta.shape[0]] = lumped_forces(found, fr, ch, z, zdot)
-    add_wrenches(bodies.J, bodies.idx1, bodies.idx2, ch.F2, ch.p1, ch.p2, tau)
+    relative_velocity(bodies.J, bodies.idx1, bodies.idx2, v, n, p1, p2, dd, vt)
+    onset_speeds(z, found.vmin, dd0, zdot)
+    loss = 0.0
+    for k in range(delta.shape[0]):
+        fe = Fel[k]
+        if fe <= 0.0:
+            Fn[k] = 0.0
+            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+            continue
+        f = damped(fe, dd[k], dd0[k], chi)
+        Fn[k] = f
+        loss += (f - fe) * dd[k] + channel_friction(k, fcode, fpar, f, vt, n, F2, z, zdot)
+    zdot[delta.shape[0]] = loss
+    add_wrenches(bodies.J, bodies.idx1, bodies.idx2, F2, p1, p2, tau)
     return on
