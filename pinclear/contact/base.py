@@ -31,9 +31,8 @@ declare a compiled form (``geometry_code``, ``kernel_params()``: every built-in 
 force is one compiled call (contact._kernels.clearance_force, prismatic_force,
 prismatic_energy_force) reading its frames' placements from the workspace's frame kinematics,
 and its events another (event_penetrations). :meth:`ClearanceJoint.add_force` calls the same
-kernel; the law-by-law Python evaluation (``_compute``) serves laws without a compiled form, the
-event handling (which needs the velocities even out of contact) and outputs at states no
-evaluation has visited.
+kernel; the law-by-law Python evaluation (``_compute``) serves laws without a compiled form and
+outputs at states no evaluation has visited.
 
 Model and data: a joint is an immutable description (geometry, laws, the dofs moving each
 body). Everything an evaluation writes lives in its :class:`ClearanceData`, one per workspace
@@ -212,25 +211,25 @@ class ClearanceJoint(ForceElement):
             d.slot = self.frame_slot(mech)
         return d
 
-    def _eval(self, ws, d, t, q, v, z, full=False):
-        """All channel quantities at the state (t, q, v, z) in ``d``; ``full`` insists on the
-        velocities even without contact."""
+    def _eval(self, ws, d, t, q, v, z):
+        """All channel quantities at the state (t, q, v, z) in ``d`` (velocities only with
+        contact or friction states)."""
         key = (t, q.tobytes(), v.tobytes(), z.tobytes())
-        if d.key == key and (d.moving or not full):
+        if d.key == key:
             return d
         with np.errstate(over="ignore", invalid="ignore"):
             # rejected trial steps of explicit integrators may overflow; they are discarded anyway
-            self._compute(ws, d, v, z, full)
+            self._compute(ws, d, v, z)
         d.key, d.q_key = key, key[1]
         return d
 
-    def _compute(self, ws, d, v, z, full):
+    def _compute(self, ws, d, v, z):
         data = ws.data
         d.key = d.q_key = None
         self._geometry(data, d)
         nc = self.nc
         on = np.greater(d.delta, 0.0, out=d.on)
-        if not (full or self.nfs or on.any()):
+        if not (self.nfs or on.any()):
             # free flight: no force, nothing to integrate (the common case between impacts)
             d.Fn[:] = 0.0
             d.Fel[:] = 0.0
@@ -340,8 +339,15 @@ class ClearanceJoint(ForceElement):
         val[np.abs(val) < self.event_snap] = 0.0
         return val
 
+    def _impact(self, ws, d, v):
+        """Penetrations and normal rates at the last kinematics pass and velocity v: all an
+        event's effect needs (geometry and relative velocities, not the laws)."""
+        d.key = d.q_key = None
+        self._geometry(ws.data, d)
+        relative_velocity(ws.J6, self.idx1, self.idx2, v, d.n, d.p1, d.p2, d.dd, d.vt)
+
     def handle_event(self, k, mech, ws, d, t, q, v, z):
-        self._eval(ws, d, t, q, v, z, full=True)
+        self._impact(ws, d, v)
         z = np.array(z, float)
         dd = d.dd
         near = np.abs(d.delta) < 1e3 * self.event_snap

@@ -279,9 +279,9 @@ class PrismaticClearance(ClearanceJoint):
         self._apply(dat, fn)
         return E
 
-    def _compute(self, ws, d, v, z, full):
+    def _compute(self, ws, d, v, z):
         d.Uf[:] = 0.0
-        super()._compute(ws, d, v, z, full)
+        super()._compute(ws, d, v, z)
 
     def z0(self, mech, ws, d, q, v):
         z = super().z0(mech, ws, d, q, v)
@@ -294,7 +294,7 @@ class PrismaticClearance(ClearanceJoint):
     def handle_event(self, k, mech, ws, d, t, q, v, z):
         if self.contact_model != "energy":
             return super().handle_event(k, mech, ws, d, t, q, v, z)
-        self._eval(ws, d, t, q, v, z, full=True)
+        self._impact(ws, d, v)
         z = np.array(z, float)
         near = np.abs(d.delta) < 1e3 * self.event_snap
         near[k] = True
