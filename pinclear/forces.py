@@ -193,27 +193,45 @@ def place_frames(fr):
         frame_placement(Hj, jidx, jMf, slot + i, M[i])
 
 
+# Twists and wrenches are six scalars, not lists: a list is allocated on the heap at every call
+# (four per evaluation cost more than the rest of a spring's kernel).
+
+
+@njit(cache=True, inline="always")
+def body_twist(J, idx, v):
+    """(v_o; w) of a body, world axes at the world origin: the WORLD Jacobian's columns idx
+    (the dofs moving it) times v."""
+    a0 = a1 = a2 = a3 = a4 = a5 = 0.0
+    for i in idx:
+        vi = v[i]
+        a0 += J[0, i] * vi
+        a1 += J[1, i] * vi
+        a2 += J[2, i] * vi
+        a3 += J[3, i] * vi
+        a4 += J[4, i] * vi
+        a5 += J[5, i] * vi
+    return a0, a1, a2, a3, a4, a5
+
+
+@njit(cache=True, inline="always")
+def add_body_wrench(J, idx, w0, w1, w2, w3, w4, w5, tau):
+    """tau[idx] += J[:, idx]^T w, w a wrench (force; moment about the world origin)."""
+    for i in idx:
+        tau[i] += J[0, i] * w0 + J[1, i] * w1 + J[2, i] * w2 + J[3, i] * w3 + J[4, i] * w4 + J[5, i] * w5
+
+
 @njit(cache=True)
 def relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt):
     """dd[k] = n_k . (v2(p2_k) - v1(p1_k)), vt[k] = the tangential rest, for material points p1_k
     on body 1 and p2_k on body 2 (velocities v_o + w x p from WORLD Jacobian columns idx)."""
-    s1 = [0.0] * 6
-    s2 = [0.0] * 6
-    for r in range(6):
-        a = 0.0
-        for i in idx1:
-            a += J[r, i] * v[i]
-        s1[r] = a
-        b = 0.0
-        for i in idx2:
-            b += J[r, i] * v[i]
-        s2[r] = b
+    u0, u1, u2, u3, u4, u5 = body_twist(J, idx1, v)
+    b0, b1, b2, b3, b4, b5 = body_twist(J, idx2, v)
     for k in range(n.shape[0]):
         x2, y2, z2 = p2[k, 0], p2[k, 1], p2[k, 2]
         x1, y1, z1 = p1[k, 0], p1[k, 1], p1[k, 2]
-        r0 = (s2[0] + s2[4] * z2 - s2[5] * y2) - (s1[0] + s1[4] * z1 - s1[5] * y1)
-        r1 = (s2[1] + s2[5] * x2 - s2[3] * z2) - (s1[1] + s1[5] * x1 - s1[3] * z1)
-        r2 = (s2[2] + s2[3] * y2 - s2[4] * x2) - (s1[2] + s1[3] * y1 - s1[4] * x1)
+        r0 = (b0 + b4 * z2 - b5 * y2) - (u0 + u4 * z1 - u5 * y1)
+        r1 = (b1 + b5 * x2 - b3 * z2) - (u1 + u5 * x1 - u3 * z1)
+        r2 = (b2 + b3 * y2 - b4 * x2) - (u2 + u3 * y1 - u4 * x1)
         d = n[k, 0] * r0 + n[k, 1] * r1 + n[k, 2] * r2
         dd[k] = d
         vt[k, 0] = r0 - d * n[k, 0]
@@ -225,30 +243,20 @@ def relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt):
 def add_wrenches(J, idx1, idx2, F2, p1, p2, tau):
     """tau += J2^T (f; sum p2 x F2) + J1^T (-f; -sum p1 x F2): forces F2 on body 2 at p2, their
     reactions on body 1 at p1, as wrenches about the world origin (WORLD Jacobians)."""
-    w2 = [0.0] * 6
-    w1 = [0.0] * 6
+    f0 = f1 = f2 = m0 = m1 = m2 = r0 = r1 = r2 = 0.0
     for k in range(F2.shape[0]):
         fx, fy, fz = F2[k, 0], F2[k, 1], F2[k, 2]
-        w2[0] += fx
-        w2[1] += fy
-        w2[2] += fz
-        w2[3] += p2[k, 1] * fz - p2[k, 2] * fy
-        w2[4] += p2[k, 2] * fx - p2[k, 0] * fz
-        w2[5] += p2[k, 0] * fy - p2[k, 1] * fx
-        w1[3] -= p1[k, 1] * fz - p1[k, 2] * fy
-        w1[4] -= p1[k, 2] * fx - p1[k, 0] * fz
-        w1[5] -= p1[k, 0] * fy - p1[k, 1] * fx
-    w1[0], w1[1], w1[2] = -w2[0], -w2[1], -w2[2]
-    for i in idx2:
-        a = 0.0
-        for r in range(6):
-            a += J[r, i] * w2[r]
-        tau[i] += a
-    for i in idx1:
-        a = 0.0
-        for r in range(6):
-            a += J[r, i] * w1[r]
-        tau[i] += a
+        f0 += fx
+        f1 += fy
+        f2 += fz
+        m0 += p2[k, 1] * fz - p2[k, 2] * fy
+        m1 += p2[k, 2] * fx - p2[k, 0] * fz
+        m2 += p2[k, 0] * fy - p2[k, 1] * fx
+        r0 -= p1[k, 1] * fz - p1[k, 2] * fy
+        r1 -= p1[k, 2] * fx - p1[k, 0] * fz
+        r2 -= p1[k, 0] * fy - p1[k, 1] * fx
+    add_body_wrench(J, idx2, f0, f1, f2, m0, m1, m2, tau)
+    add_body_wrench(J, idx1, -f0, -f1, -f2, r0, r1, r2, tau)
 
 
 # ------------------------------------------------------------------ spring-damper
@@ -259,61 +267,51 @@ class SpringLaw(NamedTuple):
     L0: float
 
 
-class SpringBuffers(NamedTuple):
-    """What one evaluation of a spring-damper writes: the unit vector n from frame 1's origin
-    p1 to frame 2's origin p2, the length rate dd (vt: the rest of the relative velocity), the
-    force F2 on body 2 at p2 (each (1, 3) or (1,): one channel of the point kernels above), and
-    state = (length, length rate, tension)."""
-    n: np.ndarray
-    p1: np.ndarray
-    p2: np.ndarray
-    dd: np.ndarray
-    vt: np.ndarray
-    F2: np.ndarray
-    state: np.ndarray
-
-
 @njit(cache=True, inline="always")
-def spring_state(law, fr, bodies, b, v):
-    """Length L = |p2 - p1| of the spring between the frames' origins, its rate (the relative
-    velocity of the origins along n = (p2 - p1)/L) and its tension f = k (L - L0) + c dL/dt,
-    pulling the bodies together: the force on body 2 is -f n (b.state, b.F2)."""
-    n, p1, p2, dd, F2, state, M = b.n, b.p1, b.p2, b.dd, b.F2, b.state, fr.M
+def spring_state(law, fr, bodies, v, state):
+    """Length L = |p2 - p1| of the spring between the frames' origins, its rate dL/dt = n .
+    (v2(p2) - v1(p1)) with n = (p2 - p1)/L, and its tension f = k (L - L0) + c dL/dt, pulling
+    the bodies together: state = (L, dL/dt, f, n)."""
     place_frames(fr)
-    L2 = 0.0
-    for i in range(3):
-        a, c = M[0, i, 3], M[1, i, 3]
-        p1[0, i], p2[0, i] = a, c
-        n[0, i] = c - a
-        L2 += (c - a) * (c - a)
-    L = math.sqrt(L2)
+    M, J = fr.M, bodies.J
+    x1, y1, z1 = M[0, 0, 3], M[0, 1, 3], M[0, 2, 3]
+    x2, y2, z2 = M[1, 0, 3], M[1, 1, 3], M[1, 2, 3]
+    e0, e1, e2 = x2 - x1, y2 - y1, z2 - z1
+    L = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
     # coincident origins: no direction, no force (the tension's direction is undefined)
     inv = 1.0 / L if L > 0.0 else 0.0
-    for i in range(3):
-        n[0, i] *= inv
-    relative_velocity(bodies.J, bodies.idx1, bodies.idx2, v, n, p1, p2, dd, b.vt)
-    f = law.k * (L - law.L0) + law.c * dd[0]
-    for i in range(3):
-        F2[0, i] = -f * n[0, i]
-    state[0], state[1], state[2] = L, dd[0], f
+    n0, n1, n2 = e0 * inv, e1 * inv, e2 * inv
+    u0, u1, u2, u3, u4, u5 = body_twist(J, bodies.idx1, v)
+    b0, b1, b2, b3, b4, b5 = body_twist(J, bodies.idx2, v)
+    r0 = (b0 + b4 * z2 - b5 * y2) - (u0 + u4 * z1 - u5 * y1)
+    r1 = (b1 + b5 * x2 - b3 * z2) - (u1 + u5 * x1 - u3 * z1)
+    r2 = (b2 + b3 * y2 - b4 * x2) - (u2 + u3 * y1 - u4 * x1)
+    Ldot = n0 * r0 + n1 * r1 + n2 * r2
+    f = law.k * (L - law.L0) + law.c * Ldot
+    state[0], state[1], state[2], state[3], state[4], state[5] = L, Ldot, f, n0, n1, n2
 
 
 @njit(cache=True)
-def spring_force(law, fr, bodies, b, v, tau):
-    """tau += the spring-damper's generalized force (ForceElement.force_kernel)."""
-    spring_state(law, fr, bodies, b, v)
-    add_wrenches(bodies.J, bodies.idx1, bodies.idx2, b.F2, b.p1, b.p2, tau)
+def spring_force(law, fr, bodies, v, state, tau):
+    """tau += the spring-damper's generalized force (ForceElement.force_kernel): -f n on body 2
+    at p2, f n on body 1 at p1, as wrenches about the world origin."""
+    spring_state(law, fr, bodies, v, state)
+    M, J, f = fr.M, bodies.J, state[2]
+    F0, F1, F2 = -f * state[3], -f * state[4], -f * state[5]
+    x1, y1, z1 = M[0, 0, 3], M[0, 1, 3], M[0, 2, 3]
+    x2, y2, z2 = M[1, 0, 3], M[1, 1, 3], M[1, 2, 3]
+    add_body_wrench(J, bodies.idx2, F0, F1, F2, y2 * F2 - z2 * F1, z2 * F0 - x2 * F2, x2 * F1 - y2 * F0, tau)
+    add_body_wrench(J, bodies.idx1, -F0, -F1, -F2, z1 * F1 - y1 * F2, x1 * F2 - z1 * F0, y1 * F0 - x1 * F1, tau)
 
 
 class SpringData:
-    """One workspace's buffers of a spring-damper: its frames' slot and placements and what
-    :func:`spring_state` writes."""
+    """One workspace's buffers of a spring-damper: its frames' slot and placements, and what
+    :func:`spring_state` writes, (length, rate, tension, unit vector from frame 1 to frame 2)."""
 
     def __init__(self, slot):
         self.slot = slot
         self.M = np.zeros((2, 4, 4))
-        self.buffers = SpringBuffers(*(np.zeros((1, 3)) for _ in range(3)), np.zeros(1), np.zeros((1, 3)),
-                                     np.zeros((1, 3)), np.zeros(3))
+        self.state = np.zeros(6)
         self.args = None             # the kernels' arguments in this workspace, built once
 
 
@@ -347,20 +345,19 @@ class SpringDamper(ForceElement):
     def _args(self, ws, d):
         if d.args is None:
             fk = ws.fk
-            d.args = (self.law, Frames(fk.Hj, fk.jidx, fk.jMf, d.slot, d.M), Bodies(ws.J6, self.idx1, self.idx2),
-                      d.buffers)
+            d.args = (self.law, Frames(fk.Hj, fk.jidx, fk.jMf, d.slot, d.M), Bodies(ws.J6, self.idx1, self.idx2))
         return d.args
 
     def _state(self, ws, d, v):
         """(length, rate, tension) at the state of the last kinematics pass and velocity v."""
-        spring_state(*self._args(ws, d), v)
-        return d.buffers.state
+        spring_state(*self._args(ws, d), v, d.state)
+        return d.state[:3]
 
     def force_kernel(self, mech, ws, d, z, zdot):
-        return spring_force, self._args(ws, d) + (ws.v, ws.tau)
+        return spring_force, self._args(ws, d) + (ws.v, d.state, ws.tau)
 
     def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
-        spring_force(*self._args(ws, d), v, tau)
+        spring_force(*self._args(ws, d), v, d.state, tau)
 
     def potential(self, mech, ws, d, q):
         L = self._state(ws, d, ws.zero_v)[0]
