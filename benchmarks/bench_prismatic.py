@@ -21,29 +21,28 @@ import pinclear
 from pinclear import kinematics
 from pinclear._jit import njit
 from pinclear.contact import _kernels as K
+from pinclear.forces import Bodies, Frames
 
 
 @njit(cache=False)
-def _loop_energy(reps, gpar, kf, Hj, jidx, jMf, slot, Mbuf, J, idx1, idx2, V, Z, vmin, members, modes, info, chi,
-                 fcode, fpar, poly, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, Uf, tau, zdot):
+def _loop_energy(reps, geo, fr, bodies, modes, found, fric, ch, Hj, J, V, Z, tau, zdot):
     s = 0
     for _ in range(reps):
         for i in range(V.shape[0]):
-            s += K.prismatic_energy_force(gpar, kf, Hj[i], jidx, jMf, slot, Mbuf, J[i], idx1, idx2, V[i], Z[i], vmin,
-                                          members, modes, info, chi, fcode, fpar, poly, delta, n, p1, p2, dd, vt, dd0,
-                                          Fn, Fel, F2, Uf, tau, zdot)
+            s += K.prismatic_energy_force(geo, Frames(Hj[i], fr.jidx, fr.jMf, fr.slot, fr.M),
+                                          Bodies(J[i], bodies.idx1, bodies.idx2), modes, found, fric, ch, V[i], Z[i],
+                                          tau, zdot)
     return s
 
 
 @njit(cache=False)
-def _loop_paper003(reps, gpar, Hj, jidx, jMf, slot, Mbuf, J, idx1, idx2, V, Z, vmin, members, modes, table, info,
-                   lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
+def _loop_paper003(reps, geo, fr, bodies, modes, rows, laws, fric, ch, Hj, J, V, Z, tau, zdot):
     s = 0
     for _ in range(reps):
         for i in range(V.shape[0]):
-            s += K.prismatic_force(gpar, Hj[i], jidx, jMf, slot, Mbuf, J[i], idx1, idx2, V[i], Z[i], vmin, members,
-                                   modes, table, info, lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt,
-                                   dd0, Fn, Fel, F2, tau, zdot)
+            s += K.prismatic_force(geo, Frames(Hj[i], fr.jidx, fr.jMf, fr.slot, fr.M),
+                                   Bodies(J[i], bodies.idx1, bodies.idx2), modes, rows, laws, fric, ch, V[i], Z[i], tau,
+                                   zdot)
     return s
 
 
@@ -69,14 +68,12 @@ def kernel_cost(model, st, reps):
     Hj, J = np.array(Hj), np.array(J)
     V, Z = np.array([s[1] for s in st]), np.array([s[2] for s in st])
     tau, zdot = np.zeros(mech.nv), np.zeros(el.nz)
-    kernel, args = el.rhs_kernel()
-    a = list(args(ws, d, None, None, tau, zdot))
-    if model == "energy":
-        a[2], a[7], a[10], a[11] = Hj, J, V, Z
-        loop = _loop_energy
-    else:
-        a[1], a[6], a[9], a[10] = Hj, J, V, Z
-        loop = _loop_paper003
+    # the kernel's own arguments (ForceElement.force_kernel) less the state and outputs, with the
+    # placements and Jacobian of each state in place of the workspace's
+    i = len(mech.forces) - 1
+    _, args = el.force_kernel(mech, ws, d, ws.z_views[i], ws.zdot_views[i])
+    a = list(args[:-4]) + [Hj, J, V, Z, tau, zdot]
+    loop = _loop_energy if model == "energy" else _loop_paper003
     loop(1, *a)                                       # compile
     best = np.inf
     for _ in range(7):

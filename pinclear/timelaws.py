@@ -4,6 +4,7 @@ from __future__ import annotations
 import abc
 import functools
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -81,6 +82,35 @@ def eval_laws(codes, starts, P, t, cols, f):
                 ydd = ydd * t + P[i]
         j = cols[k]
         f[0, j], f[1, j], f[2, j] = y, yd, ydd
+
+
+class LawTable(NamedTuple):
+    """Compiled time laws as :func:`eval_laws` reads them: law k has code ``codes[k]``, its
+    parameters ``P[starts[k]:starts[k + 1]]``, and writes column ``cols[k]`` of the values."""
+    codes: np.ndarray
+    starts: np.ndarray
+    P: np.ndarray
+    cols: np.ndarray
+
+
+def law_table(laws, cols) -> LawTable | None:
+    """The table of ``laws`` (each with ``kernel_params()``) writing columns ``cols``; None when
+    there are none. Arrays read-only: a table is shared by every workspace."""
+    laws = list(laws)
+    if not laws:
+        return None
+    P, starts, codes = [], [0], []
+    for law in laws:
+        code, par = law.kernel_params()
+        codes.append(code)
+        P.extend(float(x) for x in par)
+        starts.append(len(P))
+    # one trailing zero: a table of parameterless laws still has an element type numba can see
+    out = (np.array(codes, dtype=np.int64), np.array(starts, dtype=np.int64), np.array(P + [0.0], float),
+           np.array(list(cols), dtype=np.int64))
+    for a in out:
+        a.flags.writeable = False
+    return LawTable(*out)
 
 
 class Constant(TimeLaw):

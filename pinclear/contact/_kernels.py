@@ -5,80 +5,25 @@ pinclear.contact.laws.
 """
 from __future__ import annotations
 
+import math
+from typing import NamedTuple
+
 import numpy as np
 
-import math
-
 from pinclear._jit import njit
-
-
-@njit(cache=True)
-def relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt):
-    """dd[k] = n_k . (v2(p2_k) - v1(p1_k)), vt[k] = the tangential rest, for material points p1_k
-    on body 1 and p2_k on body 2 (velocities v_o + w x p from WORLD Jacobian columns idx)."""
-    s1 = [0.0] * 6
-    s2 = [0.0] * 6
-    for r in range(6):
-        a = 0.0
-        for i in idx1:
-            a += J[r, i] * v[i]
-        s1[r] = a
-        b = 0.0
-        for i in idx2:
-            b += J[r, i] * v[i]
-        s2[r] = b
-    for k in range(n.shape[0]):
-        x2, y2, z2 = p2[k, 0], p2[k, 1], p2[k, 2]
-        x1, y1, z1 = p1[k, 0], p1[k, 1], p1[k, 2]
-        r0 = (s2[0] + s2[4] * z2 - s2[5] * y2) - (s1[0] + s1[4] * z1 - s1[5] * y1)
-        r1 = (s2[1] + s2[5] * x2 - s2[3] * z2) - (s1[1] + s1[5] * x1 - s1[3] * z1)
-        r2 = (s2[2] + s2[3] * y2 - s2[4] * x2) - (s1[2] + s1[3] * y1 - s1[4] * x1)
-        d = n[k, 0] * r0 + n[k, 1] * r1 + n[k, 2] * r2
-        dd[k] = d
-        vt[k, 0] = r0 - d * n[k, 0]
-        vt[k, 1] = r1 - d * n[k, 1]
-        vt[k, 2] = r2 - d * n[k, 2]
-
-
-@njit(cache=True)
-def add_wrenches(J, idx1, idx2, F2, p1, p2, tau):
-    """tau += J2^T (f; sum p2 x F2) + J1^T (-f; -sum p1 x F2): contact forces F2 on body 2 at p2,
-    their reactions on body 1 at p1, as wrenches about the world origin (WORLD Jacobians)."""
-    w2 = [0.0] * 6
-    w1 = [0.0] * 6
-    for k in range(F2.shape[0]):
-        fx, fy, fz = F2[k, 0], F2[k, 1], F2[k, 2]
-        w2[0] += fx
-        w2[1] += fy
-        w2[2] += fz
-        w2[3] += p2[k, 1] * fz - p2[k, 2] * fy
-        w2[4] += p2[k, 2] * fx - p2[k, 0] * fz
-        w2[5] += p2[k, 0] * fy - p2[k, 1] * fx
-        w1[3] -= p1[k, 1] * fz - p1[k, 2] * fy
-        w1[4] -= p1[k, 2] * fx - p1[k, 0] * fz
-        w1[5] -= p1[k, 0] * fy - p1[k, 1] * fx
-    w1[0], w1[1], w1[2] = -w2[0], -w2[1], -w2[2]
-    for i in idx2:
-        a = 0.0
-        for r in range(6):
-            a += J[r, i] * w2[r]
-        tau[i] += a
-    for i in idx1:
-        a = 0.0
-        for r in range(6):
-            a += J[r, i] * w1[r]
-        tau[i] += a
+from pinclear.forces import add_wrenches, place_frames, relative_velocity
 
 
 #: penetration (m) and rate ratio dd/dd0 beyond which the laws are held constant (never physical)
 DELTA_CAP, RATE_CAP = 0.1, 1e6
 
-#: friction codes (``FrictionLaw.kernel_params()``) of the memoryless laws of pinclear.contact.laws
-F_NONE, F_COULOMB, F_MODIFIED, F_STICKSLIP = 0, 1, 2, 3
+#: friction codes (``FrictionLaw.kernel_params()``): the memoryless laws of pinclear.contact.laws,
+#: and LuGre (three bristle states per channel in the joint's z)
+F_NONE, F_COULOMB, F_MODIFIED, F_STICKSLIP, F_LUGRE = 0, 1, 2, 3, 4
 
 # The laws below exist once: pinclear.contact.laws calls them through the vectorised wrappers
 # (power_law_forces, damped_forces, friction_coefficients, memoryless_friction) and the joints
-# through the fused channel loop (contact_forces). Formulas and sources: laws.py.
+# through their kernels' channel loops (channel_forces, prismatic_energy_force). Formulas and sources: laws.py.
 
 
 @njit(cache=True)
@@ -239,24 +184,144 @@ def channel_force(k, f, vt, n, fcode, fpar, F2):
 
 
 @njit(cache=True)
-def contact_forces(delta, dd, vt, n, dd0, code, P0, P1, chi, W, fcode, fpar, Fn, Fel, F2):
-    """Per channel a normal law (its own code, parameters and chi, times the weight W: the share
-    of a line or plane load a corner carries) and one memoryless friction law: fills Fn, Fel, F2
-    (force on body 2) and returns the dissipated power (Fn - Fel) dd - Ft . vt."""
-    loss = 0.0
-    for k in range(delta.shape[0]):
-        f, fe = normal_force(code[k], delta[k], dd[k], dd0[k], P0[k], P1[k], chi[k])
-        f *= W[k]
-        fe *= W[k]
-        Fn[k] = f
-        Fel[k] = fe
-        if delta[k] <= 0.0:
-            F2[k, 0] = 0.0
-            F2[k, 1] = 0.0
-            F2[k, 2] = 0.0
-            continue
-        loss += (f - fe) * dd[k] + channel_force(k, f, vt, n, fcode, fpar, F2)
-    return loss
+def lugre_channel(k, par, f, vt, n, zs, dzs, F2):
+    """Channel k's force on body 2 under LuGre friction (Canudas de Wit et al. 1995, normalised
+    by the normal load f, as laws.LuGre): the bristle deflection zs (3,) and the force are kept
+    in the contact's tangent plane, which turns with the normal (a normal component would work on
+    the penetration rate):
+
+        z = zs - (zs . n) n,  g = mu_c + (mu_s - mu_c) exp(-(|vt|/vs)^2)
+        dz/dt = vt - s0 |vt| z / g,  Ft = -f (s0 z + s1 dz/dt + s2 vt), less its normal part
+
+    par = (mu_s, mu_c, vs, s0, s1, s2). Writes dz/dt into dzs and -f n + Ft into F2[k]; returns
+    -Ft . vt (the friction power, bristle energy rate included: it may be negative)."""
+    mu_s, mu_c, vs, s0, s1, s2 = par[0], par[1], par[2], par[3], par[4], par[5]
+    n0, n1, n2 = n[k, 0], n[k, 1], n[k, 2]
+    t0, t1, t2 = vt[k, 0], vt[k, 1], vt[k, 2]
+    zn = zs[0] * n0 + zs[1] * n1 + zs[2] * n2
+    z0, z1, z2 = zs[0] - zn * n0, zs[1] - zn * n1, zs[2] - zn * n2
+    s = (t0 * t0 + t1 * t1 + t2 * t2) ** 0.5
+    g = mu_c + (mu_s - mu_c) * math.exp(-(s / vs) ** 2)
+    r = s0 * s / g
+    d0, d1, d2 = t0 - r * z0, t1 - r * z1, t2 - r * z2
+    dzs[0], dzs[1], dzs[2] = d0, d1, d2
+    f0 = -f * (s0 * z0 + s1 * d0 + s2 * t0)
+    f1 = -f * (s0 * z1 + s1 * d1 + s2 * t1)
+    f2 = -f * (s0 * z2 + s1 * d2 + s2 * t2)
+    fn = f0 * n0 + f1 * n1 + f2 * n2
+    f0, f1, f2 = f0 - fn * n0, f1 - fn * n1, f2 - fn * n2
+    F2[k, 0] = f0 - f * n0
+    F2[k, 1] = f1 - f * n1
+    F2[k, 2] = f2 - f * n2
+    return -(f0 * t0 + f1 * t1 + f2 * t2)
+
+
+@njit(cache=True)
+def lugre_forces(par, Fn, vt, state, dstate, Ft):
+    """laws.LuGre.force: lugre_channel on each row with no normal to project on (the joints
+    project with theirs): friction forces into Ft, state rates into dstate."""
+    none = np.zeros((vt.shape[0], 3))
+    for k in range(vt.shape[0]):
+        lugre_channel(k, par, Fn[k], vt, none, state[k], dstate[k], Ft)
+
+
+class Geometry(NamedTuple):
+    """A joint's compiled geometry: its code (G_* below) and parameters (channel_geometry)."""
+    code: int
+    gpar: np.ndarray
+
+
+class Channels(NamedTuple):
+    """What one workspace writes per contact channel (ClearanceData's arrays): penetration
+    delta, outward normal n, contact points p1 (body 1) and p2 (body 2), normal rate dd, slip
+    velocity vt, floored onset speed dd0, normal force Fn and its elastic part Fel, force F2 on
+    body 2 at p2, and a (4, 3) work array of the geometry."""
+    delta: np.ndarray
+    n: np.ndarray
+    p1: np.ndarray
+    p2: np.ndarray
+    dd: np.ndarray
+    vt: np.ndarray
+    dd0: np.ndarray
+    Fn: np.ndarray
+    Fel: np.ndarray
+    F2: np.ndarray
+    scratch: np.ndarray
+
+
+class Laws(NamedTuple):
+    """Each channel's normal law (``NormalLaw.kernel_params()``): code, p0, p1, hysteresis chi,
+    weight W (the share of a line or plane load a corner carries), and the joint's floor vmin
+    of the onset speed the damping divides by."""
+    code: np.ndarray
+    P0: np.ndarray
+    P1: np.ndarray
+    chi: np.ndarray
+    W: np.ndarray
+    vmin: float
+
+
+class Friction(NamedTuple):
+    """The joint's friction law (``FrictionLaw.kernel_params()``): its code and parameters."""
+    code: int
+    par: np.ndarray
+
+
+class Modes(NamedTuple):
+    """The prismatic joint's contact-mode classification (paper 003 Table 1): the four channels
+    of each guide face, the mode number by (points, lines, planes), and the result (info:
+    mode, counts, kind of each face)."""
+    members: np.ndarray
+    table: np.ndarray
+    info: np.ndarray
+
+
+class Foundation(NamedTuple):
+    """The energy-consistent prismatic model's Winkler foundation: moduli kf of the x and y faces
+    (Pa/m), hysteresis chi of the corner loads, onset-speed floor vmin, the clipped-polygon
+    work array and the energy Uf of each face."""
+    kf: np.ndarray
+    chi: float
+    vmin: float
+    poly: np.ndarray
+    Uf: np.ndarray
+
+
+# The kernels below take the structured arguments above and unpack them once, at the top: the
+# helpers they call take plain arrays, because handing a tuple of arrays to a compiled call, or
+# reading its fields inside a loop of an inlined one, reference-counts every array each time
+# (measured: the prismatic kernel ran 1.6x slower).
+
+
+@njit(cache=True, inline="always")
+def channel_friction(k, fcode, fpar, f, vt, n, F2, z, zdot):
+    """Channel k's force on body 2 (F2[k]) from its normal load f and the friction law; for a
+    law with states, their rates into zdot (same layout as z: [onset speeds (nc) | dissipated
+    energy | 3 states per channel]). Returns the friction power -Ft . vt."""
+    if fcode == F_LUGRE:
+        b = n.shape[0] + 1 + 3 * k
+        return lugre_channel(k, fpar, f, vt, n, z[b:b + 3], zdot[b:b + 3], F2)
+    return channel_force(k, f, vt, n, fcode, fpar, F2)
+
+
+@njit(cache=True, inline="always")
+def free_flight(zdot, Fn, Fel, F2):
+    """No channel touches: no force, nothing to integrate."""
+    for k in range(zdot.shape[0]):
+        zdot[k] = 0.0
+    for k in range(Fn.shape[0]):
+        Fn[k] = 0.0
+        Fel[k] = 0.0
+        F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+
+
+@njit(cache=True, inline="always")
+def onset_speeds(z, vmin, dd0, zdot):
+    """dd0 = the recorded onset speeds floored at vmin (the damping divides by them); zdot = 0."""
+    for k in range(zdot.shape[0]):
+        zdot[k] = 0.0
+    for k in range(dd0.shape[0]):
+        dd0[k] = max(z[k], vmin)
 
 
 @njit(cache=True)
@@ -424,91 +489,85 @@ def channel_geometry(code, gpar, M1, M2, scratch, delta, n, p1, p2):
         p1[2, i] = p1[3, i] = p2[2, i] = p2[3, i] = M2[i, 3]
 
 
-@njit(cache=True)
-def frame_placement(Hj, jidx, jMf, k, M):
-    """M = oMi[parent of frame k] * jMf[k] (4x4), frame k of a FrameKinematics."""
-    Hp = Hj[jidx[k]]
-    for r in range(3):
-        for col in range(4):
-            acc = Hp[r, 3] if col == 3 else 0.0
-            for i in range(3):
-                acc += Hp[r, i] * jMf[k, i, col]
-            M[r, col] = acc
-    M[3, 0] = M[3, 1] = M[3, 2] = 0.0
-    M[3, 3] = 1.0
-
-
-@njit(cache=True)
-def channel_penetrations(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, delta, n, p1, p2, snap):
+@njit(cache=True, inline="always")
+def channel_penetrations(geo, frames, ch, snap):
     """Penetration of every channel (the event values), values within ``snap`` of zero set to 0."""
-    frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
-    frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
-    channel_geometry(code, gpar, Mbuf[0], Mbuf[1], scratch, delta, n, p1, p2)
+    M, delta = frames.M, ch.delta
+    place_frames(frames)
+    channel_geometry(geo.code, geo.gpar, M[0], M[1], ch.scratch, delta, ch.n, ch.p1, ch.p2)
     for k in range(delta.shape[0]):
         if abs(delta[k]) < snap:
             delta[k] = 0.0
 
 
 @njit(cache=True)
-def event_penetrations(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, delta, n, p1, p2, snap, g):
+def event_penetrations(geo, frames, ch, snap, g):
     """channel_penetrations into the event values g (ForceElement.event_kernel)."""
-    channel_penetrations(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, delta, n, p1, p2, snap)
+    channel_penetrations(geo, frames, ch, snap)
+    delta = ch.delta
     for k in range(delta.shape[0]):
         g[k] = delta[k]
 
 
-@njit(cache=True)
-def channel_forces(J, idx1, idx2, v, z, vmin, lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0,
-                   Fn, Fel, F2, tau, zdot):
-    """After the geometry: relative velocity, normal and memoryless friction laws, wrenches into
-    tau; zdot = (0 per channel, dissipated power). Returns the number of touching channels (0:
-    free flight, no velocities computed, as in ClearanceJoint._compute)."""
+@njit(cache=True, inline="always")
+def channel_forces(bodies, laws, fr, ch, v, z, tau, zdot):
+    """After the geometry: relative velocity, each channel's normal law (times its weight W: the
+    share of a line or plane load a corner carries) and the friction law, wrenches into tau;
+    zdot = (0 per channel, dissipated power (Fn - Fel) dd - Ft . vt, friction-state rates).
+    Returns the number of touching channels (0: free flight, no velocities computed, as in
+    ClearanceJoint._compute)."""
+    delta, n, p1, p2, dd, vt, dd0 = ch.delta, ch.n, ch.p1, ch.p2, ch.dd, ch.vt, ch.dd0
+    Fn, Fel, F2 = ch.Fn, ch.Fel, ch.F2
+    code, P0, P1, chi, W = laws.code, laws.P0, laws.P1, laws.chi, laws.W
+    fcode, fpar = fr.code, fr.par
     nc = delta.shape[0]
     on = 0
     for k in range(nc):
-        zdot[k] = 0.0
         if delta[k] > 0.0:
             on += 1
-    zdot[nc] = 0.0
     if on == 0:
-        for k in range(nc):
-            Fn[k] = 0.0
-            Fel[k] = 0.0
-            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+        free_flight(zdot, Fn, Fel, F2)
         return 0
-    relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt)
+    relative_velocity(bodies.J, bodies.idx1, bodies.idx2, v, n, p1, p2, dd, vt)
+    onset_speeds(z, laws.vmin, dd0, zdot)
+    loss = 0.0
     for k in range(nc):
-        dd0[k] = max(z[k], vmin)
-    zdot[nc] = contact_forces(delta, dd, vt, n, dd0, lcode, P0, P1, chi, W, fcode, fpar, Fn, Fel, F2)
-    add_wrenches(J, idx1, idx2, F2, p1, p2, tau)
+        f, fe = normal_force(code[k], delta[k], dd[k], dd0[k], P0[k], P1[k], chi[k])
+        f *= W[k]
+        fe *= W[k]
+        Fn[k] = f
+        Fel[k] = fe
+        if delta[k] <= 0.0:
+            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+            continue
+        loss += (f - fe) * dd[k] + channel_friction(k, fcode, fpar, f, vt, n, F2, z, zdot)
+    zdot[nc] = loss
+    add_wrenches(bodies.J, bodies.idx1, bodies.idx2, F2, p1, p2, tau)
     return on
 
 
 @njit(cache=True)
-def clearance_force(code, gpar, Hj, jidx, jMf, slot, Mbuf, scratch, J, idx1, idx2, v, z, vmin, lcode, P0, P1,
-                    chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
+def clearance_force(geo, frames, bodies, laws, fr, ch, v, z, tau, zdot):
     """One spherical or revolute clearance joint's whole right-hand-side contribution in one call,
-    the same steps as ClearanceJoint._compute + add_force: frame placements (slots ``slot``,
-    ``slot + 1`` of the workspace's frame kinematics), geometry, then channel_forces."""
-    frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
-    frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
-    channel_geometry(code, gpar, Mbuf[0], Mbuf[1], scratch, delta, n, p1, p2)
-    return channel_forces(J, idx1, idx2, v, z, vmin, lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt,
-                          dd0, Fn, Fel, F2, tau, zdot)
+    the same steps as ClearanceJoint._compute + add_force: its frames' placements from the
+    workspace's frame kinematics, the geometry, then channel_forces."""
+    M = frames.M
+    place_frames(frames)
+    channel_geometry(geo.code, geo.gpar, M[0], M[1], ch.scratch, ch.delta, ch.n, ch.p1, ch.p2)
+    return channel_forces(bodies, laws, fr, ch, v, z, tau, zdot)
 
 
 @njit(cache=True)
-def prismatic_force(gpar, Hj, jidx, jMf, slot, Mbuf, J, idx1, idx2, v, z, vmin, members, modes, table, info,
-                    lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, tau, zdot):
-    """The prismatic clearance's right-hand-side contribution in one call: placements, corner
-    geometry, the contact mode and each channel's law, then channel_forces."""
-    frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
-    frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
-    prismatic_geometry(gpar, Mbuf[0], Mbuf[1], delta, n, p1, p2)
-    prismatic_mode(delta, members, modes, info)
-    prismatic_laws(info, members, table, lcode, P0, P1, chi, W)
-    return channel_forces(J, idx1, idx2, v, z, vmin, lcode, P0, P1, chi, W, fcode, fpar, delta, n, p1, p2, dd, vt,
-                          dd0, Fn, Fel, F2, tau, zdot)
+def prismatic_force(geo, frames, bodies, modes, rows, laws, fr, ch, v, z, tau, zdot):
+    """The prismatic clearance's right-hand-side contribution in one call (model paper003):
+    placements, corner geometry, the contact mode and each channel's law from the law table
+    ``rows`` (into ``laws``' arrays), then channel_forces."""
+    M, delta, members, info = frames.M, ch.delta, modes.members, modes.info
+    place_frames(frames)
+    prismatic_geometry(geo.gpar, M[0], M[1], delta, ch.n, ch.p1, ch.p2)
+    prismatic_mode(delta, members, modes.table, info)
+    prismatic_laws(info, members, rows, laws.code, laws.P0, laws.P1, laws.chi, laws.W)
+    return channel_forces(bodies, laws, fr, ch, v, z, tau, zdot)
 
 
 #: layout of channel_record's output row: (name, start, size); potential last
@@ -675,12 +734,27 @@ def prismatic_foundation(gpar, kf, members, delta, poly, Fel, Uf):
 
 
 @njit(cache=True)
-def lumped_forces(Fel, dd, vt, n, dd0, chi, fcode, fpar, Fn, F2):
-    """Damping and memoryless friction on the lumped corner loads Fel: F = Fel (1 + chi dd/dd0)
-    clipped at zero, friction -mu(|vt|) F vt/|vt| at the corner. Fills Fn, F2 and returns the
-    dissipated power (F - Fel) dd - Ft . vt (each channel's term >= 0)."""
+def prismatic_energy_force(geo, frames, bodies, modes, found, fr, ch, v, z, tau, zdot):
+    """The energy-consistent prismatic clearance's right-hand-side contribution in one call:
+    placements, corner geometry, the paper's mode (an output only), the foundation's corner
+    loads Fel, then per loaded corner the damping F = Fel (1 + chi dd/dd0) clipped at zero and
+    friction from F, and the wrenches. zdot = (0 per channel, dissipated power (F - Fel) dd -
+    Ft . vt, friction-state rates). Returns the number of faces in contact."""
+    delta, n, p1, p2, dd, vt, dd0 = ch.delta, ch.n, ch.p1, ch.p2, ch.dd, ch.vt, ch.dd0
+    Fn, Fel, F2 = ch.Fn, ch.Fel, ch.F2
+    M, gpar, members = frames.M, geo.gpar, modes.members
+    fcode, fpar, chi = fr.code, fr.par, found.chi
+    place_frames(frames)
+    prismatic_geometry(gpar, M[0], M[1], delta, n, p1, p2)
+    prismatic_mode(delta, members, modes.table, modes.info)
+    on = prismatic_foundation(gpar, found.kf, members, delta, found.poly, Fel, found.Uf)
+    if on == 0:
+        free_flight(zdot, Fn, Fel, F2)
+        return 0
+    relative_velocity(bodies.J, bodies.idx1, bodies.idx2, v, n, p1, p2, dd, vt)
+    onset_speeds(z, found.vmin, dd0, zdot)
     loss = 0.0
-    for k in range(Fel.shape[0]):
+    for k in range(delta.shape[0]):
         fe = Fel[k]
         if fe <= 0.0:
             Fn[k] = 0.0
@@ -688,32 +762,7 @@ def lumped_forces(Fel, dd, vt, n, dd0, chi, fcode, fpar, Fn, F2):
             continue
         f = damped(fe, dd[k], dd0[k], chi)
         Fn[k] = f
-        loss += (f - fe) * dd[k] + channel_force(k, f, vt, n, fcode, fpar, F2)
-    return loss
-
-
-@njit(cache=True)
-def prismatic_energy_force(gpar, kf, Hj, jidx, jMf, slot, Mbuf, J, idx1, idx2, v, z, vmin, members, modes, info,
-                           chi, fcode, fpar, poly, delta, n, p1, p2, dd, vt, dd0, Fn, Fel, F2, Uf, tau, zdot):
-    """The energy-consistent prismatic clearance's right-hand-side contribution in one call:
-    placements, corner geometry, the paper's mode (an output only), the foundation's corner
-    loads, damping, friction and wrenches. zdot = (0 per channel, dissipated power)."""
-    frame_placement(Hj, jidx, jMf, slot, Mbuf[0])
-    frame_placement(Hj, jidx, jMf, slot + 1, Mbuf[1])
-    prismatic_geometry(gpar, Mbuf[0], Mbuf[1], delta, n, p1, p2)
-    prismatic_mode(delta, members, modes, info)
-    nc = delta.shape[0]
-    for k in range(nc + 1):
-        zdot[k] = 0.0
-    on = prismatic_foundation(gpar, kf, members, delta, poly, Fel, Uf)
-    if on == 0:
-        for k in range(nc):
-            Fn[k] = 0.0
-            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
-        return 0
-    relative_velocity(J, idx1, idx2, v, n, p1, p2, dd, vt)
-    for k in range(nc):
-        dd0[k] = max(z[k], vmin)
-    zdot[nc] = lumped_forces(Fel, dd, vt, n, dd0, chi, fcode, fpar, Fn, F2)
-    add_wrenches(J, idx1, idx2, F2, p1, p2, tau)
+        loss += (f - fe) * dd[k] + channel_friction(k, fcode, fpar, f, vt, n, F2, z, zdot)
+    zdot[delta.shape[0]] = loss
+    add_wrenches(bodies.J, bodies.idx1, bodies.idx2, F2, p1, p2, tau)
     return on

@@ -13,8 +13,7 @@ Everything else lives here:
 * relative velocity of the material points, normal rate and slip velocity
   (paper 000 eqs. 10-16, paper 002 eqs. 4-5);
 * normal law with the impact speed recorded at contact onset (event located; 002 eq. 9);
-* friction law, with internal state where the law has one (LuGre); when every channel's laws
-  declare a compiled form (``kernel_params()``), one compiled loop evaluates all channels;
+* friction law, with internal state where the law has one (LuGre);
 * generalized force tau += J1^T w1 + J2^T w2 from Pinocchio's WORLD joint Jacobians
   ``data.J`` restricted to the dofs supporting each body (no hand-written dynamics), with
   w = (F; p x F) the contact wrench about the world origin;
@@ -27,6 +26,14 @@ an unbounded damping coefficient (the laws divide by it).
 
 Internal state z (per element): ``[dd0 (nc) | E_dissipated (1) | friction states]``.
 
+Compiled evaluation (ForceElement contract 10): when the joint's geometry and every law it uses
+declare a compiled form (``geometry_code``, ``kernel_params()``: every built-in law does), its
+force is one compiled call (contact._kernels.clearance_force, prismatic_force,
+prismatic_energy_force) reading its frames' placements from the workspace's frame kinematics,
+and its events another (event_penetrations). :meth:`ClearanceJoint.add_force` calls the same
+kernel; the law-by-law Python evaluation (``_compute``) serves laws without a compiled form and
+outputs at states no evaluation has visited.
+
 Model and data: a joint is an immutable description (geometry, laws, the dofs moving each
 body). Everything an evaluation writes lives in its :class:`ClearanceData`, one per workspace
 (``ws.force_data[i]``), so two workspaces of one mechanism can run in two threads.
@@ -35,12 +42,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from pinclear._bind import DYN, bind
 from pinclear.errors import ContactSetupError
-from pinclear.forces import ForceElement
+from pinclear.forces import Bodies, ForceElement, Frames, add_wrenches, relative_velocity
 from pinclear.kinematics import supporting_dofs
 
 from . import _kernels
+from ._kernels import Channels, Friction, Geometry, Laws
 
 
 def _readonly(a):
@@ -74,10 +81,12 @@ class ClearanceData:
         self.dzf = np.zeros(nfs)             # rates of the friction states
         self.loss = 0.0                      # dissipated power, W
         self.moving = False
-        self.scratch = np.zeros((4, 3))      # work arrays of the fused compiled evaluation
+        self.scratch = np.zeros((4, 3))      # work array of the compiled geometry
         self.M = np.zeros((2, 4, 4))         # placements of frame1 and frame2 (compiled path)
         self.slot = -1                       # their slot in ws.fk (compiled path)
-        self.kernel = None                   # the fused kernel bound to these buffers (compiled path)
+        self.channels = Channels(self.delta, self.n, self.p1, self.p2, self.dd, self.vt, self.dd0, self.Fn,
+                                 self.Fel, self.F2, self.scratch)
+        self.args = None                     # the compiled force's buffers in this workspace, built once
         self.key = None                      # (t, q, v, z bytes) the quantities belong to
         self.q_key = None                    # q bytes the geometry belongs to
 
@@ -114,24 +123,20 @@ class ClearanceJoint(ForceElement):
         self.events = tuple((f"{name}.c{k}", self.event_direction) for k in range(self.nc))
 
     def _freeze(self):
-        self._kernel = self._kernel_params()
-        # compiled geometry (event values from the joint chain's placements) and, when the laws
-        # allow it too, the right-hand side's one compiled call per joint
-        self._geom = self._fused = None
+        # what has a compiled form: the geometry (event values from the joint chain's
+        # placements), the laws, and so the whole force (one compiled call per evaluation)
+        self._geo = None
         if self.geometry_code is not None:
-            self._geom = (int(self.geometry_code), _readonly(self._geometry_params()))
+            self._geo = Geometry(int(self.geometry_code), _readonly(self._geometry_params()))
             self.kinematic_frames = (self.f1, self.f2)
             self.event_level = "placements"
-            if self._kernel is not None:
-                self._fused = self._geom + self._kernel
-        self._rhs_compiled = self._compiled_rhs()
+        fr = self.friction.kernel_params()
+        self._friction = None if fr is None else Friction(int(fr[0]), fr[1])
+        self._laws = self._compiled_laws()
+        self._kernel = self._compiled_kernel()
         zero = _readonly(np.zeros(self.nc))
         self._no_laws = (_readonly(np.zeros(self.nc, dtype=np.int64)), zero, zero, zero)
         super()._freeze()
-
-    def _compiled_rhs(self):
-        """Whether add_force runs one compiled call (and leaves everything record() reuses)."""
-        return self._fused is not None
 
     _data_class = ClearanceData
 
@@ -139,12 +144,48 @@ class ClearanceJoint(ForceElement):
         """gpar of contact._kernels.channel_geometry (subclasses with a ``geometry_code``)."""
         raise NotImplementedError
 
+    def _compiled_laws(self):
+        """Each channel's normal law as contact._kernels.Laws when every one declares a compiled
+        form (``kernel_params()``) and the channels' laws are fixed; None otherwise."""
+        laws = self._channel_laws()
+        if laws is None:
+            return None
+        par = [law.kernel_params() for law in laws]
+        if any(p is None for p in par):
+            return None
+        P0, P1, chi = (_readonly(np.array(x, float)) for x in list(zip(*par))[1:])
+        return Laws(_readonly(np.array([p[0] for p in par], dtype=np.int64)), P0, P1, chi,
+                    _readonly(np.ones(len(par))), self.v_impact_min)
+
+    def _compiled_kernel(self):
+        """The compiled force of contract 10 (None: Python only); its arguments are
+        ``_kernel_args(ws, d)`` followed by (v, z, tau, zdot)."""
+        if self._geo is None or self._laws is None or self._friction is None:
+            return None
+        return _kernels.clearance_force
+
+    def _kernel_args(self, ws, d):
+        return (self._geo, self._frames(ws, d), self._bodies(ws), self._laws, self._friction, d.channels)
+
+    def _frames(self, ws, d):
+        fk = ws.fk
+        return Frames(fk.Hj, fk.jidx, fk.jMf, d.slot, d.M)
+
+    def _bodies(self, ws):
+        return Bodies(ws.J6, self.idx1, self.idx2)
+
+    def _args(self, ws, d):
+        """The compiled force's arguments before (v, z, tau, zdot), built once per workspace."""
+        if d.args is None:
+            d.args = self._kernel_args(ws, d)
+        return d.args
+
     # ------------------------------------------------------------------ subclass hooks
     def _geometry(self, data, d):
         """Fill d.delta, d.n, d.p1, d.p2 from Pinocchio's frame placements in ``data``: the same
-        compiled geometry as the fused path, which takes its placements from the joint chain."""
-        g, oMf = self._geom, data.oMf
-        _kernels.channel_geometry(g[0], g[1], oMf[self.f1].homogeneous, oMf[self.f2].homogeneous, d.scratch,
+        compiled geometry as the compiled force, which takes its placements from the joint chain."""
+        g, oMf = self._geo, data.oMf
+        _kernels.channel_geometry(g.code, g.gpar, oMf[self.f1].homogeneous, oMf[self.f2].homogeneous, d.scratch,
                                   d.delta, d.n, d.p1, d.p2)
 
     def _channel_laws(self):
@@ -163,47 +204,32 @@ class ClearanceJoint(ForceElement):
         spreads a load onto channels not themselves penetrating (the prismatic foundation)."""
         return d.on
 
-    def _kernel_params(self):
-        """(law code, p0, p1, chi, weight) per channel and (friction code, friction parameters)
-        when every channel's normal law and the friction law declare a compiled form
-        (``kernel_params()``): the compiled channel loop then does the channels. None otherwise."""
-        laws = self._channel_laws()
-        fr = self.friction.kernel_params()
-        if laws is None or fr is None:
-            return None
-        par = [law.kernel_params() for law in laws]
-        if any(p is None for p in par):
-            return None
-        code = _readonly(np.array([p[0] for p in par], dtype=np.int64))
-        P0, P1, chi = (_readonly(np.array(x, float)) for x in list(zip(*par))[1:])
-        return code, P0, P1, chi, _readonly(np.ones(len(par))), int(fr[0]), fr[1]
-
     # ------------------------------------------------------------------ evaluation
     def create_data(self, mech):
         d = self._data_class(self.nc, self.nfs)
-        if self._geom is not None:
-            d.slot = mech.force_frame_slot[[f is self for f in mech.forces].index(True)]
+        if self._geo is not None:
+            d.slot = self.frame_slot(mech)
         return d
 
-    def _eval(self, ws, d, t, q, v, z, full=False):
-        """All channel quantities at the state (t, q, v, z) in ``d``; ``full`` insists on the
-        velocities even without contact."""
+    def _eval(self, ws, d, t, q, v, z):
+        """All channel quantities at the state (t, q, v, z) in ``d`` (velocities only with
+        contact or friction states)."""
         key = (t, q.tobytes(), v.tobytes(), z.tobytes())
-        if d.key == key and (d.moving or not full):
+        if d.key == key:
             return d
         with np.errstate(over="ignore", invalid="ignore"):
             # rejected trial steps of explicit integrators may overflow; they are discarded anyway
-            self._compute(ws, d, v, z, full)
+            self._compute(ws, d, v, z)
         d.key, d.q_key = key, key[1]
         return d
 
-    def _compute(self, ws, d, v, z, full):
+    def _compute(self, ws, d, v, z):
         data = ws.data
         d.key = d.q_key = None
         self._geometry(data, d)
         nc = self.nc
         on = np.greater(d.delta, 0.0, out=d.on)
-        if not (full or self.nfs or on.any()):
+        if not (self.nfs or on.any()):
             # free flight: no force, nothing to integrate (the common case between impacts)
             d.Fn[:] = 0.0
             d.Fel[:] = 0.0
@@ -213,12 +239,9 @@ class ClearanceJoint(ForceElement):
             return
         n, dd, vt = d.n, d.dd, d.vt
         # v2(p2) - v1(p1), normal rate and slip velocity (paper 000 eqs. 10-15)
-        _kernels.relative_velocity(data.J, self.idx1, self.idx2, v, n, d.p1, d.p2, dd, vt)
+        relative_velocity(ws.J6, self.idx1, self.idx2, v, n, d.p1, d.p2, dd, vt)
         d.moving = True
         np.maximum(z[:nc], self.v_impact_min, out=d.dd0)
-        if self._kernel is not None:
-            d.loss = _kernels.contact_forces(d.delta, dd, vt, n, d.dd0, *self._kernel, d.Fn, d.Fel, d.F2)
-            return
         Fn, Fel = self._normal(d, d.delta, dd, d.dd0)
         on = self._loaded(d, Fel)
         Fn = np.where(on, Fn, 0.0)
@@ -256,31 +279,20 @@ class ClearanceJoint(ForceElement):
             z[:self.nc] = np.where(d.on, np.abs(d.dd), 0.0)
         return z
 
-    def rhs_kernel(self):
-        """(kernel, args) of the one compiled call that adds this joint's force: kernel(*args(ws,
-        d, v, z, tau, zdot)); None when a law has no compiled form (see _freeze)."""
-        return None if self._fused is None else (_kernels.clearance_force, self._fused_args)
-
     def force_kernel(self, mech, ws, d, z, zdot):
-        k = self.rhs_kernel()
-        return None if k is None else (k[0], k[1](ws, d, ws.v, z, ws.tau, zdot))
+        if self._kernel is None:
+            return None
+        return self._kernel, self._args(ws, d) + (ws.v, z, ws.tau, zdot)
 
     def event_kernel(self, mech, ws, d, g):
-        geo = self._geom
-        if geo is None:
+        if self._geo is None:
             return None
-        fk = ws.fk
-        return _kernels.event_penetrations, (geo[0], geo[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, d.delta,
-                                             d.n, d.p1, d.p2, self.event_snap, g)
+        return _kernels.event_penetrations, (self._geo, self._frames(ws, d), d.channels, self.event_snap, g)
 
     def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
-        k = self.rhs_kernel()
-        if k is not None:
-            # the hot path: one compiled call (same kernels as _compute); nothing is cached, so
-            # later calls at this state (outputs, events) evaluate afresh through _eval
-            d.key = d.q_key = None
-            self._call_kernel(k[0], k[1], ws, d, v, z, tau, zdot)
-            d.loss = zdot[self.nc]
+        if self._kernel is not None:
+            touching = self._kernel(*self._args(ws, d), v, z, tau, zdot)
+            self._kept(d, (t, q.tobytes(), v.tobytes(), z.tobytes()), zdot, touching)
             return
         self._eval(ws, d, t, q, v, z)
         nc = self.nc
@@ -288,26 +300,17 @@ class ClearanceJoint(ForceElement):
         zdot[nc] = d.loss
         zdot[nc + 1:] = d.dzf
         if d.on.any():
-            _kernels.add_wrenches(ws.data.J, self.idx1, self.idx2, d.F2, d.p1, d.p2, tau)
+            add_wrenches(ws.J6, self.idx1, self.idx2, d.F2, d.p1, d.p2, tau)
 
-    @staticmethod
-    def _call_kernel(kernel, args, ws, d, v, z, tau, zdot):
-        """kernel(*args(ws, d, v, z, tau, zdot)). The simulator's call writes into the workspace's
-        own tau and zdot slice: there the kernel is bound once to those buffers (pinclear._bind)
-        and kept in d; any other caller gets the direct call."""
-        if tau is ws.tau and zdot.base is ws.zdot:
-            bound = d.kernel
-            if bound is None:
-                bound = d.kernel = bind(kernel, args(ws, d, DYN, DYN, tau, zdot))
-            bound(v, z)
-        else:
-            kernel(*args(ws, d, v, z, tau, zdot))
-
-    def _fused_args(self, ws, d, v, z, tau, zdot):
-        f, fk = self._fused, ws.fk
-        return (f[0], f[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, ws.J6, self.idx1, self.idx2, v, z,
-                self.v_impact_min, f[2], f[3], f[4], f[5], f[6], f[7], f[8], d.delta, d.n, d.p1, d.p2, d.dd, d.vt,
-                d.dd0, d.Fn, d.Fel, d.F2, tau, zdot)
+    def _kept(self, d, key, zdot, touching):
+        """After the compiled force at the state ``key``: its channel quantities stay in d for
+        the calls at the same state (power loss, outputs, potential) as _eval leaves them
+        (velocities only with contact, as in _compute's free flight)."""
+        d.loss = float(zdot[self.nc])
+        d.dzf[:] = zdot[self.nc + 1:]
+        np.greater(d.delta, 0.0, out=d.on)
+        d.moving = touching > 0
+        d.key, d.q_key = key, key[1]
 
     def potential(self, mech, ws, d, q):
         # the geometry depends on q alone: an evaluation at this q already holds it
@@ -327,20 +330,24 @@ class ClearanceJoint(ForceElement):
         Channels that touch together (a symmetric journal's two ends, a slider face's corners)
         cross zero at the same instant up to round-off; snapping keeps the restart after one of
         them from re-detecting the others (handle_event records them all at once)."""
-        g = self._geom
-        if g is not None:
-            # penetrations are geometry alone: the compiled placements and channel geometry
-            fk = ws.fk
+        if self._geo is not None:
+            # penetrations are geometry alone: the event kernel's placements and channel geometry
             d.key = d.q_key = None
-            _kernels.channel_penetrations(g[0], g[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, d.scratch, d.delta, d.n,
-                                          d.p1, d.p2, self.event_snap)
+            _kernels.channel_penetrations(self._geo, self._frames(ws, d), d.channels, self.event_snap)
             return d.delta.copy()
         val = self._eval(ws, d, t, q, v, z).delta.copy()
         val[np.abs(val) < self.event_snap] = 0.0
         return val
 
+    def _impact(self, ws, d, v):
+        """Penetrations and normal rates at the last kinematics pass and velocity v: all an
+        event's effect needs (geometry and relative velocities, not the laws)."""
+        d.key = d.q_key = None
+        self._geometry(ws.data, d)
+        relative_velocity(ws.J6, self.idx1, self.idx2, v, d.n, d.p1, d.p2, d.dd, d.vt)
+
     def handle_event(self, k, mech, ws, d, t, q, v, z):
-        self._eval(ws, d, t, q, v, z, full=True)
+        self._impact(ws, d, v)
         z = np.array(z, float)
         dd = d.dd
         near = np.abs(d.delta) < 1e3 * self.event_snap
@@ -366,17 +373,16 @@ class ClearanceJoint(ForceElement):
         return float(row[-1]), {name: (row[a] if size == 1 else row[a:a + size]) for name, a, size in _kernels.RECORD}
 
     def record(self, mech, ws, d, t, q, v, z, after_rhs):
-        if not (after_rhs and self._rhs_compiled):
+        if not (after_rhs and self._kernel is not None):
             return super().record(mech, ws, d, t, q, v, z, after_rhs)
-        # the fused add_force of this very evaluation left every channel quantity in d
-        d.key = None
+        # the compiled add_force of this very evaluation left every channel quantity in d
         pot, out = self._record(d, z, d.M[0], d.M[1], self._record_laws(d))
         return pot, d.loss, out
 
     def _record_laws(self, d):
-        """(law code, p0, p1, weight) per channel, as the fused evaluation used them."""
-        f = self._fused
-        return f[2], f[3], f[4], f[6]
+        """(law code, p0, p1, weight) per channel, as the compiled force used them."""
+        laws = self._laws
+        return laws.code, laws.P0, laws.P1, laws.W
 
     def describe(self):
         return {"name": self.name, "type": self.kind, "friction": self.friction.name}

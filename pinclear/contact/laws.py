@@ -2,9 +2,9 @@
 
 All laws are vectorised over the contacts of one joint (numpy arrays of equal length) and
 never allocate more than their result. ``NormalLaw`` and ``FrictionLaw`` state the contract.
-Each law is written once: the damped power laws, the hysteresis term and the memoryless friction
-laws are the compiled functions of ``contact/_kernels.py``, which these classes call and the
-joints' channel loop calls too (the line law and LuGre are plain NumPy, evaluated here only).
+Each law is written once: the damped power laws, the line law, the hysteresis term and the
+friction laws (LuGre's as contact._kernels.lugre_channel) are the compiled functions of
+``contact/_kernels.py``, which these classes call and the joints' channel loop calls too.
 Sign conventions:
 
 * ``delta`` penetration (m), > 0 in contact; ``ddelta`` its rate (m/s), > 0 while
@@ -338,8 +338,8 @@ class FrictionLaw(_Immutable, abc.ABC):
        includes the bristles' elastic energy rate: the balance still closes.
     4. A law is immutable after ``__init__``: every evolving quantity lives in the states of 3.
     5. :meth:`kernel_params` declares whether the joints' compiled channel loop can evaluate the
-       law: ``(code, parameters)`` for the memoryless laws (codes of contact._kernels), None
-       otherwise.
+       law: ``(code, parameters)`` with the codes of contact._kernels (the memoryless laws and
+       LuGre), None otherwise (the joint then calls :meth:`force`).
     """
 
     name: str = ""
@@ -457,15 +457,22 @@ class LuGre(FrictionLaw):
         # Canudas de Wit et al.'s example (unit Coulomb force) pairs s0 with s1 = sqrt(s0)
         self.s1 = float(s1) if s1 is not None else math.sqrt(self.s0)
         self.s2 = float(s2)
+        self._par = _params(self.mu_s, self.mu_c, self.vs, self.s0, self.s1, self.s2)
         self._freeze()
 
+    def kernel_params(self):
+        return _kernels.F_LUGRE, self._par
+
     def force(self, Fn, vt, state=None, dstate=None):
-        s = np.sqrt(np.einsum("ki,ki->k", vt, vt))
-        g = self.mu_c + (self.mu_s - self.mu_c) * np.exp(-(s / self.vs) ** 2)
-        zd = vt - (self.s0 * s / g)[:, None] * state
+        vt = np.ascontiguousarray(vt, dtype=float).reshape(-1, 3)
+        (Fn,) = _vec(Fn)
+        state = np.ascontiguousarray(state, dtype=float).reshape(-1, 3)
+        zd = np.empty_like(vt)
+        Ft = np.empty_like(vt)
+        _kernels.lugre_forces(self._par, np.ascontiguousarray(np.broadcast_to(Fn, len(vt))), vt, state, zd, Ft)
         if dstate is not None:
             dstate[:] = zd
-        return -Fn[:, None] * (self.s0 * state + self.s1 * zd + self.s2 * vt)
+        return Ft
 
 
 def make_friction_law(spec, *, file="<spec>", key="friction_law", mu=None):

@@ -49,6 +49,7 @@ from types import MappingProxyType
 import numpy as np
 
 from . import _kernels
+from ._kernels import Foundation, Laws, Modes
 from .base import ClearanceData, ClearanceJoint, _readonly
 
 KEYS = frozenset({"section", "length", "edge_radius", "point_law", "line_law", "plane_law", "model"})
@@ -176,43 +177,35 @@ class PrismaticClearance(ClearanceJoint):
         self._freeze()
 
     def _freeze(self):
-        # the model's laws go into the compiled call when they (and the friction law) have a
-        # compiled form
-        fr = self.friction.kernel_params()
-        self._pfused = None
-        if self.contact_model == "energy":
-            if fr is not None:
-                self._pfused = (self.kf, float(self.chi), int(fr[0]), fr[1])
-        else:
-            par = [self.laws[k].kernel_params() for k in _LAW_ROWS]
-            if fr is not None and all(p is not None for p in par):
-                self._pfused = (_readonly(np.array(par, float)), int(fr[0]), fr[1])
+        # paper003's law table (contact._kernels.prismatic_laws' rows) when every law there has
+        # a compiled form
+        par = [self.laws[k].kernel_params() for k in _LAW_ROWS]
+        self._rows = None if any(p is None for p in par) else _readonly(np.array(par, float))
         super()._freeze()
-
-    def _compiled_rhs(self):
-        return self._pfused is not None
 
     def _geometry_params(self):
         return np.array([self.ha, self.hb, 0.5 * self.a, 0.5 * self.b, 0.5 * self.L])
 
-    def rhs_kernel(self):
-        if self._pfused is None:
+    def _compiled_kernel(self):
+        if self._friction is None:
             return None
         if self.contact_model == "energy":
-            return _kernels.prismatic_energy_force, self._energy_args
-        return _kernels.prismatic_force, self._prismatic_args
+            return _kernels.prismatic_energy_force
+        return None if self._rows is None else _kernels.prismatic_force
 
-    def _prismatic_args(self, ws, d, v, z, tau, zdot):
-        pf, fk = self._pfused, ws.fk
-        return (self._geom[1], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, ws.J6, self.idx1, self.idx2, v, z,
-                self.v_impact_min, _MEMBERS, _MODE_TABLE, pf[0], d.info, d.lcode, d.P0, d.P1, d.chi, d.W, pf[1],
-                pf[2], d.delta, d.n, d.p1, d.p2, d.dd, d.vt, d.dd0, d.Fn, d.Fel, d.F2, tau, zdot)
+    def _kernel_args(self, ws, d):
+        modes = Modes(_MEMBERS, _MODE_TABLE, d.info)
+        head = (self._geo, self._frames(ws, d), self._bodies(ws), modes)
+        if self.contact_model == "energy":
+            return head + (Foundation(self.kf, self.chi, self.v_impact_min, d.poly, d.Uf), self._friction,
+                           d.channels)
+        # the per-channel laws are written by the kernel (they change with the contact mode)
+        return head + (self._rows, Laws(d.lcode, d.P0, d.P1, d.chi, d.W, self.v_impact_min), self._friction,
+                       d.channels)
 
-    def _energy_args(self, ws, d, v, z, tau, zdot):
-        pf, fk = self._pfused, ws.fk
-        return (self._geom[1], pf[0], fk.Hj, fk.jidx, fk.jMf, d.slot, d.M, ws.J6, self.idx1, self.idx2, v, z,
-                self.v_impact_min, _MEMBERS, _MODE_TABLE, d.info, pf[1], pf[2], pf[3], d.poly, d.delta, d.n, d.p1,
-                d.p2, d.dd, d.vt, d.dd0, d.Fn, d.Fel, d.F2, d.Uf, tau, zdot)
+    def _kept(self, d, key, zdot, touching):
+        super()._kept(d, key, zdot, touching)
+        d.mode_from_info()                   # the kernel classified this pose (d.info)
 
     def _record_laws(self, d):
         if self.contact_model == "energy":
@@ -247,7 +240,7 @@ class PrismaticClearance(ClearanceJoint):
     def _foundation(self, dat, delta):
         """Elastic corner loads (16,) of the energy model; the face energies go to dat.Uf."""
         Fel = np.zeros(16)
-        _kernels.prismatic_foundation(self._geom[1], self.kf, _MEMBERS, np.ascontiguousarray(delta, float), dat.poly,
+        _kernels.prismatic_foundation(self._geo.gpar, self.kf, _MEMBERS, np.ascontiguousarray(delta, float), dat.poly,
                                       Fel, dat.Uf)
         return Fel
 
@@ -286,9 +279,9 @@ class PrismaticClearance(ClearanceJoint):
         self._apply(dat, fn)
         return E
 
-    def _compute(self, ws, d, v, z, full):
+    def _compute(self, ws, d, v, z):
         d.Uf[:] = 0.0
-        super()._compute(ws, d, v, z, full)
+        super()._compute(ws, d, v, z)
 
     def z0(self, mech, ws, d, q, v):
         z = super().z0(mech, ws, d, q, v)
@@ -301,7 +294,7 @@ class PrismaticClearance(ClearanceJoint):
     def handle_event(self, k, mech, ws, d, t, q, v, z):
         if self.contact_model != "energy":
             return super().handle_event(k, mech, ws, d, t, q, v, z)
-        self._eval(ws, d, t, q, v, z, full=True)
+        self._impact(ws, d, v)
         z = np.array(z, float)
         near = np.abs(d.delta) < 1e3 * self.event_snap
         near[k] = True
