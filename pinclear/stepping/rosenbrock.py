@@ -124,9 +124,11 @@ def rosenbrock_tableau(coeffs):
 #: differenced (m = n - p, p the leading rows with dc/dt = v), the Jacobian's state (NONE, FRESH:
 #: made at the current state, AGED: made before the last accepted step), its age in accepted
 #: steps, the step the LU was made for (0: none), the largest age (inf: no limit), the secant
-#: test's tolerance, whether a restart keeps the Jacobian, LU factorisations made
-(M_ROWS, J_STATE, J_AGE, LU_H, MAX_AGE, SECANT, KEEP, N_LU) = range(8)
-NMETA = 8
+#: test's tolerance, whether a restart keeps the Jacobian, LU factorisations made, whether the
+#: error estimate is filtered, the first step made with the Jacobian, the growth of the step
+#: over that one which asks for a new Jacobian, whether the dense output is part of the error test
+(M_ROWS, J_STATE, J_AGE, LU_H, MAX_AGE, SECANT, KEEP, N_LU, FILTER, H_J, GROW, DENSE_TEST) = range(12)
+NMETA = 12
 NONE, FRESH, AGED = 0.0, 1.0, 2.0
 #: relative perturbation of the difference quotients (the square root of the unit roundoff
 #: balances truncation against cancellation, Dennis & Schnabel, Numerical Methods for
@@ -134,7 +136,7 @@ NONE, FRESH, AGED = 0.0, 1.0, 2.0
 SQRT_EPS = math.sqrt(np.finfo(float).eps)
 #: default policy (benchmarks/bench_implicit.py measured the alternatives)
 DEFAULT_MAX_AGE = np.inf
-DEFAULT_SECANT = 0.5
+DEFAULT_SECANT = 1.0
 
 
 def meta_rows(n):
@@ -147,7 +149,8 @@ def work_rows(n, m):
     return meta_rows(n) + 2 * m + 2
 
 
-def prepare(st, n, p, skip=(), max_age=DEFAULT_MAX_AGE, secant=DEFAULT_SECANT, keep=False):
+def prepare(st, n, p, skip=(), max_age=DEFAULT_MAX_AGE, secant=DEFAULT_SECANT, keep=False, filtered=True,
+            grow=np.inf, dense=True):
     """``st`` with its W sized for this run: n state components of which the first p have
     dc/dt = v (0: none known); ``skip``: state indices nothing depends on (their Jacobian
     columns are zero and not differenced)."""
@@ -155,6 +158,7 @@ def prepare(st, n, p, skip=(), max_age=DEFAULT_MAX_AGE, secant=DEFAULT_SECANT, k
     W = np.zeros((work_rows(n, m), n))
     flat = W.reshape(-1)
     flat[M_ROWS], flat[J_STATE], flat[MAX_AGE], flat[SECANT], flat[KEEP] = m, NONE, max_age, secant, float(keep)
+    flat[FILTER], flat[GROW], flat[DENSE_TEST] = float(filtered), grow, float(dense)
     mask = W[meta_rows(n) + 2 * m + 1]
     mask[:] = 1.0
     mask[list(skip)] = 0.0
@@ -286,6 +290,26 @@ def jacobian(sys, st, t, r0, m, p):
 
 
 @njit(cache=True)
+def hermite_norm(st, h, f_new):
+    """The step's dense output checked with it: RMS of (2 (y_new - y) - h (f + f_new)) / 8 over
+    the error test's scale, the distance at mid-step between the cubic Hermite interpolant (the
+    dense output, pinclear.stepping.rk.rk_dense) and the quadratic through y, f and y_new: an
+    O(h^3) estimate like the embedded one. The embedded estimate sees f only at the stages, so
+    a step whose end lies in a contact the stages barely touched passes it while f there (the
+    Hermite's end slope) bends the interpolant over the whole step, and with it the located
+    event's state; explicit methods with f at the new point in their estimate (RK45) see it."""
+    V, rtol = st.V, st.r[RTOL]
+    y, y_new, f, atol = V[Y], V[Y_NEW], V[F], V[ATOL]
+    n = y.shape[0]
+    acc = 0.0
+    for i in range(n):
+        d = 0.125 * (2.0 * (y_new[i] - y[i]) - h * (f[i] + f_new[i]))
+        v = d / (atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol)
+        acc += v * v
+    return (acc / n) ** 0.5 if n else 0.0
+
+
+@njit(cache=True)
 def secant_ratio(st, r0, m, p):
     """How far the Jacobian is from the step just taken: |df - J dy| / |df| over the
     differenced rows (dy = y_new - y, df = f_new - f, weighted by the error test's scale). Near
@@ -293,7 +317,7 @@ def secant_ratio(st, r0, m, p):
     changed under it (a contact's stiffness grew, an impact): then a new Jacobian."""
     V, W, K, rtol = st.V, st.W, st.K, st.r[RTOL]
     y, y_new, f, atol = V[Y], V[Y_NEW], V[F], V[ATOL]
-    f_new = K[K.shape[0] - 1]
+    f_new = K[K.shape[0] - 2]
     n = y.shape[0]
     num = den = 0.0
     for k in range(m):
@@ -350,19 +374,31 @@ def _stages(sys, tab, st, t, h, r0, m, p, sigma):
 
 
 @njit(cache=True)
-def error_norm(tab, st):
+def error_norm(tab, st, r0, m, p, sigma, filtered):
     """RMS of the embedded estimate sum_j E_j u_j over atol + max(|y|, |y_new|) rtol (SciPy's
-    norm, as the explicit methods)."""
+    norm, as the explicit methods). ``filtered``: the estimate multiplied by (I - h gamma W)^-1
+    first (Shampine's filter, Hairer & Wanner, Solving ODEs II, sec. IV.8, eq. (8.20)): the
+    embedded method of ROS34PW2 is not L-stable (|R^(inf)| = 0.48), so without it a stiff
+    component the main method damps correctly keeps the estimate at about half its size
+    whatever the step, and the steps collapse in stiff contact; the filter leaves the
+    non-stiff components' estimate as it is (to O(h))."""
     K, V, rtol = st.K, st.V, st.r[RTOL]
     y, y_new, atol, E = V[Y], V[Y_NEW], V[ATOL], tab.E
-    n = y.shape[0]
+    n, ns = y.shape[0], E.shape[0]
+    e = K[ns + 1]
+    for i in range(n):
+        acc = 0.0
+        for j in range(ns):
+            acc += E[j] * K[j, i]
+        e[i] = acc
+    if filtered:
+        lu_solve(st.W, r0, m, p, sigma, e)
+        for i in range(n):
+            e[i] *= sigma
     acc = 0.0
     for i in range(n):
-        e = 0.0
-        for j in range(E.shape[0]):
-            e += E[j] * K[j, i]
-        e /= atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol
-        acc += e * e
+        v = e[i] / (atol[i] + max(abs(y[i]), abs(y_new[i])) * rtol)
+        acc += v * v
     return (acc / n) ** 0.5 if n else 0.0
 
 
@@ -431,7 +467,7 @@ def rosenbrock_step(sys, tab, st):
             if ii[BAD_COUNT] > MAX_BAD:
                 return BAD_EVALS
         else:
-            err = error_norm(tab, st)
+            err = error_norm(tab, st, r0, m, p, 1.0 / (h_lu * gamma), _get(W, FILTER) != 0.0)
             if err < 1.0:
                 y_new, f_new = V[Y_NEW], K[ns]
                 v = observe(r, ii, V[XB], evaluate(sys, t_new, y_new, f_new), t_new, y_new)
@@ -444,13 +480,18 @@ def rosenbrock_step(sys, tab, st):
                     if ii[BAD_COUNT] > MAX_BAD:
                         return BAD_EVALS
                     err = np.nan
-                else:
+                elif _get(W, DENSE_TEST) != 0.0:
+                    err = max(err, hermite_norm(st, h, f_new))
+                if err < 1.0:
                     factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** expo)
                     if rejected:
                         factor = min(1.0, factor)
                     age = _get(W, J_AGE) + 1.0
                     _set(W, J_AGE, age)
-                    stale = age >= _get(W, MAX_AGE) or secant_ratio(st, r0, m, p) > _get(W, SECANT)
+                    if age == 1.0:
+                        _set(W, H_J, h_abs)
+                    stale = (age >= _get(W, MAX_AGE) or h_abs * factor > _get(W, GROW) * _get(W, H_J)
+                             or secant_ratio(st, r0, m, p) > _get(W, SECANT))
                     _set(W, J_STATE, NONE if stale else AGED)
                     accept(V, r, ii, f_new, t_new, h, h_abs * factor)
                     return ACCEPTED
@@ -480,10 +521,13 @@ class Rosenbrock(Method):
 
     corrects_state = True
 
-    def __init__(self, name, coeffs, max_age=DEFAULT_MAX_AGE, secant=DEFAULT_SECANT, keep=False):
+    def __init__(self, name, coeffs, max_age=DEFAULT_MAX_AGE, secant=DEFAULT_SECANT, keep=False, filtered=True,
+                 grow=np.inf, dense=True):
         self.name, self.coeffs = name, coeffs
-        self.max_age, self.secant, self.keep = max_age, secant, keep
-        self.rows = len(coeffs["b"]) + 1
+        self.max_age, self.secant, self.keep, self.filtered, self.grow = max_age, secant, keep, filtered, grow
+        self.dense = dense
+        # K: the stages, f at the proposed state, the error estimate
+        self.rows = len(coeffs["b"]) + 2
 
     def tableau(self, run):
         mech, n = run.mech, run.st.V.shape[1]
@@ -497,7 +541,8 @@ class Rosenbrock(Method):
             if f.dissipation_state is not None:
                 skip.append(base + sl.start + f.dissipation_state)
         # W's size depends on the run's state (the Method's ``work`` is per method)
-        run.st = prepare(run.st, n, p, skip, self.max_age, self.secant, self.keep)
+        run.st = prepare(run.st, n, p, skip, self.max_age, self.secant, self.keep, self.filtered, self.grow,
+                         self.dense)
         return rosenbrock_tableau(self.coeffs)
 
     def start(self, run, t, x, hint, zero):
