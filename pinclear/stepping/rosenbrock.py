@@ -150,7 +150,7 @@ def work_rows(n, m):
 
 
 def prepare(st, n, p, skip=(), max_age=DEFAULT_MAX_AGE, secant=DEFAULT_SECANT, keep=False, filtered=True,
-            grow=np.inf, dense=True):
+            grow=np.inf, dense=None):
     """``st`` with its W sized for this run: n state components of which the first p have
     dc/dt = v (0: none known); ``skip``: state indices nothing depends on (their Jacobian
     columns are zero and not differenced)."""
@@ -158,7 +158,9 @@ def prepare(st, n, p, skip=(), max_age=DEFAULT_MAX_AGE, secant=DEFAULT_SECANT, k
     W = np.zeros((work_rows(n, m), n))
     flat = W.reshape(-1)
     flat[M_ROWS], flat[J_STATE], flat[MAX_AGE], flat[SECANT], flat[KEEP] = m, NONE, max_age, secant, float(keep)
-    flat[FILTER], flat[GROW], flat[DENSE_TEST] = float(filtered), grow, float(dense)
+    # the dense output is in the error test where events are located on it (dense=None)
+    flat[FILTER], flat[GROW] = float(filtered), grow
+    flat[DENSE_TEST] = float(st.G.shape[1] > 0 if dense is None else dense)
     mask = W[meta_rows(n) + 2 * m + 1]
     mask[:] = 1.0
     mask[list(skip)] = 0.0
@@ -522,7 +524,7 @@ class Rosenbrock(Method):
     corrects_state = True
 
     def __init__(self, name, coeffs, max_age=DEFAULT_MAX_AGE, secant=DEFAULT_SECANT, keep=False, filtered=True,
-                 grow=np.inf, dense=True):
+                 grow=np.inf, dense=None):
         self.name, self.coeffs = name, coeffs
         self.max_age, self.secant, self.keep, self.filtered, self.grow = max_age, secant, keep, filtered, grow
         self.dense = dense
