@@ -126,9 +126,13 @@ def ode_problems():
     rober40 = solve_ivp(_rober_py, (0.0, 40.0), [1.0, 0.0, 0.0], method="Radau", rtol=1e-12,
                         atol=[1e-18, 1e-24, 1e-18]).y[:, -1]
     return [("VDPOL t=2", Ode(_vdpol, 2, 1), [2.0, 0.0], 2.0, VDPOL_REF, lambda r: r),
-            ("ROBER t=40", Ode(_rober, 3, 0), [1.0, 0.0, 0.0], 40.0, rober40, lambda r: np.array([1e-6, 1e-12, 1e-6]) * r),
-            ("ROBER t=1e11", Ode(_rober, 3, 0), [1.0, 0.0, 0.0], 1e11, ROBER_REF,
-             lambda r: np.array([1e-6, 1e-12, 1e-6]) * r)]
+            ("ROBER t=40", Ode(_rober, 3, 0), [1.0, 0.0, 0.0], 40.0, rober40, _rober_atol),
+            ("ROBER t=1e11", Ode(_rober, 3, 0), [1.0, 0.0, 0.0], 1e11, ROBER_REF, _rober_atol)]
+
+
+def _rober_atol(rtol):
+    """The Test Set's scaling of ROBER's absolute tolerances (y2 runs from 1e-5 to 1e-13)."""
+    return np.array([1e-6, 1e-12, 1e-6]) * rtol
 
 
 def _err(y, ref, rtol, atol):
@@ -319,8 +323,9 @@ def table_policy(rows):
     out = ["| scene | policy | status | evals | steps | Jacobians | events as DOP853 1e-10 | energy |",
            "|---|---|---|---|---|---|---|---|"]
     for r in rows:
+        same, energy = "yes" if r["same_events"] else "no", "ok" if r["energy_ok"] else "FAILED"
         out.append(f"| {r['scene']} | {r['integrator']} | {r['status']} | {r['evals']} | {r['steps']} | "
-                   f"{r['jacobians']} | {'yes' if r['same_events'] else 'no'} | {'ok' if r['energy_ok'] else 'FAILED'} |")
+                   f"{r['jacobians']} | {same} | {energy} |")
     by = {}
     for r in rows:
         by.setdefault(r["integrator"], []).append(r["evals"])
