@@ -21,7 +21,8 @@ from pinclear.stepping import INTEGRATORS, chunk as C, rosenbrock as R
 from pinclear.stepping.call import CALLBACK, ptr_f8
 from pinclear.stepping.checks import reset_monitor
 from pinclear.stepping.run import STALL_STEPS
-from pinclear.stepping.state import ATOL, H_STALL, MAX_STEP, NJAC, RTOL, STEPS, T_BOUND, new_steps
+from pinclear.stepping.state import (ATOL, BAD, H_ABS, H_STALL, MAX_STEP, NJAC, REJECTS, RTOL, STEPS, T, T_BAD,
+                                     T_BOUND, new_steps)
 from pinclear.stepping.system import System
 
 
@@ -60,6 +61,22 @@ def _rober(ctx, t):
     b[3] = -0.04 * b[0] + 1e4 * b[1] * b[2]
     b[5] = 3e7 * b[1] * b[1]
     b[4] = -b[3] - b[5]
+    return np.inf
+
+
+@cfunc(CALLBACK)
+def _sqrt_decay(ctx, t):
+    """y' = -sqrt(y): y = (1 - t/2)^2 from y(0) = 1; a state below zero evaluates to NaN."""
+    b = carray(ptr_f8(ctx), (2,))
+    b[1] = -np.sqrt(b[0])
+    return np.inf
+
+
+@cfunc(CALLBACK)
+def _nan_after(ctx, t):
+    """y' = -y until t = 0.5, NaN after: no step can pass t = 0.5."""
+    b = carray(ptr_f8(ctx), (2,))
+    b[1] = -b[0] if t <= 0.5 else np.nan
     return np.inf
 
 
@@ -165,6 +182,36 @@ def test_jacobian_evaluations_are_counted(forced):
     ode.finish(st, tab)
     assert st.i[STEPS] == n and st.i[NJAC] == n
     assert ode.sys.count[0] == 1 + n * (3 + 1 + 3)
+
+
+def test_bad_evaluation_rejects_the_attempt():
+    """A first step of 1.9 s sends the second stage below zero (y + 2 u_1 with u_1 ~ -0.58): its
+    NaN rejects the attempt like a large error, the step shrinks and the run reaches
+    y(1.9) = (1 - 0.95)^2 within 10 rtol max|y| (the local errors were made at y ~ 1)."""
+    ode = Ode(_sqrt_decay, 1, 0)
+    ode.sys.count[0] = 0
+    st, tab = ode.steps([1.0], 1.9, 1e-8, 1e-10)
+    st.r[H_ABS] = 1.9
+    y = ode.finish(st, tab)
+    assert st.i[REJECTS] >= 1 and st.r[T_BAD] > 0.0
+    assert abs(y[0] - 0.0025) < 10 * 1e-8
+
+
+def test_bad_evaluations_without_end_stop_the_run():
+    """Every evaluation past t = 0.5 bad: each shrinks the step by 5 (as rk_step), the steps creep
+    up to the wall until one would be below 10 ulp of t; the chunk ends with STEP_TOO_SMALL
+    there, with a bad evaluation recorded past the wall (the run reports the Python path's
+    error at it) and the state still on y = exp(-t)."""
+    ode = Ode(_nan_after, 1, 0)
+    st, tab = ode.steps([1.0], 1.0, 1e-6, 1e-8)
+    while True:
+        code = C.advance(ode.sys, tab, st, 1000)
+        if code != C.QUIET:
+            break
+    assert code == C.STEP_TOO_SMALL
+    assert st.i[BAD] >= 1
+    assert st.r[T] <= 0.5 < st.r[T_BAD] and 0.5 - st.r[T] < 1e-9
+    assert abs(st.V[0, 0] - np.exp(-st.r[T])) < 1e-5
 
 
 # Test Set reference solutions (Mazzia & Magherini, Test Set for IVP Solvers, release 2.4,
