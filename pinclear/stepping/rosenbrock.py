@@ -63,8 +63,8 @@ from .state import (ATOL, BAD as BAD_COUNT, F, H_ABS, H_START, MAX_STEP, NJAC, R
 from .system import evaluate
 
 # --------------------------------------------------------------------------------- coefficients
-#: ROS34PW2 (Rang & Angermann 2005, Table 4.1 of the paper's coefficient sets): gamma, alpha_ij,
-#: gamma_ij (i > j), b and the embedded b^
+#: ROS34PW2's coefficients (Rang & Angermann 2005): gamma, alpha_ij, gamma_ij (i > j), b and the
+#: embedded b^
 _G34 = 4.3586652150845900e-01
 ROS34PW2_COEFFS = dict(
     alpha=[[0, 0, 0, 0],
@@ -80,7 +80,7 @@ ROS34PW2_COEFFS = dict(
     order=3)
 
 #: ROS3PW (Rang & Angermann 2005): 3 stages, order 3 with the exact Jacobian, 2 as a W-method,
-#: R(inf) = 0.73 (not L-stable). For the benchmark's comparison.
+#: R(inf) = 0.73 (not L-stable): the comparison of tests/test_implicit.py and the benchmark.
 _G3 = 7.8867513459481287e-01
 ROS3PW_COEFFS = dict(
     alpha=[[0, 0, 0], [1.5773502691896257e+00, 0, 0], [0.5, 0, 0]],
