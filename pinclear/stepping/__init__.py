@@ -10,10 +10,10 @@ search, events, samples, projection and the stall test, with ``checks`` and ``ro
 ``run.Run`` drives the chunks from Python.
 """
 from ..errors import InputError
-from . import external, rk
+from . import external, rk, rosenbrock
 
 #: the integrators by name
-INTEGRATORS = {m.name: m for m in (rk.RK45(), rk.DOP853(), rk.RK4(), *external.METHODS)}
+INTEGRATORS = {m.name: m for m in (rk.RK45(), rk.DOP853(), rk.RK4(), *rosenbrock.METHODS, *external.METHODS)}
 
 
 def get(name):

@@ -28,10 +28,12 @@ from .._jit import njit
 from .call import call_stage
 from .checks import BAD, FAILED, GOOD, dipped, first_crossing, observe, stalled
 from .rk import ACCEPTED, ASK_RESELECT, BAD_EVALS, STAGE_ERROR, TOO_SMALL, rk_dense, rk_dense_at, rk_step
+from .rosenbrock import rosenbrock_step
 from .roots import BRENT_STATE, ROOT_STATE, brent_next, brent_root_next, brent_root_start, brent_start
 from .state import (ATOL, BAD as BAD_COUNT, CHART, DENSE, DIRS, DX, EVENT_K, EXTERNAL, F, G_NEW, G_PREV, G_WORK, RK_FIXED,
                     H_ABS, H_PREV, H_STALL, MAX_STEP, MON_MIN, N_ACC, NO_RESELECT, OUT_I, RTOL, STEPS, T, T_BAD,
                     T_BOUND, T_EVENT, T_OLD, XB, XE, Y, Y_OLD, YS)
+from .state import ROSENBROCK
 from .system import evaluate, event_values, project
 
 #: what a chunk ended with
@@ -259,6 +261,8 @@ def step(sys, tab, st):
     """One accepted step of the integrator's kind (or its failure code, rk.ACCEPTED etc.)."""
     if tab.kind == EXTERNAL:
         return int(call_stage(tab.ext[0], 0, st.r[T]))
+    if tab.kind == ROSENBROCK:
+        return rosenbrock_step(sys, tab, st)
     return rk_step(sys, tab, st)
 
 
