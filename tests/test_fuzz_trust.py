@@ -86,7 +86,7 @@ def _chains(root, depth):
 MODULES = _pinclear_modules()
 CHAINS = sorted({f"{m}:{c}" for m, mod in MODULES.items() for c in _chains(mod, 3)})
 #: the audit's routes, whatever the walk finds
-KNOWN = ["pinclear.timelaws:os.spawnv", "pinclear.cli:os.spawnvp", "pinclear._bind:os.spawnve",
+KNOWN = ["pinclear.timelaws:os.spawnv", "pinclear.cli:os.spawnvp", "pinclear.stepping.stage:os.spawnve",
          "pinclear.sidecar:re.enum.bltns.exec", "pinclear.cli:main", "pinclear.sidecar:yaml.load",
          "pinclear.trajectory:os.system", "pinclear.sweeps:subprocess.run", "pinclear.cli:sys.exit",
          "pinclear.timelaws:np.load", "pinclear.sidecar:copy.copyreg.__builtins__.eval"]

@@ -60,7 +60,7 @@ def _chain_docs(marker):
         "joint_force law": dict(FOUR, forces=[{"name": "f", "type": "joint_force", "joint": "crank_joint", "law": {
             "type": "python", "function": "pinclear.cli:os.spawnvp", "args": dict(spawnv, file="sh")}}]),
         "platform motion": dict(FOUR, platform={"frame": "coupler", "motion": {
-            "function": "pinclear._bind:os.spawnve", "args": dict(spawnv, env={})}}),
+            "function": "pinclear.stepping.stage:os.spawnve", "args": dict(spawnv, env={})}}),
         "hook": dict(FOUR, hook="pinclear.sidecar:re.enum.bltns.exec"),
         "cli main as a law": dict(FOUR, drives=[{"name": "d", "joint": "crank_joint", "law": {
             "type": "python", "function": "pinclear.cli:main", "args": {"argv": ["info", "x"]}}}]),
