@@ -15,6 +15,7 @@ compiles everything ahead of time.
 """
 from __future__ import annotations
 
+import hashlib
 import os
 import sys
 import threading
@@ -52,12 +53,26 @@ def cache_dir() -> Path:
     return base / "pinclear"
 
 
+def kernels_digest() -> bytes:
+    """Digest of every pinclear module that defines compiled code, numba's version, Python's and
+    the compile options. numba's cache index keys a cached function on its own source file only,
+    while compiled code inlines what it calls from other files (the step logic inlines
+    rk_step and rosenbrock_step, a contact kernel the helpers of forces.py): an edit there
+    would leave stale code in the cache. The cache folder is named by this digest instead."""
+    h = hashlib.sha1(f"{numba.__version__} {KERNEL_OPTIONS} {sys.version_info[:2]}".encode())
+    for f in sorted(Path(__file__).parent.rglob("*.py")):
+        text = f.read_bytes()
+        if b"njit" in text or b"cfunc" in text:
+            h.update(str(f.relative_to(Path(__file__).parent)).encode() + text)
+    return h.digest()
+
+
+KERNELS_DIGEST = kernels_digest()
+
 if not os.environ.get("NUMBA_CACHE_DIR"):
     # numba reads this setting when a cached function is first compiled, so setting it before
     # any kernel module is imported is enough
-    # numba's index keys a cached kernel on its source file, not on the compile options: a
-    # change of options (as error_model above) needs a new folder, or stale kernels load
-    numba.config.CACHE_DIR = str(cache_dir() / f"numba-{KERNEL_OPTIONS}")
+    numba.config.CACHE_DIR = str(cache_dir() / f"numba-{KERNEL_OPTIONS}-{KERNELS_DIGEST.hex()[:12]}")
 
 
 #: the line printed (once per process, on stderr) when pinclear starts compiling kernels

@@ -115,9 +115,11 @@ def run_passes(fn, model, data, q, v, flags):
     call_passes(fn, model, data, q.ctypes.data, v.ctypes.data, flags)
 
 
-def passes_stage(mech, ws, mass=True, errors=None):
+def passes_stage(mech, ws, mass=True, errors=None, frames=True):
     """The stage running Pinocchio's passes of an evaluation on ``ws.data`` at (ws.q, ws.v): the
-    compiled passes, or kinematics.update through Python when the extension is not in use."""
+    compiled passes, or kinematics.update through Python when the extension is not in use.
+    ``frames``: the frame placements too (data.oMf, read by force elements evaluated in Python;
+    compiled ones take theirs from ws.fk)."""
     from .stepping.stage import bind, python_stage
 
     if _mod is None:
@@ -127,6 +129,6 @@ def passes_stage(mech, ws, mass=True, errors=None):
             kinematics.update(mech, ws, ws.q, ws.v, mass)
             return float("inf")
         return python_stage(passes, errors, name="Pinocchio's passes (Python bindings)")
-    flags = (FRAMES if mech.forces else 0) | (MASS if mass else 0)   # frames as kinematics.update
+    flags = (FRAMES if frames else 0) | (MASS if mass else 0)
     model_addr, data_addr = addresses(mech.model, ws.data)
     return bind(run_passes, (passes_address(), model_addr, data_addr, ws.q, ws.v, flags), name="Pinocchio's passes")

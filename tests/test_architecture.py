@@ -39,9 +39,10 @@ def _shared_law_mech(path):
 
 
 def test_two_loads_do_not_share_drive_law_state():
-    """Two mechanisms from one file, each with a shared IK-style law: the per-time cache lives in
-    each workspace, so evaluating one never answers for the other (the old process-wide
-    registry returned the first one's cached value to the second)."""
+    """Two mechanisms from one file, each with a shared IK-style law: each evaluates its own law
+    into its own workspace's values, once per call for all the drives sharing it (an old
+    process-wide registry returned the first one's value to the second). No value is kept by
+    time: a run's compiled stages write the same buffer, so a time-keyed value would go stale."""
     mech, laws, Drive = _shared_law_mech("four_bar")
     rows_a = DriveRows([Drive(f"d{k}", "j", 0, 0, law) for k, law in enumerate(laws)], mech.nv)
     _, laws_b, _ = _shared_law_mech("four_bar")
@@ -53,7 +54,7 @@ def test_two_loads_do_not_share_drive_law_state():
     assert len(CALLS) == 2                      # each mechanism evaluated its own law once
     np.testing.assert_array_equal(fa, fb)
     rows_a.values(0.3, da)
-    assert len(CALLS) == 2                      # same time, same workspace: cached
+    assert len(CALLS) == 3                      # evaluated again: nothing answers from a cache
 
 
 def test_loaded_mechanisms_are_independent_objects():
@@ -166,9 +167,11 @@ def test_numba_cache_is_outside_the_package(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
                          timeout=600)
     assert out.returncode == 0, out.stderr
-    from pinclear._jit import KERNEL_OPTIONS
+    from pinclear._jit import KERNEL_OPTIONS, KERNELS_DIGEST
 
-    folder = tmp_path / "cache" / f"numba-{KERNEL_OPTIONS}"
+    # named by the digest of every compiled source (a change in any file a kernel inlines
+    # must not load stale code: numba's index watches a function's own file only)
+    folder = tmp_path / "cache" / f"numba-{KERNEL_OPTIONS}-{KERNELS_DIGEST.hex()[:12]}"
     assert out.stdout.strip() == str(folder)
     assert list(folder.rglob("*.nbi")), "no compiled kernel was cached"
     pkg = Path(pinclear.__file__).parent

@@ -143,16 +143,12 @@ class Manifold(Formulation):
 
     def compiled(self):
         """The projection P as a ``before`` stage (M is left at the projected q: mass=False), the
-        solve, the exact projection after steps. It needs the drive values before the passes, so
-        the drive law stages run first there too; a Python drive law cannot (its exception
-        would not reach the run from there): then None, the Python path."""
+        solve, the exact projection after steps (the drive values first: the run evaluates them
+        before any ``before`` stage, the projection needs its own)."""
         before, exact, solve, _ = self._bound()
         if self.mech.m == 0:
             return Compiled(solve=(solve,))
-        drives = self.drive_stages()
-        if any(s.ctx == 0 for s in drives):
-            return None
-        return Compiled(before=drives + (before,), solve=(solve,), project=drives + (exact,), mass=False)
+        return Compiled(before=(before,), solve=(solve,), project=self.drive_stages() + (exact,), mass=False)
 
     # -------------------------------------------------------------- Python path (the same kernels)
     def project(self, t, q, v):

@@ -26,6 +26,8 @@ class Method(abc.ABC):
     5. :meth:`stats` adds the method's own counters to a run's stats (Jacobians, LU).
     6. ``python_steps`` says whether its steps are taken in Python (SciPy's solvers), which a
        run's ``stats["loop"]`` reports.
+    7. :meth:`setup` gives the method's own state its place in the run's step state before the
+       first step (the Rosenbrock method sizes the work array W for the run's state).
     """
 
     name = ""
@@ -38,6 +40,9 @@ class Method(abc.ABC):
     @abc.abstractmethod
     def tableau(self, run):
         """The Tableau of this run (``run``: pinclear.stepping.run.Run)."""
+
+    def setup(self, run):
+        """The method's own per-run state (contract 7); nothing by default."""
 
     def start(self, run, t, x, hint, zero):
         from .chunk import start

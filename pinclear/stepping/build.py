@@ -2,9 +2,9 @@
 declare a compiled form (Formulation contract 7, ForceElement contract 10, compiled drive laws),
 Python stages elsewhere.
 
-The evaluation, in order: the formulation's ``before`` stages; Pinocchio's passes; the
-placements of the frames the kernels read; zeroing the applied forces; every force element; the
-drive laws; the formulation's solve; the drive work meter. Events: the placements (or the
+The evaluation, in order: the drive laws; the formulation's ``before`` stages; Pinocchio's
+passes; the placements of the frames the kernels read; zeroing the applied forces; every force
+element; the formulation's solve; the drive work meter. Events: the placements (or the
 position passes), then every element's event values. Projection: the formulation's.
 
 ``loop="python"`` evaluates the whole right-hand side, the events and the projection through
@@ -46,7 +46,9 @@ class Evaluation:
 
     def __init__(self, form, loop="auto"):
         self.form, self.mech = form, form.mech
-        self.errors, self.anchor = [], [None]
+        # one list for every Python stage's exception: the formulation's (its own drive and
+        # projection stages report there too)
+        self.errors, self.anchor = form.errors, [None]
         self.built = build(form, loop, self.errors, self.anchor)
         self.system = self.built.system
         self.nc = len(form.ws.x) - self.mech.nv - self.mech.nz
@@ -127,23 +129,27 @@ def _placements(mech, ws, errors):
 def _compiled_stages(form, errors, g):
     mech, ws = form.mech, form.ws
     comp = form.compiled()
-    stages = list(comp.before) + [native.passes_stage(mech, ws, comp.mass, errors)]
+    # the drive values first: they depend on t alone, and a formulation's ``before`` stages (the
+    # manifold's projection) read them; the formulation's own drive stages report to its errors,
+    # the run's list (Evaluation)
+    made = [f.force_kernel(mech, ws, d, z, zdot)
+            for f, d, z, zdot in zip(mech.forces, ws.force_data, ws.z_views, ws.zdot_views)]
+    frames = any(m is None for m in made)          # an element in Python reads data.oMf
+    stages = list(form.drive_stages()) + list(comp.before) + [native.passes_stage(mech, ws, comp.mass, errors, frames)]
     if native.available():
         stages.append(_placements(mech, ws, errors))
     if mech.forces:
         stages.append(bind(zero, (ws.tau,), name="zero forces"))
     for fi, (f, d) in enumerate(zip(mech.forces, ws.force_data)):
         z, zdot = ws.z_views[fi], ws.zdot_views[fi]
-        made = f.force_kernel(mech, ws, d, z, zdot)
-        if made is not None:
-            stages.append(bind(made[0], made[1], name=f"force {f.name}"))
+        if made[fi] is not None:
+            stages.append(bind(made[fi][0], made[fi][1], name=f"force {f.name}"))
             continue
 
         def python_force(t, f=f, d=d, z=z, zdot=zdot):
             f.add_force(mech, ws, d, t, ws.q, ws.v, z, ws.tau, zdot)
             return np.inf
         stages.append(python_stage(python_force, errors, name=f"force {f.name} ({type(f).__name__}.add_force)"))
-    stages += mech.driverows.stages(ws.drive_data, errors)
     stages += list(comp.solve)
     if mech.n_work:
         stages.append(bind(energy.drive_power, (ws.lam, 1, np.arange(mech.m, dtype=np.int64), ws.v,

@@ -532,7 +532,7 @@ class Rosenbrock(Method):
         # K: the stages, f at the proposed state, the error estimate
         self.rows = len(coeffs["b"]) + 2
 
-    def tableau(self, run):
+    def setup(self, run):
         mech, n = run.mech, run.st.V.shape[1]
         # the chart rate of a non-Euclidean tree depends on c and v: every row is differenced
         p = run.nc if mech.euclidean else 0
@@ -543,8 +543,10 @@ class Rosenbrock(Method):
         for f, sl in zip(mech.forces, mech.z_slices):
             if f.dissipation_state is not None:
                 skip.append(base + sl.start + f.dissipation_state)
-        # W's size depends on the run's state (the Method's ``work`` is per method)
+        # W's size depends on the run's state
         run.st = prepare(run.st, n, p, skip, self.max_age, self.secant, self.filtered, self.dense)
+
+    def tableau(self, run):
         return rosenbrock_tableau(self.coeffs)
 
     def start(self, run, t, x, hint, zero):

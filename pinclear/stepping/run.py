@@ -79,6 +79,7 @@ class Run:
         st.V[ATOL] = atol_v
         st.G[DIRS] = [float(c[2]) for c in self.built.channels]
         reset_monitor(st.r, *form.monitor())
+        method.setup(self)
         self.tab = method.tableau(self)
         self.n_collected = 0         # output samples written so far (their rows in st.samples)
         self.good = None             # the state after the last completed chunk (checkpoints)

@@ -28,10 +28,9 @@ import os
 import sys
 from pathlib import Path
 
-import numba
 import numpy as np
 
-from .._jit import KERNEL_OPTIONS, cache_dir
+from .._jit import KERNELS_DIGEST, cache_dir
 from .call import ERROR, run_stage
 
 
@@ -150,23 +149,10 @@ def _source(kernel, kinds, code):
 _LOADED: dict = {}
 
 
-@functools.lru_cache(maxsize=None)
-def _kernels_digest() -> bytes:
-    """Digest of every pinclear module that defines compiled code, numba's version and the
-    compile options: a wrapper inlines its kernel and whatever that kernel calls, and numba's
-    cache index only watches the wrapper's own file."""
-    h = hashlib.sha1(f"{numba.__version__} {KERNEL_OPTIONS} {sys.version_info[:2]}".encode())
-    for f in sorted(Path(__file__).parents[1].rglob("*.py")):
-        text = f.read_bytes()
-        if b"njit" in text:
-            h.update(f.name.encode() + text)
-    return h.digest()
-
-
 def load_generated(src, prefix="stage"):
     """Import generated source from the user cache folder, named by a hash of the source and of
     the kernels it inlines (one module per distinct source per process)."""
-    key = hashlib.sha1(src.encode() + _kernels_digest()).hexdigest()[:20]
+    key = hashlib.sha1(src.encode() + KERNELS_DIGEST).hexdigest()[:20]
     if key in _LOADED:
         return _LOADED[key]
     folder = cache_dir() / "stages"
