@@ -195,7 +195,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in form.row_changes]
     traj.status, traj.failure = status, failure
     traj.message = failure[2] if failure else "reached t_end"
-    samples = run.samples()
+    samples = run.output_samples()
     try:
         traj.fill(samples, form)
     except KeyboardInterrupt:

@@ -7,8 +7,9 @@ each, the checks of a run in this order (the order pinclear.simulate has always 
 2. a non-finite state ends the run;
 3. events: the channels whose value changed sign in their sense are located on the dense output
    (Brent's root finder); the earliest ends the chunk (the run handles it, then restarts);
-4. output samples up to the step's end (or the event), each projected when the formulation
-   projects;
+4. output samples up to the step's end (or the event): the dense output, as the integration
+   knows the motion (a projecting formulation's samples are moved onto the manifold when the
+   run's outputs are made, pinclear.stepping.run.Run.output_samples: they never feed back);
 5. the projection of the state after the step (formulations that project), the right-hand side
    evaluated again at the projected state;
 6. a chart too far from its anchor (non-Euclidean trees) ends the chunk to re-anchor;
@@ -70,10 +71,9 @@ def dense_at(sys, tab, st, t, out):
 @njit(cache=True)
 def write_samples(sys, tab, st, t_stop, strict):
     """Output samples at the times up to t_stop (before it when ``strict``) from the last step's
-    dense output, each moved onto the manifold by the formulation's projection, if any."""
+    dense output."""
     te, j = st.t_eval, st.i[OUT_I]
     D, y, y_old, t, t_old, h = st.D, st.V[Y], st.V[Y_OLD], st.r[T], st.r[T_OLD], st.r[H_PREV]
-    projects = sys.project.shape[0] > 0
     while j < te.shape[0] and (te[j] < t_stop if strict else te[j] <= t_stop):
         row = st.samples[j]
         if te[j] == t:
@@ -85,8 +85,6 @@ def write_samples(sys, tab, st, t_stop, strict):
                 rk_dense(sys, tab, st)
                 st.i[DENSE] = 1
             rk_dense_at(tab, D, y_old, t_old, h, te[j], row)
-        if projects:
-            project(sys, te[j], row)
         j += 1
     st.i[OUT_I] = j
 
