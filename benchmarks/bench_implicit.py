@@ -28,48 +28,33 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 import time
 import types
 import warnings
+from pathlib import Path
 
 import numpy as np
-from numba import carray, cfunc
 from scipy.integrate import solve_ivp
 
 import pinclear
 from pinclear.bench import pinocchio_floor, scenes
 from pinclear.models import model_path
 from pinclear.stepping import INTEGRATORS, chunk as C, rk, rosenbrock as R
-from pinclear.stepping.call import CALLBACK, ptr_f8
 from pinclear.stepping.checks import reset_monitor
 from pinclear.stepping.run import STALL_STEPS
 from pinclear.stepping.state import ATOL, H_STALL, MAX_STEP, NJAC, RTOL, STEPS, T, T_BOUND, new_steps
-from pinclear.stepping.system import System
+from pinclear.stepping.system import ode_system
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from stiff_odes import ROBER_REF, VDPOL_REF, rober, vdpol  # noqa: E402  (the tests' problems)
 
 
 # ----------------------------------------------------------------------------- stiff ODEs
-@cfunc(CALLBACK)
-def _vdpol(ctx, t):
-    b = carray(ptr_f8(ctx), (3,))
-    b[2] = ((1.0 - b[0] * b[0]) * b[1] - b[0]) / 1e-6
-    return np.inf
-
-
-@cfunc(CALLBACK)
-def _rober(ctx, t):
-    b = carray(ptr_f8(ctx), (6,))
-    b[3] = -0.04 * b[0] + 1e4 * b[1] * b[2]
-    b[5] = 3e7 * b[1] * b[1]
-    b[4] = -b[3] - b[5]
-    return np.inf
-
-
 def _rober_py(t, y):
     return [-0.04 * y[0] + 1e4 * y[1] * y[2], 0.04 * y[0] - 1e4 * y[1] * y[2] - 3e7 * y[1] ** 2, 3e7 * y[1] ** 2]
 
 
-VDPOL_REF = np.array([0.1706167732170483e1, -0.8928097010247975e0])
-ROBER_REF = np.array([0.2083340149701255e-07, 0.8333360770334713e-13, 0.9999999791665050])
 
 
 class Ode:
@@ -77,12 +62,8 @@ class Ode:
     after it (the first nc states have dc/dt = v)."""
 
     def __init__(self, stage, n, nc):
-        self.buf = np.zeros(2 * n - nc)
-        empty = np.zeros((0, 2), dtype=np.int64)
         self.n, self.nc = n, nc
-        self.sys = System(np.array([[stage.address, self.buf.ctypes.data]], dtype=np.int64), empty, empty,
-                          self.buf[:n], self.buf[n:], np.zeros(0), np.zeros(0), np.zeros(0),
-                          np.zeros(1, dtype=np.int64))
+        self.sys, self.buf = ode_system(stage.address, n, nc)
 
     def run(self, name, y0, t1, rtol, atol, max_evals=5e7, method=None):
         """Integrate with integrator ``name`` (or the Rosenbrock ``method``); a dict of the
@@ -125,9 +106,9 @@ ODE_METHODS = ("ROS34PW2", "RK45", "DOP853", "Radau", "LSODA")
 def ode_problems():
     rober40 = solve_ivp(_rober_py, (0.0, 40.0), [1.0, 0.0, 0.0], method="Radau", rtol=1e-12,
                         atol=[1e-18, 1e-24, 1e-18]).y[:, -1]
-    return [("VDPOL t=2", Ode(_vdpol, 2, 1), [2.0, 0.0], 2.0, VDPOL_REF, lambda r: r),
-            ("ROBER t=40", Ode(_rober, 3, 0), [1.0, 0.0, 0.0], 40.0, rober40, _rober_atol),
-            ("ROBER t=1e11", Ode(_rober, 3, 0), [1.0, 0.0, 0.0], 1e11, ROBER_REF, _rober_atol)]
+    return [("VDPOL t=2", Ode(vdpol, 2, 1), [2.0, 0.0], 2.0, VDPOL_REF, lambda r: r),
+            ("ROBER t=40", Ode(rober, 3, 0), [1.0, 0.0, 0.0], 40.0, rober40, _rober_atol),
+            ("ROBER t=1e11", Ode(rober, 3, 0), [1.0, 0.0, 0.0], 1e11, ROBER_REF, _rober_atol)]
 
 
 def _rober_atol(rtol):

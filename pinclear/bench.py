@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from . import formulations, kinematics
+from . import formulations
 from .closures import PINOCCHIO_TYPES
 from .errors import InputError, PinclearError
 from .simulate import simulate

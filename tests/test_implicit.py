@@ -23,7 +23,8 @@ from pinclear.stepping.checks import reset_monitor
 from pinclear.stepping.run import STALL_STEPS
 from pinclear.stepping.state import (ATOL, BAD, H_ABS, H_STALL, MAX_STEP, NJAC, REJECTS, RTOL, STEPS, T, T_BAD,
                                      T_BOUND, new_steps)
-from pinclear.stepping.system import System
+from pinclear.stepping.system import ode_system
+from stiff_odes import ROBER_REF, VDPOL_REF, rober, vdpol
 
 
 # ----------------------------------------------------------------------------- ODEs without a mechanism
@@ -47,24 +48,6 @@ def _forced_py(t, y):
 
 
 @cfunc(CALLBACK)
-def _vdpol(ctx, t):
-    """The Test Set's VDPOL: y1' = y2, y2' = ((1 - y1^2) y2 - y1) / eps, eps = 1e-6."""
-    b = carray(ptr_f8(ctx), (3,))
-    b[2] = ((1.0 - b[0] * b[0]) * b[1] - b[0]) / 1e-6
-    return np.inf
-
-
-@cfunc(CALLBACK)
-def _rober(ctx, t):
-    """The Test Set's ROBER (Robertson's chemical kinetics)."""
-    b = carray(ptr_f8(ctx), (6,))
-    b[3] = -0.04 * b[0] + 1e4 * b[1] * b[2]
-    b[5] = 3e7 * b[1] * b[1]
-    b[4] = -b[3] - b[5]
-    return np.inf
-
-
-@cfunc(CALLBACK)
 def _sqrt_decay(ctx, t):
     """y' = -sqrt(y): y = (1 - t/2)^2 from y(0) = 1; a state below zero evaluates to NaN."""
     b = carray(ptr_f8(ctx), (2,))
@@ -84,12 +67,8 @@ class Ode:
     """A System around one of the callbacks above: n states, the first nc with dc/dt = v."""
 
     def __init__(self, stage, n, nc):
-        self.buf = np.zeros(2 * n - nc)
-        empty = np.zeros((0, 2), dtype=np.int64)
         self.n, self.nc = n, nc
-        self.sys = System(np.array([[stage.address, self.buf.ctypes.data]], dtype=np.int64), empty, empty,
-                          self.buf[:n], self.buf[n:], np.zeros(0), np.zeros(0), np.zeros(0),
-                          np.zeros(1, dtype=np.int64))
+        self.sys, self.buf = ode_system(stage.address, n, nc)
 
     def steps(self, y0, t1, rtol, atol, coeffs=R.ROS34PW2_COEFFS, h=None, **policy):
         """A started step state (Steps, Tableau) from y0 at t = 0 to t1; ``h``: constant steps
@@ -216,8 +195,6 @@ def test_bad_evaluations_without_end_stop_the_run():
 
 # Test Set reference solutions (Mazzia & Magherini, Test Set for IVP Solvers, release 2.4,
 # problems VDPOL and ROBER)
-VDPOL_REF = np.array([0.1706167732170483e1, -0.8928097010247975e0])
-ROBER_REF = np.array([0.2083340149701255e-07, 0.8333360770334713e-13, 0.9999999791665050])
 
 
 @pytest.mark.parametrize("rtol", [1e-5, 1e-7])
@@ -226,7 +203,7 @@ def test_van_der_pol_test_set(rtol):
     Set's value (the error test keeps each step's error below rtol |y| + atol; VDPOL's
     solution contracts onto its limit cycle, so the global error stays of that size), in a
     few thousand steps where an explicit method needs ~1e6."""
-    ode = Ode(_vdpol, 2, 1)
+    ode = Ode(vdpol, 2, 1)
     y, st = ode.solve([2.0, 0.0], 2.0, rtol, rtol)
     err = np.abs(y - VDPOL_REF) / (rtol * np.abs(VDPOL_REF) + rtol)
     assert np.all(err < 10.0), (err, y)
@@ -237,7 +214,7 @@ def test_van_der_pol_test_set(rtol):
 def test_robertson_test_set(rtol):
     """ROBER at t = 1e11 with the Test Set's scaling of the absolute tolerances (y2 ~ 1e-5 .. 1e-13):
     each component within 10 (rtol |y| + atol) of the reference, in a few thousand steps."""
-    ode = Ode(_rober, 3, 0)
+    ode = Ode(rober, 3, 0)
     atol = np.array([1e-6, 1e-12, 1e-6]) * rtol
     y, st = ode.solve([1.0, 0.0, 0.0], 1e11, rtol, atol)
     err = np.abs(y - ROBER_REF) / (rtol * np.abs(ROBER_REF) + atol)

@@ -23,25 +23,6 @@ FRAMES, MASS, POSITIONS, MASS_ONLY = native.FRAMES, native.MASS, native.POSITION
 PASSES_SIG = ctypes.CFUNCTYPE(None, *[ctypes.c_int64] * 5)
 
 
-def _python_sequence(model, data, q, v, flags):
-    """pinclear.kinematics.update's sequence through the Python bindings; the position level
-    (the projections' Gauss-Newton iterates: placements and Jacobians, no velocities) with
-    POSITIONS; crba alone with MASS_ONLY."""
-    if flags & MASS_ONLY:
-        pin.crba(model, data, q)
-        return
-    if flags & POSITIONS:
-        pin.computeJointJacobians(model, data, q)
-    else:
-        pin.computeJointJacobiansTimeVariation(model, data, q, v)
-    if flags & FRAMES:
-        pin.updateFramePlacements(model, data)
-    if flags & MASS:
-        pin.crba(model, data, q)
-    if not flags & POSITIONS:
-        pin.nonLinearEffects(model, data, q, v)
-
-
 def _oMf(data):
     return np.array([f.homogeneous for f in data.oMf])
 
@@ -79,7 +60,7 @@ def test_passes_equal_python_bindings(passes, name, flags):
         # first), so with the mass pass M starts at zero, as in a fresh Data
         out.M[:] = 0.0 if mass else sentinel_M
         oMf_before = _oMf(out)
-        _python_sequence(model, ref, q, v, flags)
+        native.python_passes(model, ref, q, v, flags)
         passes(maddr, daddr, q.ctypes.data, v.ctypes.data, flags)
         native.python_passes(model, twin, q, v, flags)
         for name_ in ("nle", "J", "dJ", "M"):

@@ -28,7 +28,8 @@ import numpy as np
 from .._jit import njit
 from .call import call_stage
 from .checks import BAD, FAILED, GOOD, dipped, first_crossing, observe, stalled
-from .rk import ACCEPTED, ASK_RESELECT, BAD_EVALS, STAGE_ERROR, TOO_SMALL, rk_dense, rk_dense_at, rk_step
+from .control import ACCEPTED, ASK_RESELECT, BAD_EVALS, TOO_SMALL
+from .rk import rk_dense, rk_dense_at, rk_step
 from .rosenbrock import rosenbrock_step
 from .roots import BRENT_STATE, ROOT_STATE, brent_next, brent_root_next, brent_root_start, brent_start
 from .state import (ATOL, BAD as BAD_COUNT, CHART, DENSE, DIRS, DX, EVENT_K, EXTERNAL, F, G_NEW, G_PREV, G_WORK, RK_FIXED,

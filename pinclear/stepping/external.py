@@ -15,7 +15,7 @@ from scipy import integrate as spi
 from .base import Method
 from .call import NONFINITE
 from .checks import GOOD, observe
-from .rk import ACCEPTED, BAD_EVALS, MAX_BAD, TOO_SMALL
+from .control import ACCEPTED, BAD_EVALS, MAX_BAD, TOO_SMALL
 from .stage import python_stage
 from .state import ATOL, BAD, EXTERNAL, F, H_ABS, H_PREV, MAX_STEP, RTOL, T, T_BOUND, T_OLD, XB, XE, Y, tableau
 from .system import evaluate
@@ -44,7 +44,7 @@ class _Driver:
         return dx
 
     def restart(self, t, x, hint):
-        run, st = self.run, self.run.st
+        st = self.run.st
         kw = {"rtol": st.r[RTOL], "atol": st.V[ATOL].copy()}
         if np.isfinite(st.r[MAX_STEP]):
             kw["max_step"] = st.r[MAX_STEP]

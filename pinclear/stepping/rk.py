@@ -10,15 +10,12 @@ import numpy as np
 from scipy import integrate as spi
 
 from .._jit import njit
-from .checks import BAD, FAILED, RESELECT, observe
-from .state import (ATOL, BAD as BAD_COUNT, DENSE, F, F_OLD, H_ABS, H_FIXED, H_PREV, H_START, MAX_STEP, REJECTS,
-                    RK_DOP853, RK_EMBEDDED, RK_FIXED, RTOL, T, T_BOUND, T_OLD, XB, Y, Y_NEW, Y_OLD, YS, tableau)
+from .checks import BAD, GOOD, observe
+from .control import ACCEPTED, BAD_EVALS, GO_ON, TOO_SMALL, begin, grown, outcome, propose, shrunk
+from .state import (ATOL, DENSE, F, F_OLD, H_ABS, H_FIXED, H_PREV, H_START, RK_DOP853, RK_EMBEDDED, RK_FIXED,
+                    RTOL, T, T_BOUND, T_OLD, XB, Y, Y_NEW, Y_OLD, YS, tableau)
 from .system import evaluate
 
-#: outcomes of one step (chunk.advance passes the failures on)
-ACCEPTED, TOO_SMALL, BAD_EVALS, ASK_RESELECT, STAGE_ERROR = range(5)
-#: consecutive bad evaluations (rejected trial stages) before a run fails
-MAX_BAD = 50
 
 
 def rk45():
@@ -114,60 +111,40 @@ def accept(V, r, ii, f_new, t_new, h, h_abs):
 
 @njit(cache=True)
 def rk_step(sys, tab, st):
-    """One accepted step from (t, y, f) with SciPy's step-size control (RungeKutta._step_impl),
-    or why not: TOO_SMALL (the step fell below 10 ulp of t), BAD_EVALS (MAX_BAD bad evaluations
-    in a row, or one with the fixed step, which cannot be retried), ASK_RESELECT (the monitor
-    asks for other constraint rows: nothing has changed, the step is redone after) or
-    STAGE_ERROR (a Python stage raised). A bad trial stage (rank loss, non-finite) rejects the
-    attempt like an error norm above one, shrinking the step by 5."""
+    """One accepted step from (t, y, f) with SciPy's step-size control (control.py), or why not:
+    TOO_SMALL (the step fell below 10 ulp of t), BAD_EVALS (more than MAX_BAD bad evaluations in
+    a row, or one with the fixed step, which cannot be retried), ASK_RESELECT (the monitor asks
+    for other constraint rows: nothing has changed, the step is redone after) or STAGE_ERROR (a
+    Python stage raised). A bad trial stage (rank loss, non-finite) rejects the attempt like an
+    error norm above one, shrinking the step by 5."""
     r, ii, ns = st.r, st.i, tab.B.shape[0]
     t, t_bound = r[T], r[T_BOUND]
-    h_start = r[H_ABS]
-    r[H_START] = h_start
     if tab.kind == RK_FIXED:
+        r[H_START] = r[H_ABS]
         h = min(r[H_FIXED], t_bound - t)
         v = _stages(sys, tab, st, t, h)
-        if v != 0:
-            return STAGE_ERROR if v == FAILED else (ASK_RESELECT if v == RESELECT else BAD_EVALS)
-        accept(st.V, r, ii, st.K[ns], t + h if t + h < t_bound else t_bound, h, h_start)
+        if v != GOOD:
+            o = outcome(v, r, ii)
+            return BAD_EVALS if o == GO_ON else o
+        accept(st.V, r, ii, st.K[ns], t + h if t + h < t_bound else t_bound, h, r[H_ABS])
         return ACCEPTED
-    min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
-    h_abs = min(h_start, r[MAX_STEP])
-    if h_abs < min_step:
-        h_abs = min_step
-    expo = -1.0 / (tab.order + 1)
+    min_step, h_abs, expo = begin(r, tab.order)
     rejected = False
     while True:
         if h_abs < min_step:
             r[H_ABS] = h_abs
             return TOO_SMALL
-        t_new = t + h_abs
-        if t_new - t_bound > 0:
-            t_new = t_bound
-        h = t_new - t
-        h_abs = abs(h)
+        t_new, h, h_abs = propose(t, h_abs, t_bound)
         v = _stages(sys, tab, st, t, h)
-        if v == FAILED:
-            return STAGE_ERROR
-        if v == RESELECT:
-            r[H_ABS] = h_start
-            return ASK_RESELECT
-        if v == BAD:
-            if ii[BAD_COUNT] > MAX_BAD:
-                return BAD_EVALS
-            err = np.nan
-        else:
-            err = error_norm(tab, st, h)
+        o = outcome(v, r, ii)
+        if o != GO_ON:
+            return o
+        err = np.nan if v == BAD else error_norm(tab, st, h)
         if err < 1.0:
-            factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** expo)
-            if rejected:
-                factor = min(1.0, factor)
-            accept(st.V, r, ii, st.K[ns], t_new, h, h_abs * factor)
+            accept(st.V, r, ii, st.K[ns], t_new, h, h_abs * grown(err, expo, rejected))
             return ACCEPTED
-        factor = 0.9 * err ** expo
-        h_abs *= factor if factor > 0.2 else 0.2       # NaN (a bad stage) shrinks by 5 too
+        h_abs = shrunk(h_abs, err, expo, ii)
         rejected = True
-        ii[REJECTS] += 1
 
 
 @njit(cache=True)

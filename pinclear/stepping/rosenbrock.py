@@ -57,8 +57,9 @@ import numpy as np
 from .._jit import njit
 from .base import Method
 from .checks import BAD, FAILED, RESELECT, observe
-from .rk import ACCEPTED, ASK_RESELECT, BAD_EVALS, MAX_BAD, STAGE_ERROR, TOO_SMALL, accept
-from .state import (ATOL, BAD as BAD_COUNT, F, H_ABS, H_START, MAX_STEP, NJAC, REJECTS, ROSENBROCK, RTOL, T,
+from .control import ACCEPTED, ASK_RESELECT, GO_ON, STAGE_ERROR, TOO_SMALL, begin, grown, outcome, propose, shrunk
+from .rk import accept
+from .state import (ATOL, F, H_ABS, H_START, NJAC, ROSENBROCK, RTOL, T,
                     T_BOUND, XB, DX, Y, Y_NEW, YS, tableau)
 from .system import evaluate
 
@@ -426,13 +427,7 @@ def rosenbrock_step(sys, tab, st):
     m = int(_get(W, M_ROWS))
     p = n - m
     t, t_bound = r[T], r[T_BOUND]
-    h_start = r[H_ABS]
-    r[H_START] = h_start
-    min_step = 10.0 * abs(np.nextafter(t, np.inf) - t)
-    h_abs = min(h_start, r[MAX_STEP])
-    if h_abs < min_step:
-        h_abs = min_step
-    expo = -1.0 / (tab.order + 1)
+    min_step, h_abs, expo = begin(r, tab.order)
     gamma = tab.gamma
     rejected = False
     if _get(W, J_STATE) == NONE:
@@ -448,11 +443,7 @@ def rosenbrock_step(sys, tab, st):
         if h_abs < min_step:
             r[H_ABS] = h_abs
             return TOO_SMALL
-        t_new = t + h_abs
-        if t_new - t_bound > 0:
-            t_new = t_bound
-        h = t_new - t
-        h_abs = abs(h)
+        t_new, h, h_abs = propose(t, h_abs, t_bound)
         h_lu = _get(W, LU_H)
         if h_lu != h:
             _set(W, N_LU, _get(W, N_LU) + 1.0)
@@ -461,49 +452,32 @@ def rosenbrock_step(sys, tab, st):
             else:
                 h_lu = 0.0                  # sigma is an eigenvalue of J: another step size
             _set(W, LU_H, h_lu)
-        if h_lu == 0.0:
-            v, err = BAD, np.nan
-        else:
-            v = _stages(sys, tab, st, t, h, r0, m, p, 1.0 / (h_lu * gamma))
-            err = np.nan
-        if v == FAILED:
-            return STAGE_ERROR
-        if v == RESELECT:
-            r[H_ABS] = h_start
-            return ASK_RESELECT
-        if v == BAD:
-            if ii[BAD_COUNT] > MAX_BAD:
-                return BAD_EVALS
-        else:
+        v = BAD if h_lu == 0.0 else _stages(sys, tab, st, t, h, r0, m, p, 1.0 / (h_lu * gamma))
+        o = outcome(v, r, ii)
+        if o != GO_ON:
+            return o
+        err = np.nan
+        if v != BAD:
             err = error_norm(tab, st, r0, m, p, 1.0 / (h_lu * gamma), _get(W, FILTER) != 0.0)
             if err < 1.0:
                 y_new, f_new = V[Y_NEW], K[ns]
                 v = observe(r, ii, V[XB], evaluate(sys, t_new, y_new, f_new), t_new, y_new)
-                if v == FAILED:
-                    return STAGE_ERROR
-                if v == RESELECT:
-                    r[H_ABS] = h_start
-                    return ASK_RESELECT
+                o = outcome(v, r, ii)
+                if o != GO_ON:
+                    return o
                 if v == BAD:
-                    if ii[BAD_COUNT] > MAX_BAD:
-                        return BAD_EVALS
                     err = np.nan
                 elif _get(W, DENSE_TEST) != 0.0:
                     err = max(err, hermite_norm(st, h, f_new))
                 if err < 1.0:
-                    factor = 10.0 if err == 0.0 else min(10.0, 0.9 * err ** expo)
-                    if rejected:
-                        factor = min(1.0, factor)
                     age = _get(W, J_AGE) + 1.0
                     _set(W, J_AGE, age)
                     stale = age >= _get(W, MAX_AGE) or secant_ratio(st, r0, m, p) > _get(W, SECANT)
                     _set(W, J_STATE, NONE if stale else AGED)
-                    accept(V, r, ii, f_new, t_new, h, h_abs * factor)
+                    accept(V, r, ii, f_new, t_new, h, h_abs * grown(err, expo, rejected))
                     return ACCEPTED
-        factor = 0.9 * err ** expo
-        h_abs *= factor if factor > 0.2 else 0.2       # NaN (a bad evaluation) shrinks by 5 too
+        h_abs = shrunk(h_abs, err, expo, ii)
         rejected = True
-        ii[REJECTS] += 1
         if err == err and _get(W, J_STATE) != FRESH:
             # rejected by the error test with a Jacobian of an earlier state: W may be what failed
             v = jacobian(sys, st, t, r0, m, p)
@@ -511,7 +485,7 @@ def rosenbrock_step(sys, tab, st):
                 return STAGE_ERROR
             if v == RESELECT:
                 _set(W, J_STATE, NONE)
-                r[H_ABS] = h_start
+                r[H_ABS] = r[H_START]
                 return ASK_RESELECT
             _set(W, J_STATE, FRESH)
             _set(W, J_AGE, 0.0)

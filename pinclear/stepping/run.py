@@ -14,7 +14,6 @@ import numpy as np
 
 from .. import kinematics
 from .._jit import compile_cpu
-from ..errors import RankLossError
 from ..trajectory import Checkpoint
 from . import chunk as C
 from .build import Evaluation

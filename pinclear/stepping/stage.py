@@ -26,7 +26,6 @@ import hashlib
 import importlib.util
 import os
 import sys
-from pathlib import Path
 
 import numpy as np
 

@@ -90,3 +90,14 @@ def project(sys, t, x):
     for i in range(x.shape[0]):
         x[i] = sys.x[i]
     return code
+
+
+def ode_system(fn, n, nc=0):
+    """A System for a plain ODE, no mechanism: ``fn`` the address of a C stage
+    (pinclear.stepping.call.CALLBACK) whose ctx is the address of one buffer holding x (n
+    numbers) followed by the rates it writes there; the first nc states have dc/dt = v (the next
+    nc states), so it writes only the n - nc others. Returns (System, buffer)."""
+    buf = np.zeros(2 * n - nc)
+    empty = np.zeros((0, 2), dtype=np.int64)
+    return System(np.array([[fn, buf.ctypes.data]], dtype=np.int64), empty, empty, buf[:n], buf[n:], np.zeros(0),
+                  np.zeros(0), np.zeros(0), np.zeros(1, dtype=np.int64)), buf
