@@ -47,7 +47,7 @@ class DriveRows:
         groups: dict = {}
         single = []
         for k, d in enumerate(drives):
-            key = getattr(d.law, "share_key", None)
+            key = d.law.share_key
             if key is not None:
                 g = groups.setdefault(key, (d.law, [], []))
                 g[1].append(k)

@@ -30,6 +30,9 @@ class TimeLaw(abc.ABC):
     """
 
     kind = "law"
+    #: a law that is one component of a vector function shared by several drives names it here
+    #: (the drives then evaluate the function once for all of them: pinclear.drives); None: alone
+    share_key = None
 
     @abc.abstractmethod
     def eval(self, t: float) -> tuple[float, float, float]:

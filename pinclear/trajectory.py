@@ -84,9 +84,9 @@ class Checkpoint:
         meta = V.read_meta(arrays, path, "checkpoint")
         for k in ("t0", "t", "h_next", "stats"):
             if k not in meta:
-                raise V._err(path, f"metadata has no {k!r}: not a pinclear checkpoint")
+                raise V.file_error(path, f"metadata has no {k!r}: not a pinclear checkpoint")
         if not isinstance(meta["stats"], dict):
-            raise V._err(path, "stats must be a mapping")
+            raise V.file_error(path, "stats must be a mapping")
         vec = {k: V.real_array(arrays, k, path, 1) for k in ("q", "v", "z", "q_now", "v_now", "z_now")}
         ts = V.real_array(arrays, "ts", path, 1)
         n = len(ts)
@@ -95,7 +95,7 @@ class Checkpoint:
         samples = [(float(t), q, v, z) for t, q, v, z in zip(ts, qs, vs, zs)]
         identity = meta.get("identity")
         if not isinstance(identity, dict):
-            raise V._err(path, "the checkpoint records no identity of its run (written by another program or an "
+            raise V.file_error(path, "the checkpoint records no identity of its run (written by another program or an "
                                "older pinclear): it cannot be matched to a run, start the run again")
         return cls(t0=V.number(meta["t0"], path, "t0"), q=vec["q"], v=vec["v"], z=vec["z"],
                    t=V.number(meta["t"], path, "t"), q_now=vec["q_now"], v_now=vec["v_now"], z_now=vec["z_now"],
@@ -147,7 +147,7 @@ FAILURE_KINDS = ("step-size collapse", "rank loss", "singular matrix", "non-fini
 def _rows(V, arrays, key, path, n):
     a = arrays[key]
     if a.dtype.kind not in "fiub" or a.ndim < 1 or len(a) != n:
-        raise V._err(path, f"array {key!r} has shape {a.shape} and dtype {a.dtype}, expected {n} rows of numbers")
+        raise V.file_error(path, f"array {key!r} has shape {a.shape} and dtype {a.dtype}, expected {n} rows of numbers")
     return np.asarray(a, float)
 
 
@@ -156,12 +156,12 @@ def _read_failure(V, rec, path):
     if rec is None:
         return None
     if not isinstance(rec, dict) or set(rec) != {"kind", "t", "detail"}:
-        raise V._err(path, "metadata 'failure': expected a mapping of kind, t, detail")
+        raise V.file_error(path, "metadata 'failure': expected a mapping of kind, t, detail")
     if rec["kind"] not in FAILURE_KINDS:
-        raise V._err(path, f"metadata 'failure.kind': {rec['kind']!r} is not a failure kind (valid: "
+        raise V.file_error(path, f"metadata 'failure.kind': {rec['kind']!r} is not a failure kind (valid: "
                            f"{', '.join(FAILURE_KINDS)})")
     if not isinstance(rec["detail"], str):
-        raise V._err(path, "metadata 'failure.detail': expected a string")
+        raise V.file_error(path, "metadata 'failure.detail': expected a string")
     return rec["kind"], V.number(rec["t"], path, "failure.t", allow_none=True), rec["detail"]
 
 
@@ -387,25 +387,25 @@ class Trajectory:
         meta = V.read_meta(arrays, path, "trajectory")
         for k, types in (("status", str), ("message", str), ("stats", dict), ("lam_names", list)):
             if not isinstance(meta.get(k), types):
-                raise V._err(path, f"metadata {k!r}: expected a {types.__name__}, got {type(meta.get(k)).__name__}")
+                raise V.file_error(path, f"metadata {k!r}: expected a {types.__name__}, got {type(meta.get(k)).__name__}")
         if meta["status"] not in STATUSES:
-            raise V._err(path, f"metadata 'status': {meta['status']!r} is not a run status (valid: {', '.join(STATUSES)})")
+            raise V.file_error(path, f"metadata 'status': {meta['status']!r} is not a run status (valid: {', '.join(STATUSES)})")
         if not all(isinstance(k, str) for k in meta["lam_names"]):
-            raise V._err(path, "metadata 'lam_names': expected a list of names")
+            raise V.file_error(path, "metadata 'lam_names': expected a list of names")
         if not isinstance(meta.get("mech_path"), (str, type(None))):
-            raise V._err(path, "metadata 'mech_path': expected a path")
+            raise V.file_error(path, "metadata 'mech_path': expected a path")
         for k, types in (("mechanism", dict), ("load_args", dict), ("method", dict), ("options", dict),
                          ("versions", dict), ("summary", dict), ("integrator", str), ("rtol", (int, float)),
                          ("atol", (int, float, list)), ("t_requested", list), ("parameters", list)):
             if not isinstance(meta.get(k), (types, type(None))) or isinstance(meta.get(k), bool):
-                raise V._err(path, f"metadata {k!r}: expected {getattr(types, '__name__', 'a number')}, "
+                raise V.file_error(path, f"metadata {k!r}: expected {getattr(types, '__name__', 'a number')}, "
                                    f"got {type(meta.get(k)).__name__}")
         # the tolerances and step count the energy audit and the residual bound read back
         V.number(meta.get("rtol"), path, "rtol", positive=True, allow_none=True)
         atol = meta.get("atol")
         for a in (atol if isinstance(atol, list) and atol else [atol]):
             if (a is not None or isinstance(atol, list)) and V.number(a, path, "atol") < 0:
-                raise V._err(path, f"atol: expected a number >= 0, got {a!r}")
+                raise V.file_error(path, f"atol: expected a number >= 0, got {a!r}")
         for k in ("steps", "rhs_evals"):
             V.number(meta["stats"].get(k), path, f"stats.{k}", integer=True, allow_none=True)
         tr.meta, tr.status, tr.message, tr.stats = meta, meta["status"], meta["message"], dict(meta["stats"])
@@ -433,7 +433,7 @@ class Trajectory:
                        for k in arrays if k.startswith("energy/")}
         missing = [k for k in ENERGY_KEYS if k not in tr.energies]
         if missing:
-            raise V._err(path, f"array 'energy/{missing[0]}' is missing")
+            raise V.file_error(path, f"array 'energy/{missing[0]}' is missing")
         if mech is not None:
             tr.check_mechanism(mech, path)
         tr.mech = mech

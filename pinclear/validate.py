@@ -32,7 +32,7 @@ MAX_MEMBERS = 20_000
 _KINDS = "fiub" + "U"
 
 
-def _err(path, message):
+def file_error(path, message):
     return InputError(f"{path}: {message}")
 
 
@@ -45,19 +45,19 @@ def read_npz(path, what="file") -> dict:
     try:
         st = os.stat(path)
     except OSError as exc:
-        raise _err(path, f"cannot read the {what}: {exc.strerror}") from None
+        raise file_error(path, f"cannot read the {what}: {exc.strerror}") from None
     if not stat.S_ISREG(st.st_mode):
-        raise _err(path, f"not a regular file (a folder or a device), not a pinclear {what}")
+        raise file_error(path, f"not a regular file (a folder or a device), not a pinclear {what}")
     total = 0
     try:
         with zipfile.ZipFile(path) as zf:
             infos = zf.infolist()
             if len(infos) > MAX_MEMBERS:
-                raise _err(path, f"{len(infos)} arrays (at most {MAX_MEMBERS}): not a pinclear {what}")
+                raise file_error(path, f"{len(infos)} arrays (at most {MAX_MEMBERS}): not a pinclear {what}")
             for info in infos:
                 name = info.filename
                 if not name.endswith(".npy"):
-                    raise _err(path, f"member {name!r} is not a .npy array: not a pinclear {what}")
+                    raise file_error(path, f"member {name!r} is not a .npy array: not a pinclear {what}")
                 with zf.open(info) as fh:
                     version = fmt.read_magic(fh)
                     if version == (1, 0):
@@ -65,16 +65,16 @@ def read_npz(path, what="file") -> dict:
                     elif version == (2, 0):
                         shape, _, dtype = fmt.read_array_header_2_0(fh)
                     else:
-                        raise _err(path, f"array {name[:-4]!r} has .npy format {version}, not 1.0 or 2.0")
+                        raise file_error(path, f"array {name[:-4]!r} has .npy format {version}, not 1.0 or 2.0")
                 if dtype.hasobject or dtype.kind not in _KINDS:
-                    raise _err(path, f"array {name[:-4]!r} has dtype {dtype} (pinclear writes numbers and text only)")
+                    raise file_error(path, f"array {name[:-4]!r} has dtype {dtype} (pinclear writes numbers and text only)")
                 nbytes = math.prod(int(s) for s in shape) * dtype.itemsize
                 if nbytes > MAX_ARRAY_BYTES:
-                    raise _err(path, f"array {name[:-4]!r} declares shape {tuple(shape)} ({nbytes / 1e9:.3g} GB; at "
+                    raise file_error(path, f"array {name[:-4]!r} declares shape {tuple(shape)} ({nbytes / 1e9:.3g} GB; at "
                                      f"most {MAX_ARRAY_BYTES / 1e9:.3g} GB): refused before loading")
                 total += nbytes
                 if total > MAX_TOTAL_BYTES:
-                    raise _err(path, f"the arrays declare more than {MAX_TOTAL_BYTES / 1e9:.3g} GB: refused before "
+                    raise file_error(path, f"the arrays declare more than {MAX_TOTAL_BYTES / 1e9:.3g} GB: refused before "
                                      "loading")
             arrays = {}
             for info in infos:
@@ -83,10 +83,10 @@ def read_npz(path, what="file") -> dict:
     except InputError:
         raise
     except zipfile.BadZipFile as exc:
-        raise _err(path, f"not a readable pinclear {what} (not an NPZ archive, or truncated: {exc})") from None
+        raise file_error(path, f"not a readable pinclear {what} (not an NPZ archive, or truncated: {exc})") from None
     except (OSError, EOFError, ValueError, zlib.error, KeyError, NotImplementedError, TypeError,
             zipfile.LargeZipFile, RuntimeError) as exc:
-        raise _err(path, f"not a readable pinclear {what} ({type(exc).__name__}: "
+        raise file_error(path, f"not a readable pinclear {what} ({type(exc).__name__}: "
                          f"{' '.join(str(exc).split())[:200]})") from None
     return arrays
 
@@ -95,32 +95,32 @@ def read_meta(arrays, path, what="file") -> dict:
     """The JSON mapping stored as the archive's ``meta`` string."""
     m = arrays.get("meta")
     if m is None or m.shape != () or m.dtype.kind != "U":
-        raise _err(path, f"no metadata string: not a pinclear {what}")
+        raise file_error(path, f"no metadata string: not a pinclear {what}")
     try:
         meta = json.loads(str(m))
     except (ValueError, RecursionError) as exc:
-        raise _err(path, f"metadata is not JSON ({exc})") from None
+        raise file_error(path, f"metadata is not JSON ({exc})") from None
     if not isinstance(meta, dict):
-        raise _err(path, f"metadata is a {type(meta).__name__}, not a mapping")
+        raise file_error(path, f"metadata is a {type(meta).__name__}, not a mapping")
     return meta
 
 
 def real_array(arrays, key, path, ndim, finite=True, rows=None, cols=None):
     """arrays[key] as float, with ndim dimensions, rows/cols as given, finite when asked."""
     if key not in arrays:
-        raise _err(path, f"array {key!r} is missing")
+        raise file_error(path, f"array {key!r} is missing")
     a = arrays[key]
     if a.dtype.kind not in "fiub":
-        raise _err(path, f"array {key!r} holds {a.dtype}, not numbers")
+        raise file_error(path, f"array {key!r} holds {a.dtype}, not numbers")
     a = np.asarray(a, float)
     if a.ndim != ndim:
-        raise _err(path, f"array {key!r} has shape {a.shape}, expected {ndim} dimension(s)")
+        raise file_error(path, f"array {key!r} has shape {a.shape}, expected {ndim} dimension(s)")
     if rows is not None and a.shape[0] != rows:
-        raise _err(path, f"array {key!r} has {a.shape[0]} rows, expected {rows}")
+        raise file_error(path, f"array {key!r} has {a.shape[0]} rows, expected {rows}")
     if cols is not None and a.shape[-1] != cols:
-        raise _err(path, f"array {key!r} has {a.shape[-1]} entries per row, expected {cols}")
+        raise file_error(path, f"array {key!r} has {a.shape[-1]} entries per row, expected {cols}")
     if finite and not np.all(np.isfinite(a)):
-        raise _err(path, f"array {key!r} holds nan or inf")
+        raise file_error(path, f"array {key!r} holds nan or inf")
     return a
 
 
@@ -135,7 +135,7 @@ def number(x, path, key, positive=False, allow_none=False, integer=False):
         ok = x > 0
     if not ok:
         kind = "a positive number" if positive else "a non-negative integer" if integer else "a finite number"
-        raise _err(path, f"{key}: expected {kind}, got {x!r}")
+        raise file_error(path, f"{key}: expected {kind}, got {x!r}")
     return int(x) if integer else float(x)
 
 
@@ -143,7 +143,7 @@ def increasing(t, path, key, strict=False):
     d = np.diff(t)
     if np.any(d < 0) or (strict and np.any(d == 0)):
         i = int(np.argmax(d <= 0 if strict else d < 0))
-        raise _err(path, f"{key}: times are not increasing (t[{i}] = {t[i]!r}, t[{i + 1}] = {t[i + 1]!r})")
+        raise file_error(path, f"{key}: times are not increasing (t[{i}] = {t[i]!r}, t[{i + 1}] = {t[i + 1]!r})")
 
 
 # ------------------------------------------------------------------ the identity of a run
@@ -232,32 +232,32 @@ def check_checkpoint(ck, mech, path="<checkpoint>", identity=None, ws=None):
     for k, n in sizes.items():
         a = np.asarray(getattr(ck, k), float) if getattr(ck, k) is not None else None
         if a is None or a.shape != (n,):
-            raise _err(path, f"{k} has shape {None if a is None else a.shape}, mechanism {mech.name!r} needs ({n},): "
+            raise file_error(path, f"{k} has shape {None if a is None else a.shape}, mechanism {mech.name!r} needs ({n},): "
                              "the checkpoint does not belong to this mechanism")
         if not np.all(np.isfinite(a)):
-            raise _err(path, f"{k} holds nan or inf")
+            raise file_error(path, f"{k} holds nan or inf")
         setattr(ck, k, np.ascontiguousarray(a))
     t0 = number(ck.t0, path, "t0")
     t = number(ck.t, path, "t")
     if t < t0:
-        raise _err(path, f"t = {t!r} lies before t0 = {t0!r}")
+        raise file_error(path, f"t = {t!r} lies before t0 = {t0!r}")
     number(ck.h_next, path, "h_next", positive=True, allow_none=True)
     if not isinstance(ck.samples, list):
-        raise _err(path, "samples must be a list")
+        raise file_error(path, "samples must be a list")
     last = -math.inf
     for i, s in enumerate(ck.samples):
         if not isinstance(s, (list, tuple)) or len(s) != 4:
-            raise _err(path, f"sample {i} is not (t, q, v, z)")
+            raise file_error(path, f"sample {i} is not (t, q, v, z)")
         ts = number(s[0], path, f"samples[{i}].t")
         if ts < last or ts < t0 or ts > t:
-            raise _err(path, f"sample times must increase inside [t0, t] = [{t0!r}, {t!r}]; sample {i} is at {ts!r}")
+            raise file_error(path, f"sample times must increase inside [t0, t] = [{t0!r}, {t!r}]; sample {i} is at {ts!r}")
         last = ts
         for k, (a, n) in zip("qvz", zip(s[1:], (mech.nq, mech.nv, mech.nz))):
             a = np.asarray(a, float)
             if a.shape != (n,) or not np.all(np.isfinite(a)):
-                raise _err(path, f"sample {i}: {k} has shape {a.shape} or non-finite values (needs {n} finite numbers)")
+                raise file_error(path, f"sample {i}: {k} has shape {a.shape} or non-finite values (needs {n} finite numbers)")
     if not isinstance(ck.stats, dict):
-        raise _err(path, "stats must be a mapping")
+        raise file_error(path, "stats must be a mapping")
     for k in ("rhs_evals", "steps", "restarts"):
         if k in ck.stats:
             number(ck.stats[k], path, f"stats.{k}", integer=True)
@@ -265,13 +265,13 @@ def check_checkpoint(ck, mech, path="<checkpoint>", identity=None, ws=None):
         number(ck.stats["cpu_s"], path, "stats.cpu_s")
     events = ck.stats.get("events", [])
     if not isinstance(events, list) or not all(isinstance(e, dict) for e in events):
-        raise _err(path, "stats.events must be a list of mappings")
+        raise file_error(path, "stats.events must be a list of mappings")
     # a checkpoint built in Python (identity None: e.g. analysis.lyapunov restarting from a state
     # it chose) is the caller's own; one read from a file always carries its run's identity
     if identity is not None and getattr(ck, "identity", None) is not None:
         diffs = identity_differences(ck.identity, identity)
         if diffs:
-            raise _err(path, "the checkpoint belongs to another run: " + "; ".join(diffs))
+            raise file_error(path, "the checkpoint belongs to another run: " + "; ".join(diffs))
     _check_on_manifold(ck, mech, path, ws, identity)
 
 
@@ -292,13 +292,13 @@ def _check_on_manifold(ck, mech, path, ws, identity):
                 1e-6 * mechanism_length(mech))
     for name, tq, q, v in (("q", ck.t0, ck.q, ck.v), ("q_now", ck.t, ck.q_now, ck.v_now)):
         if not pin.isNormalized(mech.model, q, 1e-6):
-            raise _err(path, f"{name} is not a valid configuration (a quaternion of non-unit norm)")
+            raise file_error(path, f"{name} is not a valid configuration (a quaternion of non-unit norm)")
         if mc:
             kinematics.update(mech, ws, q, v)
             kinematics.constraint_rows(mech, ws, tq, q, v)
             r = float(np.max(np.abs(ws.phi[:mc])))
             if not r <= bound:
-                raise _err(path, f"{name} is off the constraint manifold: closure residual {r:.3g} exceeds "
+                raise file_error(path, f"{name} is off the constraint manifold: closure residual {r:.3g} exceeds "
                                  f"{bound:.3g} (the bound of the run so far)")
 
 
