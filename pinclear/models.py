@@ -36,15 +36,20 @@ def available() -> list[str]:
 def model_path(name) -> Path:
     """A sidecar (or URDF) path from a bundled mechanism's name (``"four_bar"``) or any path.
 
-    An existing path is returned as it is; a bare name is looked up among the bundled models.
+    An existing file is returned as it is; a bare name is looked up among the bundled models
+    (before a folder of that name in the working directory: an output folder named after its
+    mechanism must not hide the mechanism); any other existing path is returned for the loader
+    to refuse with its reason.
     """
     p = Path(name)
-    if p.exists():
+    if p.is_file():
         return p
     if p.suffix in ("", ".yaml", ".urdf") and len(p.parts) == 1:
         cand = models_dir() / (p.name if p.suffix else p.name + ".yaml")
         if cand.exists():
             return cand
+    if p.exists():
+        return p
     raise ModelFileError(str(name), "path", "no such file, and no bundled mechanism of that name",
                          choices=available())
 

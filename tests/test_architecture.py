@@ -191,3 +191,17 @@ def test_one_parameter_language_reaches_any_sidecar_value(tmp_path, capsys):
 
     assert cli.main(["info", str(osc), "--set", "forces[spring].k=2.5"]) == 0
     assert '"k": 2.5' in capsys.readouterr().out
+
+
+def test_a_folder_named_after_a_mechanism_does_not_hide_it(tmp_path, monkeypatch):
+    """`pinclear simulate squeezer --out squeezer` then `pinclear warmup` from the same folder: the
+    bare name still means the bundled mechanism, not the output folder of that name (it did, and
+    the loader refused it as 'a folder'); an existing file of that name is still taken as given."""
+    from pinclear.models import model_path, models_dir
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "four_bar").mkdir()
+    assert model_path("four_bar") == models_dir() / "four_bar.yaml"
+    assert pinclear.load("four_bar").name == "four_bar"
+    (tmp_path / "mine").write_text("not a sidecar")
+    assert model_path("mine") == tmp_path / "mine"
