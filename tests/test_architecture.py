@@ -204,4 +204,4 @@ def test_a_folder_named_after_a_mechanism_does_not_hide_it(tmp_path, monkeypatch
     assert model_path("four_bar") == models_dir() / "four_bar.yaml"
     assert pinclear.load("four_bar").name == "four_bar"
     (tmp_path / "mine").write_text("not a sidecar")
-    assert model_path("mine") == tmp_path / "mine"
+    assert model_path("mine").resolve() == tmp_path / "mine"
