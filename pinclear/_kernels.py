@@ -289,28 +289,42 @@ def ltl_solve(L, parent, y):
 
 @njit(cache=True)
 def scaled_rows(Lm, parent, J, rows, Y):
-    """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L."""
+    """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L.
+    ltl_solve_t on every row at once: each row sees the same operations in the same order."""
     nv = Lm.shape[0]
-    for r in range(rows.shape[0]):
+    m = rows.shape[0]
+    for r in range(m):
         for k in range(nv):
             Y[r, k] = J[rows[r], k]
-        ltl_solve_t(Lm, parent, Y[r])
+    for k in range(nv - 1, -1, -1):
+        d = Lm[k, k]
+        for r in range(m):
+            Y[r, k] /= d
+        i = parent[k]
+        while i >= 0:
+            lki = Lm[k, i]
+            for r in range(m):
+                Y[r, i] -= lki * Y[r, k]
+            i = parent[i]
 
 
 @njit(cache=True)
 def schur_complement(Lm, parent, J, rows, Y, S):
     """Y[r] = L^-T J[rows[r]] (row-wise) and S = Y Y^T = J M^-1 J^T over the selected rows, for
-    M = L^T L factorised by ltl_factor."""
+    M = L^T L factorised by ltl_factor. Each S[r, c] sums over k in order, every c of a row at
+    once (independent sums, the same numbers as one dot product per entry)."""
     nv = Lm.shape[0]
     m = rows.shape[0]
     scaled_rows(Lm, parent, J, rows, Y)
     for r in range(m):
         for c in range(r + 1):
-            s = 0.0
-            for k in range(nv):
-                s += Y[r, k] * Y[c, k]
-            S[r, c] = s
-            S[c, r] = s
+            S[r, c] = 0.0
+        for k in range(nv):
+            yrk = Y[r, k]
+            for c in range(r + 1):
+                S[r, c] += yrk * Y[c, k]
+        for c in range(r):
+            S[c, r] = S[r, c]
 
 
 @njit(cache=True)
