@@ -289,28 +289,42 @@ def ltl_solve(L, parent, y):
 
 @njit(cache=True)
 def scaled_rows(Lm, parent, J, rows, Y):
-    """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L."""
+    """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L.
+    ltl_solve_t on every row at once: each row sees the same operations in the same order."""
     nv = Lm.shape[0]
-    for r in range(rows.shape[0]):
+    m = rows.shape[0]
+    for r in range(m):
         for k in range(nv):
             Y[r, k] = J[rows[r], k]
-        ltl_solve_t(Lm, parent, Y[r])
+    for k in range(nv - 1, -1, -1):
+        d = Lm[k, k]
+        for r in range(m):
+            Y[r, k] /= d
+        i = parent[k]
+        while i >= 0:
+            lki = Lm[k, i]
+            for r in range(m):
+                Y[r, i] -= lki * Y[r, k]
+            i = parent[i]
 
 
 @njit(cache=True)
 def schur_complement(Lm, parent, J, rows, Y, S):
     """Y[r] = L^-T J[rows[r]] (row-wise) and S = Y Y^T = J M^-1 J^T over the selected rows, for
-    M = L^T L factorised by ltl_factor."""
+    M = L^T L factorised by ltl_factor. Each S[r, c] sums over k in order, every c of a row at
+    once (independent sums, the same numbers as one dot product per entry)."""
     nv = Lm.shape[0]
     m = rows.shape[0]
     scaled_rows(Lm, parent, J, rows, Y)
     for r in range(m):
         for c in range(r + 1):
-            s = 0.0
-            for k in range(nv):
-                s += Y[r, k] * Y[c, k]
-            S[r, c] = s
-            S[c, r] = s
+            S[r, c] = 0.0
+        for k in range(nv):
+            yrk = Y[r, k]
+            for c in range(r + 1):
+                S[r, c] += yrk * Y[c, k]
+        for c in range(r):
+            S[c, r] = S[r, c]
 
 
 @njit(cache=True)
@@ -375,6 +389,191 @@ def constraint_rows_all(R, alpha, beta, q, v, fdrv):
 
 
 @njit(cache=True)
+def constraint_rows_positions(R, q, v, fdrv):
+    """The position level of constraint_rows_all at v = 0 (``v`` the zero vector): frame
+    placements and Jacobians, every row's Phi and J, and J v + Phi_t = Phi_t (the drives' -f'(t),
+    zero for closures); bias and gamma are left as they were. The same arithmetic as
+    constraint_rows_all for what it writes (the projections' iterations read nothing else)."""
+    Hj, jidx, jMf, H, mask, J, Jv, Jw = R.Hj, R.jidx, R.jMf, R.H, R.mask, R.J, R.Jv, R.Jw
+    F = H.shape[0]
+    nv = J.shape[1]
+    for f in range(F):
+        j = jidx[f]
+        for r in range(3):
+            for c in range(4):
+                s = Hj[j, r, 3] if c == 3 else 0.0
+                for i in range(3):
+                    s += Hj[j, r, i] * jMf[f, i, c]
+                H[f, r, c] = s
+    for f in range(F):
+        px, py, pz = H[f, 0, 3], H[f, 1, 3], H[f, 2, 3]
+        for k in range(nv):
+            if mask[f, k] == 0.0:
+                for i in range(3):
+                    Jv[f, i, k] = 0.0
+                    Jw[f, i, k] = 0.0
+                continue
+            jx, jy, jz = J[3, k], J[4, k], J[5, k]
+            cx, cy, cz = _cross(jx, jy, jz, px, py, pz)
+            Jw[f, 0, k], Jw[f, 1, k], Jw[f, 2, k] = jx, jy, jz
+            Jv[f, 0, k], Jv[f, 1, k], Jv[f, 2, k] = J[0, k] + cx, J[1, k] + cy, J[2, k] + cz
+    table, E, L, phi, Jc, dphi = R.table, R.E, R.L, R.phi, R.Jc, R.dphi
+    for p in range(table.shape[0]):
+        code, i1, i2, r = table[p, 0], table[p, 1], table[p, 2], table[p, 3]
+        if code == POINT:
+            for i in range(3):
+                phi[r + i] = H[i1, i, 3] - H[i2, i, 3]
+                dphi[r + i] = 0.0
+                for k in range(nv):
+                    Jc[r + i, k] = Jv[i1, i, k] - Jv[i2, i, k]
+        elif code == PLANE:
+            for j in range(2):
+                s = 0.0
+                for i in range(3):
+                    s += E[p, j, i] * (H[i1, i, 3] - H[i2, i, 3])
+                phi[r + j], dphi[r + j] = s, 0.0
+                for k in range(nv):
+                    acc = 0.0
+                    for i in range(3):
+                        acc += E[p, j, i] * (Jv[i1, i, k] - Jv[i2, i, k])
+                    Jc[r + j, k] = acc
+        elif code == DOT:
+            a, b = table[p, 4], table[p, 5]
+            u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
+            x0, x1, x2 = H[i2, 0, b], H[i2, 1, b], H[i2, 2, b]
+            c0, c1, c2 = _cross(u0, u1, u2, x0, x1, x2)
+            phi[r] = u0 * x0 + u1 * x1 + u2 * x2
+            dphi[r] = 0.0
+            for k in range(nv):
+                Jc[r, k] = (c0 * (Jw[i1, 0, k] - Jw[i2, 0, k]) + c1 * (Jw[i1, 1, k] - Jw[i2, 1, k])
+                            + c2 * (Jw[i1, 2, k] - Jw[i2, 2, k]))
+        elif code == PERP:
+            a = table[p, 4]
+            u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
+            d0, d1, d2 = H[i2, 0, 3] - H[i1, 0, 3], H[i2, 1, 3] - H[i1, 1, 3], H[i2, 2, 3] - H[i1, 2, 3]
+            c0, c1, c2 = _cross(u0, u1, u2, d0, d1, d2)
+            phi[r] = u0 * d0 + u1 * d1 + u2 * d2
+            dphi[r] = 0.0
+            for k in range(nv):
+                Jc[r, k] = (u0 * (Jv[i2, 0, k] - Jv[i1, 0, k]) + u1 * (Jv[i2, 1, k] - Jv[i1, 1, k])
+                            + u2 * (Jv[i2, 2, k] - Jv[i1, 2, k])
+                            + c0 * Jw[i1, 0, k] + c1 * Jw[i1, 1, k] + c2 * Jw[i1, 2, k])
+        else:  # DIST
+            d0, d1, d2 = H[i1, 0, 3] - H[i2, 0, 3], H[i1, 1, 3] - H[i2, 1, 3], H[i1, 2, 3] - H[i2, 2, 3]
+            nd = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            n0, n1, n2 = d0 / nd, d1 / nd, d2 / nd
+            phi[r] = nd - L[p]
+            dphi[r] = 0.0
+            for k in range(nv):
+                Jc[r, k] = (n0 * (Jv[i1, 0, k] - Jv[i2, 0, k]) + n1 * (Jv[i1, 1, k] - Jv[i2, 1, k])
+                            + n2 * (Jv[i1, 2, k] - Jv[i2, 2, k]))
+    iq, iv = R.iq, R.iv
+    mc = phi.shape[0] - iq.shape[0]
+    for k in range(iq.shape[0]):
+        r = mc + k
+        phi[r] = q[iq[k]] - fdrv[0, k]
+        dphi[r] = v[iv[k]] - fdrv[1, k]
+
+
+@njit(cache=True)
+def constraint_rows_velocities(R, alpha, beta, v, fdrv):
+    """The velocity level of constraint_rows_all at the configuration of the last
+    constraint_rows_positions (or constraint_rows_all) call: frame velocities and zero-ddq
+    accelerations from the passes' J and dJ, every row's J v + Phi_t, bias and gamma (Phi and J
+    kept). The same arithmetic as constraint_rows_all for what it writes."""
+    H, mask, J, dJ, V, W, A, Al = R.H, R.mask, R.J, R.dJ, R.V, R.W, R.A, R.Al
+    F = H.shape[0]
+    nv = J.shape[1]
+    for f in range(F):
+        px, py, pz = H[f, 0, 3], H[f, 1, 3], H[f, 2, 3]
+        vo0 = vo1 = vo2 = w0 = w1 = w2 = 0.0
+        ao0 = ao1 = ao2 = al0 = al1 = al2 = 0.0
+        for k in range(nv):
+            if mask[f, k] == 0.0:
+                continue
+            vk = v[k]
+            vo0 += J[0, k] * vk
+            vo1 += J[1, k] * vk
+            vo2 += J[2, k] * vk
+            w0 += J[3, k] * vk
+            w1 += J[4, k] * vk
+            w2 += J[5, k] * vk
+            ao0 += dJ[0, k] * vk
+            ao1 += dJ[1, k] * vk
+            ao2 += dJ[2, k] * vk
+            al0 += dJ[3, k] * vk
+            al1 += dJ[4, k] * vk
+            al2 += dJ[5, k] * vk
+        c0, c1, c2 = _cross(w0, w1, w2, px, py, pz)
+        vp0, vp1, vp2 = vo0 + c0, vo1 + c1, vo2 + c2
+        V[f, 0], V[f, 1], V[f, 2] = vp0, vp1, vp2
+        W[f, 0], W[f, 1], W[f, 2] = w0, w1, w2
+        d0, d1, d2 = _cross(al0, al1, al2, px, py, pz)
+        e0, e1, e2 = _cross(w0, w1, w2, vp0, vp1, vp2)
+        A[f, 0], A[f, 1], A[f, 2] = ao0 + d0 + e0, ao1 + d1 + e1, ao2 + d2 + e2
+        Al[f, 0], Al[f, 1], Al[f, 2] = al0, al1, al2
+    table, E, dphi, bias = R.table, R.E, R.dphi, R.bias
+    for p in range(table.shape[0]):
+        code, i1, i2, r = table[p, 0], table[p, 1], table[p, 2], table[p, 3]
+        if code == POINT:
+            for i in range(3):
+                dphi[r + i] = V[i1, i] - V[i2, i]
+                bias[r + i] = A[i1, i] - A[i2, i]
+        elif code == PLANE:
+            for j in range(2):
+                ds = sb = 0.0
+                for i in range(3):
+                    e = E[p, j, i]
+                    ds += e * (V[i1, i] - V[i2, i])
+                    sb += e * (A[i1, i] - A[i2, i])
+                dphi[r + j], bias[r + j] = ds, sb
+        elif code == DOT:
+            a, b = table[p, 4], table[p, 5]
+            u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
+            x0, x1, x2 = H[i2, 0, b], H[i2, 1, b], H[i2, 2, b]
+            c0, c1, c2 = _cross(u0, u1, u2, x0, x1, x2)
+            dw0, dw1, dw2 = W[i1, 0] - W[i2, 0], W[i1, 1] - W[i2, 1], W[i1, 2] - W[i2, 2]
+            dphi[r] = c0 * dw0 + c1 * dw1 + c2 * dw2
+            du0, du1, du2 = _cross(W[i1, 0], W[i1, 1], W[i1, 2], u0, u1, u2)
+            dx0, dx1, dx2 = _cross(W[i2, 0], W[i2, 1], W[i2, 2], x0, x1, x2)
+            p0, p1, p2 = _cross(du0, du1, du2, x0, x1, x2)
+            q0, q1, q2 = _cross(u0, u1, u2, dx0, dx1, dx2)
+            bias[r] = (c0 * (Al[i1, 0] - Al[i2, 0]) + c1 * (Al[i1, 1] - Al[i2, 1]) + c2 * (Al[i1, 2] - Al[i2, 2])
+                       + (p0 + q0) * dw0 + (p1 + q1) * dw1 + (p2 + q2) * dw2)
+        elif code == PERP:
+            a = table[p, 4]
+            u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
+            d0, d1, d2 = H[i2, 0, 3] - H[i1, 0, 3], H[i2, 1, 3] - H[i1, 1, 3], H[i2, 2, 3] - H[i1, 2, 3]
+            e0, e1, e2 = V[i2, 0] - V[i1, 0], V[i2, 1] - V[i1, 1], V[i2, 2] - V[i1, 2]
+            c0, c1, c2 = _cross(u0, u1, u2, d0, d1, d2)
+            w0, w1, w2 = W[i1, 0], W[i1, 1], W[i1, 2]
+            dphi[r] = u0 * e0 + u1 * e1 + u2 * e2 + c0 * w0 + c1 * w1 + c2 * w2
+            du0, du1, du2 = _cross(w0, w1, w2, u0, u1, u2)
+            f0, f1, f2 = _cross(du0, du1, du2, d0, d1, d2)
+            g0, g1, g2 = _cross(u0, u1, u2, e0, e1, e2)
+            bias[r] = (u0 * (A[i2, 0] - A[i1, 0]) + u1 * (A[i2, 1] - A[i1, 1]) + u2 * (A[i2, 2] - A[i1, 2])
+                       + c0 * Al[i1, 0] + c1 * Al[i1, 1] + c2 * Al[i1, 2]
+                       + du0 * e0 + du1 * e1 + du2 * e2 + (f0 + g0) * w0 + (f1 + g1) * w1 + (f2 + g2) * w2)
+        else:  # DIST
+            d0, d1, d2 = H[i1, 0, 3] - H[i2, 0, 3], H[i1, 1, 3] - H[i2, 1, 3], H[i1, 2, 3] - H[i2, 2, 3]
+            e0, e1, e2 = V[i1, 0] - V[i2, 0], V[i1, 1] - V[i2, 1], V[i1, 2] - V[i2, 2]
+            nd = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            n0, n1, n2 = d0 / nd, d1 / nd, d2 / nd
+            ndd = n0 * e0 + n1 * e1 + n2 * e2
+            dphi[r] = ndd
+            bias[r] = (n0 * (A[i1, 0] - A[i2, 0]) + n1 * (A[i1, 1] - A[i2, 1]) + n2 * (A[i1, 2] - A[i2, 2])
+                       + (e0 * e0 + e1 * e1 + e2 * e2 - ndd * ndd) / nd)
+    phi, gamma, iv = R.phi, R.gamma, R.iv
+    mc = phi.shape[0] - iv.shape[0]
+    for k in range(iv.shape[0]):
+        r = mc + k
+        dphi[r] = v[iv[k]] - fdrv[1, k]
+        bias[r] = -fdrv[2, k]
+    for r in range(phi.shape[0]):
+        gamma[r] = -bias[r] - 2.0 * alpha * dphi[r] - beta * beta * phi[r]
+
+
+@njit(cache=True)
 def _finite_code(a, code):
     """code, or -2 (NONFINITE) when a is not finite."""
     s = 0.0
@@ -414,34 +613,36 @@ def joint_placements(parent, jP, kind, axis, iq, q, O, want, Hj):
     for i in range(3):
         for c2 in range(4):
             O[0, i, c2] = 1.0 if i == c2 else 0.0
-    X = np.empty((3, 3))
-    T = np.empty((3, 4))
+    # X and T (below) live in scalars, row by row: np.empty in compiled code allocates on every call
     for j in range(1, parent.shape[0]):
         qj = q[iq[j]]
         ax, ay, az = axis[j, 0], axis[j, 1], axis[j, 2]
         p = parent[j]
-        for r in range(3):                     # T = O[parent] jP
-            o0, o1, o2 = O[p, r, 0], O[p, r, 1], O[p, r, 2]
-            for c2 in range(3):
-                T[r, c2] = 0.0 + o0 * jP[j, 0, c2] + o1 * jP[j, 1, c2] + o2 * jP[j, 2, c2]
-            T[r, 3] = 0.0 + o0 * jP[j, 0, 3] + o1 * jP[j, 1, 3] + o2 * jP[j, 2, 3] + O[p, r, 3]
-        if kind[j] == J_REVOLUTE:
+        revolute = kind[j] == J_REVOLUTE
+        x00 = x01 = x02 = x10 = x11 = x12 = x20 = x21 = x22 = 0.0
+        dx = dy = dz = 0.0
+        if revolute:
             c, s = np.cos(qj), np.sin(qj)
             C = 1.0 - c
-            X[0, 0], X[0, 1], X[0, 2] = c + ax * ax * C, ax * ay * C - az * s, ax * az * C + ay * s
-            X[1, 0], X[1, 1], X[1, 2] = ay * ax * C + az * s, c + ay * ay * C, ay * az * C - ax * s
-            X[2, 0], X[2, 1], X[2, 2] = az * ax * C - ay * s, az * ay * C + ax * s, c + az * az * C
-            for r in range(3):                 # O[j] = T X: rotation about the axis
-                t0, t1, t2 = T[r, 0], T[r, 1], T[r, 2]
-                for c2 in range(3):
-                    O[j, r, c2] = 0.0 + t0 * X[0, c2] + t1 * X[1, c2] + t2 * X[2, c2]
-                O[j, r, 3] = T[r, 3]
+            x00, x01, x02 = c + ax * ax * C, ax * ay * C - az * s, ax * az * C + ay * s
+            x10, x11, x12 = ay * ax * C + az * s, c + ay * ay * C, ay * az * C - ax * s
+            x20, x21, x22 = az * ax * C - ay * s, az * ay * C + ax * s, c + az * az * C
         else:
             dx, dy, dz = ax * qj, ay * qj, az * qj
-            for r in range(3):                 # O[j] = T X: translation along the axis
-                for c2 in range(3):
-                    O[j, r, c2] = T[r, c2]
-                O[j, r, 3] = 0.0 + T[r, 0] * dx + T[r, 1] * dy + T[r, 2] * dz + T[r, 3]
+        for r in range(3):                     # row r of T = O[parent] jP, then of O[j] = T X
+            o0, o1, o2 = O[p, r, 0], O[p, r, 1], O[p, r, 2]
+            t0 = 0.0 + o0 * jP[j, 0, 0] + o1 * jP[j, 1, 0] + o2 * jP[j, 2, 0]
+            t1 = 0.0 + o0 * jP[j, 0, 1] + o1 * jP[j, 1, 1] + o2 * jP[j, 2, 1]
+            t2 = 0.0 + o0 * jP[j, 0, 2] + o1 * jP[j, 1, 2] + o2 * jP[j, 2, 2]
+            t3 = 0.0 + o0 * jP[j, 0, 3] + o1 * jP[j, 1, 3] + o2 * jP[j, 2, 3] + O[p, r, 3]
+            if revolute:                       # rotation about the axis
+                O[j, r, 0] = 0.0 + t0 * x00 + t1 * x10 + t2 * x20
+                O[j, r, 1] = 0.0 + t0 * x01 + t1 * x11 + t2 * x21
+                O[j, r, 2] = 0.0 + t0 * x02 + t1 * x12 + t2 * x22
+                O[j, r, 3] = t3
+            else:                              # translation along the axis
+                O[j, r, 0], O[j, r, 1], O[j, r, 2] = t0, t1, t2
+                O[j, r, 3] = 0.0 + t0 * dx + t1 * dy + t2 * dz + t3
     for k in range(want.shape[0]):
         Hj[k, :, :] = O[want[k]]
 
@@ -633,23 +834,35 @@ def project_out(Qr, hb, k, x):
 
 
 @njit(cache=True)
+def _r_transpose_solve(A, piv, k, r, x):
+    """x[:k] = z from R^T z = P^T r (qr_pivoted's R), x[k:] = 0."""
+    for j in range(k):
+        s = r[piv[j]]
+        for i in range(j):
+            s -= A[j, i] * x[i]
+        x[j] = s / A[j, j]
+    for j in range(k, x.shape[0]):
+        x[j] = 0.0
+
+
+@njit(cache=True)
+def min_norm_x(A, piv, beta, k, r, x):
+    """x = B^+ r as min_norm_solve, without the multipliers (nothing allocated)."""
+    _r_transpose_solve(A, piv, k, r, x)
+    apply_q(A, beta, k, x)                   # x = Q (z, 0)
+
+
+@njit(cache=True)
 def min_norm_solve(A, piv, beta, k, r, x, lam):
     """From qr_pivoted of B^T (A holding B row-wise): x = B^+ r (minimum norm; r's rows beyond
     the rank dropped) and, when lam has entries, lam = (B B^T)^+ r with B^T lam = x."""
-    z = np.zeros(k)
-    for j in range(k):                       # R^T z = P^T r
-        s = r[piv[j]]
-        for i in range(j):
-            s -= A[j, i] * z[i]
-        z[j] = s / A[j, j]
-    x[:] = 0.0
-    for j in range(k):
-        x[j] = z[j]
-    apply_q(A, beta, k, x)                   # x = Q (z, 0)
+    # z lives in x[:k] (no allocation); lam is solved from it before Q is applied
+    _r_transpose_solve(A, piv, k, r, x)
     if lam.shape[0] > 0:
         lam[:] = 0.0
         for j in range(k - 1, -1, -1):       # R lam_p = z
-            s = z[j]
+            s = x[j]
             for i in range(j + 1, k):
                 s -= A[i, j] * lam[piv[i]]
             lam[piv[j]] = s / A[j, j]
+    apply_q(A, beta, k, x)                   # x = Q (z, 0)

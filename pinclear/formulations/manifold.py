@@ -40,8 +40,9 @@ import numpy as np
 
 from .. import kinematics
 from .._jit import njit
-from .._kernels import (Solve, constraint_rows_all, lagrange_accel, ltl_factor, ltl_solve, ltl_solve_t, min_norm_solve,
-                        project_out, qr_pivoted, schur_complement)
+from .._kernels import (Solve, constraint_rows_positions, constraint_rows_velocities, lagrange_accel, ltl_factor,
+                        ltl_solve, ltl_solve_t, min_norm_solve, min_norm_x, project_out, qr_pivoted,
+                        schur_complement)
 from ..errors import InputError
 from ..stepping.call import ERROR, OK, RANK
 from ..stepping.stage import T, bind
@@ -75,6 +76,8 @@ class ManifoldWork(NamedTuple):
     Qg: np.ndarray       # (m, nv) pivoted QR of J^T (the Gauss-Newton step)
     pg: np.ndarray
     hg: np.ndarray
+    yr: np.ndarray       # (m,) filtered_solve's complex work, real and imaginary parts
+    yi: np.ndarray
     v1: np.ndarray       # (nv,) the projected velocity
     r: np.ndarray        # (m,) work
     w: np.ndarray        # (m,)
@@ -106,8 +109,8 @@ class Manifold(Formulation):
                                np.arange(m, dtype=np.int64), np.zeros((nv, nv)), np.zeros((m, nv)), np.zeros((m, m)),
                                np.zeros((m, m)), np.zeros((m, m)), np.zeros((m, nv)), np.zeros(m, dtype=np.int64),
                                np.zeros(m), np.zeros(1, dtype=np.int64), np.zeros((m, nv)),
-                               np.zeros(m, dtype=np.int64), np.zeros(m), np.zeros(nv), np.zeros(m), np.zeros(m),
-                               np.zeros(nv), np.zeros(nv), np.zeros(nv))
+                               np.zeros(m, dtype=np.int64), np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(nv),
+                               np.zeros(m), np.zeros(m), np.zeros(nv), np.zeros(nv), np.zeros(nv))
         self._stages = None
 
     @property
@@ -193,7 +196,7 @@ def gauss_newton_step(R, rcond, Qr, piv, hb, dq):
         for c in range(nv):
             Qr[r, c] = Jc[r, c]
     k = qr_pivoted(Qr, piv, hb, rcond)
-    min_norm_solve(Qr, piv, hb, k, phi, dq, np.zeros(0))
+    min_norm_x(Qr, piv, hb, k, phi, dq)
     for i in range(nv):
         dq[i] = -dq[i]
 
@@ -209,12 +212,12 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
     q, zero = P.q, P.zero_v
     if at_positions(P, 0, t) == ERROR:
         return ERROR
-    constraint_rows_all(R, 0.0, 0.0, q, zero, W.fdrv)
+    constraint_rows_positions(R, q, zero, W.fdrv)
     for _ in range(max_iter):
         gauss_newton_step(R, rcond, W.Qg, W.pg, W.hg, P.dq)
         if move(P, t) == ERROR or at_positions(P, 0, t) == ERROR:
             return ERROR
-        constraint_rows_all(R, 0.0, 0.0, q, zero, W.fdrv)
+        constraint_rows_positions(R, q, zero, W.fdrv)
         res = 0.0
         for r in range(R.phi.shape[0]):
             res = max(res, abs(R.phi[r]))
@@ -280,7 +283,7 @@ def velocity_projection(R, W, mu, rcond, exact):
         # for the drives' rates: the step logic evaluates again after it)
         shifted_factor(W.S, mu, W.Fr, W.Fi)
         corr = W.xs
-        filtered_solve(W.Fr, W.Fi, pt, W.w)
+        filtered_solve_ws(W.Fr, W.Fi, pt, W.w, W.yr, W.yi)
         _bt_times(Y, W.w, corr)                # the normal correction B^T g(S) pt
         if exact:
             for c in range(nv):
@@ -319,7 +322,9 @@ def projected_accelerations(R, W, wtan):
     from the flat configuration; only the velocity-squared part gamma is filtered, the one
     whose round-off grows like 1/s^(3/2) near it. Multipliers: lam = g(S) gamma - S^+ B y.
     Returns 1, or -2 when the accelerations are not finite."""
-    constraint_rows_all(R, 0.0, 0.0, W.q, W.v, W.fdrv)
+    # the velocity terms at (q, v); Phi, J and the frames' placements are those the projection
+    # left at this q (the same numbers: the rows at q are not evaluated twice)
+    constraint_rows_velocities(R, 0.0, 0.0, W.v, W.fdrv)
     a, lam, Y, Lm, parent, Qr, hb = W.a, W.lam, W.Y, W.Lm, W.parent, W.Qr, W.hb
     m, nv = Y.shape
     for c in range(nv):
@@ -336,7 +341,7 @@ def projected_accelerations(R, W, wtan):
     k = W.kk[0]
     min_norm_solve(Qr, W.piv, hb, k, r, W.xs, lam)
     w = W.w                                    # g(S) gamma
-    filtered_solve(W.Fr, W.Fi, R.gamma, w)
+    filtered_solve_ws(W.Fr, W.Fi, R.gamma, w, W.yr, W.yi)
     for rr in range(m):
         lam[rr] += w[rr]
     along = k > 0 and abs(Qr[k - 1, k - 1]) < wtan * abs(Qr[0, 0])    # near flat only
@@ -391,20 +396,20 @@ def shifted_factor(S, mu, Fr, Fi):
     for i in range(m):
         tr += S[i, i]
     mu2 = mu * mu * max(tr / max(m, 1), 1e-300)
-    # row j's L[j, k] D[k] (k < j) once, then each entry below costs one complex product per k
-    wr, wi = np.empty(m), np.empty(m)
+    # row j's L[j, k] D[k] (k < j) once, then each entry below costs one complex product per k;
+    # kept in the (unused) strict upper triangle, column j: no work array to allocate
     for j in range(m):
         d = complex(S[j, j], mu2)
         for k in range(j):
             l = complex(Fr[j, k], Fi[j, k])
             w = l * complex(Fr[k, k], Fi[k, k])
-            wr[k], wi[k] = w.real, w.imag
+            Fr[k, j], Fi[k, j] = w.real, w.imag
             d -= l * w
         Fr[j, j], Fi[j, j] = d.real, d.imag
         for i in range(j + 1, m):
             s = complex(S[i, j], 0.0)
             for k in range(j):
-                s -= complex(Fr[i, k], Fi[i, k]) * complex(wr[k], wi[k])
+                s -= complex(Fr[i, k], Fi[i, k]) * complex(Fr[k, j], Fi[k, j])
             s /= d
             Fr[i, j], Fi[i, j] = s.real, s.imag
 
@@ -413,17 +418,25 @@ def shifted_factor(S, mu, Fr, Fi):
 def filtered_solve(Fr, Fi, r, w):
     """w = g(S) r = Re[(S + i mu^2 I)^-1 r] from shifted_factor's L D L^T."""
     m = r.shape[0]
-    y = np.empty(m, dtype=np.complex128)
+    filtered_solve_ws(Fr, Fi, r, w, np.empty(m), np.empty(m))
+
+
+@njit(cache=True)
+def filtered_solve_ws(Fr, Fi, r, w, yr, yi):
+    """filtered_solve with its complex work vector in (yr, yi) (real and imaginary parts): the
+    kernels' form, which allocates nothing."""
+    m = r.shape[0]
     for i in range(m):
         s = complex(r[i], 0.0)
         for k in range(i):
-            s -= complex(Fr[i, k], Fi[i, k]) * y[k]
-        y[i] = s
+            s -= complex(Fr[i, k], Fi[i, k]) * complex(yr[k], yi[k])
+        yr[i], yi[i] = s.real, s.imag
     for i in range(m):
-        y[i] /= complex(Fr[i, i], Fi[i, i])
+        y = complex(yr[i], yi[i]) / complex(Fr[i, i], Fi[i, i])
+        yr[i], yi[i] = y.real, y.imag
     for i in range(m - 1, -1, -1):
-        s = y[i]
+        s = complex(yr[i], yi[i])
         for k in range(i + 1, m):
-            s -= complex(Fr[k, i], Fi[k, i]) * y[k]
-        y[i] = s
+            s -= complex(Fr[k, i], Fi[k, i]) * complex(yr[k], yi[k])
+        yr[i], yi[i] = s.real, s.imag
         w[i] = s.real

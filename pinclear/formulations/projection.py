@@ -24,7 +24,7 @@ import pinocchio as pin
 
 from .. import native
 from .._jit import njit
-from .._kernels import (constraint_rows_all, joint_placements, ltl_factor, ltl_solve, min_norm_solve, project_out,
+from .._kernels import (constraint_rows_all, joint_placements, ltl_factor, ltl_solve, min_norm_x, project_out,
                         proximal_filter, qr_pivoted, relative_rho, scaled_rows, schur_complement)
 from ..errors import InputError
 from ..stepping.call import ERROR, NONFINITE, OK, RANK, call_passes, call_stage
@@ -176,7 +176,7 @@ def gauss_newton_step(R, W, rcond, k_prox, rho_rel, dq):
             for c in range(nv):
                 W.Qr[i, c] = Jc[rows[i], c]
         kk = qr_pivoted(W.Qr, W.piv, W.hb, rcond)
-        min_norm_solve(W.Qr, W.piv, W.hb, kk, r, dq, np.zeros(0))
+        min_norm_x(W.Qr, W.piv, W.hb, kk, r, dq)
         for c in range(nv):
             dq[c] = -dq[c]
         return
@@ -238,7 +238,7 @@ def project_state(P, R, W, t, tol, max_iter, rcond, k_prox, rho_rel):
         for i in range(m):
             W.r[i] = dphi[rows[i]]
         xs = P.dq
-        min_norm_solve(W.Qr, W.piv, W.hb, kk, W.r, xs, np.zeros(0))
+        min_norm_x(W.Qr, W.piv, W.hb, kk, W.r, xs)
         for c in range(nv):
             x[c] -= xs[c]
     else:
