@@ -75,11 +75,11 @@ def _cross(a0, a1, a2, b0, b1, b2):
     return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
-@njit(cache=True)
-def frame_kinematics(Hj, jidx, jMf, H, mask, J, dJ, v, Jv, Jw, V, W, A, Al):
+@njit(cache=True, inline="always")
+def frame_positions(Hj, jidx, jMf, H, mask, J, Jv, Jw):
     """Frame placements H[f] = Hj[jidx[f]] jMf[f] (parent-joint placement times the constant
-    frame offset), then frame Jacobians (origin velocity, angular; world axes), velocities and
-    zero-ddq classical accelerations of every frame from the tree's WORLD J, dJ."""
+    frame offset) and frame Jacobians (origin velocity, angular; world axes) from the tree's WORLD
+    J, masked to the dofs supporting each frame."""
     F = H.shape[0]
     nv = J.shape[1]
     for f in range(F):
@@ -92,8 +92,6 @@ def frame_kinematics(Hj, jidx, jMf, H, mask, J, dJ, v, Jv, Jw, V, W, A, Al):
                 H[f, r, c] = s
     for f in range(F):
         px, py, pz = H[f, 0, 3], H[f, 1, 3], H[f, 2, 3]
-        vo0 = vo1 = vo2 = w0 = w1 = w2 = 0.0
-        ao0 = ao1 = ao2 = al0 = al1 = al2 = 0.0
         for k in range(nv):
             if mask[f, k] == 0.0:
                 for i in range(3):
@@ -104,13 +102,28 @@ def frame_kinematics(Hj, jidx, jMf, H, mask, J, dJ, v, Jv, Jw, V, W, A, Al):
             cx, cy, cz = _cross(jx, jy, jz, px, py, pz)
             Jw[f, 0, k], Jw[f, 1, k], Jw[f, 2, k] = jx, jy, jz
             Jv[f, 0, k], Jv[f, 1, k], Jv[f, 2, k] = J[0, k] + cx, J[1, k] + cy, J[2, k] + cz
+
+
+@njit(cache=True, inline="always")
+def frame_velocities(H, mask, J, dJ, v, V, W, A, Al):
+    """Velocities and zero-ddq classical accelerations of every frame (after frame_positions):
+    v_o + w x p and a_o + alpha x p + w x v_p with (v_o; w) = J v, (a_o; alpha) = dJ v masked."""
+    F = H.shape[0]
+    nv = J.shape[1]
+    for f in range(F):
+        px, py, pz = H[f, 0, 3], H[f, 1, 3], H[f, 2, 3]
+        vo0 = vo1 = vo2 = w0 = w1 = w2 = 0.0
+        ao0 = ao1 = ao2 = al0 = al1 = al2 = 0.0
+        for k in range(nv):
+            if mask[f, k] == 0.0:
+                continue
             vk = v[k]
             vo0 += J[0, k] * vk
             vo1 += J[1, k] * vk
             vo2 += J[2, k] * vk
-            w0 += jx * vk
-            w1 += jy * vk
-            w2 += jz * vk
+            w0 += J[3, k] * vk
+            w1 += J[4, k] * vk
+            w2 += J[5, k] * vk
             ao0 += dJ[0, k] * vk
             ao1 += dJ[1, k] * vk
             ao2 += dJ[2, k] * vk
@@ -128,42 +141,94 @@ def frame_kinematics(Hj, jidx, jMf, H, mask, J, dJ, v, Jv, Jw, V, W, A, Al):
 
 
 @njit(cache=True)
-def closure_rows(table, E, L, H, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi):
-    """Residual, Jacobian, bias and J v of every closure primitive (see pinclear.closures).
+def frame_kinematics(Hj, jidx, jMf, H, mask, J, dJ, v, Jv, Jw, V, W, A, Al):
+    """Frame placements H[f] = Hj[jidx[f]] jMf[f] (parent-joint placement times the constant
+    frame offset), then frame Jacobians (origin velocity, angular; world axes), velocities and
+    zero-ddq classical accelerations of every frame from the tree's WORLD J, dJ."""
+    frame_positions(Hj, jidx, jMf, H, mask, J, Jv, Jw)
+    frame_velocities(H, mask, J, dJ, v, V, W, A, Al)
 
-    table rows: (code, i1, i2, row0, a, b); E (n, 2, 3) plane bases; L (n,) lengths."""
+
+@njit(cache=True, inline="always")
+def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi):
+    """Residual and Jacobian of every closure primitive (see pinclear.closures), J v = 0 (the
+    rows at rest). table rows: (code, i1, i2, row0, a, b); E (n, 2, 3) plane bases; L lengths."""
     nv = Jc.shape[1]
     for p in range(table.shape[0]):
         code, i1, i2, r = table[p, 0], table[p, 1], table[p, 2], table[p, 3]
         if code == POINT:
             for i in range(3):
                 phi[r + i] = H[i1, i, 3] - H[i2, i, 3]
-                dphi[r + i] = V[i1, i] - V[i2, i]
-                bias[r + i] = A[i1, i] - A[i2, i]
+                dphi[r + i] = 0.0
                 for k in range(nv):
                     Jc[r + i, k] = Jv[i1, i, k] - Jv[i2, i, k]
         elif code == PLANE:
             for j in range(2):
-                s = ds = sb = 0.0
+                s = 0.0
                 for i in range(3):
-                    e = E[p, j, i]
-                    s += e * (H[i1, i, 3] - H[i2, i, 3])
-                    ds += e * (V[i1, i] - V[i2, i])
-                    sb += e * (A[i1, i] - A[i2, i])
-                phi[r + j], dphi[r + j], bias[r + j] = s, ds, sb
+                    s += E[p, j, i] * (H[i1, i, 3] - H[i2, i, 3])
+                phi[r + j], dphi[r + j] = s, 0.0
                 for k in range(nv):
                     acc = 0.0
                     for i in range(3):
                         acc += E[p, j, i] * (Jv[i1, i, k] - Jv[i2, i, k])
                     Jc[r + j, k] = acc
         elif code == DOT:
-            # u fixed in body 1, w fixed in body 2: d(u.w)/dt = (u x w).(w1 - w2)
+            a, b = table[p, 4], table[p, 5]
+            u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
+            x0, x1, x2 = H[i2, 0, b], H[i2, 1, b], H[i2, 2, b]
+            c0, c1, c2 = _cross(u0, u1, u2, x0, x1, x2)
+            phi[r] = u0 * x0 + u1 * x1 + u2 * x2
+            dphi[r] = 0.0
+            for k in range(nv):
+                Jc[r, k] = (c0 * (Jw[i1, 0, k] - Jw[i2, 0, k]) + c1 * (Jw[i1, 1, k] - Jw[i2, 1, k])
+                            + c2 * (Jw[i1, 2, k] - Jw[i2, 2, k]))
+        elif code == PERP:
+            a = table[p, 4]
+            u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
+            d0, d1, d2 = H[i2, 0, 3] - H[i1, 0, 3], H[i2, 1, 3] - H[i1, 1, 3], H[i2, 2, 3] - H[i1, 2, 3]
+            c0, c1, c2 = _cross(u0, u1, u2, d0, d1, d2)
+            phi[r] = u0 * d0 + u1 * d1 + u2 * d2
+            dphi[r] = 0.0
+            for k in range(nv):
+                Jc[r, k] = (u0 * (Jv[i2, 0, k] - Jv[i1, 0, k]) + u1 * (Jv[i2, 1, k] - Jv[i1, 1, k])
+                            + u2 * (Jv[i2, 2, k] - Jv[i1, 2, k])
+                            + c0 * Jw[i1, 0, k] + c1 * Jw[i1, 1, k] + c2 * Jw[i1, 2, k])
+        else:  # DIST
+            d0, d1, d2 = H[i1, 0, 3] - H[i2, 0, 3], H[i1, 1, 3] - H[i2, 1, 3], H[i1, 2, 3] - H[i2, 2, 3]
+            nd = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            n0, n1, n2 = d0 / nd, d1 / nd, d2 / nd
+            phi[r] = nd - L[p]
+            dphi[r] = 0.0
+            for k in range(nv):
+                Jc[r, k] = (n0 * (Jv[i1, 0, k] - Jv[i2, 0, k]) + n1 * (Jv[i1, 1, k] - Jv[i2, 1, k])
+                            + n2 * (Jv[i1, 2, k] - Jv[i2, 2, k]))
+
+
+@njit(cache=True, inline="always")
+def closure_velocities(table, E, H, V, W, A, Al, dphi, bias):
+    """J v and the bias (dJ v) of every closure primitive, after closure_positions at the same
+    configuration and frame_velocities."""
+    for p in range(table.shape[0]):
+        code, i1, i2, r = table[p, 0], table[p, 1], table[p, 2], table[p, 3]
+        if code == POINT:
+            for i in range(3):
+                dphi[r + i] = V[i1, i] - V[i2, i]
+                bias[r + i] = A[i1, i] - A[i2, i]
+        elif code == PLANE:
+            for j in range(2):
+                ds = sb = 0.0
+                for i in range(3):
+                    e = E[p, j, i]
+                    ds += e * (V[i1, i] - V[i2, i])
+                    sb += e * (A[i1, i] - A[i2, i])
+                dphi[r + j], bias[r + j] = ds, sb
+        elif code == DOT:
             a, b = table[p, 4], table[p, 5]
             u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
             x0, x1, x2 = H[i2, 0, b], H[i2, 1, b], H[i2, 2, b]
             c0, c1, c2 = _cross(u0, u1, u2, x0, x1, x2)
             dw0, dw1, dw2 = W[i1, 0] - W[i2, 0], W[i1, 1] - W[i2, 1], W[i1, 2] - W[i2, 2]
-            phi[r] = u0 * x0 + u1 * x1 + u2 * x2
             dphi[r] = c0 * dw0 + c1 * dw1 + c2 * dw2
             du0, du1, du2 = _cross(W[i1, 0], W[i1, 1], W[i1, 2], u0, u1, u2)
             dx0, dx1, dx2 = _cross(W[i2, 0], W[i2, 1], W[i2, 2], x0, x1, x2)
@@ -171,18 +236,13 @@ def closure_rows(table, E, L, H, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi):
             q0, q1, q2 = _cross(u0, u1, u2, dx0, dx1, dx2)
             bias[r] = (c0 * (Al[i1, 0] - Al[i2, 0]) + c1 * (Al[i1, 1] - Al[i2, 1]) + c2 * (Al[i1, 2] - Al[i2, 2])
                        + (p0 + q0) * dw0 + (p1 + q1) * dw1 + (p2 + q2) * dw2)
-            for k in range(nv):
-                Jc[r, k] = (c0 * (Jw[i1, 0, k] - Jw[i2, 0, k]) + c1 * (Jw[i1, 1, k] - Jw[i2, 1, k])
-                            + c2 * (Jw[i1, 2, k] - Jw[i2, 2, k]))
         elif code == PERP:
-            # u fixed in body 1, d = p2 - p1: d(u.d)/dt = u.(v2 - v1) + (u x d).w1
             a = table[p, 4]
             u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
             d0, d1, d2 = H[i2, 0, 3] - H[i1, 0, 3], H[i2, 1, 3] - H[i1, 1, 3], H[i2, 2, 3] - H[i1, 2, 3]
             e0, e1, e2 = V[i2, 0] - V[i1, 0], V[i2, 1] - V[i1, 1], V[i2, 2] - V[i1, 2]
             c0, c1, c2 = _cross(u0, u1, u2, d0, d1, d2)
             w0, w1, w2 = W[i1, 0], W[i1, 1], W[i1, 2]
-            phi[r] = u0 * d0 + u1 * d1 + u2 * d2
             dphi[r] = u0 * e0 + u1 * e1 + u2 * e2 + c0 * w0 + c1 * w1 + c2 * w2
             du0, du1, du2 = _cross(w0, w1, w2, u0, u1, u2)
             f0, f1, f2 = _cross(du0, du1, du2, d0, d1, d2)
@@ -190,23 +250,15 @@ def closure_rows(table, E, L, H, Jv, Jw, V, W, A, Al, phi, Jc, bias, dphi):
             bias[r] = (u0 * (A[i2, 0] - A[i1, 0]) + u1 * (A[i2, 1] - A[i1, 1]) + u2 * (A[i2, 2] - A[i1, 2])
                        + c0 * Al[i1, 0] + c1 * Al[i1, 1] + c2 * Al[i1, 2]
                        + du0 * e0 + du1 * e1 + du2 * e2 + (f0 + g0) * w0 + (f1 + g1) * w1 + (f2 + g2) * w2)
-            for k in range(nv):
-                Jc[r, k] = (u0 * (Jv[i2, 0, k] - Jv[i1, 0, k]) + u1 * (Jv[i2, 1, k] - Jv[i1, 1, k])
-                            + u2 * (Jv[i2, 2, k] - Jv[i1, 2, k])
-                            + c0 * Jw[i1, 0, k] + c1 * Jw[i1, 1, k] + c2 * Jw[i1, 2, k])
-        else:  # DIST: |p1 - p2| = L
+        else:  # DIST
             d0, d1, d2 = H[i1, 0, 3] - H[i2, 0, 3], H[i1, 1, 3] - H[i2, 1, 3], H[i1, 2, 3] - H[i2, 2, 3]
             e0, e1, e2 = V[i1, 0] - V[i2, 0], V[i1, 1] - V[i2, 1], V[i1, 2] - V[i2, 2]
             nd = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
             n0, n1, n2 = d0 / nd, d1 / nd, d2 / nd
             ndd = n0 * e0 + n1 * e1 + n2 * e2
-            phi[r] = nd - L[p]
             dphi[r] = ndd
             bias[r] = (n0 * (A[i1, 0] - A[i2, 0]) + n1 * (A[i1, 1] - A[i2, 1]) + n2 * (A[i1, 2] - A[i2, 2])
                        + (e0 * e0 + e1 * e1 + e2 * e2 - ndd * ndd) / nd)
-            for k in range(nv):
-                Jc[r, k] = (n0 * (Jv[i1, 0, k] - Jv[i2, 0, k]) + n1 * (Jv[i1, 1, k] - Jv[i2, 1, k])
-                            + n2 * (Jv[i1, 2, k] - Jv[i2, 2, k]))
 
 
 @njit(cache=True)
@@ -374,100 +426,20 @@ def kkt_solve(M, parent, f, J, gamma, rows, Lm, Y, S, Ls, a, lam):
 @njit(cache=True)
 def constraint_rows_all(R, alpha, beta, q, v, fdrv):
     """Frame kinematics, closure rows, drive rows (q[iq] - f(t)) and the Baumgarte-stabilised
-    right-hand side gamma = -bias - 2 alpha dPhi - beta^2 Phi, in one call (R: Rows)."""
-    frame_kinematics(R.Hj, R.jidx, R.jMf, R.H, R.mask, R.J, R.dJ, v, R.Jv, R.Jw, R.V, R.W, R.A, R.Al)
-    closure_rows(R.table, R.E, R.L, R.H, R.Jv, R.Jw, R.V, R.W, R.A, R.Al, R.phi, R.Jc, R.bias, R.dphi)
-    phi, dphi, bias, gamma, iq, iv = R.phi, R.dphi, R.bias, R.gamma, R.iq, R.iv
-    mc = phi.shape[0] - iq.shape[0]
-    for k in range(iq.shape[0]):
-        r = mc + k
-        phi[r] = q[iq[k]] - fdrv[0, k]
-        dphi[r] = v[iv[k]] - fdrv[1, k]
-        bias[r] = -fdrv[2, k]
-    for r in range(phi.shape[0]):
-        gamma[r] = -bias[r] - 2.0 * alpha * dphi[r] - beta * beta * phi[r]
+    right-hand side gamma = -bias - 2 alpha dPhi - beta^2 Phi, in one call (R: Rows): the position
+    level, then the velocity level."""
+    constraint_rows_positions(R, q, v, fdrv)
+    constraint_rows_velocities(R, alpha, beta, v, fdrv)
 
 
 @njit(cache=True)
 def constraint_rows_positions(R, q, v, fdrv):
-    """The position level of constraint_rows_all at v = 0 (``v`` the zero vector): frame
-    placements and Jacobians, every row's Phi and J, and J v + Phi_t = Phi_t (the drives' -f'(t),
-    zero for closures); bias and gamma are left as they were. The same arithmetic as
-    constraint_rows_all for what it writes (the projections' iterations read nothing else)."""
-    Hj, jidx, jMf, H, mask, J, Jv, Jw = R.Hj, R.jidx, R.jMf, R.H, R.mask, R.J, R.Jv, R.Jw
-    F = H.shape[0]
-    nv = J.shape[1]
-    for f in range(F):
-        j = jidx[f]
-        for r in range(3):
-            for c in range(4):
-                s = Hj[j, r, 3] if c == 3 else 0.0
-                for i in range(3):
-                    s += Hj[j, r, i] * jMf[f, i, c]
-                H[f, r, c] = s
-    for f in range(F):
-        px, py, pz = H[f, 0, 3], H[f, 1, 3], H[f, 2, 3]
-        for k in range(nv):
-            if mask[f, k] == 0.0:
-                for i in range(3):
-                    Jv[f, i, k] = 0.0
-                    Jw[f, i, k] = 0.0
-                continue
-            jx, jy, jz = J[3, k], J[4, k], J[5, k]
-            cx, cy, cz = _cross(jx, jy, jz, px, py, pz)
-            Jw[f, 0, k], Jw[f, 1, k], Jw[f, 2, k] = jx, jy, jz
-            Jv[f, 0, k], Jv[f, 1, k], Jv[f, 2, k] = J[0, k] + cx, J[1, k] + cy, J[2, k] + cz
-    table, E, L, phi, Jc, dphi = R.table, R.E, R.L, R.phi, R.Jc, R.dphi
-    for p in range(table.shape[0]):
-        code, i1, i2, r = table[p, 0], table[p, 1], table[p, 2], table[p, 3]
-        if code == POINT:
-            for i in range(3):
-                phi[r + i] = H[i1, i, 3] - H[i2, i, 3]
-                dphi[r + i] = 0.0
-                for k in range(nv):
-                    Jc[r + i, k] = Jv[i1, i, k] - Jv[i2, i, k]
-        elif code == PLANE:
-            for j in range(2):
-                s = 0.0
-                for i in range(3):
-                    s += E[p, j, i] * (H[i1, i, 3] - H[i2, i, 3])
-                phi[r + j], dphi[r + j] = s, 0.0
-                for k in range(nv):
-                    acc = 0.0
-                    for i in range(3):
-                        acc += E[p, j, i] * (Jv[i1, i, k] - Jv[i2, i, k])
-                    Jc[r + j, k] = acc
-        elif code == DOT:
-            a, b = table[p, 4], table[p, 5]
-            u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
-            x0, x1, x2 = H[i2, 0, b], H[i2, 1, b], H[i2, 2, b]
-            c0, c1, c2 = _cross(u0, u1, u2, x0, x1, x2)
-            phi[r] = u0 * x0 + u1 * x1 + u2 * x2
-            dphi[r] = 0.0
-            for k in range(nv):
-                Jc[r, k] = (c0 * (Jw[i1, 0, k] - Jw[i2, 0, k]) + c1 * (Jw[i1, 1, k] - Jw[i2, 1, k])
-                            + c2 * (Jw[i1, 2, k] - Jw[i2, 2, k]))
-        elif code == PERP:
-            a = table[p, 4]
-            u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
-            d0, d1, d2 = H[i2, 0, 3] - H[i1, 0, 3], H[i2, 1, 3] - H[i1, 1, 3], H[i2, 2, 3] - H[i1, 2, 3]
-            c0, c1, c2 = _cross(u0, u1, u2, d0, d1, d2)
-            phi[r] = u0 * d0 + u1 * d1 + u2 * d2
-            dphi[r] = 0.0
-            for k in range(nv):
-                Jc[r, k] = (u0 * (Jv[i2, 0, k] - Jv[i1, 0, k]) + u1 * (Jv[i2, 1, k] - Jv[i1, 1, k])
-                            + u2 * (Jv[i2, 2, k] - Jv[i1, 2, k])
-                            + c0 * Jw[i1, 0, k] + c1 * Jw[i1, 1, k] + c2 * Jw[i1, 2, k])
-        else:  # DIST
-            d0, d1, d2 = H[i1, 0, 3] - H[i2, 0, 3], H[i1, 1, 3] - H[i2, 1, 3], H[i1, 2, 3] - H[i2, 2, 3]
-            nd = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            n0, n1, n2 = d0 / nd, d1 / nd, d2 / nd
-            phi[r] = nd - L[p]
-            dphi[r] = 0.0
-            for k in range(nv):
-                Jc[r, k] = (n0 * (Jv[i1, 0, k] - Jv[i2, 0, k]) + n1 * (Jv[i1, 1, k] - Jv[i2, 1, k])
-                            + n2 * (Jv[i1, 2, k] - Jv[i2, 2, k]))
-    iq, iv = R.iq, R.iv
+    """The position level of constraint_rows_all: frame placements and Jacobians, every row's
+    Phi and J, and J v + Phi_t at rest (the drives' v - f'(t) with ``v``, the zero vector in the
+    projections' iterations; zero for closures); bias and gamma are left as they were."""
+    frame_positions(R.Hj, R.jidx, R.jMf, R.H, R.mask, R.J, R.Jv, R.Jw)
+    closure_positions(R.table, R.E, R.L, R.H, R.Jv, R.Jw, R.phi, R.Jc, R.dphi)
+    phi, dphi, iq, iv = R.phi, R.dphi, R.iq, R.iv
     mc = phi.shape[0] - iq.shape[0]
     for k in range(iq.shape[0]):
         r = mc + k
@@ -478,92 +450,11 @@ def constraint_rows_positions(R, q, v, fdrv):
 @njit(cache=True)
 def constraint_rows_velocities(R, alpha, beta, v, fdrv):
     """The velocity level of constraint_rows_all at the configuration of the last
-    constraint_rows_positions (or constraint_rows_all) call: frame velocities and zero-ddq
-    accelerations from the passes' J and dJ, every row's J v + Phi_t, bias and gamma (Phi and J
-    kept). The same arithmetic as constraint_rows_all for what it writes."""
-    H, mask, J, dJ, V, W, A, Al = R.H, R.mask, R.J, R.dJ, R.V, R.W, R.A, R.Al
-    F = H.shape[0]
-    nv = J.shape[1]
-    for f in range(F):
-        px, py, pz = H[f, 0, 3], H[f, 1, 3], H[f, 2, 3]
-        vo0 = vo1 = vo2 = w0 = w1 = w2 = 0.0
-        ao0 = ao1 = ao2 = al0 = al1 = al2 = 0.0
-        for k in range(nv):
-            if mask[f, k] == 0.0:
-                continue
-            vk = v[k]
-            vo0 += J[0, k] * vk
-            vo1 += J[1, k] * vk
-            vo2 += J[2, k] * vk
-            w0 += J[3, k] * vk
-            w1 += J[4, k] * vk
-            w2 += J[5, k] * vk
-            ao0 += dJ[0, k] * vk
-            ao1 += dJ[1, k] * vk
-            ao2 += dJ[2, k] * vk
-            al0 += dJ[3, k] * vk
-            al1 += dJ[4, k] * vk
-            al2 += dJ[5, k] * vk
-        c0, c1, c2 = _cross(w0, w1, w2, px, py, pz)
-        vp0, vp1, vp2 = vo0 + c0, vo1 + c1, vo2 + c2
-        V[f, 0], V[f, 1], V[f, 2] = vp0, vp1, vp2
-        W[f, 0], W[f, 1], W[f, 2] = w0, w1, w2
-        d0, d1, d2 = _cross(al0, al1, al2, px, py, pz)
-        e0, e1, e2 = _cross(w0, w1, w2, vp0, vp1, vp2)
-        A[f, 0], A[f, 1], A[f, 2] = ao0 + d0 + e0, ao1 + d1 + e1, ao2 + d2 + e2
-        Al[f, 0], Al[f, 1], Al[f, 2] = al0, al1, al2
-    table, E, dphi, bias = R.table, R.E, R.dphi, R.bias
-    for p in range(table.shape[0]):
-        code, i1, i2, r = table[p, 0], table[p, 1], table[p, 2], table[p, 3]
-        if code == POINT:
-            for i in range(3):
-                dphi[r + i] = V[i1, i] - V[i2, i]
-                bias[r + i] = A[i1, i] - A[i2, i]
-        elif code == PLANE:
-            for j in range(2):
-                ds = sb = 0.0
-                for i in range(3):
-                    e = E[p, j, i]
-                    ds += e * (V[i1, i] - V[i2, i])
-                    sb += e * (A[i1, i] - A[i2, i])
-                dphi[r + j], bias[r + j] = ds, sb
-        elif code == DOT:
-            a, b = table[p, 4], table[p, 5]
-            u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
-            x0, x1, x2 = H[i2, 0, b], H[i2, 1, b], H[i2, 2, b]
-            c0, c1, c2 = _cross(u0, u1, u2, x0, x1, x2)
-            dw0, dw1, dw2 = W[i1, 0] - W[i2, 0], W[i1, 1] - W[i2, 1], W[i1, 2] - W[i2, 2]
-            dphi[r] = c0 * dw0 + c1 * dw1 + c2 * dw2
-            du0, du1, du2 = _cross(W[i1, 0], W[i1, 1], W[i1, 2], u0, u1, u2)
-            dx0, dx1, dx2 = _cross(W[i2, 0], W[i2, 1], W[i2, 2], x0, x1, x2)
-            p0, p1, p2 = _cross(du0, du1, du2, x0, x1, x2)
-            q0, q1, q2 = _cross(u0, u1, u2, dx0, dx1, dx2)
-            bias[r] = (c0 * (Al[i1, 0] - Al[i2, 0]) + c1 * (Al[i1, 1] - Al[i2, 1]) + c2 * (Al[i1, 2] - Al[i2, 2])
-                       + (p0 + q0) * dw0 + (p1 + q1) * dw1 + (p2 + q2) * dw2)
-        elif code == PERP:
-            a = table[p, 4]
-            u0, u1, u2 = H[i1, 0, a], H[i1, 1, a], H[i1, 2, a]
-            d0, d1, d2 = H[i2, 0, 3] - H[i1, 0, 3], H[i2, 1, 3] - H[i1, 1, 3], H[i2, 2, 3] - H[i1, 2, 3]
-            e0, e1, e2 = V[i2, 0] - V[i1, 0], V[i2, 1] - V[i1, 1], V[i2, 2] - V[i1, 2]
-            c0, c1, c2 = _cross(u0, u1, u2, d0, d1, d2)
-            w0, w1, w2 = W[i1, 0], W[i1, 1], W[i1, 2]
-            dphi[r] = u0 * e0 + u1 * e1 + u2 * e2 + c0 * w0 + c1 * w1 + c2 * w2
-            du0, du1, du2 = _cross(w0, w1, w2, u0, u1, u2)
-            f0, f1, f2 = _cross(du0, du1, du2, d0, d1, d2)
-            g0, g1, g2 = _cross(u0, u1, u2, e0, e1, e2)
-            bias[r] = (u0 * (A[i2, 0] - A[i1, 0]) + u1 * (A[i2, 1] - A[i1, 1]) + u2 * (A[i2, 2] - A[i1, 2])
-                       + c0 * Al[i1, 0] + c1 * Al[i1, 1] + c2 * Al[i1, 2]
-                       + du0 * e0 + du1 * e1 + du2 * e2 + (f0 + g0) * w0 + (f1 + g1) * w1 + (f2 + g2) * w2)
-        else:  # DIST
-            d0, d1, d2 = H[i1, 0, 3] - H[i2, 0, 3], H[i1, 1, 3] - H[i2, 1, 3], H[i1, 2, 3] - H[i2, 2, 3]
-            e0, e1, e2 = V[i1, 0] - V[i2, 0], V[i1, 1] - V[i2, 1], V[i1, 2] - V[i2, 2]
-            nd = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            n0, n1, n2 = d0 / nd, d1 / nd, d2 / nd
-            ndd = n0 * e0 + n1 * e1 + n2 * e2
-            dphi[r] = ndd
-            bias[r] = (n0 * (A[i1, 0] - A[i2, 0]) + n1 * (A[i1, 1] - A[i2, 1]) + n2 * (A[i1, 2] - A[i2, 2])
-                       + (e0 * e0 + e1 * e1 + e2 * e2 - ndd * ndd) / nd)
-    phi, gamma, iv = R.phi, R.gamma, R.iv
+    constraint_rows_positions call: frame velocities and zero-ddq accelerations from the passes'
+    J and dJ, every row's J v + Phi_t, bias and gamma (Phi and J kept)."""
+    frame_velocities(R.H, R.mask, R.J, R.dJ, v, R.V, R.W, R.A, R.Al)
+    closure_velocities(R.table, R.E, R.H, R.V, R.W, R.A, R.Al, R.dphi, R.bias)
+    phi, dphi, bias, gamma, iv = R.phi, R.dphi, R.bias, R.gamma, R.iv
     mc = phi.shape[0] - iv.shape[0]
     for k in range(iv.shape[0]):
         r = mc + k
