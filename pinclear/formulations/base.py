@@ -58,7 +58,10 @@ class Formulation(abc.ABC):
          constraint solve, OK when not watched, RANK or NONFINITE);
        - ``project``: the projection of the state buffer's (q, v) onto the constraint manifold
          (``supports_projection``), returning a code (negative: failed);
-       - ``mass``: whether Pinocchio's passes must compute the mass matrix.
+       - ``mass``: whether Pinocchio's passes must compute the mass matrix;
+       - ``placements``: whether the run computes the joint placements the kernels read
+         (``ws.fk``) after the passes; False when the ``before`` stages leave them at the
+         evaluated q (the manifold method's projection ends at its q).
        The Python path computes the same thing with the same kernels on the same buffers:
        :meth:`accelerations` leaves the evaluation's code in ``self.code`` and raises
        RankLossError where the code says rank loss, :meth:`project` moves (q, v) as the
@@ -176,6 +179,7 @@ class Compiled(NamedTuple):
     solve: tuple = ()
     project: tuple = ()
     mass: bool = True
+    placements: bool = True
 
 
 def apply_forces(mech, ws, t, q, v, z):

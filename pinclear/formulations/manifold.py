@@ -145,13 +145,15 @@ class Manifold(Formulation):
         return self._stages
 
     def compiled(self):
-        """The projection P as a ``before`` stage (M is left at the projected q: mass=False), the
-        solve, the exact projection after steps (the drive values first: the run evaluates them
-        before any ``before`` stage, the projection needs its own)."""
+        """The projection P as a ``before`` stage (M and the joint placements are left at the
+        projected q: mass=False, placements=False), the solve, the exact projection after steps
+        (the drive values first: the run evaluates them before any ``before`` stage, the
+        projection needs its own)."""
         before, exact, solve, _ = self._bound()
         if self.mech.m == 0:
             return Compiled(solve=(solve,))
-        return Compiled(before=(before,), solve=(solve,), project=self.drive_stages() + (exact,), mass=False)
+        return Compiled(before=(before,), solve=(solve,), project=self.drive_stages() + (exact,), mass=False,
+                        placements=False)
 
     # -------------------------------------------------------------- Python path (the same kernels)
     def project(self, t, q, v):

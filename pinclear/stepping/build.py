@@ -136,7 +136,7 @@ def _compiled_stages(form, errors, g):
             for f, d, z, zdot in zip(mech.forces, ws.force_data, ws.z_views, ws.zdot_views)]
     frames = any(m is None for m in made)          # an element in Python reads data.oMf
     stages = list(form.drive_stages()) + list(comp.before) + [native.passes_stage(mech, ws, comp.mass, errors, frames)]
-    if native.available():
+    if native.available() and comp.placements:
         stages.append(_placements(mech, ws, errors))
     if mech.forces:
         stages.append(bind(zero, (ws.tau,), name="zero forces"))
