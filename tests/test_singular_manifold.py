@@ -93,7 +93,7 @@ def test_shifted_solve_is_the_eigenvalue_filter(m):
     1e-14 .. 1e2, through the filter's knee at mu^2. Bound: both errors are ~ m eps cond(S + i mu^2)
     <= m eps (s_max / mu^2) <= m^2 1e4 eps (mu^2 = 1e-4 mean(diag S)) in units of max g = 1 / (2 mu^2)
     times |r|: 4.4e-10 at m = 20; asserted 1e-9 (observed 2e-11 over 1200 draws)."""
-    from pinclear.formulations.manifold import filtered_solve, shifted_factor
+    from pinclear.formulations.manifold import filtered_solve_ws, shifted_factor
     rng = np.random.default_rng(m)
     for _ in range(50):
         Qm, _r = np.linalg.qr(rng.standard_normal((m, m)))
@@ -106,7 +106,7 @@ def test_shifted_solve_is_the_eigenvalue_filter(m):
         ref = V @ (s / (s * s + mu2 * mu2) * (V.T @ r))
         Fr, Fi, w = np.zeros((m, m)), np.zeros((m, m)), np.zeros(m)
         shifted_factor(S, 1e-2, Fr, Fi)
-        filtered_solve(Fr, Fi, r, w)
+        filtered_solve_ws(Fr, Fi, r, w, np.zeros(m), np.zeros(m))
         assert np.abs(w - ref).max() <= 1e-9 * np.abs(r).max() / (2 * mu2)
 
 

@@ -76,7 +76,7 @@ class ManifoldWork(NamedTuple):
     Qg: np.ndarray       # (m, nv) pivoted QR of J^T (the Gauss-Newton step)
     pg: np.ndarray
     hg: np.ndarray
-    yr: np.ndarray       # (m,) filtered_solve's complex work, real and imaginary parts
+    yr: np.ndarray       # (m,) filtered_solve_ws's complex work, real and imaginary parts
     yi: np.ndarray
     v1: np.ndarray       # (nv,) the projected velocity
     r: np.ndarray        # (m,) work
@@ -417,16 +417,9 @@ def shifted_factor(S, mu, Fr, Fi):
 
 
 @njit(cache=True)
-def filtered_solve(Fr, Fi, r, w):
-    """w = g(S) r = Re[(S + i mu^2 I)^-1 r] from shifted_factor's L D L^T."""
-    m = r.shape[0]
-    filtered_solve_ws(Fr, Fi, r, w, np.empty(m), np.empty(m))
-
-
-@njit(cache=True)
 def filtered_solve_ws(Fr, Fi, r, w, yr, yi):
-    """filtered_solve with its complex work vector in (yr, yi) (real and imaginary parts): the
-    kernels' form, which allocates nothing."""
+    """w = g(S) r = Re[(S + i mu^2 I)^-1 r] from shifted_factor's L D L^T, with the complex work
+    vector in (yr, yi) (real and imaginary parts), so nothing is allocated."""
     m = r.shape[0]
     for i in range(m):
         s = complex(r[i], 0.0)
