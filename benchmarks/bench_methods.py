@@ -18,6 +18,11 @@ every step and on every output sample: 101 here, as many as the evaluations of a
 scene's 0.5 s). The column "rhs us" separates the right-hand side itself: the run's compiled
 evaluation (pinclear.stepping.system.evaluate on the run's System) timed alone in a compiled
 loop over the run's samples, and "rhs / lagrange" its ratio to lagrange's at the same states.
+Samples of a projecting method lie on the constraint manifold; the stage states an integrator
+evaluates do not, and the manifold formulation's Gauss-Newton iterations grow with their
+distance. "stages us" times the same compiled evaluation at the run's own stage states (every
+state the run evaluated, recorded from the Python path, which takes the same steps), "stages /
+lagrange" against lagrange's at its own run's stage states.
 
 Targets: every (scene, method) within 3x the floor; proximal and manifold within 2x lagrange.
 """
@@ -31,6 +36,7 @@ import warnings
 import numpy as np
 
 import time
+from unittest import mock
 
 from pinclear import formulations, kinematics, load
 from pinclear.bench import pinocchio_floor, scenes
@@ -72,16 +78,40 @@ def _evaluate_all(system, T, X, dx, repeat):
             evaluate(system, T[k], X[k], dx)
 
 
-def rhs_cost(mech, method, tr, repeat=5, inner=20):
-    """Seconds per evaluation of the method's compiled right-hand side at the run's samples
-    (rows chosen at the first sample as simulate chooses them), in a compiled loop: best mean
-    of ``repeat`` timings of ``inner`` sweeps."""
+def stage_states(mech, method, t_end):
+    """(t, q, v, z) of every evaluation of the run measure() times, in order: the same run on the
+    Python path (the same steps: tests/test_fastloop.py), its formulation's accelerations
+    wrapped to record the states they are called with. The trajectory's outputs evaluate the
+    accelerations once more at every sample after the integration: those calls are dropped."""
+    cls = formulations.get(method)
+    real, seen = cls.accelerations, []
+
+    def record(self, t, q, v, z):
+        seen.append((float(t), np.array(q), np.array(v), np.array(z)))
+        return real(self, t, q, v, z)
+
+    with warnings.catch_warnings(), mock.patch.object(cls, "accelerations", record):
+        warnings.simplefilter("ignore")
+        tr = simulate(mech, t_end, method=method, rtol=1e-6, max_cpu=120.0, dt_out=t_end / 100, loop="python")
+    n = tr.stats["rhs_evals"]
+    if len(seen) != n + len(tr.t):
+        raise RuntimeError(f"{mech.name} {method}: {len(seen)} evaluations recorded, expected the run's {n} and "
+                           f"one per sample ({len(tr.t)})")
+    return seen[:n]
+
+
+def rhs_cost(mech, method, tr, repeat=5, inner=20, states=None):
+    """Seconds per evaluation of the method's compiled right-hand side at the run's samples, or at
+    ``states`` ((t, q, v, z) tuples: stage_states) (rows chosen at the first sample as simulate
+    chooses them), in a compiled loop: best mean of ``repeat`` timings of ``inner`` sweeps."""
     form = formulations.get(method)(mech)
     J = kinematics.jacobian(mech, form.ws, tr.q[0], float(tr.t[0]), with_drives=True)
     form.use_rows(kinematics.rank_analysis(J, mech.row_names())[1])
     ev = Evaluation(form)
-    X = np.array([ev.pack(tr.q[k], tr.v[k], tr.z[k]) for k in range(len(tr.t))])
-    T = np.ascontiguousarray(tr.t, float)
+    if states is None:
+        states = [(tr.t[k], tr.q[k], tr.v[k], tr.z[k]) for k in range(len(tr.t))]
+    X = np.array([ev.pack(q, v, z) for _, q, v, z in states])
+    T = np.array([t for t, _, _, _ in states], dtype=float)
     dx = np.empty(X.shape[1])
     _evaluate_all(ev.system, T, X, dx, 1)            # warm-up
     best = np.inf
@@ -102,13 +132,14 @@ def main(argv=None):
     p.add_argument("--json", help="write the rows to this file")
     a = p.parse_args(argv)
     rows = []
-    print("| scene | method | status | loop | evals | us/eval | floor us | / floor | / lagrange | rhs us | rhs / lagrange |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| scene | method | status | loop | evals | us/eval | floor us | / floor | / lagrange | rhs us | rhs / lagrange "
+          "| stages us | stages / lagrange |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for label, path, clr in scenes():
         if a.scenes and label not in a.scenes:
             continue
         mech = load(path, clearances=clr or None)
-        ref = ref_rhs = None
+        ref = ref_rhs = ref_stages = None
         for method in a.methods:
             try:
                 tr, cost, floor = measure(mech, method, a.t_end, a.repeat, a.budget)
@@ -118,20 +149,23 @@ def main(argv=None):
                 print(f"| {label} | {method} | {row['status'][:60]} | | | | | | | | |", flush=True)
                 continue
             rhs = rhs_cost(mech, method, tr) if len(tr.t) > 1 else np.nan
+            stages = rhs_cost(mech, method, tr, states=stage_states(mech, method, a.t_end)) if len(tr.t) > 1 else np.nan
             if method == "lagrange":
-                ref, ref_rhs = cost, rhs
+                ref, ref_rhs, ref_stages = cost, rhs, stages
             loop = tr.stats["loop"]
             row = {"scene": label, "method": method, "status": tr.status, "t_reached": float(tr.t[-1]),
                    "loop": loop, "rhs_evals": tr.stats["rhs_evals"], "us_per_eval": 1e6 * cost,
                    "floor_us": 1e6 * floor, "over_floor": cost / floor,
                    "over_lagrange": cost / ref if ref else float("nan"), "rhs_us": 1e6 * rhs,
-                   "rhs_over_lagrange": rhs / ref_rhs if ref_rhs else float("nan")}
+                   "rhs_over_lagrange": rhs / ref_rhs if ref_rhs else float("nan"), "stages_us": 1e6 * stages,
+                   "stages_over_lagrange": stages / ref_stages if ref_stages else float("nan")}
             rows.append(row)
             status = tr.status if tr.status == "success" else f"{tr.status} at {tr.t[-1]:.3g}"
             print(f"| {label} | {method} | {status} | {'compiled' if loop == 'compiled' else 'python'} | "
                   f"{row['rhs_evals']} | {row['us_per_eval']:.1f} | {row['floor_us']:.1f} | "
                   f"{row['over_floor']:.2f} | {row['over_lagrange']:.2f} | {row['rhs_us']:.1f} | "
-                  f"{row['rhs_over_lagrange']:.2f} |", flush=True)
+                  f"{row['rhs_over_lagrange']:.2f} | {row['stages_us']:.1f} | {row['stages_over_lagrange']:.2f} |",
+                  flush=True)
     if a.json:
         with open(a.json, "w") as fh:
             json.dump(rows, fh, indent=1)
