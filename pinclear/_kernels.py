@@ -551,6 +551,29 @@ def joint_placements(parent, jP, kind, axis, iq, q, O, want, Hj):
         Hj[k, :, :] = O[want[k]]
 
 
+@njit(cache=True)
+def joint_placements_jacobians(parent, jP, kind, axis, iq, q, O, want, Hj, J):
+    """joint_placements, then the tree's WORLD joint Jacobian J (6, nv; linear rows first, the
+    velocity of the body point at the world origin, as Pinocchio's computeJointJacobians) from
+    the placements: joint j's column is its motion axis carried to the world, a = R_j axis[j],
+    with (p_j x a; a) for a revolute joint through p_j and (a; 0) for a prismatic one. For the
+    projections' Gauss-Newton iterates, which need placements and J and nothing else of
+    Pinocchio's position pass (a 1-dof tree has q and v indices equal: q[iq[j]] moves column
+    iq[j])."""
+    joint_placements(parent, jP, kind, axis, iq, q, O, want, Hj)
+    for j in range(1, parent.shape[0]):
+        ax, ay, az = axis[j, 0], axis[j, 1], axis[j, 2]
+        a0 = O[j, 0, 0] * ax + O[j, 0, 1] * ay + O[j, 0, 2] * az
+        a1 = O[j, 1, 0] * ax + O[j, 1, 1] * ay + O[j, 1, 2] * az
+        a2 = O[j, 2, 0] * ax + O[j, 2, 1] * ay + O[j, 2, 2] * az
+        k = iq[j]
+        if kind[j] == J_REVOLUTE:
+            c0, c1, c2 = _cross(O[j, 0, 3], O[j, 1, 3], O[j, 2, 3], a0, a1, a2)
+            J[0, k], J[1, k], J[2, k], J[3, k], J[4, k], J[5, k] = c0, c1, c2, a0, a1, a2
+        else:
+            J[0, k], J[1, k], J[2, k], J[3, k], J[4, k], J[5, k] = a0, a1, a2, 0.0, 0.0, 0.0
+
+
 
 @njit(cache=True)
 def proximal_factor(S, rho, F, d):

@@ -273,3 +273,30 @@ def test_clearance_force_stages_equal_the_direct_calls(scene, name):
             assert np.array_equal(a, b)
         seen_contact += bool((d.delta > 0).any())
     assert seen_contact >= 3
+
+
+@pytest.mark.parametrize("name", ["four_bar", "nine_bar", "four_ups_upu", "three_upru_up", "squeezer",
+                                  "clr_slider", "a04_bricard"])
+def test_joint_jacobians_from_the_placements_equal_pinocchios(name):
+    """The projections' iterates take the WORLD joint Jacobian of a 1-dof tree from the compiled
+    placements (pinclear._kernels.joint_placements_jacobians) instead of Pinocchio's
+    computeJointJacobians: both, at random configurations (revolute and prismatic joints,
+    serial and branched trees), agree to rounding (a column is a unit axis and a point's cross
+    product with it, so 1e-12 of the placements' scale)."""
+    from pinclear._kernels import joint_placements_jacobians
+
+    mech = pinclear.load(name)
+    model, data = mech.model, mech.model.createData()
+    chain = kinematics.joint_chain(model)
+    assert chain is not None
+    n = model.njoints
+    O, Hj, J = np.zeros((n, 4, 4)), np.zeros((n, 4, 4)), np.full((6, model.nv), np.nan)
+    rng = np.random.default_rng(7)
+    for _ in range(10):
+        q = pin.integrate(model, mech.q0, rng.uniform(-1.5, 1.5, model.nv))
+        pin.computeJointJacobians(model, data, q)
+        joint_placements_jacobians(*chain, q, O, np.arange(n, dtype=np.int64), Hj, J)
+        scale = 1.0 + max(np.abs(data.oMi[j].translation).max() for j in range(n))
+        assert np.abs(J - data.J).max() <= 1e-12 * scale
+        for j in range(n):
+            assert np.abs(Hj[j] - data.oMi[j].homogeneous).max() <= 1e-12 * scale
