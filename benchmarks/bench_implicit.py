@@ -55,8 +55,6 @@ def _rober_py(t, y):
     return [-0.04 * y[0] + 1e4 * y[1] * y[2], 0.04 * y[0] - 1e4 * y[1] * y[2] - 3e7 * y[1] ** 2, 3e7 * y[1] ** 2]
 
 
-
-
 class Ode:
     """A System around a callback reading x from the head of one buffer and writing its rates
     after it (the first nc states have dc/dt = v)."""

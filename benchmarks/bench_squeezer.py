@@ -12,7 +12,7 @@ default target 1e-8 lies above that floor.
 Ladders: rtol 1e-4 ... 1e-12 (atol = rtol / 100) for the adaptive integrators; for a fixed-step
 integrator (RK4) the step h = 1e-4 s (rtol / 1e-4)^(1/4), whose global error O(h^4) falls by the
 same factor per rung. Integrators: every entry of ``pinclear.stepping.INTEGRATORS`` at run
-time (the engine is being rewritten; nothing is hard-coded); methods lagrange and projection.
+time (nothing is hard-coded); methods lagrange and projection.
 A (method, integrator) pair the engine refuses (an InputError) is recorded as skipped with the
 reason. A ladder stops once one of its points costs more than ``--point-budget`` CPU s (tighter
 points would cost more).

@@ -574,7 +574,6 @@ def joint_placements_jacobians(parent, jP, kind, axis, iq, q, O, want, Hj, J):
             J[0, k], J[1, k], J[2, k], J[3, k], J[4, k], J[5, k] = a0, a1, a2, 0.0, 0.0, 0.0
 
 
-
 @njit(cache=True)
 def proximal_factor(S, rho, F, d):
     """Cholesky S + rho I = F F^T (lower, its transpose mirrored into the upper triangle so both

@@ -43,7 +43,8 @@ def available() -> bool:
 
 #: the flags of pinclear_passes (passes.cpp): frame placements, the mass matrix; the position
 #: level instead of an evaluation's passes (placements and Jacobians at q, with FRAMES and MASS
-#: as asked); the mass matrix alone
+#: as asked: the projections' iterates on trees the compiled joint chain does not cover, the
+#: others take J from it, pinclear.formulations.projection.at_positions); the mass matrix alone
 FRAMES, MASS, POSITIONS, MASS_ONLY = 1, 2, 4, 8
 
 

@@ -193,10 +193,6 @@ def test_bad_evaluations_without_end_stop_the_run():
     assert abs(st.V[0, 0] - np.exp(-st.r[T])) < 1e-5
 
 
-# Test Set reference solutions (Mazzia & Magherini, Test Set for IVP Solvers, release 2.4,
-# problems VDPOL and ROBER)
-
-
 @pytest.mark.parametrize("rtol", [1e-5, 1e-7])
 def test_van_der_pol_test_set(rtol):
     """VDPOL at t = 2 (eps = 1e-6: stiffness 1e6): each component within 10 rtol of the Test

@@ -41,13 +41,13 @@ import numpy as np
 from .. import kinematics
 from .._jit import njit
 from .._kernels import (Solve, constraint_rows_positions, constraint_rows_velocities, lagrange_accel, ltl_factor,
-                        ltl_solve, ltl_solve_t, min_norm_solve, min_norm_x, project_out, qr_pivoted,
+                        ltl_solve, ltl_solve_t, min_norm_solve, project_out, qr_pivoted,
                         schur_complement)
 from ..errors import InputError
 from ..stepping.call import ERROR, OK, RANK
 from ..stepping.stage import T, bind
 from .base import Compiled, Formulation
-from .projection import at_positions, iterations, ltl_mul, mass_only, move, position_passes
+from .projection import at_positions, iterations, ltl_mul, mass_only, min_norm_step, move, position_passes
 
 
 class ManifoldWork(NamedTuple):
@@ -190,20 +190,6 @@ class Manifold(Formulation):
 
 # ------------------------------------------------------------------ kernels
 @njit(cache=True)
-def gauss_newton_step(R, rcond, Qr, piv, hb, dq):
-    """dq = -J^+ Phi from the rows in R (minimum norm, every row): one Gauss-Newton step."""
-    Jc, phi = R.Jc, R.phi
-    m, nv = Jc.shape
-    for r in range(m):
-        for c in range(nv):
-            Qr[r, c] = Jc[r, c]
-    k = qr_pivoted(Qr, piv, hb, rcond)
-    min_norm_x(Qr, piv, hb, k, phi, dq)
-    for i in range(nv):
-        dq[i] = -dq[i]
-
-
-@njit(cache=True)
 def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
     """(q, v) <- P(q, v) in the state buffer (module doc, steps 1-2): at least one minimum-norm
     Gauss-Newton step from q (more while |Phi| > tol, at most max_iter; each iterate costs the
@@ -216,7 +202,7 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
         return ERROR
     constraint_rows_positions(R, q, zero, W.fdrv)
     for _ in range(max_iter):
-        gauss_newton_step(R, rcond, W.Qg, W.pg, W.hg, P.dq)
+        min_norm_step(R.Jc, R.phi, W.rows, W.Qg, W.pg, W.hg, W.r, rcond, P.dq)
         if move(P, t) == ERROR or at_positions(P, 0, t) == ERROR:
             return ERROR
         constraint_rows_positions(R, q, zero, W.fdrv)

@@ -173,22 +173,32 @@ def _filtered(W, k_prox, rho_rel):
 
 
 @njit(cache=True)
-def gauss_newton_step(R, W, rcond, k_prox, rho_rel, dq):
-    """dq = -J^+ Phi over W.rows (k_prox = 0: minimum norm by J^T's pivoted QR), or
-    dq = -J^T f(J J^T) Phi with the proximal filter f of k_prox iterations."""
-    Jc, phi, rows, r = R.Jc, R.phi, W.rows, W.r
+def min_norm_step(Jc, phi, rows, Qr, piv, hb, r, rcond, dq):
+    """dq = -J^+ Phi over ``rows``, minimum norm (J^T's pivoted QR in Qr, pivots below rcond
+    dropped; r: work of len(rows)): one Gauss-Newton step of the projections and the manifold
+    formulation."""
     m, nv = rows.shape[0], dq.shape[0]
     for i in range(m):
         r[i] = phi[rows[i]]
-    if k_prox == 0:
-        for i in range(m):
-            for c in range(nv):
-                W.Qr[i, c] = Jc[rows[i], c]
-        kk = qr_pivoted(W.Qr, W.piv, W.hb, rcond)
-        min_norm_x(W.Qr, W.piv, W.hb, kk, r, dq)
         for c in range(nv):
-            dq[c] = -dq[c]
+            Qr[i, c] = Jc[rows[i], c]
+    kk = qr_pivoted(Qr, piv, hb, rcond)
+    min_norm_x(Qr, piv, hb, kk, r, dq)
+    for c in range(nv):
+        dq[c] = -dq[c]
+
+
+@njit(cache=True)
+def gauss_newton_step(R, W, rcond, k_prox, rho_rel, dq):
+    """dq = -J^+ Phi over W.rows (k_prox = 0: min_norm_step), or dq = -J^T f(J J^T) Phi with the
+    proximal filter f of k_prox iterations."""
+    Jc, phi, rows, r = R.Jc, R.phi, W.rows, W.r
+    if k_prox == 0:
+        min_norm_step(Jc, phi, rows, W.Qr, W.piv, W.hb, r, rcond, dq)
         return
+    m, nv = rows.shape[0], dq.shape[0]
+    for i in range(m):
+        r[i] = phi[rows[i]]
     S = W.S
     for i in range(m):
         for j in range(i + 1):

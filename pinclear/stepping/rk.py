@@ -17,7 +17,6 @@ from .state import (ATOL, DENSE, F, F_OLD, H_ABS, H_FIXED, H_PREV, H_START, RK_D
 from .system import evaluate
 
 
-
 def rk45():
     c = spi.RK45
     return tableau(RK_EMBEDDED, c.error_estimator_order, A=c.A, B=c.B, C=c.C, E=c.E, P=c.P)

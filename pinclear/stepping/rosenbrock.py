@@ -57,9 +57,9 @@ import numpy as np
 from .._jit import njit
 from .base import Method
 from .checks import BAD, FAILED, RESELECT, observe
-from .control import ACCEPTED, ASK_RESELECT, GO_ON, STAGE_ERROR, TOO_SMALL, begin, grown, outcome, propose, shrunk
+from .control import ACCEPTED, GO_ON, TOO_SMALL, begin, grown, outcome, propose, shrunk
 from .rk import accept
-from .state import (ATOL, F, H_ABS, H_START, NJAC, ROSENBROCK, RTOL, T,
+from .state import (ATOL, F, H_ABS, NJAC, ROSENBROCK, RTOL, T,
                     T_BOUND, XB, DX, Y, Y_NEW, YS, tableau)
 from .system import evaluate
 
@@ -412,6 +412,22 @@ def error_norm(tab, st, r0, m, p, sigma, filtered):
 
 
 @njit(cache=True)
+def fresh_jacobian(sys, st, t, r0, m, p):
+    """A new Jacobian at the step's start (t, y), W's factor to be redone: GO_ON, or the step's
+    outcome (pinclear.stepping.control.outcome) when one of its evaluations failed or asked for
+    other constraint rows; the incomplete Jacobian is then marked NONE (computed again)."""
+    W = st.W
+    o = outcome(jacobian(sys, st, t, r0, m, p), st.r, st.i)
+    if o != GO_ON:
+        _set(W, J_STATE, NONE)
+        return o
+    _set(W, J_STATE, FRESH)
+    _set(W, J_AGE, 0.0)
+    _set(W, LU_H, 0.0)
+    return GO_ON
+
+
+@njit(cache=True)
 def rosenbrock_step(sys, tab, st):
     """One accepted step from (t, y, f) with the conventions of rk.rk_step: TOO_SMALL,
     BAD_EVALS (more than MAX_BAD bad evaluations in a row), ASK_RESELECT (nothing changed; the
@@ -431,14 +447,9 @@ def rosenbrock_step(sys, tab, st):
     gamma = tab.gamma
     rejected = False
     if _get(W, J_STATE) == NONE:
-        v = jacobian(sys, st, t, r0, m, p)
-        if v == FAILED:
-            return STAGE_ERROR
-        if v == RESELECT:
-            return ASK_RESELECT
-        _set(W, J_STATE, FRESH)
-        _set(W, J_AGE, 0.0)
-        _set(W, LU_H, 0.0)
+        o = fresh_jacobian(sys, st, t, r0, m, p)
+        if o != GO_ON:
+            return o
     while True:
         if h_abs < min_step:
             r[H_ABS] = h_abs
@@ -480,16 +491,9 @@ def rosenbrock_step(sys, tab, st):
         rejected = True
         if err == err and _get(W, J_STATE) != FRESH:
             # rejected by the error test with a Jacobian of an earlier state: W may be what failed
-            v = jacobian(sys, st, t, r0, m, p)
-            if v == FAILED:
-                return STAGE_ERROR
-            if v == RESELECT:
-                _set(W, J_STATE, NONE)
-                r[H_ABS] = r[H_START]
-                return ASK_RESELECT
-            _set(W, J_STATE, FRESH)
-            _set(W, J_AGE, 0.0)
-            _set(W, LU_H, 0.0)
+            o = fresh_jacobian(sys, st, t, r0, m, p)
+            if o != GO_ON:
+                return o
 
 
 # --------------------------------------------------------------------------------- the method
