@@ -191,6 +191,8 @@ class Workspace:
         self.a = np.zeros(nv)         # accelerations, written by the formulation's solve
         self.zero_v = np.zeros(nv)
         self.lam = np.zeros(m)
+        #: Gauss-Newton steps the last projection took (pinclear.formulations.projection)
+        self.gn_steps = np.zeros(1, dtype=np.int64)
         self.drive_data = mech.driverows.create_data()
         self.force_data = [f.create_data(mech) for f in mech.forces]
 

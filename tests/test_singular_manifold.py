@@ -261,3 +261,45 @@ def test_near_flat_the_crank_acceleration_is_the_branch_one(n):
             a = form.accelerations(0.0, q + 1e-12 * rng.standard_normal(model.nq),
                                    v + 1e-12 * rng.standard_normal(model.nv), np.zeros(0))
             assert abs(a[ic] - exact) < 1e-8
+
+
+# ---------------------------------------------------------------------------- projection iterations
+def _residual(mech, q, t=0.0):
+    return np.abs(kinematics.closure_residual(mech, mech.workspace(), q, t, with_drives=True)).max()
+
+
+def test_proximal_projection_near_flat_ends_where_its_steps_stop_converging():
+    """A02 N = 10 a few 1e-4 rad from flat, moved 1e-9 off the manifold: the proximal steps filter
+    the vanishing direction, so the residual stalls at ~1e-11, above tol = 1e-12 (measured:
+    1e-8 -> 1.8e-11, then the same residual for all 30 steps). The projection must end once a
+    step stops reducing it (projection.stalled), not run max_iter steps, and still leave the
+    residual 100x below where it started."""
+    mech = pinclear.load(B.a02_name(10))
+    traj = pinclear.simulate(mech, 0.35, method="proximal", rtol=1e-8)
+    k = int(np.argmin(np.abs(np.sin(traj.q[:, 0]))))
+    assert abs(math.sin(traj.q[k, 0])) < 1e-2                  # near flat
+    rng = np.random.default_rng(0)
+    q = traj.q[k] + 1e-9 * rng.standard_normal(mech.nq)
+    form = formulations.get("proximal")(mech)
+    q1, v1 = form.project(traj.t[k], q, traj.v[k])
+    steps, res0, res1 = int(form.ws.gn_steps[0]), _residual(mech, q, traj.t[k]), _residual(mech, q1, traj.t[k])
+    assert 1 <= steps < form.opts["max_iter"] // 2
+    assert res1 < 1e-2 * res0
+
+
+@pytest.mark.parametrize("method", ["projection", "manifold"])
+def test_minimum_norm_projection_reaches_the_rounding_floor_then_stops(parallelogram, method):
+    """With tol = 1e-300 (never met) the minimum-norm Gauss-Newton steps converge quadratically
+    on a regular configuration and more slowly at the flat one (moved 1e-3 along the first or
+    the last joint; along the first: residuals 1.5e-7, 3.1e-8, 2.5e-9, 1.0e-11, 2e-16, the
+    second step gaining only 4.8x), down to Phi's rounding floor (a few eps at link lengths of
+    order 1), where the next step stops reducing it: they must get there (a stall test stopping
+    at a slow step, STALL = 0.2, ends at 3.1e-8) and end there instead of running
+    max_iter = 50 steps."""
+    mech = parallelogram
+    form = formulations.get(method)(mech, tol=1e-300, max_iter=50)
+    for th, off in ((0.3, 1e-6 * np.array([1.0, 2.0, -1.0])), (0.0, np.array([1e-3, 0.0, 0.0])),
+                    (1e-9, np.array([0.0, 0.0, 1e-3]))):
+        q1, _ = form.project(0.0, th * U + off, 2.0 * U)
+        assert _residual(mech, q1) < 1e-14
+        assert int(form.ws.gn_steps[0]) < 50

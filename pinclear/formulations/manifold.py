@@ -4,7 +4,8 @@ formulation"). At every evaluation, from the stage state (q, v):
 
 1. q1 = P(q): Gauss-Newton on Phi(q, t) = 0 with minimum-norm steps -J^+ Phi (Householder QR of
    J^T with column pivoting), moved with pin.integrate; always at least one step, so q1 is the
-   same function of q whatever the stage's residual; more only while |Phi| > ``tol``;
+   same function of q whatever the stage's residual; more only while |Phi| > ``tol`` and each
+   step reduces it (pinclear.formulations.projection.stalled: not at Phi's rounding floor);
 2. v1 = v - M^-1 J^T g(S) (J v + Phi_t) at q1, with S = J M^-1 J^T = B B^T (B = J L^-1,
    M = L^T L tree-sparse, pinclear._kernels.ltl_factor) and the filter g(s) = s / (s^2 + mu^4)
    (mu^2 relative to mean(diag S)): S^-1 where s >> mu^2, nothing along the directions that
@@ -47,7 +48,7 @@ from ..errors import InputError
 from ..stepping.call import ERROR, OK, RANK
 from ..stepping.stage import T, bind
 from .base import Compiled, Formulation
-from .projection import at_positions, iterations, ltl_mul, mass_only, min_norm_step, move, position_passes
+from .projection import at_positions, iterations, ltl_mul, mass_only, min_norm_step, move, position_passes, stalled
 
 
 class ManifoldWork(NamedTuple):
@@ -192,31 +193,41 @@ class Manifold(Formulation):
 @njit(cache=True)
 def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
     """(q, v) <- P(q, v) in the state buffer (module doc, steps 1-2): at least one minimum-norm
-    Gauss-Newton step from q (more while |Phi| > tol, at most max_iter; each iterate costs the
-    position passes and the rows), then the mass matrix and the mass-metric velocity projection
-    at q1 (``exact`` 0: the stages' filtered one; 1: the exact one after steps). Leaves
-    M = L^T L, B = J L^-1, B^T's pivoted QR and the factor of S + i mu^2 I at q1 for
+    Gauss-Newton step from q (more while |Phi| > tol and each reduces it, at most max_iter;
+    each iterate costs the position passes and the rows), then the mass matrix and the
+    mass-metric velocity projection at q1 (``exact`` 0: the stages' filtered one; 1: the exact
+    one after steps). Leaves M = L^T L, B = J L^-1, B^T's pivoted QR and the factor of S + i mu^2 I at q1 for
     projected_accelerations. Returns OK, RANK (M not positive definite) or ERROR."""
     q, zero = P.q, P.zero_v
     if at_positions(P, 0, t) == ERROR:
         return ERROR
     constraint_rows_positions(R, q, zero, W.fdrv)
+    prev = _max_abs(R.phi)
+    P.steps[0] = 0
     for _ in range(max_iter):
         min_norm_step(R.Jc, R.phi, W.rows, W.Qg, W.pg, W.hg, W.r, rcond, P.dq)
         if move(P, t) == ERROR or at_positions(P, 0, t) == ERROR:
             return ERROR
+        P.steps[0] += 1
         constraint_rows_positions(R, q, zero, W.fdrv)
-        res = 0.0
-        for r in range(R.phi.shape[0]):
-            res = max(res, abs(R.phi[r]))
-        if res <= tol:
+        res = _max_abs(R.phi)
+        if res <= tol or stalled(res, prev):
             break
+        prev = res
     mass_only(P)
     if not velocity_projection(R, W, mu, rcond_v, exact):
         return RANK
     for c in range(W.v.shape[0]):
         W.v[c] = W.v1[c]
     return OK
+
+
+@njit(cache=True)
+def _max_abs(x):
+    res = 0.0
+    for r in range(x.shape[0]):
+        res = max(res, abs(x[r]))
+    return res
 
 
 @njit(cache=True)
