@@ -303,3 +303,20 @@ def test_minimum_norm_projection_reaches_the_rounding_floor_then_stops(parallelo
         q1, _ = form.project(0.0, th * U + off, 2.0 * U)
         assert _residual(mech, q1) < 1e-14
         assert int(form.ws.gn_steps[0]) < 50
+
+
+def test_manifold_on_a_redundant_closure_converges_with_rtol():
+    """A04 Bricard linkage: 5 closure rows, one redundant. Off the manifold by d the redundant
+    direction's singular value is O(d), so a Gauss-Newton rcond of 1e-13 kept it and amplified
+    Phi's rounding into steps of ~1e-8 along the linkage: q error 4.4e-4 at rtol 1e-6 and 2.2e-3
+    (14,687 evaluations) at rtol 1e-8. With rcond 1e-8 (measured: 2.0e-8 and 4.6e-10, 65 and
+    121 evaluations) the error must follow rtol. Reference: projection + DOP853 at rtol 1e-12
+    (the other formulation; lagrange at rtol 1e-6 is within 6e-8 of it)."""
+    mech = pinclear.load("a04_bricard")
+    ref = pinclear.simulate(mech, 0.5, method="projection", integrator="DOP853", rtol=1e-12)
+    err = {}
+    for rtol in (1e-6, 1e-8):
+        traj = pinclear.simulate(mech, 0.5, method="manifold", rtol=rtol)
+        assert traj.status == "success" and traj.stats["rhs_evals"] < 1000
+        err[rtol] = np.abs(traj.q - ref.q).max()
+    assert err[1e-6] < 1e-6 and err[1e-8] < 1e-8

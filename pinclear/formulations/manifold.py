@@ -3,9 +3,12 @@ state projected onto the constraint manifold (docs/singular_passages.md, "The ma
 formulation"). At every evaluation, from the stage state (q, v):
 
 1. q1 = P(q): Gauss-Newton on Phi(q, t) = 0 with minimum-norm steps -J^+ Phi (Householder QR of
-   J^T with column pivoting), moved with pin.integrate; always at least one step, so q1 is the
-   same function of q whatever the stage's residual; more only while |Phi| > ``tol`` and each
-   step reduces it (pinclear.formulations.projection.stalled: not at Phi's rounding floor);
+   J^T with column pivoting, pivots below ``rcond`` = 1e-8 of the largest dropped: a redundant
+   row's pivot is O(distance) off the manifold, and 1e-13 kept it near the manifold, amplifying
+   Phi's rounding into steps of ~1e-8 on the Bricard linkage), moved with pin.integrate; always
+   at least one step, so q1 is the same function of q whatever the stage's residual; more only
+   while |Phi| > ``tol`` and each step reduces it (pinclear.formulations.projection.stalled:
+   not at Phi's rounding floor);
 2. v1 = v - M^-1 J^T g(S) (J v + Phi_t) at q1, with S = J M^-1 J^T = B B^T (B = J L^-1,
    M = L^T L tree-sparse, pinclear._kernels.ltl_factor) and the filter g(s) = s / (s^2 + mu^4)
    (mu^2 relative to mean(diag S)): S^-1 where s >> mu^2, nothing along the directions that
@@ -89,7 +92,7 @@ class ManifoldWork(NamedTuple):
 
 class Manifold(Formulation):
     name = "manifold"
-    options = {"tol": 1e-12, "max_iter": 10, "rcond": 1e-13, "rcond_v": 1e-8, "mu": 1e-2, "tangent": 1e-3}
+    options = {"tol": 1e-12, "max_iter": 10, "rcond": 1e-8, "rcond_v": 1e-8, "mu": 1e-2, "tangent": 1e-3}
     # accelerations() leaves the pass of the projected state in ws.data, not the one of (q, v)
     fills_workspace = False
 
