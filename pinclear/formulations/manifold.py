@@ -51,7 +51,8 @@ from ..errors import InputError
 from ..stepping.call import ERROR, OK, RANK
 from ..stepping.stage import T, bind
 from .base import Compiled, Formulation
-from .projection import at_positions, iterations, ltl_mul, mass_only, min_norm_step, move, position_passes, stalled
+from .projection import (at_positions, iterations, ltl_mul, mass_only, min_norm_step, move, position_passes,
+                         row_residual, stalled)
 
 
 class ManifoldWork(NamedTuple):
@@ -199,13 +200,13 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
     Gauss-Newton step from q (more while |Phi| > tol and each reduces it, at most max_iter;
     each iterate costs the position passes and the rows), then the mass matrix and the
     mass-metric velocity projection at q1 (``exact`` 0: the stages' filtered one; 1: the exact
-    one after steps). Leaves M = L^T L, B = J L^-1, B^T's pivoted QR and the factor of S + i mu^2 I at q1 for
-    projected_accelerations. Returns OK, RANK (M not positive definite) or ERROR."""
+    one after steps). Leaves M = L^T L, B = J L^-1, B^T's pivoted QR and the factor of
+    S + i mu^2 I at q1 for projected_accelerations. Returns OK, RANK (M not positive definite) or ERROR."""
     q, zero = P.q, P.zero_v
     if at_positions(P, 0, t) == ERROR:
         return ERROR
     constraint_rows_positions(R, q, zero, W.fdrv)
-    prev = _max_abs(R.phi)
+    prev = row_residual(R.phi, W.rows)
     P.steps[0] = 0
     for _ in range(max_iter):
         min_norm_step(R.Jc, R.phi, W.rows, W.Qg, W.pg, W.hg, W.r, rcond, P.dq)
@@ -213,7 +214,7 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
             return ERROR
         P.steps[0] += 1
         constraint_rows_positions(R, q, zero, W.fdrv)
-        res = _max_abs(R.phi)
+        res = row_residual(R.phi, W.rows)
         if res <= tol or stalled(res, prev):
             break
         prev = res
@@ -223,14 +224,6 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
     for c in range(W.v.shape[0]):
         W.v[c] = W.v1[c]
     return OK
-
-
-@njit(cache=True)
-def _max_abs(x):
-    res = 0.0
-    for r in range(x.shape[0]):
-        res = max(res, abs(x[r]))
-    return res
 
 
 @njit(cache=True)

@@ -51,9 +51,10 @@ def stalled(res, prev):
     On A02 N = 10 near flat both leave residuals of 1e-11 to 2e-8 that 30 more steps reduce by
     less than 3x; every such projection used to run all ``max_iter`` steps: 59 of the 636
     projections of a 0.5 s proximal + ROS34PW2 run, a third of its CPU. A step that *raises*
-    the residual does not end them: on a redundant closure (the Bricard linkage) a minimum-norm
-    step from 1e-12 can land at 3e-8 through a pivot just above ``rcond``, and the next steps
-    come back below ``tol``. Newton's linear rate at a double root (1/2) is far from the bound."""
+    the residual does not end them: a minimum-norm step can jump through a pivot just above
+    ``rcond`` (on the Bricard linkage's redundant closure, with the manifold's rcond then 1e-13,
+    from 1e-12 to 3e-8) and the next steps come back below ``tol``. Newton's linear rate at a
+    double root (1/2) is far from the bound."""
     return STALL * prev <= res <= prev
 
 
@@ -180,7 +181,8 @@ def projector(form, rows):
 
 
 @njit(cache=True)
-def _row_residual(phi, rows):
+def row_residual(phi, rows):
+    """max |Phi| over ``rows``: the Gauss-Newton iterations' residual (projections, manifold)."""
     res = 0.0
     for i in range(rows.shape[0]):
         res = max(res, abs(phi[rows[i]]))
@@ -241,10 +243,10 @@ def gauss_newton_step(R, W, rcond, k_prox, rho_rel, dq):
 def project_state(P, R, W, t, tol, max_iter, rcond, k_prox, rho_rel):
     """The state buffer's (q, v) moved onto the constraint manifold over W.rows (module doc):
     Gauss-Newton steps while |Phi|_inf >= tol (at most max_iter, and while each reduces it:
-    :func:`stalled`), then the mass-metric velocity
-    projection at the last iterate. ``k_prox`` = 0: minimum-norm steps (pseudo-inverses by
-    pivoted QR, pivots below ``rcond`` dropped); > 0: the proximal filter of ``k_prox``
-    iterations with rho = ``rho_rel`` times the mean diagonal (pinclear.formulations.proximal).
+    :func:`stalled`), then the mass-metric velocity projection at the last iterate.
+    ``k_prox`` = 0: minimum-norm steps (pseudo-inverses by pivoted QR, pivots below ``rcond``
+    dropped); > 0: the proximal filter of ``k_prox`` iterations with rho = ``rho_rel`` times the
+    mean diagonal (pinclear.formulations.proximal).
     Returns OK, RANK (M not positive definite), NONFINITE, or ERROR (a Python stage raised)."""
     q, v, rows, zero = P.q, W.v, W.rows, P.zero_v
     m, nv = rows.shape[0], v.shape[0]
@@ -255,7 +257,7 @@ def project_state(P, R, W, t, tol, max_iter, rcond, k_prox, rho_rel):
         if at_positions(P, 0, t) == ERROR:
             return ERROR
         constraint_rows_all(R, 0.0, 0.0, q, zero, W.fdrv)
-        res = _row_residual(R.phi, rows)
+        res = row_residual(R.phi, rows)
         if res < tol or stalled(res, prev):
             settled = True
             break
