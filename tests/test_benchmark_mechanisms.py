@@ -71,8 +71,8 @@ def a02_runs():
     return runs
 
 
-@pytest.mark.parametrize("n, ref_tol", [(1, 1e-6), (2, 5e-5)])
-def test_a02_proximal_keeps_energy_closure_and_branch(a02_runs, n, ref_tol):
+@pytest.mark.parametrize("n, drift_tol, away_tol, ref_tol", [(1, 1e-4, 1e-7, 1e-4), (2, 2e-6, 1e-6, 5e-5)])
+def test_a02_proximal_keeps_energy_closure_and_branch(a02_runs, n, drift_tol, away_tol, ref_tol):
     """10 s, DOP853, proximal (default rho 1e-4): 14 flat passages. Convergence study (this
     machine; drift relative to max kinetic energy; crank-angle error against the branch pendulum):
 
@@ -82,15 +82,30 @@ def test_a02_proximal_keeps_energy_closure_and_branch(a02_runs, n, ref_tol):
 
     closure <= 1e-12 and branch spread <= 2.3e-9 throughout. For N = 2 the error stops falling
     with rtol: it is the regularisation's, not the integrator's (at rtol 1e-10: rho 1e-3 gives
-    drift 4.4e-6, 1e-4 4.7e-7, 1e-6 3.2e-8), and it is not rounding (q0 moved by k 4e-16,
-    k = 1, 3, 5: drift 4.62e-7..4.73e-7, error 2.13e-5..2.20e-5). Bounds: drift 1e-6, closure
-    1e-8, branch 1e-6; reference error 1e-6 (N = 1) and 5e-5 (N = 2), 2.3x-4.5x the study."""
+    drift 4.4e-6, 1e-4 4.7e-7, 1e-6 3.2e-8).
+
+    Rounding spread (2026-11-25): q0 moved by k 4e-16, k = 0..7, with the proximal iterations
+    by triangular substitutions and by the explicit inverse (pinclear._kernels.proximal_inverse),
+    16 runs per N. N = 2: drift 4.1e-7..7.5e-7, 4.1e-7..4.9e-7 away from flat (|sin th| > 0.3),
+    error 1.5e-5..2.3e-5. N = 1: away from flat 1.7e-9..8.0e-9 in every run, but in 5 of the 16
+    runs (2 with substitutions, 3 with the inverse) a step that lands near a flat configuration
+    leaves a transient of 5.3e-7..2.6e-5 that the next 0.05 s undo (energy back within 1e-8),
+    and a crank-angle error of 8.3e-7..4.7e-5 (the others 2.7e-8..2.2e-7): which runs do is
+    the rounding's, not the kernel's. The single-run bounds this test had (drift 1e-6, error 1e-6 at N = 1) failed 2 of the 8 runs
+    of each kernel. Bounds, 2x-12x the spread: N = 1 drift 1e-4, away 1e-7, error 1e-4; N = 2
+    drift 2e-6, away 1e-6, error 5e-5; closure 1e-8, branch 1e-6."""
     mech, traj = a02_runs[n]
     assert traj.status == "success" and traj.t[-1] == pytest.approx(10.0)
     th = a02_cranks(mech, n, traj)
     ref = a02_branch(n, traj.t)
     assert flat_passages(th[:, 0]) == flat_passages(ref.y[0]) >= 10
-    assert energy_drift(mech, traj) < 1e-6
+    model, data = mech.model, mech.model.createData()
+    T = np.array([pin.computeKineticEnergy(model, data, q, v) for q, v in zip(traj.q, traj.v)])
+    E = T + np.array([pin.computePotentialEnergy(model, data, q) for q in traj.q])
+    drift = np.abs(E - E[0]) / T.max()
+    assert drift.max() == pytest.approx(energy_drift(mech, traj), rel=1e-12)
+    assert drift.max() < drift_tol
+    assert drift[np.abs(np.sin(th[:, 0])) > 0.3].max() < away_tol
     assert traj.residual.max() < 1e-8
     # parallelogram branch: every crank parallel to the first (the anti-parallelogram differs by O(1))
     assert np.abs(th - th[:, :1]).max() < 1e-6

@@ -189,13 +189,14 @@ def test_projection_moves_velocities_in_the_mass_metric():
 
 
 def test_proximal_iterations_equal_the_extended_precision_iterations():
-    """pinclear._kernels.proximal_filter (one Cholesky of S + rho I, then k iterations) against
-    the definition evaluated with 50 digits (mpmath): k solves (S + rho I) lam_{i+1} = r + rho
-    lam_i from zero, on spectra from well conditioned to singular (eigenvalues 1e-14 .. 10,
-    and exactly redundant rows). Error bound: each substitution's forward error is at most
-    ~ m eps cond(S + rho I) <= m eps (1 + 1 / rho_rel) relative (rho_rel = 1e-4, the default),
-    and the iteration does not amplify it (its factor rho / (s + rho) <= 1): 4.4e-11 at m = 20,
-    asserted 1e-10 relative to the largest multiplier."""
+    """pinclear._kernels.proximal_filter (one Cholesky of S + rho I and its inverse, then k
+    matrix-vector products) against the definition evaluated with 50 digits (mpmath): k solves
+    (S + rho I) lam_{i+1} = r + rho lam_i from zero, on spectra from well conditioned to
+    singular (eigenvalues 1e-14 .. 10, and exactly redundant rows). Error bound: the inverse's
+    forward error, and so each iteration's, is at most ~ m eps cond(S + rho I) <= m eps (1 + 1 /
+    rho_rel) relative (rho_rel = 1e-4, the default), and the iteration does not amplify it (its
+    factor rho / (s + rho) <= 1): 4.4e-11 at m = 20, asserted 1e-10 relative to the largest
+    multiplier."""
     mp = pytest.importorskip("mpmath")
     from pinclear._kernels import proximal_filter
 

@@ -1,7 +1,7 @@
 """Robust formulation: ``max_iter`` proximal (regularised) iterations on the multipliers,
   (S + rho I) lam_{k+1} = r + rho lam_k,   S = J M^-1 J^T,   lam_0 = 0,
 a fixed number of them, so the right-hand side is a smooth function of the state (one Cholesky
-factor of S + rho I, then two triangular substitutions per iteration:
+factor of S + rho I and its inverse, then one matrix-vector product per iteration:
 pinclear._kernels.proximal_iterations). They handle redundant rows (lam not unique, accelerations
 unique) and give a bounded, least-squares-like acceleration where gamma is inconsistent (singular
 configurations): the part of lam along null(J^T) does not reach the accelerations. Baumgarte as
