@@ -28,7 +28,7 @@ import pinclear
 from pinclear import kinematics
 from pinclear.mechanisms import benchmarks as B
 
-from conftest import a02_branch, a02_cranks, energy_drift, flat_passages
+from conftest import a02_branch, a02_cranks, energy_drift, energy_drift_samples, flat_passages
 
 
 def _simulate(mech, t_end, **kw):
@@ -91,19 +91,16 @@ def test_a02_proximal_keeps_energy_closure_and_branch(a02_runs, n, drift_tol, aw
     runs (2 with substitutions, 3 with the inverse) a step that lands near a flat configuration
     leaves a transient of 5.3e-7..2.6e-5 that the next 0.05 s undo (energy back within 1e-8),
     and a crank-angle error of 8.3e-7..4.7e-5 (the others 2.7e-8..2.2e-7): which runs do is
-    the rounding's, not the kernel's. The single-run bounds this test had (drift 1e-6, error 1e-6 at N = 1) failed 2 of the 8 runs
-    of each kernel. Bounds, 2x-12x the spread: N = 1 drift 1e-4, away 1e-7, error 1e-4; N = 2
-    drift 2e-6, away 1e-6, error 5e-5; closure 1e-8, branch 1e-6."""
+    the rounding's, not the kernel's. The single-run bounds this test had (drift 1e-6, error
+    1e-6 at N = 1) failed 2 of the 8 runs of each kernel. Bounds, 2x-12x the spread: N = 1
+    drift 1e-4, away 1e-7, error 1e-4; N = 2 drift 2e-6, away 1e-6, error 5e-5; closure 1e-8,
+    branch 1e-6."""
     mech, traj = a02_runs[n]
     assert traj.status == "success" and traj.t[-1] == pytest.approx(10.0)
     th = a02_cranks(mech, n, traj)
     ref = a02_branch(n, traj.t)
     assert flat_passages(th[:, 0]) == flat_passages(ref.y[0]) >= 10
-    model, data = mech.model, mech.model.createData()
-    T = np.array([pin.computeKineticEnergy(model, data, q, v) for q, v in zip(traj.q, traj.v)])
-    E = T + np.array([pin.computePotentialEnergy(model, data, q) for q in traj.q])
-    drift = np.abs(E - E[0]) / T.max()
-    assert drift.max() == pytest.approx(energy_drift(mech, traj), rel=1e-12)
+    drift = energy_drift_samples(mech, traj)
     assert drift.max() < drift_tol
     assert drift[np.abs(np.sin(th[:, 0])) > 0.3].max() < away_tol
     assert traj.residual.max() < 1e-8

@@ -201,7 +201,8 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
     each iterate costs the position passes and the rows), then the mass matrix and the
     mass-metric velocity projection at q1 (``exact`` 0: the stages' filtered one; 1: the exact
     one after steps). Leaves M = L^T L, B = J L^-1, B^T's pivoted QR and the factor of
-    S + i mu^2 I at q1 for projected_accelerations. Returns OK, RANK (M not positive definite) or ERROR."""
+    S + i mu^2 I at q1 for projected_accelerations. Returns OK, RANK (M not positive definite)
+    or ERROR."""
     q, zero = P.q, P.zero_v
     if at_positions(P, 0, t) == ERROR:
         return ERROR
