@@ -82,6 +82,10 @@ class Formulation(abc.ABC):
     #: whether accelerations() also leaves ws.phi, the residual of every closure and drive row at
     #: (t, q), so outputs need not evaluate the rows again
     fills_rows = False
+    #: whether accelerations() depends on t through the positions it evaluates at (the manifold
+    #: method projects every evaluation onto the drives' rows Phi(q, t) = 0): an implicit
+    #: integrator's secant test then needs df/dt (pinclear.stepping.rosenbrock.jacobian)
+    time_in_positions = False
 
     #: the code of the last evaluation of :meth:`accelerations` (contract 7)
     code = OK

@@ -119,6 +119,10 @@ class Manifold(Formulation):
         self._stages = None
 
     @property
+    def time_in_positions(self):
+        return len(self.mech.drives) > 0    # the stages' projection onto the drives' rows
+
+    @property
     def supports_projection(self):
         return self.mech.m > 0           # no rows: nothing to project onto
 
