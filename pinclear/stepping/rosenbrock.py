@@ -309,17 +309,15 @@ def jacobian(sys, st, t, r0, m, p):
         inv = 1.0 / d
         for k in range(m):
             W[r0 + k, j] = (dx[p + k] - f[p + k]) * inv
-    ft = W[r0 + 2 * m + 2]
-    if _get(W, TIME_COLUMN) == 0.0:
-        ii[NJAC] += 1
-        return 0
-    t1 = t + SQRT_EPS * max(abs(t), abs(rr[H_ABS]), 1e-300)
-    d = t1 - t
-    v = observe(rr, ii, xb, evaluate(sys, t1, ys, dx), t1, ys)
-    if v == FAILED or v == RESELECT:
-        return v
-    for k in range(m):
-        ft[k] = 0.0 if v == BAD else (dx[p + k] - f[p + k]) / d
+    if _get(W, TIME_COLUMN) != 0.0:
+        ft = W[r0 + 2 * m + 2]
+        t1 = t + SQRT_EPS * max(abs(t), abs(rr[H_ABS]))
+        d = t1 - t
+        v = observe(rr, ii, xb, evaluate(sys, t1, ys, dx), t1, ys)
+        if v == FAILED or v == RESELECT:
+            return v
+        for k in range(m):
+            ft[k] = 0.0 if v == BAD or d == 0.0 else (dx[p + k] - f[p + k]) / d
     ii[NJAC] += 1
     return 0
 
