@@ -94,9 +94,15 @@ class CompiledClosures:
 
         groups: dict[str, dict[str, list]] = {}
         row = 0
-        for c in closures:
+        # each row's unit group: a closure's length rows and its angle (dot) rows. S's diagonal
+        # is summed over a group (invariant under rotating the closure's frame, and a flat
+        # passage never vanishes all of a group's rows) to scale the manifold's filter per unit
+        kinds: dict[tuple, int] = {}
+        row_group = []
+        for ic, c in enumerate(closures):
             i1, i2 = slot(c.f1), slot(c.f2)
             for prim, args, labels in CLOSURE_TYPES[c.type]:
+                row_group += [kinds.setdefault((ic, prim == "dot"), len(kinds))] * len(labels)
                 g = groups.setdefault(prim, {"i1": [], "i2": [], "rows": [], "args": []})
                 g["i1"].append(i1)
                 g["i2"].append(i2)
@@ -111,6 +117,8 @@ class CompiledClosures:
         self.m = row
         self.frames = np.array(frames, dtype=int)
         self.row_names = [n for c in closures for n in c.row_names()]
+        self.row_group = np.array(row_group, dtype=np.int64)
+        self.row_group.flags.writeable = False
         # flat table for the compiled kernel: (code, i1, i2, first row, axis a, axis b)
         codes = {"point": POINT, "plane": PLANE, "dot": DOT, "perp": PERP, "distance": DIST}
         table, E, L = [], [], []

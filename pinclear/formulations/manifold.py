@@ -11,8 +11,8 @@ formulation"). At every evaluation, from the stage state (q, v):
    not at Phi's rounding floor);
 2. v1 = v - M^-1 J^T g(S) (J v + Phi_t) at q1, with S = J M^-1 J^T = B B^T (B = J L^-1,
    M = L^T L tree-sparse, pinclear._kernels.ltl_factor) and the filter g(s) = s / (s^2 + mu^4)
-   (mu^2 relative to mean(diag S)): S^-1 where s >> mu^2, nothing along the directions that
-   vanish at a flat configuration;
+   on the closures' rows, scaled per unit group, the drives' rows exact (shifted_factor):
+   S^-1 where s >> mu^2, nothing along the directions that vanish at a flat configuration;
 3. a = L^-1 ((I - Q Q^T) y + B^T g(S) gamma), y = L^-T (tau - nle), gamma = -(dJ v1) v1 at
    (q1, v1), Q an orthonormal basis of range(B^T) (the same pivoted QR, truncated at pivots
    below ``rcond_v``). Where g(S) = S^-1 this is the exact a = L^-1 (y + B^+ (gamma - B y)).
@@ -35,7 +35,9 @@ their round-off. That leaves the direction of the vanishing normal itself, known
 and collapsed the step size on A02 N = 10 (docs/singular_passages.md). The velocity carries the
 branch (it is O(1) away from the other branch's tangent, the position is not): step 4 takes the
 tangential equation x^T L a = x^T y from it. After every accepted step the state is projected
-with the exact velocity projection (``project``)."""
+with the exact velocity projection (``project``): v1 = L^-1 ((I - Q Q^T) L v - B^+ Phi_t), the
+drives' rates through the pivoted QR's minimum-norm solve, unfiltered (filtered, they gave a
+driven mechanism's samples velocities off by up to 100 %; docs/singular_passages.md)."""
 from __future__ import annotations
 
 from typing import NamedTuple
@@ -45,7 +47,7 @@ import numpy as np
 from .. import kinematics
 from .._jit import njit
 from .._kernels import (Solve, constraint_rows_positions, constraint_rows_velocities, lagrange_accel, ltl_factor,
-                        ltl_solve, ltl_solve_t, min_norm_solve, project_out, qr_pivoted,
+                        ltl_solve, ltl_solve_t, min_norm_solve, min_norm_x, project_out, qr_pivoted,
                         schur_complement)
 from ..errors import InputError
 from ..stepping.call import ERROR, OK, RANK
@@ -89,6 +91,9 @@ class ManifoldWork(NamedTuple):
     xs: np.ndarray       # (nv,)
     xt: np.ndarray       # (nv,)
     wt: np.ndarray       # (nv,)
+    grp: np.ndarray      # (mc,) each closure row's unit group (pinclear.closures: row_group)
+    gcnt: np.ndarray     # (groups,) rows per group
+    gsum: np.ndarray     # (groups,) work: the group's shift
 
 
 class Manifold(Formulation):
@@ -110,12 +115,15 @@ class Manifold(Formulation):
         nv, m = mech.nv, mech.m
         ws = self.ws
         self.row_buffers = kinematics.row_buffers(mech, ws)
+        grp = np.array(mech.compiled.row_group, dtype=np.int64)
+        ng = int(grp.max()) + 1 if grp.size else 0
         self._W = ManifoldWork(ws.q, ws.v, ws.drive_data.f, ws.data.M, ws.parent, ws.tau, ws.data.nle, ws.a, ws.lam,
                                np.arange(m, dtype=np.int64), np.zeros((nv, nv)), np.zeros((m, nv)), np.zeros((m, m)),
                                np.zeros((m, m)), np.zeros((m, m)), np.zeros((m, nv)), np.zeros(m, dtype=np.int64),
                                np.zeros(m), np.zeros(1, dtype=np.int64), np.zeros((m, nv)),
                                np.zeros(m, dtype=np.int64), np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(nv),
-                               np.zeros(m), np.zeros(m), np.zeros(nv), np.zeros(nv), np.zeros(nv))
+                               np.zeros(m), np.zeros(m), np.zeros(nv), np.zeros(nv), np.zeros(nv),
+                               grp, np.bincount(grp).astype(float), np.zeros(ng))
         self._stages = None
 
     @property
@@ -244,11 +252,13 @@ def _bt_times(Y, w, x):
 @njit(cache=True)
 def velocity_projection(R, W, mu, rcond, exact):
     """At q (the rows at (q, v = 0) in R: Phi, J and the rates Phi_t; M there): M = L^T L,
-    B = J L^-1 (in Y), the pivoted QR of B^T and the factor of S + i mu^2 I (shifted_factor;
-    kept for projected_accelerations; the exact projection of a scleronomic system has no use
-    for it and skips it), and the mass-metric projection v1 = L^-1 ((I - Q Q^T) L v -
-    B^T g(S) Phi_t) onto J v1 + Phi_t = 0 (``exact``; otherwise v1 = v - L^-1 B^T g(S)
-    (J v + Phi_t), the stages' filtered correction). False if M is not PD; kk[0] = rank kept."""
+    B = J L^-1 (in Y), the pivoted QR of B^T and, at the stages, the factor of S + i mu^2 Lam
+    (shifted_factor; kept for projected_accelerations), and the mass-metric projection
+    v1 = L^-1 ((I - Q Q^T) L v - B^+ Phi_t) onto J v1 + Phi_t = 0 (``exact``: after a step,
+    where the drives' rates are O(1) and a filter would bias them; the step logic evaluates
+    again after it, so no factor is needed) or v1 = v - L^-1 B^T g(S) (J v + Phi_t) (the
+    stages' filtered correction of an O(error) residual). False if M is not PD; kk[0] = rank
+    kept."""
     v, v1, Lm, Y = W.v, W.v1, W.Lm, W.Y
     if not ltl_factor(W.M, W.parent, Lm):
         return False
@@ -278,22 +288,21 @@ def velocity_projection(R, W, mu, rcond, exact):
             pt[r] = s
         for c in range(nv):
             v1[c] = v[c]
-    if rates:
-        # the filter's factor (the stages' solve reads it; the exact projection needs it only
-        # for the drives' rates: the step logic evaluates again after it)
-        shifted_factor(W.S, mu, W.Fr, W.Fi)
-        corr = W.xs
+    corr = W.xs
+    if exact:
+        if rates:
+            min_norm_x(W.Qr, W.piv, W.hb, k, pt, corr)     # B^+ Phi_t
+            for c in range(nv):
+                v1[c] -= corr[c]
+        ltl_solve(Lm, W.parent, v1)
+    else:
+        # the filter's factor (the stages' solve reads it too)
+        shifted_factor(W.S, mu, W.grp, W.gcnt, W.gsum, W.Fr, W.Fi)
         filtered_solve_ws(W.Fr, W.Fi, pt, W.w, W.yr, W.yi)
         _bt_times(Y, W.w, corr)                # the normal correction B^T g(S) pt
-        if exact:
-            for c in range(nv):
-                v1[c] -= corr[c]
-        else:
-            ltl_solve(Lm, W.parent, corr)
-            for c in range(nv):
-                v1[c] -= corr[c]
-    if exact:
-        ltl_solve(Lm, W.parent, v1)
+        ltl_solve(Lm, W.parent, corr)
+        for c in range(nv):
+            v1[c] -= corr[c]
     return True
 
 
@@ -380,26 +389,49 @@ def projected_accelerations(R, W, wtan):
 
 
 @njit(cache=True)
-def shifted_factor(S, mu, Fr, Fi):
-    """The filter g(S) = S (S^2 + mu^4)^-1 (mu^2 relative to mean(diag S)) without an
-    eigendecomposition: for symmetric S, g(S) r = Re[(S + i mu^2 I)^-1 r], since
-    1 / (s + i mu^2) = (s - i mu^2) / (s^2 + mu^4) on every eigenvalue. g is 1/s where
-    s >> mu^2 (the exact inverse), s / mu^4 below: used only on the normal (range of B^T) part of
-    the state, whose round-off it would otherwise amplify. Factors the complex symmetric
-    S + i mu^2 I = L D L^T in place (L unit lower in Fr/Fi's strict lower triangle, D on the
-    diagonal; real parts in Fr, imaginary in Fi). No pivoting: the imaginary part is positive
-    definite, so no pivot vanishes, and where s >> mu^2 (where accuracy matters) the matrix is
-    the SPD S up to a small shift. About m^3 / 6 complex products, against an eigensolver's
-    ~9 m^3 and its workspace allocations (30 us at m = 20)."""
-    m = S.shape[0]
+def shifted_factor(S, mu, grp, gcnt, gsum, Fr, Fi):
+    """The filter g(S) = Re[(S + i mu^2 Lam)^-1] (docs/singular_passages.md, "The filter"). Lam
+    is diagonal: on a closure row (the first len(grp)), the mean of diag(S) over the row's unit
+    group (``grp``: a closure's length rows, its angle rows; ``gcnt`` rows each; ``gsum`` work);
+    on a drive row (the rest), 0. Why:
+    * none on the drives: eliminating their rows first is exact, so g is the filter of the
+      closures' own system with the driven joints locked (the Schur complement C), and the drive
+      rows hold exactly (on a row with Lam_ii = 0 the real part of (S + i mu^2 Lam) z = r is
+      (S w)_i = r_i). With one shift mu^2 mean(diag S) on every row (before 2026-11-25) the
+      spread a drive adds to S was taken for a flat closure: accelerations off by 5 % on the
+      nine-bar linkage at regular configurations (4.1e-5 now);
+    * per group: Lam = D^-2 makes g(S) = D g1(D S D) D with g1 on the scaled eigenvalues, so
+      B^T g(S) r does not change when a group's rows change unit (angles against lengths in mm,
+      a heavy platform): 3-UPRU+UP's angle rows have 5000 times the diagonal of its length rows,
+      and one shift for both filtered its regular configuration (accelerations off by 94 %;
+      3.5e-4 now). Not per row: a row can vanish at flat (A02's y rows), and a per-row scale
+      then hides the flat passage from the filter (A02 N = 2 crank acceleration off by 1.7e-3 at
+      1e-4 rad from flat, measured); a group's mean does not vanish. A fixed-per-group D keeps
+      the discarded part along B^T n (n: S's vanishing direction), as the isotropic shift does.
+    On the scaled eigenvalues g1(s) = s / (s^2 + mu^4): 1/s where s >> mu^2 (the exact inverse),
+    s / mu^4 below: on the normal part only, whose round-off it would otherwise amplify near
+    flat; the price is a relative error (mu^2 / s)^2 where s is not far above mu^2 (4-UPS-UPR:
+    3.6e-2 on its accelerations, s ~ 10 mu^2 at its home pose).
+    Factors the complex symmetric S + i mu^2 Lam = L D L^T in place (L unit lower in Fr/Fi's
+    strict lower triangle, D on the diagonal; real parts in Fr, imaginary in Fi). No pivoting,
+    and no pivot vanishes: x^H (S + i mu^2 Lam) x has real part x^H S x >= 0 and imaginary part
+    mu^2 x^H Lam x >= 0, both zero only for x on the drive rows with E^T x = 0 (E's rows: unit
+    vectors of distinct joints), i.e. x = 0, and the same holds for every leading block. About
+    m^3 / 6 complex products, against an eigensolver's ~9 m^3 and its workspace allocations
+    (30 us at m = 20)."""
+    m, mc = S.shape[0], grp.shape[0]
+    gsum[:] = 0.0
     tr = 0.0
-    for i in range(m):
+    for i in range(mc):
+        gsum[grp[i]] += S[i, i]
         tr += S[i, i]
-    mu2 = mu * mu * max(tr / max(m, 1), 1e-300)
+    floor = max(1e-30 * tr / max(mc, 1), 1e-300)     # a group whose rows are all zero here
+    for g in range(gsum.shape[0]):
+        gsum[g] = mu * mu * max(gsum[g] / gcnt[g], floor)
     # row j's L[j, k] D[k] (k < j) once, then each entry below costs one complex product per k;
     # kept in the (unused) strict upper triangle, column j: no work array to allocate
     for j in range(m):
-        d = complex(S[j, j], mu2)
+        d = complex(S[j, j], gsum[grp[j]] if j < mc else 0.0)
         for k in range(j):
             l = complex(Fr[j, k], Fi[j, k])
             w = l * complex(Fr[k, k], Fi[k, k])
