@@ -5,10 +5,16 @@ formulation"). At every evaluation, from the stage state (q, v):
 1. q1 = P(q): Gauss-Newton on Phi(q, t) = 0 with minimum-norm steps -J^+ Phi (Householder QR of
    J^T with column pivoting, pivots below ``rcond`` = 1e-8 of the largest dropped: a redundant
    row's pivot is O(distance) off the manifold, and 1e-13 kept it near the manifold, amplifying
-   Phi's rounding into steps of ~1e-8 on the Bricard linkage), moved with pin.integrate; always
-   at least one step, so q1 is the same function of q whatever the stage's residual; more only
-   while |Phi| > ``tol`` and each step reduces it (pinclear.formulations.projection.stalled:
-   not at Phi's rounding floor);
+   Phi's rounding into steps of ~1e-8 on the Bricard linkage), moved with pin.integrate. At
+   the stages exactly one step, so q1 is the same smooth function of q whatever the stage's
+   residual, equal to q on the manifold: the integrator sees a smooth right-hand side that is
+   the exact one on the manifold, which keeps its order (the exact flow from a point on the
+   manifold never leaves it), and the step leaves |Phi| ~ kappa d^2 at a stage d off (1e-16
+   at d = 1e-8, against the d / eps the projection removes). Further steps (at most
+   ``max_iter`` while |Phi| > ``tol`` and each step reduces it: not at Phi's rounding floor,
+   pinclear.formulations.projection.stalled) only in the exact projection after steps: at
+   the stages they changed no result beyond rounding and cost 25 % of 4-UPS-UPR's
+   evaluation (docs/singular_passages.md);
 2. v1 = v - M^-1 J^T g(S) (J v + Phi_t) at q1, with S = J M^-1 J^T = B B^T (B = J L^-1,
    M = L^T L tree-sparse, pinclear._kernels.ltl_factor) and the filter g(s) = s / (s^2 + mu^4)
    on the closures' rows, scaled per unit group, the drives' rows exact (shifted_factor):
@@ -208,9 +214,9 @@ class Manifold(Formulation):
 # ------------------------------------------------------------------ kernels
 @njit(cache=True)
 def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
-    """(q, v) <- P(q, v) in the state buffer (module doc, steps 1-2): at least one minimum-norm
-    Gauss-Newton step from q (more while |Phi| > tol and each reduces it, at most max_iter;
-    each iterate costs the position passes and the rows), then the mass matrix and the
+    """(q, v) <- P(q, v) in the state buffer (module doc, steps 1-2): one minimum-norm
+    Gauss-Newton step from q (``exact``: more while |Phi| > tol and each reduces it, at most
+    max_iter; each iterate costs the position passes and the rows), then the mass matrix and the
     mass-metric velocity projection at q1 (``exact`` 0: the stages' filtered one; 1: the exact
     one after steps). Leaves M = L^T L, B = J L^-1, B^T's pivoted QR and the factor of
     S + i mu^2 I at q1 for projected_accelerations. Returns OK, RANK (M not positive definite)
@@ -227,6 +233,8 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
             return ERROR
         P.steps[0] += 1
         constraint_rows_positions(R, q, zero, W.fdrv)
+        if not exact:
+            break          # the stages: one step (module doc, step 1)
         res = row_residual(R.phi, W.rows)
         if res <= tol or stalled(res, prev):
             break
