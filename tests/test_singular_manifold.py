@@ -86,6 +86,36 @@ def test_stage_state_off_the_manifold_gives_the_branch_acceleration(parallelogra
         assert np.abs(Mq @ a + ws.data.nle - ws.J.T @ form.ws.lam).max() < 1e-6 * np.abs(ws.data.nle).max()
 
 
+@pytest.mark.parametrize("name", ["four_bar", "nine_bar"])
+def test_stage_projection_is_one_minimum_norm_gauss_newton_step(name):
+    """At the stages q moves by exactly one minimum-norm Gauss-Newton step, q1 = q - J^+ Phi(q)
+    (docs/singular_passages.md, "The manifold formulation", step 1): one smooth function of q at
+    any distance d from the manifold, leaving |Phi(q1)| = O(d^2). Reference: NumPy's SVD
+    pseudo-inverse of the Jacobian (not the kernel's pivoted QR). A stage that iterated to tol
+    would leave ~1e-12 at every d, one that skipped the step the O(d) residual; both fail the
+    ratio test (Newton's: 0.01 per decade of d)."""
+    mech = pinclear.load(name)
+    tr = pinclear.simulate(mech, 0.05, method="projection", rtol=1e-10)
+    t, q, v, z = float(tr.t[-1]), tr.q[-1], tr.v[-1], tr.z[-1]
+    form = formulations.get("manifold")(mech)
+    ws = mech.workspace()
+    w = np.random.default_rng(2).standard_normal(mech.nv)
+    w /= np.linalg.norm(w)
+    eps = np.finfo(float).eps
+    res = []
+    for d in (1e-3, 1e-4, 1e-5):
+        qd = pin.integrate(mech.model, q, d * w)
+        J = kinematics.jacobian(mech, ws, qd, t, with_drives=True)
+        dq = -np.linalg.pinv(J) @ kinematics.closure_residual(mech, ws, qd, t, with_drives=True)
+        form.accelerations(t, qd, v, z)
+        assert int(form.ws.gn_steps[0]) == 1
+        # two backward-stable min-norm solves differ by ~ eps cond(J) |dq|; q itself by eps |q|
+        bound = 100 * eps * (np.linalg.cond(J) * np.abs(dq).max() + np.abs(q).max())
+        assert np.abs(form.ws.q - pin.integrate(mech.model, qd, dq)).max() < bound
+        res.append(_residual(mech, form.ws.q, t))
+    assert res[1] < 0.03 * res[0] and res[2] < 0.03 * res[1]
+
+
 @pytest.mark.parametrize("m", [1, 2, 4, 20])
 def test_shifted_solve_is_the_eigenvalue_filter(m):
     """The kernel computes g(S) r = Re[(S + i mu^2 I)^-1 r] from a complex LDL^T; the definition is
