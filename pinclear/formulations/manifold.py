@@ -13,7 +13,7 @@ formulation"). At every evaluation, from the stage state (q, v):
    at d = 1e-8, against the d / eps the projection removes). Further steps (at most
    ``max_iter`` while |Phi| > ``tol`` and each step reduces it: not at Phi's rounding floor,
    pinclear.formulations.projection.stalled) only in the exact projection after steps: at
-   the stages they changed no result beyond rounding and cost 25 % of 4-UPS-UPR's
+   the stages they changed no result beyond rounding and cost 18 % of 4-UPS-UPR's
    evaluation (docs/singular_passages.md);
 2. v1 = v - M^-1 J^T g(S) (J v + Phi_t) at q1, with S = J M^-1 J^T = B B^T (B = J L^-1,
    M = L^T L tree-sparse, pinclear._kernels.ltl_factor) and the filter g(s) = s / (s^2 + mu^4)
