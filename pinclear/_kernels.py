@@ -363,33 +363,9 @@ def scaled_rows(Lm, parent, J, rows, Y):
 @njit(cache=True)
 def schur_complement(Lm, parent, J, rows, Y, S):
     """Y[r] = L^-T J[rows[r]] (row-wise) and S = Y Y^T = J M^-1 J^T over the selected rows, for
-    M = L^T L factorised by ltl_factor. Each S[r, c] sums over k in order from zero, four c of a
-    row at a time along the contiguous rows of Y: independent chains of additions the processor
-    overlaps, the same numbers as one dot product per entry (30% less than one c at a time
-    at 16 rows)."""
-    nv = Lm.shape[0]
-    m = rows.shape[0]
+    M = L^T L factorised by ltl_factor (S by _gram)."""
     scaled_rows(Lm, parent, J, rows, Y)
-    for r in range(m):
-        c = 0
-        while c + 3 <= r:
-            s0 = s1 = s2 = s3 = 0.0
-            for k in range(nv):
-                yrk = Y[r, k]
-                s0 += yrk * Y[c, k]
-                s1 += yrk * Y[c + 1, k]
-                s2 += yrk * Y[c + 2, k]
-                s3 += yrk * Y[c + 3, k]
-            S[r, c], S[r, c + 1], S[r, c + 2], S[r, c + 3] = s0, s1, s2, s3
-            c += 4
-        while c <= r:
-            s0 = 0.0
-            for k in range(nv):
-                s0 += Y[r, k] * Y[c, k]
-            S[r, c] = s0
-            c += 1
-        for c in range(r):
-            S[c, r] = S[r, c]
+    _gram(Y, rows, S, False)
 
 
 @njit(cache=True)
@@ -420,14 +396,9 @@ def kkt_solve(M, parent, f, J, gamma, rows, Lm, Y, S, Ls, a, lam):
         s = gamma[rows[r]]
         for k in range(nv):
             s -= Y[r, k] * a[k]
-        for c in range(r):
-            s -= Ls[r, c] * lam[c]
-        lam[r] = s / Ls[r, r]
-    for r in range(m - 1, -1, -1):
-        s = lam[r]
-        for c in range(r + 1, m):
-            s -= Ls[c, r] * lam[c]
-        lam[r] = s / Ls[r, r]
+        lam[r] = s
+    lower_solve(Ls, m, lam)
+    lower_t_solve(Ls, m, lam)
     for r in range(m):
         lr = lam[r]
         for k in range(nv):
@@ -436,7 +407,7 @@ def kkt_solve(M, parent, f, J, gamma, rows, Lm, Y, S, Ls, a, lam):
     return ratio
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def constraint_rows_all(R, alpha, beta, q, v, fdrv):
     """Frame kinematics, closure rows, drive rows (q[iq] - f(t)) and the Baumgarte-stabilised
     right-hand side gamma = -bias - 2 alpha dPhi - beta^2 Phi, in one call (R: Rows): the position
@@ -445,7 +416,7 @@ def constraint_rows_all(R, alpha, beta, q, v, fdrv):
     constraint_rows_velocities(R, alpha, beta, v, fdrv)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def constraint_rows_positions(R, q, v, fdrv):
     """The position level of constraint_rows_all: frame placements and Jacobians, every row's
     Phi and J, and J v + Phi_t at rest (the drives' v - f'(t) with ``v``, the zero vector in the
@@ -460,7 +431,7 @@ def constraint_rows_positions(R, q, v, fdrv):
         dphi[r] = v[iv[k]] - fdrv[1, k]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def constraint_rows_velocities(R, alpha, beta, v, fdrv):
     """The velocity level of constraint_rows_all at the configuration of the last
     constraint_rows_positions call: frame velocities and zero-ddq accelerations from the passes'
@@ -486,7 +457,7 @@ def _finite_code(a, code):
     return code if np.isfinite(s) else -2.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def lagrange_accel(R, K, alpha, beta):
     """Constraint rows + KKT solve of M a - J^T lam = tau - nle, J a = gamma over K.rows (R: Rows,
     K: Solve). Returns the pivot ratio of S's Cholesky (0: rank loss), -1 when M is not positive
@@ -683,7 +654,7 @@ def relative_rho(S, rho_rel):
     return rho_rel * max(trace / max(m, 1), 1e-300)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def proximal_accel(R, K, alpha, beta, rho_rel, k):
     """Constraint rows + the proximal solve over K.rows (every row) (R: Rows, K: Solve): M = L^T L,
     Y = L^-T J^T, S = Y^T Y = J M^-1 J^T, lam = filter(S) (gamma - J M^-1 f),
@@ -882,3 +853,145 @@ def min_norm_solve(A, piv, beta, k, r, x, lam):
                 s -= A[i, j] * lam[piv[i]]
             lam[piv[j]] = s / A[j, j]
     apply_q(A, beta, k, x)                   # x = Q (z, 0)
+
+
+# ------------------------------------------------------------------ Cholesky with diagonal pivoting
+# Where the rows are far from rank loss, the solves above take the Gram matrix's Cholesky factor
+# instead of the pivoted QR: G = A A^T costs m^2 n / 2 products and its factor m^3 / 6, against
+# the QR's 2 m^2 n - 2 m^3 / 3 (and S = B B^T is formed anyway by schur_complement). Diagonal
+# pivoting picks the largest remaining diagonal of the Schur complement: in exact arithmetic the
+# pivot order and R^T of qr_pivoted (Golub & Van Loan, sec. 5.4.2 and 4.2.8), computed from G,
+# so a pivot carries G's round-off eps |G| instead of A's: the callers take it only while every
+# pivot of G stays above a gate (their relative accuracy is then eps / gate, Higham, Accuracy
+# and Stability of Numerical Algorithms, 2nd ed., thm. 10.4 / sec. 20.4) and use the QR below it.
+@njit(cache=True)
+def gram_rows(A, rows, G):
+    """G = A[rows] A[rows]^T (both triangles), as schur_complement's S."""
+    _gram(A, rows, G, True)
+
+
+@njit(cache=True, inline="always")
+def _gram(A, rows, G, indirect):
+    """G = A' A'^T (both triangles) with A' = A[rows] (``indirect``) or A's first len(rows) rows.
+    Each G[r, c] sums over k in order from zero, four c of a row at a time along the contiguous
+    rows of A: independent chains of additions the processor overlaps, the same numbers as one
+    dot product per entry (30% less than one c at a time at 16 rows)."""
+    m, n = rows.shape[0], A.shape[1]
+    for r in range(m):
+        ar = rows[r] if indirect else r
+        c = 0
+        while c + 3 <= r:
+            if indirect:
+                c0, c1, c2, c3 = rows[c], rows[c + 1], rows[c + 2], rows[c + 3]
+            else:
+                c0, c1, c2, c3 = c, c + 1, c + 2, c + 3
+            s0 = s1 = s2 = s3 = 0.0
+            for k in range(n):
+                x = A[ar, k]
+                s0 += x * A[c0, k]
+                s1 += x * A[c1, k]
+                s2 += x * A[c2, k]
+                s3 += x * A[c3, k]
+            G[r, c], G[r, c + 1], G[r, c + 2], G[r, c + 3] = s0, s1, s2, s3
+            c += 4
+        while c <= r:
+            cc = rows[c] if indirect else c
+            s0 = 0.0
+            for k in range(n):
+                s0 += A[ar, k] * A[cc, k]
+            G[r, c] = s0
+            c += 1
+        for c in range(r):
+            G[c, r] = G[r, c]
+
+
+@njit(cache=True)
+def chol_pivoted(G, piv, L, d, gate):
+    """P^T G P = L L^T with diagonal pivoting (L lower in L, piv the order, d work), stopping
+    at the first pivot below ``gate`` times the first: returns the ratio of the smallest pivot to
+    the first (pivots of G, the squares of qr_pivoted's |R_jj|), or 0.0 when it stopped (the
+    caller then takes the QR). G is read, not written."""
+    m = G.shape[0]
+    for i in range(m):
+        piv[i] = i
+        d[i] = G[i, i]
+    first, low = 0.0, np.inf
+    for j in range(m):
+        p = j
+        for i in range(j + 1, m):
+            if d[i] > d[p]:
+                p = i
+        if p != j:
+            piv[j], piv[p] = piv[p], piv[j]
+            d[j], d[p] = d[p], d[j]
+            for k in range(j):
+                L[j, k], L[p, k] = L[p, k], L[j, k]
+        dj = d[j]
+        if j == 0:
+            first = dj
+        if not dj > gate * first:
+            return 0.0
+        low = min(low, dj)
+        ljj = np.sqrt(dj)
+        L[j, j] = ljj
+        pj = piv[j]
+        i = j + 1
+        while i + 3 < m:                    # four rows at a time: independent sums, each in order
+            s0, s1, s2, s3 = G[piv[i], pj], G[piv[i + 1], pj], G[piv[i + 2], pj], G[piv[i + 3], pj]
+            for k in range(j):
+                ljk = L[j, k]
+                s0 -= L[i, k] * ljk
+                s1 -= L[i + 1, k] * ljk
+                s2 -= L[i + 2, k] * ljk
+                s3 -= L[i + 3, k] * ljk
+            s0 /= ljj
+            s1 /= ljj
+            s2 /= ljj
+            s3 /= ljj
+            L[i, j], L[i + 1, j], L[i + 2, j], L[i + 3, j] = s0, s1, s2, s3
+            d[i] -= s0 * s0
+            d[i + 1] -= s1 * s1
+            d[i + 2] -= s2 * s2
+            d[i + 3] -= s3 * s3
+            i += 4
+        while i < m:
+            s0 = G[piv[i], pj]
+            for k in range(j):
+                s0 -= L[i, k] * L[j, k]
+            s0 /= ljj
+            L[i, j] = s0
+            d[i] -= s0 * s0
+            i += 1
+    return low / first if m else 1.0
+
+
+@njit(cache=True)
+def chol_solve_pivoted(L, piv, r, y, x):
+    """x = G^-1 r from chol_pivoted's factor (y: work of len m; x may be r)."""
+    m = L.shape[0]
+    for i in range(m):
+        y[i] = r[piv[i]]
+    lower_solve(L, m, y)
+    lower_t_solve(L, m, y)
+    for i in range(m):
+        x[piv[i]] = y[i]
+
+
+@njit(cache=True, inline="always")
+def lower_solve(L, m, y):
+    """y[:m] <- L^-1 y[:m], L lower triangular (its leading m x m block)."""
+    for i in range(m):
+        s = y[i]
+        for k in range(i):
+            s -= L[i, k] * y[k]
+        y[i] = s / L[i, i]
+
+
+@njit(cache=True, inline="always")
+def lower_t_solve(L, m, y):
+    """y[:m] <- L^-T y[:m]."""
+    for i in range(m - 1, -1, -1):
+        s = y[i]
+        for k in range(i + 1, m):
+            s -= L[k, i] * y[k]
+        y[i] = s / L[i, i]

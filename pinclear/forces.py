@@ -291,7 +291,7 @@ def spring_state(law, fr, bodies, v, state):
     state[0], state[1], state[2], state[3], state[4], state[5] = L, Ldot, f, n0, n1, n2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def spring_force(law, fr, bodies, v, state, tau):
     """tau += the spring-damper's generalized force (ForceElement.force_kernel): -f n on body 2
     at p2, f n on body 1 at p1, as wrenches about the world origin."""

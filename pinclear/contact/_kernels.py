@@ -500,7 +500,7 @@ def channel_penetrations(geo, frames, ch, snap):
             delta[k] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def event_penetrations(geo, frames, ch, snap, g):
     """channel_penetrations into the event values g (ForceElement.event_kernel)."""
     channel_penetrations(geo, frames, ch, snap)
@@ -546,7 +546,7 @@ def channel_forces(bodies, laws, fr, ch, v, z, tau, zdot):
     return on
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def clearance_force(geo, frames, bodies, laws, fr, ch, v, z, tau, zdot):
     """One spherical or revolute clearance joint's whole right-hand-side contribution in one call,
     the same steps as ClearanceJoint._compute + add_force: its frames' placements from the
@@ -557,7 +557,7 @@ def clearance_force(geo, frames, bodies, laws, fr, ch, v, z, tau, zdot):
     return channel_forces(bodies, laws, fr, ch, v, z, tau, zdot)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def prismatic_force(geo, frames, bodies, modes, rows, laws, fr, ch, v, z, tau, zdot):
     """The prismatic clearance's right-hand-side contribution in one call (model paper003):
     placements, corner geometry, the contact mode and each channel's law from the law table
@@ -733,7 +733,7 @@ def prismatic_foundation(gpar, kf, members, delta, poly, Fel, Uf):
     return on
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def prismatic_energy_force(geo, frames, bodies, modes, found, fr, ch, v, z, tau, zdot):
     """The energy-consistent prismatic clearance's right-hand-side contribution in one call:
     placements, corner geometry, the paper's mode (an output only), the foundation's corner

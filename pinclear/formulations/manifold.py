@@ -43,7 +43,13 @@ branch (it is O(1) away from the other branch's tangent, the position is not): s
 tangential equation x^T L a = x^T y from it. After every accepted step the state is projected
 with the exact velocity projection (``project``): v1 = L^-1 ((I - Q Q^T) L v - B^+ Phi_t), the
 drives' rates through the pivoted QR's minimum-norm solve, unfiltered (filtered, they gave a
-driven mechanism's samples velocities off by up to 100 %; docs/singular_passages.md)."""
+driven mechanism's samples velocities off by up to 100 %; docs/singular_passages.md).
+
+The QRs are needed only near rank loss: where every pivot of J J^T (resp. S) stays above a gate
+the same quantities come from its Cholesky factor with diagonal pivoting (the QR's pivot order
+and |R_jj| in exact arithmetic; projection.min_norm_step_gram, chol_gate), which costs a
+fraction of the QR; below the gates, and always for the tangent of step 4, the QRs run
+(docs/singular_passages.md, step 5)."""
 from __future__ import annotations
 
 from typing import NamedTuple
@@ -52,14 +58,14 @@ import numpy as np
 
 from .. import kinematics
 from .._jit import njit
-from .._kernels import (Solve, constraint_rows_positions, constraint_rows_velocities, lagrange_accel, ltl_factor,
+from .._kernels import (Solve, chol_pivoted, chol_solve_pivoted, constraint_rows_positions, constraint_rows_velocities, lagrange_accel, ltl_factor,
                         ltl_solve, ltl_solve_t, min_norm_solve, min_norm_x, project_out, qr_pivoted,
                         schur_complement)
 from ..errors import InputError
 from ..stepping.call import ERROR, OK, RANK
 from ..stepping.stage import T, bind
 from .base import Compiled, Formulation
-from .projection import (at_positions, iterations, ltl_mul, mass_only, min_norm_step, move, position_passes,
+from .projection import (at_positions, iterations, ltl_mul, mass_only, min_norm_step_gram, move, position_passes,
                          row_residual, stalled)
 
 
@@ -100,6 +106,13 @@ class ManifoldWork(NamedTuple):
     grp: np.ndarray      # (mc,) each closure row's unit group (pinclear.closures: row_group)
     gcnt: np.ndarray     # (groups,) rows per group
     gsum: np.ndarray     # (groups,) work: the group's shift
+    Gg: np.ndarray       # (m, m) J J^T of the Gauss-Newton step (projection.min_norm_step_gram)
+    Lg: np.ndarray       # (m, m) its pivoted Cholesky factor
+    dg: np.ndarray       # (m,) work
+    yg: np.ndarray       # (m,) work
+    Lc: np.ndarray       # (m, m) the pivoted Cholesky factor of S (velocity_projection)
+    pc: np.ndarray       # (m,) its pivots
+    chol: np.ndarray     # (1,) 1: S's factor is used at this q1 (far from rank loss), 0: B^T's QR
 
 
 class Manifold(Formulation):
@@ -129,7 +142,9 @@ class Manifold(Formulation):
                                np.zeros(m), np.zeros(1, dtype=np.int64), np.zeros((m, nv)),
                                np.zeros(m, dtype=np.int64), np.zeros(m), np.zeros(m), np.zeros(m), np.zeros(nv),
                                np.zeros(m), np.zeros(m), np.zeros(nv), np.zeros(nv), np.zeros(nv),
-                               grp, gcnt, np.zeros(gcnt.size))
+                               grp, gcnt, np.zeros(gcnt.size), np.zeros((m, m)), np.zeros((m, m)), np.zeros(m),
+                               np.zeros(m), np.zeros((m, m)), np.zeros(m, dtype=np.int64),
+                               np.zeros(1, dtype=np.int64))
         self._stages = None
 
     @property
@@ -160,7 +175,7 @@ class Manifold(Formulation):
             else:
                 P, keep = position_passes(self)
                 args = (P, self.row_buffers, W, T, float(o["tol"]), o["max_iter"], float(o["rcond"]), float(o["mu"]),
-                        float(o["rcond_v"]))
+                        float(o["rcond_v"]), chol_gate(o["tangent"]))
                 self._stages = (bind(manifold_project, args + (0,), code=True, name=f"{self.name} projection P"),
                                 bind(manifold_project, args + (1,), code=True, name=f"{self.name} projection"),
                                 bind(projected_accelerations, (self.row_buffers, W, float(o["tangent"])), code=True,
@@ -212,8 +227,8 @@ class Manifold(Formulation):
 
 
 # ------------------------------------------------------------------ kernels
-@njit(cache=True)
-def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
+@njit(cache=True, inline="always")
+def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, gate, exact):
     """(q, v) <- P(q, v) in the state buffer (module doc, steps 1-2): one minimum-norm
     Gauss-Newton step from q (``exact``: more while |Phi| > tol and each reduces it, at most
     max_iter; each iterate costs the position passes and the rows), then the mass matrix and the
@@ -228,7 +243,7 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
     prev = row_residual(R.phi, W.rows) if exact else 0.0     # the stages never test it
     P.steps[0] = 0
     for _ in range(max_iter):
-        min_norm_step(R.Jc, R.phi, W.rows, W.Qg, W.pg, W.hg, W.r, rcond, P.dq)
+        min_norm_step_gram(R.Jc, R.phi, W.rows, W.Gg, W.Lg, W.pg, W.dg, W.yg, W.Qg, W.pg, W.hg, W.r, rcond, P.dq)
         if move(P, t) == ERROR or at_positions(P, 0, t) == ERROR:
             return ERROR
         P.steps[0] += 1
@@ -240,7 +255,7 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, exact):
             break
         prev = res
     mass_only(P)
-    if not velocity_projection(R, W, mu, rcond_v, exact):
+    if not velocity_projection(R, W, mu, rcond_v, gate, exact):
         return RANK
     for c in range(W.v.shape[0]):
         W.v[c] = W.v1[c]
@@ -257,60 +272,87 @@ def _bt_times(Y, w, x):
             x[k] += Y[j, k] * w[j]
 
 
-@njit(cache=True)
-def velocity_projection(R, W, mu, rcond, exact):
+def chol_gate(tangent):
+    """The smallest pivot of S = B B^T, relative to its first, at which the solves take S's
+    Cholesky factor instead of B^T's pivoted QR: the square of the ``tangent`` pivot (at most
+    1e-3), so the tangent correction near flat (projected_accelerations), which needs the QR's
+    Q, never meets the Cholesky path, and S's condition stays below ~1e6, where its solves are
+    accurate to ~eps / gate = 2e-10 relative."""
+    return min(max(float(tangent), 1e-3), 1.0) ** 2
+
+
+@njit(cache=True, inline="always")
+def velocity_projection(R, W, mu, rcond, gate, exact):
     """At q (the rows at (q, v = 0) in R: Phi, J and the rates Phi_t; M there): M = L^T L,
-    B = J L^-1 (in Y), the pivoted QR of B^T and, at the stages, the factor of S + i mu^2 Lam
-    (shifted_factor; kept for projected_accelerations), and the mass-metric projection
-    v1 = L^-1 ((I - Q Q^T) L v - B^+ Phi_t) onto J v1 + Phi_t = 0 (``exact``: after a step,
-    where the drives' rates are O(1) and a filter would bias them; the step logic evaluates
-    again after it, so no factor is needed) or v1 = v - L^-1 B^T g(S) (J v + Phi_t) (the
-    stages' filtered correction of an O(error) residual). False if M is not PD; kk[0] = rank
-    kept."""
+    B = J L^-1 (in Y), S = B B^T and its pivoted Cholesky factor, or, where a pivot of S falls
+    below ``gate`` (near flat or redundant rows), the pivoted QR of B^T; at the stages the
+    factor of S + i mu^2 Lam (shifted_factor; kept for projected_accelerations); and the
+    mass-metric projection v1 = L^-1 ((I - Q Q^T) L v - B^+ Phi_t) onto J v1 + Phi_t = 0
+    (``exact``: after a step, where the drives' rates are O(1) and a filter would bias them; the
+    step logic evaluates again after it, so no factor is needed; with S's factor
+    v1 = L^-1 (x - B^T S^-1 (B x + Phi_t)), x = L v, the same in exact arithmetic) or
+    v1 = v - L^-1 B^T g(S) (J v + Phi_t) (the stages' filtered correction of an O(error)
+    residual). False if M is not PD; kk[0] = rank kept, chol[0] = which factor."""
     v, v1, Lm, Y = W.v, W.v1, W.Lm, W.Y
     if not ltl_factor(W.M, W.parent, Lm):
         return False
     Jc, dphi, pt = R.Jc, R.dphi, W.r
     m, nv = Jc.shape
     schur_complement(Lm, W.parent, Jc, W.rows, Y, W.S)
-    for r in range(m):
-        for c in range(nv):
-            W.Qr[r, c] = Y[r, c]
-    k = qr_pivoted(W.Qr, W.piv, W.hb, rcond)
+    chol = chol_pivoted(W.S, W.pc, W.Lc, W.dg, gate) > 0.0
+    W.chol[0] = 1 if chol else 0
+    k = m
+    if not chol:
+        for r in range(m):
+            for c in range(nv):
+                W.Qr[r, c] = Y[r, c]
+        k = qr_pivoted(W.Qr, W.piv, W.hb, rcond)
     W.kk[0] = k
     rates = True
     if exact:
         ltl_mul(Lm, W.parent, v, v1)          # x = L v
-        project_out(W.Qr, W.hb, k, v1)
         # Phi_t: the rheonomic rows' own rates, -f'(t) of the drives (zero for closures)
         mc = m - R.iq.shape[0]
         rates = False
         for r in range(m):
             pt[r] = 0.0 if r < mc else -W.fdrv[1, r - mc]
             rates = rates or pt[r] != 0.0
-    else:
-        for r in range(m):                     # J v + Phi_t (the rows' rates are at v = 0)
-            s = dphi[r]
-            for c in range(nv):
-                s += Jc[r, c] * v[c]
-            pt[r] = s
-        for c in range(nv):
-            v1[c] = v[c]
-    corr = W.xs
-    if exact:
-        if rates:
-            min_norm_x(W.Qr, W.piv, W.hb, k, pt, corr)     # B^+ Phi_t
-            for c in range(nv):
-                v1[c] -= corr[c]
+        if chol:
+            w = W.w
+            for r in range(m):                 # B x + Phi_t
+                s = pt[r]
+                for c in range(nv):
+                    s += Y[r, c] * v1[c]
+                w[r] = s
+            chol_solve_pivoted(W.Lc, W.pc, w, W.yg, w)
+            for r in range(m):
+                wr = w[r]
+                for c in range(nv):
+                    v1[c] -= Y[r, c] * wr
+        else:
+            project_out(W.Qr, W.hb, k, v1)
+            if rates:
+                corr = W.xs
+                min_norm_x(W.Qr, W.piv, W.hb, k, pt, corr)     # B^+ Phi_t
+                for c in range(nv):
+                    v1[c] -= corr[c]
         ltl_solve(Lm, W.parent, v1)
-    else:
-        # the filter's factor (the stages' solve reads it too)
-        shifted_factor(W.S, mu, W.grp, W.gcnt, W.gsum, W.Fr, W.Fi)
-        filtered_solve_ws(W.Fr, W.Fi, pt, W.w, W.yr, W.yi)
-        _bt_times(Y, W.w, corr)                # the normal correction B^T g(S) pt
-        ltl_solve(Lm, W.parent, corr)
+        return True
+    for r in range(m):                         # J v + Phi_t (the rows' rates are at v = 0)
+        s = dphi[r]
         for c in range(nv):
-            v1[c] -= corr[c]
+            s += Jc[r, c] * v[c]
+        pt[r] = s
+    for c in range(nv):
+        v1[c] = v[c]
+    corr = W.xs
+    # the filter's factor (the stages' solve reads it too)
+    shifted_factor(W.S, mu, W.grp, W.gcnt, W.gsum, W.Fr, W.Fi)
+    filtered_solve_ws(W.Fr, W.Fi, pt, W.w, W.yr, W.yi)
+    _bt_times(Y, W.w, corr)                    # the normal correction B^T g(S) pt
+    ltl_solve(Lm, W.parent, corr)
+    for c in range(nv):
+        v1[c] -= corr[c]
     return True
 
 
@@ -329,36 +371,15 @@ def _unit_lv(Lm, parent, v, x):
     return True
 
 
-@njit(cache=True)
-def projected_accelerations(R, W, wtan):
-    """Accelerations at a state on the manifold (pass at (q, v) done; L, B = Y, B^T's QR and the
-    factor of S + i mu^2 I from velocity_projection at q):
-        y = L^-T (tau - nle),   a = L^-1 ((I - Q Q^T) y + B^T g(S) gamma).
-    Exact where g(S) = S^-1: then B^T S^-1 (gamma - B y) = B^T g gamma - Q Q^T y. The applied
-    forces' part of the constraint reaction (Q Q^T y) is a projector, exact at any distance
-    from the flat configuration; only the velocity-squared part gamma is filtered, the one
-    whose round-off grows like 1/s^(3/2) near it. Multipliers: lam = g(S) gamma - S^+ B y.
-    Returns 1, or -2 when the accelerations are not finite."""
-    # the velocity terms at (q, v); Phi, J and the frames' placements are those the projection
-    # left at this q (the same numbers: the rows at q are not evaluated twice)
-    constraint_rows_velocities(R, 0.0, 0.0, W.v, W.fdrv)
+@njit(cache=True, inline="always")
+def _qr_reaction(W, wtan, r, w, corr):
+    """Near rank loss (B^T's pivoted QR, velocity_projection): W.a <- (I - Q Q^T) y with the
+    tangent along the velocity (module doc, step 4), W.lam = g(S) gamma - S^+ B y (r = -B y,
+    w = g(S) gamma), corr = B^T w."""
     a, lam, Y, Lm, parent, Qr, hb = W.a, W.lam, W.Y, W.Lm, W.parent, W.Qr, W.hb
     m, nv = Y.shape
-    for c in range(nv):
-        a[c] = W.tau[c] - W.nle[c]
-    ltl_solve_t(Lm, parent, a)                 # y
-    # multipliers of the same split: B^T lam = B^T g(S) gamma - Q Q^T y, i.e.
-    # lam = g(S) gamma - (B B^T)^+ B y (the second by the QR of B^T, no normal equations)
-    r = W.r
-    for rr in range(m):
-        s = 0.0
-        for c in range(nv):
-            s -= Y[rr, c] * a[c]
-        r[rr] = s
     k = W.kk[0]
     min_norm_solve(Qr, W.piv, hb, k, r, W.xs, lam)
-    w = W.w                                    # g(S) gamma
-    filtered_solve_ws(W.Fr, W.Fi, R.gamma, w, W.yr, W.yi)
     for rr in range(m):
         lam[rr] += w[rr]
     along = k > 0 and abs(Qr[k - 1, k - 1]) < wtan * abs(Qr[0, 0])    # near flat only
@@ -385,8 +406,47 @@ def projected_accelerations(R, W, wtan):
         wz /= ww
         for c in range(nv):
             a[c] += xy * xt[c] - wz * wt[c]
-    corr = W.xs
     _bt_times(Y, w, corr)                      # B^T g(S) gamma, g(S) gamma from the multipliers
+
+
+@njit(cache=True, inline="always")
+def projected_accelerations(R, W, wtan):
+    """Accelerations at a state on the manifold (pass at (q, v) done; L, B = Y, B^T's QR and the
+    factor of S + i mu^2 I from velocity_projection at q):
+        y = L^-T (tau - nle),   a = L^-1 ((I - Q Q^T) y + B^T g(S) gamma).
+    Exact where g(S) = S^-1: then B^T S^-1 (gamma - B y) = B^T g gamma - Q Q^T y. The applied
+    forces' part of the constraint reaction (Q Q^T y) is a projector, exact at any distance
+    from the flat configuration; only the velocity-squared part gamma is filtered, the one
+    whose round-off grows like 1/s^(3/2) near it. Multipliers: lam = g(S) gamma - S^+ B y.
+    Returns 1, or -2 when the accelerations are not finite."""
+    # the velocity terms at (q, v); Phi, J and the frames' placements are those the projection
+    # left at this q (the same numbers: the rows at q are not evaluated twice)
+    constraint_rows_velocities(R, 0.0, 0.0, W.v, W.fdrv)
+    a, lam, Y, Lm, parent = W.a, W.lam, W.Y, W.Lm, W.parent
+    m, nv = Y.shape
+    for c in range(nv):
+        a[c] = W.tau[c] - W.nle[c]
+    ltl_solve_t(Lm, parent, a)                 # y
+    # multipliers of the same split: B^T lam = B^T g(S) gamma - Q Q^T y, i.e.
+    # lam = g(S) gamma - (B B^T)^+ B y (the second by the QR of B^T, no normal equations)
+    r = W.r
+    for rr in range(m):
+        s = 0.0
+        for c in range(nv):
+            s -= Y[rr, c] * a[c]
+        r[rr] = s
+    w = W.w                                    # g(S) gamma
+    filtered_solve_ws(W.Fr, W.Fi, R.gamma, w, W.yr, W.yi)
+    corr = W.xs
+    if W.chol[0]:
+        # far from flat (velocity_projection): S^-1 from its Cholesky factor, and
+        # (I - Q Q^T) y + B^T g(S) gamma = y + B^T lam in one product
+        chol_solve_pivoted(W.Lc, W.pc, r, W.yg, lam)
+        for rr in range(m):
+            lam[rr] += w[rr]
+        _bt_times(Y, lam, corr)
+    else:
+        _qr_reaction(W, wtan, r, w, corr)
     for c in range(nv):
         a[c] += corr[c]
     ltl_solve(Lm, parent, a)
@@ -437,21 +497,43 @@ def shifted_factor(S, mu, grp, gcnt, gsum, Fr, Fi):
     for g in range(gsum.shape[0]):
         gsum[g] = mu * mu * max(gsum[g] / gcnt[g], floor)
     # row j's L[j, k] D[k] (k < j) once, then each entry below costs one complex product per k;
-    # kept in the (unused) strict upper triangle, column j: no work array to allocate
+    # kept in the (unused) strict upper triangle, column j: no work array to allocate. Complex
+    # numbers as (real, imaginary) pairs, two rows i at a time (independent sums the processor
+    # overlaps) and 1 / d once per column: 1.5x faster at 16 rows than complex() products and
+    # one division per entry (the same operations otherwise)
     for j in range(m):
-        d = complex(S[j, j], gsum[grp[j]] if j < mc else 0.0)
+        dr, di = S[j, j], (gsum[grp[j]] if j < mc else 0.0)
         for k in range(j):
-            l = complex(Fr[j, k], Fi[j, k])
-            w = l * complex(Fr[k, k], Fi[k, k])
-            Fr[k, j], Fi[k, j] = w.real, w.imag
-            d -= l * w
-        Fr[j, j], Fi[j, j] = d.real, d.imag
-        for i in range(j + 1, m):
-            s = complex(S[i, j], 0.0)
+            lr, li = Fr[j, k], Fi[j, k]
+            er, ei = Fr[k, k], Fi[k, k]
+            wr, wi = lr * er - li * ei, lr * ei + li * er
+            Fr[k, j], Fi[k, j] = wr, wi
+            dr -= lr * wr - li * wi
+            di -= lr * wi + li * wr
+        Fr[j, j], Fi[j, j] = dr, di
+        n2 = dr * dr + di * di
+        ir, ii = dr / n2, -di / n2
+        i = j + 1
+        while i + 1 < m:
+            ar, ai, br, bi = S[i, j], 0.0, S[i + 1, j], 0.0
             for k in range(j):
-                s -= complex(Fr[i, k], Fi[i, k]) * complex(Fr[k, j], Fi[k, j])
-            s /= d
-            Fr[i, j], Fi[i, j] = s.real, s.imag
+                wr, wi = Fr[k, j], Fi[k, j]
+                xr, xi, yr, yi = Fr[i, k], Fi[i, k], Fr[i + 1, k], Fi[i + 1, k]
+                ar -= xr * wr - xi * wi
+                ai -= xr * wi + xi * wr
+                br -= yr * wr - yi * wi
+                bi -= yr * wi + yi * wr
+            Fr[i, j], Fi[i, j] = ar * ir - ai * ii, ar * ii + ai * ir
+            Fr[i + 1, j], Fi[i + 1, j] = br * ir - bi * ii, br * ii + bi * ir
+            i += 2
+        if i < m:
+            ar, ai = S[i, j], 0.0
+            for k in range(j):
+                wr, wi = Fr[k, j], Fi[k, j]
+                xr, xi = Fr[i, k], Fi[i, k]
+                ar -= xr * wr - xi * wi
+                ai -= xr * wi + xi * wr
+            Fr[i, j], Fi[i, j] = ar * ir - ai * ii, ar * ii + ai * ir
 
 
 @njit(cache=True)
