@@ -151,3 +151,40 @@ def test_manifold_cholesky_path_agrees_with_its_qr_path(name, monkeypatch):
         assert np.abs(a - a2).max() <= tol * np.abs(a).max()
         assert np.abs(qp - qp2).max() <= tol * np.abs(qp).max()
         assert np.abs(vp - vp2).max() <= tol * np.abs(vp).max()
+
+
+@pytest.mark.parametrize("name", ["four_bar", "nine_bar", "three_upru_up", "a02_nfourbar_2"])
+def test_exact_projection_after_the_stage_at_the_same_state_is_bit_identical(name):
+    """The exact projection of the state the step logic evaluated last (an FSAL step's accepted
+    state) takes its first Gauss-Newton step, rows and factors from that evaluation's stage
+    projection (manifold.same_state) instead of computing them again: the result must be the
+    very bits a formulation that never evaluated there computes, and a state that differs in
+    one velocity component must not take the shortcut."""
+    mech = pinclear.load(name)
+    tr = pinclear.simulate(mech, 0.02, method="manifold", rtol=1e-6, dt_out=0.01)
+    hits = 0
+    for k in range(len(tr.t)):
+        t = float(tr.t[k])
+        rng = np.random.default_rng(k)
+        r = rng.standard_normal(mech.nv)
+        q = pin.integrate(mech.model, tr.q[k], 1e-7 * r / np.linalg.norm(r))
+        v = tr.v[k] + 1e-7 * rng.standard_normal(mech.nv)
+        fresh = formulations.get("manifold")(mech)
+        used = formulations.get("manifold")(mech)
+        for f in (fresh, used):
+            J = kinematics.jacobian(mech, f.ws, tr.q[0], float(tr.t[0]), with_drives=True)
+            f.use_rows(kinematics.rank_analysis(J, mech.row_names())[1])
+        used.accelerations(t, q, v, tr.z[k])
+        assert used._W.last[0] == 1
+        qr, vr = fresh.project(t, q, v)
+        qs, vs = used.project(t, q, v)
+        hits += used._W.last[0] == 2          # the exact projection took the stage's numbers
+        assert np.array_equal(qs, qr) and np.array_equal(vs, vr)
+        assert int(used.ws.gn_steps[0]) == int(fresh.ws.gn_steps[0])
+        # another velocity: the full computation (its result again equal to a fresh one's)
+        used.accelerations(t, q, v, tr.z[k])
+        v2 = v.copy()
+        v2[0] += 1e-9
+        assert np.array_equal(used.project(t, q, v2)[1], fresh.project(t, q, v2)[1])
+        assert used._W.last[0] == 0
+    assert hits == len(tr.t)

@@ -45,6 +45,12 @@ with the exact velocity projection (``project``): v1 = L^-1 ((I - Q Q^T) L v - B
 drives' rates through the pivoted QR's minimum-norm solve, unfiltered (filtered, they gave a
 driven mechanism's samples velocities off by up to 100 %; docs/singular_passages.md).
 
+The exact projection of the state the step logic evaluated last (the accepted state of an FSAL
+step: RK45, DOP853, ROS34PW2) starts where that evaluation's stage projection ended: the same
+first Gauss-Newton step from the same state, rows and factors at the same q1 (same_state: the
+state and the drive values bitwise equal), so where |Phi(q1)| <= tol it only applies the exact
+velocity projection to those factors, the very numbers it would compute again.
+
 The QRs are needed only near rank loss: where every pivot of J J^T (resp. S) stays above a gate
 the same quantities come from its Cholesky factor with diagonal pivoting (the QR's pivot order
 and |R_jj| in exact arithmetic; projection.min_norm_step_gram, chol_gate), which costs a
@@ -113,6 +119,12 @@ class ManifoldWork(NamedTuple):
     Lc: np.ndarray       # (m, m) the pivoted Cholesky factor of S (velocity_projection)
     pc: np.ndarray       # (m,) its pivots
     chol: np.ndarray     # (1,) 1: S's factor is used at this q1 (far from rank loss), 0: B^T's QR
+    last: np.ndarray     # (1,) 1: the buffers hold the last stage projection's (same_state); 2: an
+    #                      exact projection has just taken them
+    qin: np.ndarray      # (nq,) that stage's state and drive values
+    vin: np.ndarray      # (nv,)
+    fin: np.ndarray      # (3, drives)
+    q1: np.ndarray       # (nq,) its projected configuration
 
 
 class Manifold(Formulation):
@@ -144,7 +156,8 @@ class Manifold(Formulation):
                                np.zeros(m), np.zeros(m), np.zeros(nv), np.zeros(nv), np.zeros(nv),
                                grp, gcnt, np.zeros(gcnt.size), np.zeros((m, m)), np.zeros((m, m)), np.zeros(m),
                                np.zeros(m), np.zeros((m, m)), np.zeros(m, dtype=np.int64),
-                               np.zeros(1, dtype=np.int64))
+                               np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(ws.q.shape[0]),
+                               np.zeros(nv), np.zeros(ws.drive_data.f.shape), np.zeros(ws.q.shape[0]))
         self._stages = None
 
     @property
@@ -237,6 +250,24 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, gate, exact)
     S + i mu^2 I at q1 for projected_accelerations. Returns OK, RANK (M not positive definite)
     or ERROR."""
     q, zero = P.q, P.zero_v
+    if exact and same_state(W, q) and row_residual(R.phi, W.rows) <= tol:
+        # the state the step logic evaluated last (the accepted state of an FSAL step): its stage
+        # projection took this very Gauss-Newton step from it, computed the rows at q1 and
+        # factored M, B and S there, so the exact projection ends at q1 (|Phi| <= tol) and its
+        # velocity comes from those factors: the same numbers as computing them again
+        for i in range(q.shape[0]):
+            q[i] = W.q1[i]
+        P.steps[0] = 1
+        W.last[0] = 2          # taken (read by the tests)
+        exact_velocity(R, W)
+        for c in range(W.v.shape[0]):
+            W.v[c] = W.v1[c]
+        return OK
+    W.last[0] = 0
+    if not exact:
+        W.qin[:] = q
+        W.vin[:] = W.v
+        W.fin[:, :] = W.fdrv
     if at_positions(P, 0, t) == ERROR:
         return ERROR
     constraint_rows_positions(R, q, zero, W.fdrv)
@@ -259,7 +290,30 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, gate, exact)
         return RANK
     for c in range(W.v.shape[0]):
         W.v[c] = W.v1[c]
+    if not exact:
+        W.q1[:] = q
+        W.last[0] = 1
     return OK
+
+
+@njit(cache=True, inline="always")
+def same_state(W, q):
+    """True if the buffers hold the stage projection of exactly this state: q, the state
+    buffer's v and the drive values bitwise those of the last stage projection, with no
+    projection since (W.last)."""
+    if W.last[0] != 1:
+        return False
+    for i in range(q.shape[0]):
+        if q[i] != W.qin[i]:
+            return False
+    for i in range(W.v.shape[0]):
+        if W.v[i] != W.vin[i]:
+            return False
+    for r in range(W.fdrv.shape[0]):
+        for k in range(W.fdrv.shape[1]):
+            if W.fdrv[r, k] != W.fin[r, k]:
+                return False
+    return True
 
 
 @njit(cache=True)
@@ -308,35 +362,8 @@ def velocity_projection(R, W, mu, rcond, gate, exact):
                 W.Qr[r, c] = Y[r, c]
         k = qr_pivoted(W.Qr, W.piv, W.hb, rcond)
     W.kk[0] = k
-    rates = True
     if exact:
-        ltl_mul(Lm, W.parent, v, v1)          # x = L v
-        # Phi_t: the rheonomic rows' own rates, -f'(t) of the drives (zero for closures)
-        mc = m - R.iq.shape[0]
-        rates = False
-        for r in range(m):
-            pt[r] = 0.0 if r < mc else -W.fdrv[1, r - mc]
-            rates = rates or pt[r] != 0.0
-        if chol:
-            w = W.w
-            for r in range(m):                 # B x + Phi_t
-                s = pt[r]
-                for c in range(nv):
-                    s += Y[r, c] * v1[c]
-                w[r] = s
-            chol_solve_pivoted(W.Lc, W.pc, w, W.yg, w)
-            for r in range(m):
-                wr = w[r]
-                for c in range(nv):
-                    v1[c] -= Y[r, c] * wr
-        else:
-            project_out(W.Qr, W.hb, k, v1)
-            if rates:
-                corr = W.xs
-                min_norm_x(W.Qr, W.piv, W.hb, k, pt, corr)     # B^+ Phi_t
-                for c in range(nv):
-                    v1[c] -= corr[c]
-        ltl_solve(Lm, W.parent, v1)
+        exact_velocity(R, W)
         return True
     for r in range(m):                         # J v + Phi_t (the rows' rates are at v = 0)
         s = dphi[r]
@@ -354,6 +381,42 @@ def velocity_projection(R, W, mu, rcond, gate, exact):
     for c in range(nv):
         v1[c] -= corr[c]
     return True
+
+
+@njit(cache=True, inline="always")
+def exact_velocity(R, W):
+    """v1 = L^-1 ((I - Q Q^T) L v - B^+ Phi_t) from the factors velocity_projection left (S's
+    Cholesky factor: v1 = L^-1 (x - B^T S^-1 (B x + Phi_t)), x = L v; else B^T's QR)."""
+    v, v1, Lm, Y, pt = W.v, W.v1, W.Lm, W.Y, W.r
+    m, nv = Y.shape
+    k = W.kk[0]
+    ltl_mul(Lm, W.parent, v, v1)              # x = L v
+    # Phi_t: the rheonomic rows' own rates, -f'(t) of the drives (zero for closures)
+    mc = m - R.iq.shape[0]
+    rates = False
+    for r in range(m):
+        pt[r] = 0.0 if r < mc else -W.fdrv[1, r - mc]
+        rates = rates or pt[r] != 0.0
+    if W.chol[0]:
+        w = W.w
+        for r in range(m):                     # B x + Phi_t
+            s = pt[r]
+            for c in range(nv):
+                s += Y[r, c] * v1[c]
+            w[r] = s
+        chol_solve_pivoted(W.Lc, W.pc, w, W.yg, w)
+        for r in range(m):
+            wr = w[r]
+            for c in range(nv):
+                v1[c] -= Y[r, c] * wr
+    else:
+        project_out(W.Qr, W.hb, k, v1)
+        if rates:
+            corr = W.xs
+            min_norm_x(W.Qr, W.piv, W.hb, k, pt, corr)     # B^+ Phi_t
+            for c in range(nv):
+                v1[c] -= corr[c]
+    ltl_solve(Lm, W.parent, v1)
 
 
 @njit(cache=True)
