@@ -113,6 +113,22 @@ def test_gram_step_is_the_minimum_norm_step(redundant):
     assert GRAM_GATE < 1.0 / np.linalg.cond(J) ** 2      # the Cholesky path was the one taken
 
 
+def _manifold_form(mech, tr):
+    """A manifold formulation with the rows simulate chooses at the run's first sample."""
+    form = formulations.get("manifold")(mech)
+    J = kinematics.jacobian(mech, form.ws, tr.q[0], float(tr.t[0]), with_drives=True)
+    form.use_rows(kinematics.rank_analysis(J, mech.row_names())[1])
+    return form
+
+
+def _off_manifold(mech, tr, k, d):
+    """(t, q, v) of sample k moved d off the manifold in a random direction (seeded by k)."""
+    rng = np.random.default_rng(k)
+    r = rng.standard_normal(mech.nv)
+    q = pin.integrate(mech.model, tr.q[k], d * r / np.linalg.norm(r))
+    return float(tr.t[k]), q, tr.v[k] + d * rng.standard_normal(mech.nv)
+
+
 @pytest.mark.parametrize("name", ["four_bar", "nine_bar", "three_upru_up", "four_ups_upr"])
 def test_manifold_cholesky_path_agrees_with_its_qr_path(name, monkeypatch):
     """The manifold's evaluation with S's Cholesky factor (far from flat: the default gate) and
@@ -125,16 +141,10 @@ def test_manifold_cholesky_path_agrees_with_its_qr_path(name, monkeypatch):
     for path, gate in (("chol", None), ("qr", 2.0)):
         if gate is not None:
             monkeypatch.setattr(manifold_mod, "chol_gate", lambda tangent: gate)
-        form = formulations.get("manifold")(mech)
-        J = kinematics.jacobian(mech, form.ws, tr.q[0], float(tr.t[0]), with_drives=True)
-        form.use_rows(kinematics.rank_analysis(J, mech.row_names())[1])
+        form = _manifold_form(mech, tr)
         res = []
         for k in range(len(tr.t)):
-            t = float(tr.t[k])
-            rng = np.random.default_rng(k)
-            r = rng.standard_normal(mech.nv)
-            q = pin.integrate(mech.model, tr.q[k], 1e-6 * r / np.linalg.norm(r))
-            v = tr.v[k] + 1e-6 * rng.standard_normal(mech.nv)
+            t, q, v = _off_manifold(mech, tr, k, 1e-6)
             a = form.accelerations(t, q, v, tr.z[k])
             used = int(form._W.chol[0])
             S = form._W.S.copy()
@@ -164,16 +174,8 @@ def test_exact_projection_after_the_stage_at_the_same_state_is_bit_identical(nam
     tr = pinclear.simulate(mech, 0.02, method="manifold", rtol=1e-6, dt_out=0.01)
     hits = 0
     for k in range(len(tr.t)):
-        t = float(tr.t[k])
-        rng = np.random.default_rng(k)
-        r = rng.standard_normal(mech.nv)
-        q = pin.integrate(mech.model, tr.q[k], 1e-7 * r / np.linalg.norm(r))
-        v = tr.v[k] + 1e-7 * rng.standard_normal(mech.nv)
-        fresh = formulations.get("manifold")(mech)
-        used = formulations.get("manifold")(mech)
-        for f in (fresh, used):
-            J = kinematics.jacobian(mech, f.ws, tr.q[0], float(tr.t[0]), with_drives=True)
-            f.use_rows(kinematics.rank_analysis(J, mech.row_names())[1])
+        t, q, v = _off_manifold(mech, tr, k, 1e-7)
+        fresh, used = _manifold_form(mech, tr), _manifold_form(mech, tr)
         used.accelerations(t, q, v, tr.z[k])
         assert used._W.last[0] == 1
         qr, vr = fresh.project(t, q, v)
