@@ -27,7 +27,8 @@ class Rows(NamedTuple):
     jidx: np.ndarray     # (F,) each frame's parent joint, an index into Hj
     jMf: np.ndarray      # (F, 4, 4) constant frame offsets
     H: np.ndarray        # (F, 4, 4) frame placements
-    mask: np.ndarray     # (F, nv) 1 on the dofs that move each frame
+    fcols: np.ndarray    # (F, nv) the dofs that move each frame, ascending (nfcols of them)
+    nfcols: np.ndarray
     J: np.ndarray        # (6, nv) Pinocchio's joint Jacobian, WORLD (data.J)
     dJ: np.ndarray       # (6, nv) its time derivative (data.dJ)
     table: np.ndarray    # closure primitives (pinclear.closures.CompiledClosures)
@@ -46,6 +47,8 @@ class Rows(NamedTuple):
     bias: np.ndarray     # (m,) dJ v
     dphi: np.ndarray     # (m,) J v + Phi_t
     gamma: np.ndarray    # (m,) the right-hand side of J a = gamma
+    cols: np.ndarray     # (m, nv) each row's support: the dofs that can move it, ascending
+    ncols: np.ndarray    # (m,) how many of cols' entries are used (pinclear.kinematics.row_support)
 
 
 class Solve(NamedTuple):
@@ -76,12 +79,12 @@ def _cross(a0, a1, a2, b0, b1, b2):
 
 
 @njit(cache=True, inline="always")
-def frame_positions(Hj, jidx, jMf, H, mask, J, Jv, Jw):
+def frame_positions(Hj, jidx, jMf, H, fcols, nfcols, J, Jv, Jw):
     """Frame placements H[f] = Hj[jidx[f]] jMf[f] (parent-joint placement times the constant
     frame offset) and frame Jacobians (origin velocity, angular; world axes) from the tree's WORLD
-    J, masked to the dofs supporting each frame."""
+    J on the dofs supporting each frame (fcols[f, :nfcols[f]]; the other entries of Jv and Jw are
+    structural zeros, zero since their buffers were made)."""
     F = H.shape[0]
-    nv = J.shape[1]
     for f in range(F):
         j = jidx[f]
         for r in range(3):
@@ -92,12 +95,8 @@ def frame_positions(Hj, jidx, jMf, H, mask, J, Jv, Jw):
                 H[f, r, c] = s
     for f in range(F):
         px, py, pz = H[f, 0, 3], H[f, 1, 3], H[f, 2, 3]
-        for k in range(nv):
-            if mask[f, k] == 0.0:
-                for i in range(3):
-                    Jv[f, i, k] = 0.0
-                    Jw[f, i, k] = 0.0
-                continue
+        for kk in range(nfcols[f]):
+            k = fcols[f, kk]
             jx, jy, jz = J[3, k], J[4, k], J[5, k]
             cx, cy, cz = _cross(jx, jy, jz, px, py, pz)
             Jw[f, 0, k], Jw[f, 1, k], Jw[f, 2, k] = jx, jy, jz
@@ -105,18 +104,17 @@ def frame_positions(Hj, jidx, jMf, H, mask, J, Jv, Jw):
 
 
 @njit(cache=True, inline="always")
-def frame_velocities(H, mask, J, dJ, v, V, W, A, Al):
+def frame_velocities(H, fcols, nfcols, J, dJ, v, V, W, A, Al):
     """Velocities and zero-ddq classical accelerations of every frame (after frame_positions):
-    v_o + w x p and a_o + alpha x p + w x v_p with (v_o; w) = J v, (a_o; alpha) = dJ v masked."""
+    v_o + w x p and a_o + alpha x p + w x v_p with (v_o; w) = J v, (a_o; alpha) = dJ v over the
+    dofs supporting the frame."""
     F = H.shape[0]
-    nv = J.shape[1]
     for f in range(F):
         px, py, pz = H[f, 0, 3], H[f, 1, 3], H[f, 2, 3]
         vo0 = vo1 = vo2 = w0 = w1 = w2 = 0.0
         ao0 = ao1 = ao2 = al0 = al1 = al2 = 0.0
-        for k in range(nv):
-            if mask[f, k] == 0.0:
-                continue
+        for kk in range(nfcols[f]):
+            k = fcols[f, kk]
             vk = v[k]
             vo0 += J[0, k] * vk
             vo1 += J[1, k] * vk
@@ -141,26 +139,29 @@ def frame_velocities(H, mask, J, dJ, v, V, W, A, Al):
 
 
 @njit(cache=True)
-def frame_kinematics(Hj, jidx, jMf, H, mask, J, dJ, v, Jv, Jw, V, W, A, Al):
+def frame_kinematics(Hj, jidx, jMf, H, fcols, nfcols, J, dJ, v, Jv, Jw, V, W, A, Al):
     """Frame placements H[f] = Hj[jidx[f]] jMf[f] (parent-joint placement times the constant
     frame offset), then frame Jacobians (origin velocity, angular; world axes), velocities and
     zero-ddq classical accelerations of every frame from the tree's WORLD J, dJ."""
-    frame_positions(Hj, jidx, jMf, H, mask, J, Jv, Jw)
-    frame_velocities(H, mask, J, dJ, v, V, W, A, Al)
+    frame_positions(Hj, jidx, jMf, H, fcols, nfcols, J, Jv, Jw)
+    frame_velocities(H, fcols, nfcols, J, dJ, v, V, W, A, Al)
 
 
 @njit(cache=True, inline="always")
-def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi):
+def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi, cols, ncols):
     """Residual and Jacobian of every closure primitive (see pinclear.closures), J v = 0 (the
-    rows at rest). table rows: (code, i1, i2, row0, a, b); E (n, 2, 3) plane bases; L lengths."""
-    nv = Jc.shape[1]
+    rows at rest). table rows: (code, i1, i2, row0, a, b); E (n, 2, 3) plane bases; L lengths.
+    Only the columns of the primitive's support (cols, ncols of its first row) are written: the
+    others are structural zeros, zero since the buffer was made (pinclear.kinematics.row_support)."""
     for p in range(table.shape[0]):
         code, i1, i2, r = table[p, 0], table[p, 1], table[p, 2], table[p, 3]
+        sup, ns = cols[r], ncols[r]
         if code == POINT:
             for i in range(3):
                 phi[r + i] = H[i1, i, 3] - H[i2, i, 3]
                 dphi[r + i] = 0.0
-                for k in range(nv):
+                for kk in range(ns):
+                    k = sup[kk]
                     Jc[r + i, k] = Jv[i1, i, k] - Jv[i2, i, k]
         elif code == PLANE:
             for j in range(2):
@@ -168,7 +169,8 @@ def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi):
                 for i in range(3):
                     s += E[p, j, i] * (H[i1, i, 3] - H[i2, i, 3])
                 phi[r + j], dphi[r + j] = s, 0.0
-                for k in range(nv):
+                for kk in range(ns):
+                    k = sup[kk]
                     acc = 0.0
                     for i in range(3):
                         acc += E[p, j, i] * (Jv[i1, i, k] - Jv[i2, i, k])
@@ -180,7 +182,8 @@ def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi):
             c0, c1, c2 = _cross(u0, u1, u2, x0, x1, x2)
             phi[r] = u0 * x0 + u1 * x1 + u2 * x2
             dphi[r] = 0.0
-            for k in range(nv):
+            for kk in range(ns):
+                k = sup[kk]
                 Jc[r, k] = (c0 * (Jw[i1, 0, k] - Jw[i2, 0, k]) + c1 * (Jw[i1, 1, k] - Jw[i2, 1, k])
                             + c2 * (Jw[i1, 2, k] - Jw[i2, 2, k]))
         elif code == PERP:
@@ -190,7 +193,8 @@ def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi):
             c0, c1, c2 = _cross(u0, u1, u2, d0, d1, d2)
             phi[r] = u0 * d0 + u1 * d1 + u2 * d2
             dphi[r] = 0.0
-            for k in range(nv):
+            for kk in range(ns):
+                k = sup[kk]
                 Jc[r, k] = (u0 * (Jv[i2, 0, k] - Jv[i1, 0, k]) + u1 * (Jv[i2, 1, k] - Jv[i1, 1, k])
                             + u2 * (Jv[i2, 2, k] - Jv[i1, 2, k])
                             + c0 * Jw[i1, 0, k] + c1 * Jw[i1, 1, k] + c2 * Jw[i1, 2, k])
@@ -200,7 +204,8 @@ def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi):
             n0, n1, n2 = d0 / nd, d1 / nd, d2 / nd
             phi[r] = nd - L[p]
             dphi[r] = 0.0
-            for k in range(nv):
+            for kk in range(ns):
+                k = sup[kk]
                 Jc[r, k] = (n0 * (Jv[i1, 0, k] - Jv[i2, 0, k]) + n1 * (Jv[i1, 1, k] - Jv[i2, 1, k])
                             + n2 * (Jv[i1, 2, k] - Jv[i2, 2, k]))
 
@@ -340,36 +345,39 @@ def ltl_solve(L, parent, y):
 
 
 @njit(cache=True)
-def scaled_rows(Lm, parent, J, rows, Y):
-    """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L.
-    ltl_solve_t on every row at once: each row sees the same operations in the same order."""
-    nv = Lm.shape[0]
+def scaled_rows(Lm, parent, J, rows, cols, ncols, Y):
+    """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L:
+    ltl_solve_t on each row, over the row's support only (cols, ncols: ancestor-closed, so L^-T
+    fills nothing outside it; the skipped entries are exact zeros, so every entry sees the same
+    operations in the same order as the dense solve)."""
     m = rows.shape[0]
     for r in range(m):
-        for k in range(nv):
-            Y[r, k] = J[rows[r], k]
-    for k in range(nv - 1, -1, -1):
-        d = Lm[k, k]
-        for r in range(m):
-            Y[r, k] /= d
-        i = parent[k]
-        while i >= 0:
-            lki = Lm[k, i]
-            for r in range(m):
-                Y[r, i] -= lki * Y[r, k]
-            i = parent[i]
+        sup, ns = cols[rows[r]], ncols[rows[r]]
+        Yr, Jr = Y[r], J[rows[r]]
+        Yr[:] = 0.0
+        for kk in range(ns):
+            k = sup[kk]
+            Yr[k] = Jr[k]
+        for kk in range(ns - 1, -1, -1):
+            k = sup[kk]
+            y = Yr[k] / Lm[k, k]
+            Yr[k] = y
+            i = parent[k]
+            while i >= 0:
+                Yr[i] -= Lm[k, i] * y
+                i = parent[i]
 
 
 @njit(cache=True)
-def schur_complement(Lm, parent, J, rows, Y, S):
+def schur_complement(Lm, parent, J, rows, cols, ncols, Y, S):
     """Y[r] = L^-T J[rows[r]] (row-wise) and S = Y Y^T = J M^-1 J^T over the selected rows, for
-    M = L^T L factorised by ltl_factor (S by _gram)."""
-    scaled_rows(Lm, parent, J, rows, Y)
-    _gram(Y, rows, S, False)
+    M = L^T L factorised by ltl_factor (S by _gram), both over the rows' supports."""
+    scaled_rows(Lm, parent, J, rows, cols, ncols, Y)
+    _gram(Y, rows, cols, ncols, S, False)
 
 
 @njit(cache=True)
-def kkt_solve(M, parent, f, J, gamma, rows, Lm, Y, S, Ls, a, lam):
+def kkt_solve(M, parent, f, J, gamma, rows, cols, ncols, Lm, Y, S, Ls, a, lam):
     """Solve  M a - J^T lam = f,  J a = gamma  over the selected rows by the Schur complement,
     with M = L^T L (tree-sparse):  Y = L^-T J^T,  S = Y^T Y,  y_f = L^-T f,
     lam = S^-1 (gamma - Y^T y_f),  a = L^-1 (y_f + Y lam).
@@ -387,21 +395,25 @@ def kkt_solve(M, parent, f, J, gamma, rows, Lm, Y, S, Ls, a, lam):
     if m == 0:
         ltl_solve(Lm, parent, a)
         return 1.0
-    schur_complement(Lm, parent, J, rows, Y, S)
+    schur_complement(Lm, parent, J, rows, cols, ncols, Y, S)
     ratio = _chol_dense(S[:m, :m], Ls[:m, :m])
     if ratio == 0.0:
         return 0.0
     # lam = S^-1 (gamma - Y^T y_f) by two triangular solves with Ls
     for r in range(m):
         s = gamma[rows[r]]
-        for k in range(nv):
+        sup = cols[rows[r]]
+        for kk in range(ncols[rows[r]]):
+            k = sup[kk]
             s -= Y[r, k] * a[k]
         lam[r] = s
     lower_solve(Ls, m, lam)
     lower_t_solve(Ls, m, lam)
     for r in range(m):
         lr = lam[r]
-        for k in range(nv):
+        sup = cols[rows[r]]
+        for kk in range(ncols[rows[r]]):
+            k = sup[kk]
             a[k] += Y[r, k] * lr
     ltl_solve(Lm, parent, a)
     return ratio
@@ -421,8 +433,8 @@ def constraint_rows_positions(R, q, v, fdrv):
     """The position level of constraint_rows_all: frame placements and Jacobians, every row's
     Phi and J, and J v + Phi_t at rest (the drives' v - f'(t) with ``v``, the zero vector in the
     projections' iterations; zero for closures); bias and gamma are left as they were."""
-    frame_positions(R.Hj, R.jidx, R.jMf, R.H, R.mask, R.J, R.Jv, R.Jw)
-    closure_positions(R.table, R.E, R.L, R.H, R.Jv, R.Jw, R.phi, R.Jc, R.dphi)
+    frame_positions(R.Hj, R.jidx, R.jMf, R.H, R.fcols, R.nfcols, R.J, R.Jv, R.Jw)
+    closure_positions(R.table, R.E, R.L, R.H, R.Jv, R.Jw, R.phi, R.Jc, R.dphi, R.cols, R.ncols)
     phi, dphi, iq, iv = R.phi, R.dphi, R.iq, R.iv
     mc = phi.shape[0] - iq.shape[0]
     for k in range(iq.shape[0]):
@@ -436,7 +448,7 @@ def constraint_rows_velocities(R, alpha, beta, v, fdrv):
     """The velocity level of constraint_rows_all at the configuration of the last
     constraint_rows_positions call: frame velocities and zero-ddq accelerations from the passes'
     J and dJ, every row's J v + Phi_t, bias and gamma (Phi and J kept)."""
-    frame_velocities(R.H, R.mask, R.J, R.dJ, v, R.V, R.W, R.A, R.Al)
+    frame_velocities(R.H, R.fcols, R.nfcols, R.J, R.dJ, v, R.V, R.W, R.A, R.Al)
     closure_velocities(R.table, R.E, R.H, R.V, R.W, R.A, R.Al, R.dphi, R.bias)
     phi, dphi, bias, gamma, iv = R.phi, R.dphi, R.bias, R.gamma, R.iv
     mc = phi.shape[0] - iv.shape[0]
@@ -466,7 +478,7 @@ def lagrange_accel(R, K, alpha, beta):
     a = K.a
     for i in range(a.shape[0]):
         a[i] = K.tau[i] - K.nle[i]
-    ratio = kkt_solve(K.M, K.parent, a, R.Jc, R.gamma, K.rows, K.Lm, K.Y, K.S, K.Ls, a, K.lam)
+    ratio = kkt_solve(K.M, K.parent, a, R.Jc, R.gamma, K.rows, R.cols, R.ncols, K.Lm, K.Y, K.S, K.Ls, a, K.lam)
     return _finite_code(a, ratio)
 
 
@@ -669,17 +681,21 @@ def proximal_accel(R, K, alpha, beta, rho_rel, k):
         a[i] = K.tau[i] - K.nle[i]
     ltl_solve_t(K.Lm, K.parent, a)                 # a = y_f = L^-T f
     if m > 0:
-        schur_complement(K.Lm, K.parent, R.Jc, rows, Y, K.S)
+        schur_complement(K.Lm, K.parent, R.Jc, rows, R.cols, R.ncols, Y, K.S)
         r = K.r
         for i in range(m):
             s = R.gamma[rows[i]]
-            for c in range(nv):
+            sup = R.cols[rows[i]]
+            for cc in range(R.ncols[rows[i]]):
+                c = sup[cc]
                 s -= Y[i, c] * a[c]
             r[i] = s                             # gamma - J M^-1 f
         proximal_filter(K.S, r, relative_rho(K.S, rho_rel), k, K.Ls, K.d, K.lam)
         for i in range(m):
             li = K.lam[i]
-            for c in range(nv):
+            sup = R.cols[rows[i]]
+            for cc in range(R.ncols[rows[i]]):
+                c = sup[cc]
                 a[c] += Y[i, c] * li
     ltl_solve(K.Lm, K.parent, a)
     return _finite_code(a, 1.0)
@@ -865,20 +881,22 @@ def min_norm_solve(A, piv, beta, k, r, x, lam):
 # pivot of G stays above a gate (their relative accuracy is then eps / gate, Higham, Accuracy
 # and Stability of Numerical Algorithms, 2nd ed., thm. 10.4 / sec. 20.4) and use the QR below it.
 @njit(cache=True)
-def gram_rows(A, rows, G):
+def gram_rows(A, rows, cols, ncols, G):
     """G = A[rows] A[rows]^T (both triangles), as schur_complement's S."""
-    _gram(A, rows, G, True)
+    _gram(A, rows, cols, ncols, G, True)
 
 
 @njit(cache=True, inline="always")
-def _gram(A, rows, G, indirect):
-    """G = A' A'^T (both triangles) with A' = A[rows] (``indirect``) or A's first len(rows) rows.
-    Each G[r, c] sums over k in order from zero, four c of a row at a time along the contiguous
-    rows of A: independent chains of additions the processor overlaps, the same numbers as one
-    dot product per entry (30% less than one c at a time at 16 rows)."""
-    m, n = rows.shape[0], A.shape[1]
+def _gram(A, rows, cols, ncols, G, indirect):
+    """G = A' A'^T (both triangles) with A' = A[rows] (``indirect``) or A's first len(rows) rows,
+    A' row r zero outside cols[rows[r]][:ncols[rows[r]]] (ascending). Each G[r, c] sums over row
+    r's support in order from zero (the dense sum's order: the products skipped are exact zeros),
+    four c of a row at a time: independent chains of additions the processor overlaps (30% less
+    than one c at a time at 16 rows)."""
+    m = rows.shape[0]
     for r in range(m):
         ar = rows[r] if indirect else r
+        sup, ns = cols[rows[r]], ncols[rows[r]]
         c = 0
         while c + 3 <= r:
             if indirect:
@@ -886,7 +904,8 @@ def _gram(A, rows, G, indirect):
             else:
                 c0, c1, c2, c3 = c, c + 1, c + 2, c + 3
             s0 = s1 = s2 = s3 = 0.0
-            for k in range(n):
+            for kk in range(ns):
+                k = sup[kk]
                 x = A[ar, k]
                 s0 += x * A[c0, k]
                 s1 += x * A[c1, k]
@@ -897,7 +916,8 @@ def _gram(A, rows, G, indirect):
         while c <= r:
             cc = rows[c] if indirect else c
             s0 = 0.0
-            for k in range(n):
+            for kk in range(ns):
+                k = sup[kk]
                 s0 += A[ar, k] * A[cc, k]
             G[r, c] = s0
             c += 1

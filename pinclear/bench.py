@@ -275,8 +275,10 @@ def check_run_names(methods, integrators, keys=("methods", "integrators")):
 
 
 def _run_cell(mech, t_end, rtol, method, integrator, max_cpu, repeat):
-    """Warm-up, then the best of up to ``repeat`` runs of one (scene, method, integrator) cell;
-    None and the reason when the method or integrator refuses the scene."""
+    """Warm-up, then the best of up to ``repeat`` runs of one (scene, method, integrator) cell,
+    and the Pinocchio floor at the run's samples measured once after each run and ten times at
+    the end (the best of all: a phase of the machine that slows the runs slows the floor
+    measured beside them); (None, None, reason) when the method or integrator refuses the scene."""
     import warnings
 
     with warnings.catch_warnings():
@@ -285,19 +287,23 @@ def _run_cell(mech, t_end, rtol, method, integrator, max_cpu, repeat):
             # warm-up: compiled kernels load from the cache (or compile) on a scene's first run
             simulate(mech, min(t_end, 1e-3), method=method, rtol=rtol, integrator=integrator, max_cpu=max_cpu)
         except PinclearError as exc:         # e.g. a closure type the method cannot express
-            return None, f"{type(exc).__name__}: {' '.join(str(exc).split())}"
+            return None, None, f"{type(exc).__name__}: {' '.join(str(exc).split())}"
         # best of up to `repeat` runs (while they took under a CPU second together): a short
         # run's few hundred microseconds are at the mercy of the machine's other work
-        tr, spent = None, 0.0
+        tr, spent, floor = None, 0.0, np.inf
         for _ in range(repeat):
             run = simulate(mech, t_end, method=method, rtol=rtol, integrator=integrator, max_cpu=max_cpu,
                            dt_out=t_end / 100)
             spent += run.stats["cpu_s_total"]
             if tr is None or _integration_cpu(run) < _integration_cpu(tr):
                 tr = run
+            if len(run.t):
+                floor = min(floor, pinocchio_floor(mech, run.q, run.v, repeat=1))
             if spent > 1.0:
                 break
-    return tr, None
+    if len(tr.t):
+        floor = min(floor, pinocchio_floor(mech, tr.q, tr.v, repeat=10))
+    return tr, floor, None
 
 
 def bench_runs(files=None, t_end=0.5, rtol=1e-6, methods=("lagrange",), integrators=("RK45",), max_cpu=120.0,
@@ -307,10 +313,10 @@ def bench_runs(files=None, t_end=0.5, rtol=1e-6, methods=("lagrange",), integrat
     simulated s, set-up CPU, right-hand-side evaluations, steps, events, us per evaluation
     inside the run (the integration's CPU over evaluations: integrator, events and output
     sampling included, set-up not) and its ratio over the Pinocchio floor measured at the run's
-    own samples in the same process. Each cell's figures come from the best of ``repeat`` runs,
-    fewer once they used a CPU second; ``loop`` says which integration loop ran. A cell whose
-    method or integrator refuses the scene (a PinclearError before the run starts) is recorded
-    with status ``skipped`` and the reason. ``integrator`` (one name) is the older spelling of
+    own samples in the same process (after each run and at the end, the best). Each cell's
+    figures come from the best of ``repeat`` runs, fewer once they used a CPU second; ``loop``
+    says which integration loop ran. A cell whose method or integrator refuses the scene (a
+    PinclearError before the run starts) is recorded with status ``skipped`` and the reason. ``integrator`` (one name) is the older spelling of
     ``integrators``. Result: ``scenes``, one row per cell (scene, method, integrator)."""
     from .sidecar import load
 
@@ -327,7 +333,7 @@ def bench_runs(files=None, t_end=0.5, rtol=1e-6, methods=("lagrange",), integrat
                 row = {"scene": label, "method": method, "integrator": integ, "nv": mech.nv,
                        "closure_rows": mech.compiled.m, "drives": len(mech.drives),
                        "clearances": [f.name for f in mech.clearances]}
-                tr, why = _run_cell(mech, t_end, rtol, method, integ, max_cpu, repeat)
+                tr, floor, why = _run_cell(mech, t_end, rtol, method, integ, max_cpu, repeat)
                 if tr is None:
                     rows.append({**row, "status": "skipped", "reason": why})
                     continue
@@ -343,7 +349,6 @@ def bench_runs(files=None, t_end=0.5, rtol=1e-6, methods=("lagrange",), integrat
                 row["us_per_eval"] = 1e6 * _integration_cpu(tr) / max(st["rhs_evals"], 1)
                 row["us_per_eval_with_setup"] = 1e6 * st["cpu_s"] / max(st["rhs_evals"], 1)
                 if len(tr.t):
-                    floor = pinocchio_floor(mech, tr.q, tr.v, repeat=10)
                     row["floor_us"] = 1e6 * floor
                     row["ratio_over_floor"] = row["us_per_eval"] / row["floor_us"]
                 if tr.status != "success":

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._kernels import J_PRISMATIC, J_REVOLUTE, Rows, constraint_rows_all, frame_kinematics, joint_placements
+from ._kernels import (DIST, DOT, J_PRISMATIC, J_REVOLUTE, PERP, PLANE, POINT, Rows, constraint_rows_all,
+                       frame_kinematics, joint_placements)
 import pinocchio as pin
 
 from .errors import AssemblyError
@@ -114,8 +115,14 @@ class FrameKinematics:
         self.fids = [int(f) for f in frame_ids]
         F, nv = len(self.fids), model.nv
         self.mask = np.zeros((F, nv))
+        # the same dofs as lists (ascending), which the kernels walk: a frame's Jacobian entries
+        # outside them are structural zeros, written once here
+        self.fcols = np.zeros((F, nv), dtype=np.int64)
+        self.nfcols = np.zeros(F, dtype=np.int64)
         for k, fid in enumerate(self.fids):
-            self.mask[k, supporting_dofs(model, fid)] = 1.0
+            dofs = supporting_dofs(model, fid)
+            self.mask[k, dofs] = 1.0
+            self.fcols[k, :len(dofs)], self.nfcols[k] = dofs, len(dofs)
         # placements come from the distinct parent joints (one Python access each) and the
         # frames' constant offsets: frames sharing a body cost nothing extra
         parents = [model.frames[fid].parentJoint for fid in self.fids]
@@ -151,7 +158,8 @@ class FrameKinematics:
     def update(self, data, v, q=None):
         """Standalone use: ``data`` must hold joint placements, data.J and data.dJ at (q, v)."""
         self.load_placements(data, q)
-        frame_kinematics(self.Hj, self.jidx, self.jMf, self.H, self.mask, data.J, data.dJ, v, self.Jv, self.Jw,
+        frame_kinematics(self.Hj, self.jidx, self.jMf, self.H, self.fcols, self.nfcols, data.J, data.dJ, v, self.Jv,
+                         self.Jw,
                          self.V, self.W, self.A, self.Al)
         return self
 
@@ -206,9 +214,39 @@ def row_buffers(mech, ws) -> Rows:
     are views that stay valid for the workspace's life (data.J etc. view Pinocchio's memory), so
     a formulation builds them once and binds them into its stages."""
     fk, mc, dr = ws.fk, mech.compiled, mech.driverows
+    cols, ncols = row_support(mech, fk.mask, ws.parent)
     # ws.J6: Pinocchio hands back (6,) for a 1-dof tree, the workspace views it as (6, nv)
-    return Rows(fk.Hj, fk.jidx, fk.jMf, fk.H, fk.mask, ws.J6, ws.dJ6, mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv,
-                fk.Jw, fk.V, fk.W, fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma)
+    return Rows(fk.Hj, fk.jidx, fk.jMf, fk.H, fk.fcols, fk.nfcols, ws.J6, ws.dJ6, mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv,
+                fk.Jw, fk.V, fk.W, fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma, cols, ncols)
+
+
+#: rows of each closure primitive (pinclear.closures: a point pins 3 coordinates, a plane 2)
+_PRIMITIVE_ROWS = {POINT: 3, PLANE: 2, DOT: 1, PERP: 1, DIST: 1}
+
+
+def row_support(mech, mask, parent):
+    """(cols, ncols): each constraint row's support, the dofs that can move it, ascending in
+    cols[r, :ncols[r]]: a closure primitive's rows are moved by the dofs under either of its two
+    frames (mask), a drive row by its own dof; each set is closed under ``parent`` (the tree's
+    parent dof), so L^-T of M = L^T L fills nothing outside it (pinclear._kernels.scaled_rows).
+    Outside it J and J L^-1 are exact zeros: the kernels skip them, which changes no bit of a
+    sum (RBDA sec. 6.5: the branch-induced sparsity of M carried to the rows)."""
+    nv = mask.shape[1]
+    mc, dr = mech.compiled, mech.driverows
+    m = mc.m + len(dr.iv)
+    on = np.zeros((m, nv), dtype=bool)
+    for code, i1, i2, r0 in mc.table[:, :4]:
+        on[r0:r0 + _PRIMITIVE_ROWS[int(code)]] = (mask[i1] != 0.0) | (mask[i2] != 0.0)
+    for k, iv in enumerate(dr.iv):
+        on[mc.m + k, iv] = True
+    for k in range(nv - 1, -1, -1):          # close under parent: a dof's ancestors join its rows
+        if parent[k] >= 0:
+            on[on[:, k], parent[k]] = True
+    cols = np.zeros((m, nv), dtype=np.int64)
+    ncols = on.sum(axis=1).astype(np.int64)
+    for r in range(m):
+        cols[r, :ncols[r]] = np.flatnonzero(on[r])
+    return cols, ncols
 
 
 def closure_residual(mech, ws, q, t=0.0, with_drives=False):

@@ -31,6 +31,11 @@ def _rows(m, n, seed, spread=2.0):
     return rng.standard_normal((m, n)) * 10.0 ** rng.uniform(-spread, spread, (m, 1))
 
 
+def _dense(m, n):
+    """Every row's support is every column (pinclear.kinematics.row_support's dense case)."""
+    return np.tile(np.arange(n, dtype=np.int64), (m, 1)), np.full(m, n, dtype=np.int64)
+
+
 def _factor(G, gate=0.0):
     m = G.shape[0]
     L, piv, d = np.zeros((m, m)), np.zeros(m, dtype=np.int64), np.zeros(m)
@@ -44,7 +49,7 @@ def test_pivoted_cholesky_of_the_gram_matrix_is_the_pivoted_qr_of_the_rows(m, n)
     Cholesky's backward error; the returned ratio is the smallest pivot over the first."""
     A = _rows(m, n, seed=m)
     G = np.zeros((m, m))
-    gram_rows(A, np.arange(m, dtype=np.int64), G)
+    gram_rows(A, np.arange(m, dtype=np.int64), *_dense(m, n), G)
     assert np.abs(G - A @ A.T).max() <= 10 * n * EPS * np.abs(A).max(axis=1) @ np.abs(A).max(axis=1)
     ratio, L, piv = _factor(G)
     _, R, P = scipy.linalg.qr(A.T, mode="economic", pivoting=True)
@@ -103,7 +108,7 @@ def test_gram_step_is_the_minimum_norm_step(redundant):
     w = [np.zeros((m, m)), np.zeros((m, m)), np.zeros(m, dtype=np.int64), np.zeros(m), np.zeros(m)]
     qr = [np.zeros((m, nv)), np.zeros(m, dtype=np.int64), np.zeros(m), np.zeros(m)]
     dq, dq_qr = np.zeros(nv), np.zeros(nv)
-    min_norm_step_gram(J, phi, rows, *w, *qr, 1e-8, dq)
+    min_norm_step_gram(J, phi, rows, *_dense(m, nv), *w, *qr, 1e-8, dq)
     min_norm_step(J, phi, rows, *[x.copy() for x in qr], 1e-8, dq_qr)
     if redundant:
         assert np.array_equal(dq, dq_qr)

@@ -220,7 +220,7 @@ def min_norm_step(Jc, phi, rows, Qr, piv, hb, r, rcond, dq):
 
 
 @njit(cache=True)
-def min_norm_step_gram(Jc, phi, rows, G, Lg, pg, dg, yg, Qr, piv, hb, r, rcond, dq):
+def min_norm_step_gram(Jc, phi, rows, cols, ncols, G, Lg, pg, dg, yg, Qr, piv, hb, r, rcond, dq):
     """min_norm_step by the Cholesky factor of G = J J^T (dq = -J^T G^-1 Phi) while every
     pivot of G stays above GRAM_GATE times the first (pinclear._kernels.chol_pivoted), the
     pivoted QR below it (near rank loss, where it is the minimum-norm step the QR's truncation
@@ -228,16 +228,17 @@ def min_norm_step_gram(Jc, phi, rows, G, Lg, pg, dg, yg, Qr, piv, hb, r, rcond, 
     O(d) at a point d off the manifold; at 16 x 16 the Gram matrix and its factor took 1.5-2.6 us
     against the QR's 2.2-3.6 (three runs, 2026-11-27)."""
     m, nv = rows.shape[0], dq.shape[0]
-    gram_rows(Jc, rows, G)
+    gram_rows(Jc, rows, cols, ncols, G)
     if chol_pivoted(G, pg, Lg, dg, GRAM_GATE) > 0.0:
         for i in range(m):
             r[i] = phi[rows[i]]
         chol_solve_pivoted(Lg, pg, r, yg, r)
-        for c in range(nv):
-            s = 0.0
-            for i in range(m):
-                s -= Jc[rows[i], c] * r[i]
-            dq[c] = s
+        dq[:] = 0.0
+        for i in range(m):           # the dense column sums' order, skipping the exact zeros
+            ri, sup = r[i], cols[rows[i]]
+            for kk in range(ncols[rows[i]]):
+                c = sup[kk]
+                dq[c] -= Jc[rows[i], c] * ri
         return
     min_norm_step(Jc, phi, rows, Qr, piv, hb, r, rcond, dq)
 
@@ -308,7 +309,7 @@ def project_state(P, R, W, t, tol, max_iter, rcond, k_prox, rho_rel):
     ltl_mul(Lm, W.parent, v, x)                  # x = L v
     if k_prox == 0:
         # x <- (I - Q Q^T) x - B^+ Phi_t, Q spanning range(B^T)
-        scaled_rows(Lm, W.parent, R.Jc, rows, Y)
+        scaled_rows(Lm, W.parent, R.Jc, rows, R.cols, R.ncols, Y)
         for i in range(m):
             for c in range(nv):
                 W.Qr[i, c] = Y[i, c]
@@ -322,7 +323,7 @@ def project_state(P, R, W, t, tol, max_iter, rcond, k_prox, rho_rel):
             x[c] -= xs[c]
     else:
         # x <- x - B^T f(B B^T) (B x + Phi_t)
-        schur_complement(Lm, W.parent, R.Jc, rows, Y, W.S)
+        schur_complement(Lm, W.parent, R.Jc, rows, R.cols, R.ncols, Y, W.S)
         for i in range(m):
             s = dphi[rows[i]]
             for c in range(nv):
