@@ -148,20 +148,20 @@ def frame_kinematics(Hj, jidx, jMf, H, fcols, nfcols, J, dJ, v, Jv, Jw, V, W, A,
 
 
 @njit(cache=True, inline="always")
-def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi, cols, ncols):
+def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi):
     """Residual and Jacobian of every closure primitive (see pinclear.closures), J v = 0 (the
     rows at rest). table rows: (code, i1, i2, row0, a, b); E (n, 2, 3) plane bases; L lengths.
-    Only the columns of the primitive's support (cols, ncols of its first row) are written: the
-    others are structural zeros, zero since the buffer was made (pinclear.kinematics.row_support)."""
+    The rows' loops run over every dof, contiguous (measured 2026-11-27, all the rows at one
+    state: 0.57 us on 3-UPRU+UP, against 0.69 for a walk of each row's support, half the dofs;
+    on A02 N = 10, a third of the dofs, the walk took 1.4 us against 1.6)."""
+    nv = Jc.shape[1]
     for p in range(table.shape[0]):
         code, i1, i2, r = table[p, 0], table[p, 1], table[p, 2], table[p, 3]
-        sup, ns = cols[r], ncols[r]
         if code == POINT:
             for i in range(3):
                 phi[r + i] = H[i1, i, 3] - H[i2, i, 3]
                 dphi[r + i] = 0.0
-                for kk in range(ns):
-                    k = sup[kk]
+                for k in range(nv):
                     Jc[r + i, k] = Jv[i1, i, k] - Jv[i2, i, k]
         elif code == PLANE:
             for j in range(2):
@@ -169,8 +169,7 @@ def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi, cols, ncols):
                 for i in range(3):
                     s += E[p, j, i] * (H[i1, i, 3] - H[i2, i, 3])
                 phi[r + j], dphi[r + j] = s, 0.0
-                for kk in range(ns):
-                    k = sup[kk]
+                for k in range(nv):
                     acc = 0.0
                     for i in range(3):
                         acc += E[p, j, i] * (Jv[i1, i, k] - Jv[i2, i, k])
@@ -182,8 +181,7 @@ def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi, cols, ncols):
             c0, c1, c2 = _cross(u0, u1, u2, x0, x1, x2)
             phi[r] = u0 * x0 + u1 * x1 + u2 * x2
             dphi[r] = 0.0
-            for kk in range(ns):
-                k = sup[kk]
+            for k in range(nv):
                 Jc[r, k] = (c0 * (Jw[i1, 0, k] - Jw[i2, 0, k]) + c1 * (Jw[i1, 1, k] - Jw[i2, 1, k])
                             + c2 * (Jw[i1, 2, k] - Jw[i2, 2, k]))
         elif code == PERP:
@@ -193,8 +191,7 @@ def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi, cols, ncols):
             c0, c1, c2 = _cross(u0, u1, u2, d0, d1, d2)
             phi[r] = u0 * d0 + u1 * d1 + u2 * d2
             dphi[r] = 0.0
-            for kk in range(ns):
-                k = sup[kk]
+            for k in range(nv):
                 Jc[r, k] = (u0 * (Jv[i2, 0, k] - Jv[i1, 0, k]) + u1 * (Jv[i2, 1, k] - Jv[i1, 1, k])
                             + u2 * (Jv[i2, 2, k] - Jv[i1, 2, k])
                             + c0 * Jw[i1, 0, k] + c1 * Jw[i1, 1, k] + c2 * Jw[i1, 2, k])
@@ -204,8 +201,7 @@ def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi, cols, ncols):
             n0, n1, n2 = d0 / nd, d1 / nd, d2 / nd
             phi[r] = nd - L[p]
             dphi[r] = 0.0
-            for kk in range(ns):
-                k = sup[kk]
+            for k in range(nv):
                 Jc[r, k] = (n0 * (Jv[i1, 0, k] - Jv[i2, 0, k]) + n1 * (Jv[i1, 1, k] - Jv[i2, 1, k])
                             + n2 * (Jv[i1, 2, k] - Jv[i2, 2, k]))
 
@@ -345,34 +341,33 @@ def ltl_solve(L, parent, y):
 
 
 @njit(cache=True)
-def scaled_rows(Lm, parent, J, rows, cols, ncols, Y):
-    """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L:
-    ltl_solve_t on each row, over the row's support only (cols, ncols: ancestor-closed, so L^-T
-    fills nothing outside it; the skipped entries are exact zeros, so every entry sees the same
-    operations in the same order as the dense solve)."""
+def scaled_rows(Lm, parent, J, rows, Y):
+    """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L.
+    ltl_solve_t on every row at once: each row sees the same operations in the same order (one
+    walk of the tree for all rows: 1.0-1.5x faster than a walk per row of its support alone,
+    measured 2026-11-27). Y is zero outside the rows' supports (pinclear.kinematics.row_support)."""
+    nv = Lm.shape[0]
     m = rows.shape[0]
     for r in range(m):
-        sup, ns = cols[rows[r]], ncols[rows[r]]
-        Yr, Jr = Y[r], J[rows[r]]
-        Yr[:] = 0.0
-        for kk in range(ns):
-            k = sup[kk]
-            Yr[k] = Jr[k]
-        for kk in range(ns - 1, -1, -1):
-            k = sup[kk]
-            y = Yr[k] / Lm[k, k]
-            Yr[k] = y
-            i = parent[k]
-            while i >= 0:
-                Yr[i] -= Lm[k, i] * y
-                i = parent[i]
+        for k in range(nv):
+            Y[r, k] = J[rows[r], k]
+    for k in range(nv - 1, -1, -1):
+        d = Lm[k, k]
+        for r in range(m):
+            Y[r, k] /= d
+        i = parent[k]
+        while i >= 0:
+            lki = Lm[k, i]
+            for r in range(m):
+                Y[r, i] -= lki * Y[r, k]
+            i = parent[i]
 
 
 @njit(cache=True)
 def schur_complement(Lm, parent, J, rows, cols, ncols, Y, S):
     """Y[r] = L^-T J[rows[r]] (row-wise) and S = Y Y^T = J M^-1 J^T over the selected rows, for
     M = L^T L factorised by ltl_factor (S by _gram), both over the rows' supports."""
-    scaled_rows(Lm, parent, J, rows, cols, ncols, Y)
+    scaled_rows(Lm, parent, J, rows, Y)
     _gram(Y, rows, cols, ncols, S, False)
 
 
@@ -402,18 +397,14 @@ def kkt_solve(M, parent, f, J, gamma, rows, cols, ncols, Lm, Y, S, Ls, a, lam):
     # lam = S^-1 (gamma - Y^T y_f) by two triangular solves with Ls
     for r in range(m):
         s = gamma[rows[r]]
-        sup = cols[rows[r]]
-        for kk in range(ncols[rows[r]]):
-            k = sup[kk]
+        for k in range(nv):
             s -= Y[r, k] * a[k]
         lam[r] = s
     lower_solve(Ls, m, lam)
     lower_t_solve(Ls, m, lam)
     for r in range(m):
         lr = lam[r]
-        sup = cols[rows[r]]
-        for kk in range(ncols[rows[r]]):
-            k = sup[kk]
+        for k in range(nv):
             a[k] += Y[r, k] * lr
     ltl_solve(Lm, parent, a)
     return ratio
@@ -434,7 +425,7 @@ def constraint_rows_positions(R, q, v, fdrv):
     Phi and J, and J v + Phi_t at rest (the drives' v - f'(t) with ``v``, the zero vector in the
     projections' iterations; zero for closures); bias and gamma are left as they were."""
     frame_positions(R.Hj, R.jidx, R.jMf, R.H, R.fcols, R.nfcols, R.J, R.Jv, R.Jw)
-    closure_positions(R.table, R.E, R.L, R.H, R.Jv, R.Jw, R.phi, R.Jc, R.dphi, R.cols, R.ncols)
+    closure_positions(R.table, R.E, R.L, R.H, R.Jv, R.Jw, R.phi, R.Jc, R.dphi)
     phi, dphi, iq, iv = R.phi, R.dphi, R.iq, R.iv
     mc = phi.shape[0] - iq.shape[0]
     for k in range(iq.shape[0]):
@@ -685,17 +676,13 @@ def proximal_accel(R, K, alpha, beta, rho_rel, k):
         r = K.r
         for i in range(m):
             s = R.gamma[rows[i]]
-            sup = R.cols[rows[i]]
-            for cc in range(R.ncols[rows[i]]):
-                c = sup[cc]
+            for c in range(nv):
                 s -= Y[i, c] * a[c]
             r[i] = s                             # gamma - J M^-1 f
         proximal_filter(K.S, r, relative_rho(K.S, rho_rel), k, K.Ls, K.d, K.lam)
         for i in range(m):
             li = K.lam[i]
-            sup = R.cols[rows[i]]
-            for cc in range(R.ncols[rows[i]]):
-                c = sup[cc]
+            for c in range(nv):
                 a[c] += Y[i, c] * li
     ltl_solve(K.Lm, K.parent, a)
     return _finite_code(a, 1.0)
@@ -896,7 +883,8 @@ def _gram(A, rows, cols, ncols, G, indirect):
     m = rows.shape[0]
     for r in range(m):
         ar = rows[r] if indirect else r
-        sup, ns = cols[rows[r]], ncols[rows[r]]
+        sr = rows[r]
+        ns = ncols[sr]
         c = 0
         while c + 3 <= r:
             if indirect:
@@ -905,7 +893,7 @@ def _gram(A, rows, cols, ncols, G, indirect):
                 c0, c1, c2, c3 = c, c + 1, c + 2, c + 3
             s0 = s1 = s2 = s3 = 0.0
             for kk in range(ns):
-                k = sup[kk]
+                k = cols[sr, kk]
                 x = A[ar, k]
                 s0 += x * A[c0, k]
                 s1 += x * A[c1, k]
@@ -917,7 +905,7 @@ def _gram(A, rows, cols, ncols, G, indirect):
             cc = rows[c] if indirect else c
             s0 = 0.0
             for kk in range(ns):
-                k = sup[kk]
+                k = cols[sr, kk]
                 s0 += A[ar, k] * A[cc, k]
             G[r, c] = s0
             c += 1

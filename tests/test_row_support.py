@@ -1,10 +1,10 @@
-"""The rows' supports (pinclear.kinematics.row_support): the kernels that build the constraint
-rows, J L^-1 and the Gram/Schur matrices walk only the dofs that can move each row. The claim is
-that nothing is lost: outside the support J and J L^-1 are exact zeros, so the dense kernels
-(every dof in every row's support, as before the supports existed) and the sparse ones produce
-the same numbers bit for bit, at configurations off the manifold and random velocities, where
-no entry vanishes by accident. The frames' supports are the dofs Pinocchio's tree says move
-them (pinclear.kinematics.supporting_dofs)."""
+"""The supports (pinclear.kinematics.row_support, FrameKinematics.fcols): the frame Jacobians
+and the Gram and Schur matrices (J J^T, J M^-1 J^T) walk only the dofs that can move each frame
+and each row. The claim is that nothing is lost: outside a row's support J and J L^-1 are exact
+zeros, so the dense kernels (every dof in every row's support, as before the supports existed)
+and the sparse ones produce the same numbers bit for bit, at configurations off the manifold and
+random velocities, where no entry vanishes by accident. The frames' supports are the dofs whose
+Pinocchio joint Jacobian moves them."""
 from __future__ import annotations
 
 import numpy as np

@@ -274,7 +274,8 @@ def manifold_project(P, R, W, t, tol, max_iter, rcond, mu, rcond_v, gate, exact)
     prev = row_residual(R.phi, W.rows) if exact else 0.0     # the stages never test it
     P.steps[0] = 0
     for _ in range(max_iter):
-        min_norm_step_gram(R.Jc, R.phi, W.rows, R.cols, R.ncols, W.Gg, W.Lg, W.pg, W.dg, W.yg, W.Qg, W.pg, W.hg, W.r, rcond, P.dq)
+        min_norm_step_gram(R.Jc, R.phi, W.rows, R.cols, R.ncols, W.Gg, W.Lg, W.pg, W.dg, W.yg, W.Qg, W.pg, W.hg, W.r,
+                           rcond, P.dq)
         if move(P, t) == ERROR or at_positions(P, 0, t) == ERROR:
             return ERROR
         P.steps[0] += 1
@@ -317,15 +318,13 @@ def same_state(W, q):
 
 
 @njit(cache=True)
-def _bt_times(Y, rows, cols, ncols, w, x):
-    """x = B^T w (B = Y, row j over the support of rows[j]: the dense sums' order, the products
-    skipped exact zeros)."""
+def _bt_times(Y, w, x):
+    """x = B^T w (B = Y)."""
+    m, nv = Y.shape
     x[:] = 0.0
-    for j in range(rows.shape[0]):
-        wj, sup = w[j], cols[rows[j]]
-        for kk in range(ncols[rows[j]]):
-            k = sup[kk]
-            x[k] += Y[j, k] * wj
+    for j in range(m):
+        for k in range(nv):
+            x[k] += Y[j, k] * w[j]
 
 
 def chol_gate(tangent):
@@ -368,9 +367,8 @@ def velocity_projection(R, W, mu, rcond, gate, exact):
         exact_velocity(R, W)
         return True
     for r in range(m):                         # J v + Phi_t (the rows' rates are at v = 0)
-        s, sup = dphi[r], R.cols[r]
-        for cc in range(R.ncols[r]):
-            c = sup[cc]
+        s = dphi[r]
+        for c in range(nv):
             s += Jc[r, c] * v[c]
         pt[r] = s
     for c in range(nv):
@@ -379,7 +377,7 @@ def velocity_projection(R, W, mu, rcond, gate, exact):
     # the filter's factor (the stages' solve reads it too)
     shifted_factor(W.S, mu, W.grp, W.gcnt, W.gsum, W.Fr, W.Fi)
     filtered_solve_ws(W.Fr, W.Fi, pt, W.w, W.yr, W.yi)
-    _bt_times(Y, W.rows, R.cols, R.ncols, W.w, corr)      # the normal correction B^T g(S) pt
+    _bt_times(Y, W.w, corr)                    # the normal correction B^T g(S) pt
     ltl_solve(Lm, W.parent, corr)
     for c in range(nv):
         v1[c] -= corr[c]
@@ -403,16 +401,14 @@ def exact_velocity(R, W):
     if W.chol[0]:
         w = W.w
         for r in range(m):                     # B x + Phi_t
-            s, sup = pt[r], R.cols[W.rows[r]]
-            for cc in range(R.ncols[W.rows[r]]):
-                c = sup[cc]
+            s = pt[r]
+            for c in range(nv):
                 s += Y[r, c] * v1[c]
             w[r] = s
         chol_solve_pivoted(W.Lc, W.pc, w, W.yg, w)
         for r in range(m):
-            wr, sup = w[r], R.cols[W.rows[r]]
-            for cc in range(R.ncols[W.rows[r]]):
-                c = sup[cc]
+            wr = w[r]
+            for c in range(nv):
                 v1[c] -= Y[r, c] * wr
     else:
         project_out(W.Qr, W.hb, k, v1)
@@ -440,7 +436,7 @@ def _unit_lv(Lm, parent, v, x):
 
 
 @njit(cache=True, inline="always")
-def _qr_reaction(R, W, wtan, r, w, corr):
+def _qr_reaction(W, wtan, r, w, corr):
     """Near rank loss (B^T's pivoted QR, velocity_projection): W.a <- (I - Q Q^T) y with the
     tangent along the velocity (module doc, step 4), W.lam = g(S) gamma - S^+ B y (r = -B y,
     w = g(S) gamma), corr = B^T w."""
@@ -474,7 +470,7 @@ def _qr_reaction(R, W, wtan, r, w, corr):
         wz /= ww
         for c in range(nv):
             a[c] += xy * xt[c] - wz * wt[c]
-    _bt_times(Y, W.rows, R.cols, R.ncols, w, corr)        # B^T g(S) gamma, g(S) gamma from the multipliers
+    _bt_times(Y, w, corr)                      # B^T g(S) gamma, g(S) gamma from the multipliers
 
 
 @njit(cache=True, inline="always")
@@ -499,9 +495,8 @@ def projected_accelerations(R, W, wtan):
     # lam = g(S) gamma - (B B^T)^+ B y (the second by the QR of B^T, no normal equations)
     r = W.r
     for rr in range(m):
-        s, sup = 0.0, R.cols[W.rows[rr]]
-        for cc in range(R.ncols[W.rows[rr]]):
-            c = sup[cc]
+        s = 0.0
+        for c in range(nv):
             s -= Y[rr, c] * a[c]
         r[rr] = s
     w = W.w                                    # g(S) gamma
@@ -513,9 +508,9 @@ def projected_accelerations(R, W, wtan):
         chol_solve_pivoted(W.Lc, W.pc, r, W.yg, lam)
         for rr in range(m):
             lam[rr] += w[rr]
-        _bt_times(Y, W.rows, R.cols, R.ncols, lam, corr)
+        _bt_times(Y, lam, corr)
     else:
-        _qr_reaction(R, W, wtan, r, w, corr)
+        _qr_reaction(W, wtan, r, w, corr)
     for c in range(nv):
         a[c] += corr[c]
     ltl_solve(Lm, parent, a)

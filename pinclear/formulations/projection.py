@@ -233,12 +233,11 @@ def min_norm_step_gram(Jc, phi, rows, cols, ncols, G, Lg, pg, dg, yg, Qr, piv, h
         for i in range(m):
             r[i] = phi[rows[i]]
         chol_solve_pivoted(Lg, pg, r, yg, r)
-        dq[:] = 0.0
-        for i in range(m):           # the dense column sums' order, skipping the exact zeros
-            ri, sup = r[i], cols[rows[i]]
-            for kk in range(ncols[rows[i]]):
-                c = sup[kk]
-                dq[c] -= Jc[rows[i], c] * ri
+        for c in range(nv):
+            s = 0.0
+            for i in range(m):
+                s -= Jc[rows[i], c] * r[i]
+            dq[c] = s
         return
     min_norm_step(Jc, phi, rows, Qr, piv, hb, r, rcond, dq)
 
@@ -309,7 +308,7 @@ def project_state(P, R, W, t, tol, max_iter, rcond, k_prox, rho_rel):
     ltl_mul(Lm, W.parent, v, x)                  # x = L v
     if k_prox == 0:
         # x <- (I - Q Q^T) x - B^+ Phi_t, Q spanning range(B^T)
-        scaled_rows(Lm, W.parent, R.Jc, rows, R.cols, R.ncols, Y)
+        scaled_rows(Lm, W.parent, R.Jc, rows, Y)
         for i in range(m):
             for c in range(nv):
                 W.Qr[i, c] = Y[i, c]
