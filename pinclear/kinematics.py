@@ -214,7 +214,9 @@ def row_buffers(mech, ws) -> Rows:
     are views that stay valid for the workspace's life (data.J etc. view Pinocchio's memory), so
     a formulation builds them once and binds them into its stages."""
     fk, mc, dr = ws.fk, mech.compiled, mech.driverows
-    cols, ncols = row_support(mech, fk.mask, ws.parent)
+    if ws.support is None:
+        ws.support = row_support(mech, fk.mask, ws.parent)
+    cols, ncols = ws.support
     # ws.J6: Pinocchio hands back (6,) for a 1-dof tree, the workspace views it as (6, nv)
     return Rows(fk.Hj, fk.jidx, fk.jMf, fk.H, fk.fcols, fk.nfcols, ws.J6, ws.dJ6, mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv,
                 fk.Jw, fk.V, fk.W, fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma, cols, ncols)
@@ -235,17 +237,19 @@ def row_support(mech, mask, parent):
     mc, dr = mech.compiled, mech.driverows
     m = mc.m + len(dr.iv)
     on = np.zeros((m, nv), dtype=bool)
-    for code, i1, i2, r0 in mc.table[:, :4]:
-        on[r0:r0 + _PRIMITIVE_ROWS[int(code)]] = (mask[i1] != 0.0) | (mask[i2] != 0.0)
-    for k, iv in enumerate(dr.iv):
-        on[mc.m + k, iv] = True
-    for k in range(nv - 1, -1, -1):          # close under parent: a dof's ancestors join its rows
+    for code, i1, i2, r0 in mc.table[:, :4].tolist():
+        on[r0:r0 + _PRIMITIVE_ROWS[code]] = (mask[i1] != 0.0) | (mask[i2] != 0.0)
+    on[np.arange(mc.m, m), dr.iv] = True
+    # anc[k, j]: dof j is k or an ancestor of k (parent[k] < k: one pass, roots first)
+    anc = np.eye(nv, dtype=bool)
+    for k in range(nv):
         if parent[k] >= 0:
-            on[on[:, k], parent[k]] = True
-    cols = np.zeros((m, nv), dtype=np.int64)
+            anc[k] |= anc[parent[k]]
+    on = (on.astype(np.int64) @ anc.astype(np.int64)) > 0
     ncols = on.sum(axis=1).astype(np.int64)
-    for r in range(m):
-        cols[r, :ncols[r]] = np.flatnonzero(on[r])
+    # each row's columns ascending, first: a stable sort puts the True entries before the False
+    cols = np.argsort(~on, axis=1, kind="stable").astype(np.int64)
+    cols[np.arange(nv)[None, :] >= ncols[:, None]] = 0
     return cols, ncols
 
 

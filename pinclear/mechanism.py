@@ -175,6 +175,8 @@ class Workspace:
         self.J = np.zeros((m, nv))
         if mech.drives:
             self.J[mech.compiled.m:] = mech.driverows.J
+        #: (cols, ncols) of pinclear.kinematics.row_support, made by the first row_buffers
+        self.support = None
         self.tau = np.zeros(nv)
         self.zdot = np.zeros(mech.nz)
         # the state buffer x = [c, v, z] every compiled kernel reads (pinclear.stepping.system):
