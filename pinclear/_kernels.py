@@ -343,9 +343,10 @@ def ltl_solve(L, parent, y):
 @njit(cache=True)
 def scaled_rows(Lm, parent, J, rows, Y):
     """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L.
-    ltl_solve_t on every row at once: each row sees the same operations in the same order (one
-    walk of the tree for all rows: 1.0-1.5x faster than a walk per row of its support alone,
-    measured 2026-11-27). Y is zero outside the rows' supports (pinclear.kinematics.row_support)."""
+    ltl_solve_t on every row at once: each row sees the same operations in the same order. One
+    walk of the tree for all rows: a walk per row over its support alone took 0.94x (A02 N = 10)
+    to 1.48x (3-UPRU+UP) its time, measured 2026-11-27. Y is zero outside the rows' supports
+    (pinclear.kinematics.row_support)."""
     nv = Lm.shape[0]
     m = rows.shape[0]
     for r in range(m):
@@ -469,7 +470,8 @@ def lagrange_accel(R, K, alpha, beta):
     a = K.a
     for i in range(a.shape[0]):
         a[i] = K.tau[i] - K.nle[i]
-    ratio = kkt_solve(K.M, K.parent, a, R.Jc, R.gamma, K.rows, R.cols, R.ncols, K.Lm, K.Y, K.S, K.Ls, a, K.lam)
+    ratio = kkt_solve(K.M, K.parent, a, R.Jc, R.gamma, K.rows, R.cols, R.ncols, K.Lm, K.Y, K.S, K.Ls, a,
+                      K.lam)
     return _finite_code(a, ratio)
 
 

@@ -316,8 +316,9 @@ def bench_runs(files=None, t_end=0.5, rtol=1e-6, methods=("lagrange",), integrat
     own samples in the same process (after each run and at the end, the best). Each cell's
     figures come from the best of ``repeat`` runs, fewer once they used a CPU second; ``loop``
     says which integration loop ran. A cell whose method or integrator refuses the scene (a
-    PinclearError before the run starts) is recorded with status ``skipped`` and the reason. ``integrator`` (one name) is the older spelling of
-    ``integrators``. Result: ``scenes``, one row per cell (scene, method, integrator)."""
+    PinclearError before the run starts) is recorded with status ``skipped`` and the reason.
+    ``integrator`` (one name) is the older spelling of ``integrators``. Result: ``scenes``, one
+    row per cell (scene, method, integrator)."""
     from .sidecar import load
 
     if integrator is not None:

@@ -159,8 +159,7 @@ class FrameKinematics:
         """Standalone use: ``data`` must hold joint placements, data.J and data.dJ at (q, v)."""
         self.load_placements(data, q)
         frame_kinematics(self.Hj, self.jidx, self.jMf, self.H, self.fcols, self.nfcols, data.J, data.dJ, v, self.Jv,
-                         self.Jw,
-                         self.V, self.W, self.A, self.Al)
+                         self.Jw, self.V, self.W, self.A, self.Al)
         return self
 
 
@@ -218,8 +217,8 @@ def row_buffers(mech, ws) -> Rows:
         ws.support = row_support(mech, fk.mask, ws.parent)
     cols, ncols = ws.support
     # ws.J6: Pinocchio hands back (6,) for a 1-dof tree, the workspace views it as (6, nv)
-    return Rows(fk.Hj, fk.jidx, fk.jMf, fk.H, fk.fcols, fk.nfcols, ws.J6, ws.dJ6, mc.table, mc.E, mc.L, dr.iq, dr.iv, fk.Jv,
-                fk.Jw, fk.V, fk.W, fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma, cols, ncols)
+    return Rows(fk.Hj, fk.jidx, fk.jMf, fk.H, fk.fcols, fk.nfcols, ws.J6, ws.dJ6, mc.table, mc.E, mc.L, dr.iq, dr.iv,
+                fk.Jv, fk.Jw, fk.V, fk.W, fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma, cols, ncols)
 
 
 #: rows of each closure primitive (pinclear.closures: a point pins 3 coordinates, a plane 2)
