@@ -5,8 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._kernels import (DIST, DOT, J_PRISMATIC, J_REVOLUTE, PERP, PLANE, POINT, Rows, constraint_rows_all,
-                       frame_kinematics, joint_placements)
+from ._kernels import J_PRISMATIC, J_REVOLUTE, Rows, constraint_rows_all, frame_kinematics, joint_placements
 import pinocchio as pin
 
 from .errors import AssemblyError
@@ -221,10 +220,6 @@ def row_buffers(mech, ws) -> Rows:
                 fk.Jv, fk.Jw, fk.V, fk.W, fk.A, fk.Al, ws.phi, ws.J, ws.bias, ws.dphi, ws.gamma, cols, ncols)
 
 
-#: rows of each closure primitive (pinclear.closures: a point pins 3 coordinates, a plane 2)
-_PRIMITIVE_ROWS = {POINT: 3, PLANE: 2, DOT: 1, PERP: 1, DIST: 1}
-
-
 def row_support(mech, mask, parent):
     """(cols, ncols): each constraint row's support, the dofs that can move it, ascending in
     cols[r, :ncols[r]]: a closure primitive's rows are moved by the dofs under either of its two
@@ -236,8 +231,11 @@ def row_support(mech, mask, parent):
     mc, dr = mech.compiled, mech.driverows
     m = mc.m + len(dr.iv)
     on = np.zeros((m, nv), dtype=bool)
-    for code, i1, i2, r0 in mc.table[:, :4].tolist():
-        on[r0:r0 + _PRIMITIVE_ROWS[code]] = (mask[i1] != 0.0) | (mask[i2] != 0.0)
+    # the primitives' rows tile 0..mc.m in the order of their first rows
+    table = mc.table[np.argsort(mc.table[:, 3], kind="stable")]
+    ends = np.append(table[1:, 3], mc.m)
+    for (i1, i2, r0), r1 in zip(table[:, 1:4].tolist(), ends.tolist()):
+        on[r0:r1] = (mask[i1] != 0.0) | (mask[i2] != 0.0)
     on[np.arange(mc.m, m), dr.iv] = True
     # anc[k, j]: dof j is k or an ancestor of k (parent[k] < k: one pass, roots first)
     anc = np.eye(nv, dtype=bool)

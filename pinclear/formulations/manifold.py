@@ -64,9 +64,9 @@ import numpy as np
 
 from .. import kinematics
 from .._jit import njit
-from .._kernels import (Solve, chol_pivoted, chol_solve_pivoted, constraint_rows_positions, constraint_rows_velocities, lagrange_accel, ltl_factor,
-                        ltl_solve, ltl_solve_t, min_norm_solve, min_norm_x, project_out, qr_pivoted,
-                        schur_complement)
+from .._kernels import (Solve, chol_pivoted, chol_solve_pivoted, constraint_rows_positions, constraint_rows_velocities,
+                        lagrange_accel, ltl_factor, ltl_solve, ltl_solve_t, min_norm_solve, min_norm_x, project_out,
+                        qr_pivoted, schur_complement)
 from ..errors import InputError
 from ..stepping.call import ERROR, OK, RANK
 from ..stepping.stage import T, bind
@@ -563,8 +563,8 @@ def shifted_factor(S, mu, grp, gcnt, gsum, Fr, Fi):
     # row j's L[j, k] D[k] (k < j) once, then each entry below costs one complex product per k;
     # kept in the (unused) strict upper triangle, column j: no work array to allocate. Complex
     # numbers as (real, imaginary) pairs, two rows i at a time (independent sums the processor
-    # overlaps) and 1 / d once per column: 1.4-2.4x faster at 16 rows (three runs) than complex() products and
-    # one division per entry (the same operations otherwise)
+    # overlaps) and 1 / d once per column: 1.4-2.4x faster at 16 rows (three runs) than
+    # complex() products and one division per entry (the same operations otherwise)
     for j in range(m):
         dr, di = S[j, j], (gsum[grp[j]] if j < mc else 0.0)
         for k in range(j):
