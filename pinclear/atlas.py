@@ -7,6 +7,7 @@ Peers (other simulators) join through a small object interface (see :func:`run_a
 from __future__ import annotations
 
 import csv
+import io
 import json
 import math
 import re
@@ -18,7 +19,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.integrate import simpson, solve_ivp
 
-from . import bench, formulations, kinematics, stepping as integrators
+from . import bench, formulations, kinematics, safeio, stepping as integrators
 from .errors import InputError, PinclearError
 from .stepping.run import run_clock as _run_clock
 
@@ -473,12 +474,12 @@ def write(res, out, figures=None):
     rows = res["rows"]
     js = dict(res, rows=[{k: _clean(r.get(k)) for k in COLUMNS} for r in rows])
     atomic_write_text(out / "atlas.json", json.dumps(js, indent=1, default=str))
-    with open(out / "atlas.csv.tmp", "w", newline="") as fh:
-        w = csv.DictWriter(fh, fieldnames=COLUMNS)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: ("" if _clean(r.get(k)) is None else r.get(k)) for k in COLUMNS})
-    (out / "atlas.csv.tmp").replace(out / "atlas.csv")
+    buf = io.StringIO(newline="")
+    w = csv.DictWriter(buf, fieldnames=COLUMNS)
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: ("" if _clean(r.get(k)) is None else r.get(k)) for k in COLUMNS})
+    atomic_write_text(out / "atlas.csv", buf.getvalue())
     for label, sc in res["scenes"].items():
         srows = [r for r in rows if r["scene"] == label]
         if not srows or (figures is not None and label not in figures):
@@ -561,7 +562,7 @@ def heatmap(rows, path, label, scene):
     fig.legend(handles=[Patch(color=c, label=f"{s}: {r}") for r, (c, s) in _REASON_STYLE.items()],
                fontsize=6, loc="lower center", ncol=3, frameon=False)
     fig.tight_layout(rect=(0, 0.07, 1, 1))
-    fig.savefig(path, dpi=100)
+    safeio.savefig(fig, path, dpi=100)
     plt.close(fig)
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from . import formulations
+from . import formulations, safeio
 from .closures import PINOCCHIO_TYPES
 from .errors import InputError, PinclearError
 from .simulate import simulate
@@ -134,12 +134,13 @@ def work_precision(mech, t_end=2.0, combos=None, tols=(1e-4, 1e-5, 1e-6, 1e-7, 1
                          "cpu_s": tr.stats["cpu_s"], "rhs_evals": tr.stats["rhs_evals"],
                          "max_residual": float(np.max(tr.residual)), "status": tr.status})
     csv_path = out_dir / f"work_precision_{mech.name}.csv"
-    with open(csv_path, "w", newline="") as fh:
+    def write_csv(fh):
         w = csv.DictWriter(fh, fieldnames=["method", "integrator", "tol", "error", "cpu_s", "rhs_evals",
                                            "max_residual", "status"])
         w.writeheader()
         for r in rows:
             w.writerow(r)
+    safeio.write_atomic(csv_path, write_csv, binary=False)
     png_path = out_dir / f"work_precision_{mech.name}.png"
     draw_chart(rows, png_path, f"{mech.name}: error at t = {t_end} s vs CPU time")
     best = {}
@@ -208,7 +209,7 @@ def draw_chart(rows, path, title, ax=None):
         ax.legend(fontsize=7, ncol=2)
     if own:
         fig.tight_layout()
-        fig.savefig(path, dpi=110)
+        safeio.savefig(fig, path, dpi=110)
         plt.close(fig)
 
 

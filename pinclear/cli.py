@@ -11,7 +11,6 @@ import os
 import signal
 import sys
 import threading
-import time
 import traceback
 import warnings
 from pathlib import Path
@@ -64,10 +63,10 @@ def _check_out_dir(out: Path, files=()):
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(f"--out {str(out)!r}: cannot create the folder ({exc.strerror})") from None
-    probe = out / f".pinclear-write-test-{os.getpid()}"
+    from .safeio import probe_writable
+
     try:
-        probe.write_bytes(b"")
-        probe.unlink()
+        probe_writable(out)
     except OSError as exc:
         raise InputError(f"--out {str(out)!r}: the folder is not writable ({exc.strerror})") from None
     for name in files:
@@ -75,41 +74,6 @@ def _check_out_dir(out: Path, files=()):
         if target.is_symlink() or (target.exists() and not target.is_file()):
             raise InputError(f"--out {str(out)!r}: {str(target)!r} exists and is not a regular file (a folder, a "
                              "link or a device); remove it or choose another --out")
-
-
-@contextlib.contextmanager
-def _folder_lock(folder: Path):
-    """Hold OUT/.lock (fcntl.flock, exclusive, not waiting) for the whole command: a second run
-    into the same folder is refused at once, naming the folder and the process holding it, so two
-    runs never mix their files. A no-op where fcntl is missing."""
-    try:
-        import fcntl
-    except ImportError:            # pragma: no cover - Windows
-        yield
-        return
-    lock = folder / ".lock"
-    try:
-        fh = open(lock, "a+")
-    except OSError as exc:
-        raise InputError(f"--out {str(folder)!r}: cannot create the lock file {str(lock)!r} ({exc.strerror})") from None
-    with fh:
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
-            fh.seek(0)
-            holder = fh.read(200).strip()
-            raise InputError(f"--out {str(folder)!r} is in use by another pinclear run "
-                             f"({holder or 'process unknown'}); wait for it to end or choose another --out") from None
-        fh.seek(0)
-        fh.truncate()
-        fh.write(f"pid {os.getpid()}, started {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
-        fh.flush()
-        try:
-            yield
-        finally:
-            fh.seek(0)
-            fh.truncate()
-            fcntl.flock(fh, fcntl.LOCK_UN)
 
 
 class _StopRequest:
@@ -229,6 +193,7 @@ def cmd_simulate(args):
 
 
 def _simulate(args, stop):
+    from .safeio import folder_lock
     from .simulate import simulate
     from .trajectory import Checkpoint, atomic_write_text
 
@@ -250,7 +215,7 @@ def _simulate(args, stop):
                          "options as the run being continued; nothing is taken from DIR but its checkpoint)" + hint)
     out = Path(args.out)
     _check_out_dir(out, RUN_FILES)
-    with _folder_lock(out):
+    with folder_lock(out):
         if args.resume:
             recorded = _read_run_json(out)
             diffs = _resume_differences(args, recorded)
@@ -298,37 +263,13 @@ def _simulate(args, stop):
         return _save_run(args, mech, traj, out, stop)
 
 
-def _fallback_path(target: Path) -> list[Path]:
-    """Where a run goes when its own path cannot be written: beside it, else the user cache."""
-    from ._jit import cache_dir
-
-    stamp = f"{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}"
-    return [target.with_name(f"{target.stem}.fallback-{stamp}{target.suffix}"),
-            cache_dir() / "unsaved-runs" / stamp / target.name]
-
-
-def _write_or_fallback(write, target: Path):
-    """write(path) to ``target``; if that fails, to a fallback path. Returns (path written or
-    None, a message naming the paths and the reason, or None)."""
-    try:
-        return write(target), None
-    except OSError as exc:
-        why = exc.strerror or str(exc)
-    for alt in _fallback_path(target):
-        try:
-            write(alt)
-        except OSError:
-            continue
-        return alt, f"could not write {target} ({why}); saved it as {alt} instead"
-    return None, f"could not write {target} ({why}), nor a copy at {' or '.join(map(str, _fallback_path(target)))}"
-
-
 def _save_run(args, mech, traj, out: Path, stop):
     """Write the trajectory first (nothing that can raise comes before it), then the summary."""
+    from .safeio import write_or_fallback
     from .trajectory import atomic_write_text
 
     problems = []
-    written, problem = _write_or_fallback(traj.save, out / "trajectory.npz")
+    written, problem = write_or_fallback(lambda p, root: traj.save(p), out / "trajectory.npz")
     if problem:
         problems.append(problem)
     try:
@@ -342,8 +283,8 @@ def _save_run(args, mech, traj, out: Path, stop):
     with contextlib.suppress(Exception):
         summary["drive_force_peaks"] = {d.name: float(np.nanmax(np.abs(traj.lam[d.name]))) for d in mech.drives} \
             if len(traj.t) else {}
-    _, problem = _write_or_fallback(lambda p: atomic_write_text(p, json.dumps(summary, indent=2, default=str)),
-                                    out / "summary.json")
+    _, problem = write_or_fallback(lambda p, root: atomic_write_text(p, json.dumps(summary, indent=2, default=str),
+                                                                     root), out / "summary.json")
     if problem:
         problems.append(problem)
     if traj.status == "success" and written == out / "trajectory.npz":

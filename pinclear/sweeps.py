@@ -16,6 +16,8 @@ bit-identical whatever the executor and whatever was interrupted.
 """
 from __future__ import annotations
 
+import functools
+import hashlib
 import itertools
 import json
 import math
@@ -33,8 +35,9 @@ from pathlib import Path
 
 import numpy as np
 
+from . import safeio
 from .errors import InputError
-from .trajectory import Trajectory, atomic_write_text, jsonable
+from .trajectory import Trajectory, jsonable
 
 FORMAT = "pinclear-sweep/1"
 #: points of one sweep grid: every finished point rewrites the index (sweep.json, about 100 bytes
@@ -211,6 +214,7 @@ def _run_point(job):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)      # a failed run is a result here
             tr = simulate(mech, job["t_end"], **job["sim_kw"])
+        tr.meta["sweep_point"] = job.get("point_id")
         with tempfile.TemporaryDirectory() as tmp:
             p = tr.save(Path(tmp) / "point.npz")
             blob = Path(p).read_bytes()
@@ -219,7 +223,7 @@ def _run_point(job):
                           "steps": tr.stats.get("steps"), "events": len(tr.stats.get("events", [])),
                           "wall_s": time.perf_counter() - t0}}
     except Exception as exc:                     # the point's own fault: a result, not a crash
-        return {"status": "error", "message": f"{type(exc).__name__}: {exc}", "npz": None,
+        return {"status": "error", "message": f"{type(exc).__name__}: {exc}", "npz": None, "point_id": job.get("point_id"),
                 "stats": {"wall_s": time.perf_counter() - t0}}
 
 
@@ -261,24 +265,31 @@ def _point_files(folder, i):
     return folder / "points" / f"{i:05d}.npz", folder / "points" / f"{i:05d}.json"
 
 
-def _status_from_file(npz, err):
+def _status_from_file(npz, err, expected=None):
     """(status, message, file) of a point from its file on disk; ("pending", ...) when it has
-    none. A file that cannot be read back (truncated, not a point file, a FIFO...) is moved aside
-    as ``NAME.corrupt``, reported on stderr by name, and the point is computed again."""
+    none. A file that cannot be read back (truncated, not a point file, a FIFO, a link...) is
+    moved aside as ``NAME.corrupt``, one that belongs to another sweep or point (``expected``:
+    the point's identity, :func:`point_identity`) as ``NAME.foreign``; either is reported on
+    stderr by name, and the point is computed again."""
     for f, read in ((npz, _npz_status), (err, _json_status)):
         if not (f.exists() or f.is_symlink()):
             continue
         try:
-            status, message = read(f)
+            if f.is_symlink():
+                raise InputError("is a link (pinclear never follows a link inside a results folder)")
+            meta = read(f)
+            status, message = _checked_status(meta)
+            if expected is not None:
+                _check_point_identity(meta, expected, f.suffix == ".json")
             return status, message, f
         except (InputError, OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
             why = " ".join(str(exc).split())[:200] or type(exc).__name__
-            aside = f.with_name(f.name + ".corrupt")
+            aside = f.with_name(f.name + (".foreign" if isinstance(exc, ForeignPoint) else ".corrupt"))
             try:
-                os.replace(f, aside)
+                safeio.move_aside(f, aside.name)
                 where = f"moved to {aside.name}"
             except OSError as mv:
-                where = f"could not be moved aside ({mv.strerror}); it is overwritten"
+                where = f"could not be moved aside ({mv.strerror}); it is replaced"
             print(f"pinclear: warning: {f}: unreadable sweep point file ({why}); {where}, the point is computed "
                   "again", file=sys.stderr)
     return "pending", "", None
@@ -292,15 +303,39 @@ def _npz_status(npz):
         size = z.getinfo("meta.npy").file_size
     if size > MAX_POINT_META_BYTES:
         raise InputError(f"its metadata declares {size} bytes (at most {MAX_POINT_META_BYTES})")
-    with np.load(npz, allow_pickle=False) as d:
-        meta = json.loads(str(d["meta"]))
-    return _checked_status(meta)
+    # the whole file checked as a saved run (pinclear.validate): a planted or truncated point
+    # is refused before its status is believed
+    return Trajectory.load(npz).meta
 
 
 def _json_status(err):
     from .bounded import read_text_bounded
 
-    return _checked_status(json.loads(read_text_bounded(err, MAX_POINT_META_BYTES, "point", "sweep point")))
+    return json.loads(read_text_bounded(err, MAX_POINT_META_BYTES, "point", "sweep point"))
+
+
+class ForeignPoint(InputError):
+    """A point file of another sweep, another point, or no sweep at all."""
+
+
+def point_identity(spec: dict, model_bytes: bytes, index: int) -> dict:
+    """What a point file must carry to be accepted as point ``index`` of the sweep ``spec``: a
+    digest of the sweep's description and of its mechanism file's bytes, the index and the
+    point's parameter values (an edited sidecar makes every old point foreign)."""
+    h = hashlib.sha256(json.dumps(jsonable(spec), sort_keys=True).encode() + b"\0" + model_bytes).hexdigest()
+    return {"sweep": h, "index": int(index), "overrides": jsonable(spec["points"][index])}
+
+
+def _check_point_identity(meta, expected, is_error_file):
+    """Refuse (ForeignPoint) a point whose recorded identity is not ``expected``; an error file
+    may only record an error (a point that ran has a trajectory)."""
+    got = meta.get("sweep_point") if isinstance(meta, dict) else None
+    if got != expected:
+        what = ("records no sweep point (not written by this sweep)" if got is None else
+                "belongs to another sweep or point (its identity or parameter values differ)")
+        raise ForeignPoint(what)
+    if is_error_file and meta.get("status") != "error":
+        raise ForeignPoint(f"an error file recording status {str(meta.get('status'))[:20]!r} with no trajectory")
 
 
 def _checked_status(meta):
@@ -310,8 +345,62 @@ def _checked_status(meta):
 
 
 # ------------------------------------------------------------------------------- the sweep
-def sweep(model, vary, t_end, out, *, sim_options=None, load_options=None, workers=None, scheduler=None,
-          executor=None, progress=True) -> SweepResult:
+def _point_identities(spec, path):
+    """point_identity of every point of the sweep ``spec`` of the mechanism file ``path``."""
+    from .bounded import read_bounded
+    from .sidecar import MAX_SIDECAR_BYTES
+
+    model_bytes = read_bounded(path, MAX_SIDECAR_BYTES, "model", "sidecar")
+    return [point_identity(spec, model_bytes, i) for i in range(len(spec["points"]))]
+
+
+def _worker_count(workers, points):
+    """Local processes for ``points`` points: what was asked, never more than the points or the
+    CPUs (``--workers 40`` for 2 points forked 40 processes)."""
+    cpus = os.cpu_count() or 1
+    return max(1, min(int(workers) if workers else cpus, points, cpus))
+
+
+def _write_index(index_path, doc):
+    """Rewrite sweep.json (link-safe); a failure (full disk) is a warning: the points' files,
+    not the index, hold the results, and the next run rebuilds the index from them."""
+    try:
+        safeio.write_text(index_path, json.dumps(doc, indent=1))
+    except OSError as exc:
+        print(f"pinclear: warning: could not write {index_path} ({exc.strerror or exc}); the point files are kept "
+              "and a rerun rebuilds it", file=sys.stderr)
+
+
+def _write_point(folder, job, res):
+    """The point's trajectory (or its error file) into ``folder/points``, link-safe; when that
+    fails (full disk), a copy beside it or in the user cache, both paths named on stderr (the
+    point stays pending on disk and a rerun computes it again). Returns the file written."""
+    npz, err = _point_files(folder, job["index"])
+    if res["npz"] is not None:
+        target, blob = npz, res["npz"]
+    else:
+        target = err
+        blob = json.dumps({"status": res["status"], "message": res["message"],
+                           "overrides": jsonable(job["overrides"]), "sweep_point": job.get("point_id")}).encode()
+    written, problem = safeio.write_or_fallback(lambda p, root: safeio.write_bytes(p, blob, root), target, folder)
+    if problem:
+        print(f"pinclear: error: sweep point {job['index']} ({describe_point(job['overrides'])}): {problem}",
+              file=sys.stderr)
+    return written
+
+
+def sweep(model, vary, t_end, out, **kw) -> SweepResult:
+    """See :func:`_sweep_in_folder`; the sweep folder is held locked (``OUT/.lock``, as a
+    simulate run's folder) for the whole call, so two sweeps into one folder never both compute."""
+    folder = Path(out)
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"--out {str(folder)!r} is an existing file; give a folder")
+    with safeio.folder_lock(folder):
+        return _sweep_in_folder(model, vary, t_end, out, **kw)
+
+
+def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=None, workers=None, scheduler=None,
+                     executor=None, progress=True) -> SweepResult:
     """Simulate ``model`` (a sidecar path or a bundled model's name) at every point of the grid of
     ``vary`` ({key: values}, load()'s override keys such as ``"S2.mu"``, ``"forces[spring].k"``
     or a scene option), for ``t_end`` seconds each, writing each point into ``out`` as it
@@ -366,21 +455,22 @@ def sweep(model, vary, t_end, out, *, sim_options=None, load_options=None, worke
                              "give another --out folder or delete this one")
     elif folder.exists() and not folder.is_dir():
         raise InputError(f"--out {str(folder)!r} is an existing file; give a folder")
-    (folder / "points").mkdir(parents=True, exist_ok=True)
+    safeio.make_dirs(folder / "points", folder)
+    ids = _point_identities(spec, path)
 
     state = []
     for i, ov in enumerate(points):
-        st, msg, f = _status_from_file(*_point_files(folder, i))
+        st, msg, f = _status_from_file(*_point_files(folder, i), ids[i])
         state.append(SweepPoint(i, ov, st, msg, f))
 
     def write_index():
         doc = dict(spec, status=[{"index": p.index, "status": p.status, "message": p.message} for p in state])
-        atomic_write_text(index_path, json.dumps(doc, indent=1))
+        _write_index(index_path, doc)
 
     write_index()
     todo = [p for p in state if p.status == "pending"]
     jobs = [{"index": p.index, "overrides": p.overrides, "path": str(path), "load_kw": load_kw, "fixed": fixed,
-             "t_end": float(t_end), "sim_kw": sim_kw} for p in todo]
+             "t_end": float(t_end), "sim_kw": sim_kw, "point_id": ids[p.index]} for p in todo]
 
     bar = None
     if progress is True and todo:
@@ -390,17 +480,7 @@ def sweep(model, vary, t_end, out, *, sim_options=None, load_options=None, worke
 
     def on_result(job, res):
         i = job["index"]
-        npz, err = _point_files(folder, i)
-        if res["npz"] is not None:
-            fd, tmp = tempfile.mkstemp(prefix=f".{npz.stem}.", suffix=".npz", dir=npz.parent)
-            with os.fdopen(fd, "wb") as fh:
-                fh.write(res["npz"])
-            os.replace(tmp, npz)
-            file = npz
-        else:
-            atomic_write_text(err, json.dumps({"status": res["status"], "message": res["message"],
-                                               "overrides": jsonable(job["overrides"])}))
-            file = err
+        file = _write_point(folder, job, res)
         p = state[i]
         p.status, p.message, p.file = res["status"], res["message"], file
         write_index()
@@ -423,7 +503,7 @@ def sweep(model, vary, t_end, out, *, sim_options=None, load_options=None, worke
         if jobs:
             ex = executor
             if ex is None:
-                ex, close = make_executor(workers if workers else min(len(jobs), os.cpu_count() or 1), scheduler)
+                ex, close = make_executor(_worker_count(workers, len(jobs)) if scheduler is None else None, scheduler)
             run_jobs(_run_point, jobs, ex, on_result, on_error)
     except BaseException:
         if close is not None:
@@ -436,3 +516,9 @@ def sweep(model, vary, t_end, out, *, sim_options=None, load_options=None, worke
         if bar is not None:
             bar.close()
     return SweepResult(folder, keys, state, len(jobs))
+
+
+functools.update_wrapper(sweep, _sweep_in_folder, assigned=("__doc__",))
+sweep.__doc__ += """
+    The sweep folder is held locked (``OUT/.lock``, as a simulate run's folder) for the whole
+    call: a second sweep into it is refused at once, naming the process holding it."""

@@ -2,9 +2,7 @@
 from __future__ import annotations
 
 import json
-import os
 import platform
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -103,35 +101,20 @@ class Checkpoint:
                    samples=samples, stats=dict(meta["stats"]), identity=identity, path=str(path))
 
 
-def atomic_savez(path, arrays: dict):
-    """np.savez_compressed to a temporary file in the target folder, then an atomic rename: a
-    reader never sees half a file, and two runs writing one path never mix their contents."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".npz", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+def atomic_savez(path, arrays: dict, root=None):
+    """np.savez_compressed to a new temporary file in the target folder, then an atomic rename,
+    never through a link (pinclear.safeio): a reader never sees half a file, and two runs
+    writing one path never mix their contents."""
+    from .safeio import savez
+
+    return savez(path, arrays, root)
 
 
-def atomic_write_text(path, text: str):
-    """Text written to a temporary file beside ``path`` and renamed into place."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+def atomic_write_text(path, text: str, root=None):
+    """Text written link-safely to a temporary file beside ``path`` and renamed into place."""
+    from .safeio import write_text
+
+    return write_text(path, text, root)
 
 
 #: the energy channels every saved run holds

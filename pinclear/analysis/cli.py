@@ -10,6 +10,7 @@ import numpy as np
 import yaml
 
 from ..errors import InputError, ModelFileError
+from ..safeio import write_text
 from ..sidecar import parse_assignments
 from .classify import classify
 from .plots import plot_bifurcation, plot_phase_portrait, plot_poincare
@@ -141,7 +142,7 @@ def cli_main(argv) -> int:
         for key in res.signals:
             plot_bifurcation(res, signal=key, label=label, path=out / f"bifurcation_{_tag(key)}.png")
         table = {key: res.table(signal=key) for key in res.signals}
-        (out / "bifurcation.json").write_text(json.dumps(table, indent=2, default=str))
+        write_text(out / "bifurcation.json", json.dumps(table, indent=2, default=str))
         for key in res.signals:
             print(f"{key}:")
             for row in table[key]:
@@ -180,7 +181,7 @@ def cli_main(argv) -> int:
         plot_poincare(sec, path=out / f"poincare_{_tag(sig)}.png")
         c = classify(sec)
         report[sig] = dict(c.as_dict(), samples=len(sec), interpolated=int(sec.interpolated.sum()))
-    (out / "poincare.json").write_text(json.dumps(report, indent=2, default=str))
+    write_text(out / "poincare.json", json.dumps(report, indent=2, default=str))
     print(json.dumps(report, indent=2, default=str))
     return 0
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
+from ..safeio import savefig
 from .poincare import PoincareSection
 from .signals import phase_portrait
 from .sweep import BifurcationResult, is_number
@@ -41,7 +42,7 @@ def plot_phase_portrait(x, xdot=None, section=None, label="", ax=None, path=None
     ax.set_title("phase portrait")
     ax.grid(alpha=0.3)
     if path is not None:
-        fig.savefig(path, dpi=120, bbox_inches="tight")
+        savefig(fig, path, dpi=120, bbox_inches="tight")
     return fig, data
 
 
@@ -54,7 +55,7 @@ def plot_poincare(section: PoincareSection, ax=None, path=None):
     ax.set_title(f"Poincaré map (T = {section.period:.6g} s, phase {section.phase:.3g} s, {len(section)} points)")
     ax.grid(alpha=0.3)
     if path is not None:
-        fig.savefig(path, dpi=120, bbox_inches="tight")
+        savefig(fig, path, dpi=120, bbox_inches="tight")
     return fig, {"x": section.x, "xdot": section.xdot}
 
 
@@ -86,6 +87,6 @@ def plot_bifurcation(result: BifurcationResult, coordinate="xdot", signal=None, 
         ax2.axhline(0.0, color="tab:blue", lw=0.5, ls=":")
         ax2.set_ylabel("largest Lyapunov exponent [1/s]", color="tab:blue")
     if path is not None:
-        fig.savefig(path, dpi=120, bbox_inches="tight")
+        savefig(fig, path, dpi=120, bbox_inches="tight")
     return fig, {"p": p, "y": y, "failed": failed, "lyapunov": (lp, lam)}
 

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, ModelFileError
+from ..safeio import savez as atomic_savez
 from ..sweeps import MAX_SWEEP_POINTS, make_executor, run_jobs
 from .classify import Classification, classify
 from .poincare import PoincareSection, poincare, section_times
@@ -188,8 +189,7 @@ class BifurcationResult:
         meta = {"parameter": self.parameter if isinstance(self.parameter, (str, dict)) else repr(self.parameter),
                 "signals": self.signals, "runs": runs}
         arrays["meta"] = np.array(json.dumps(jsonable(meta)))
-        np.savez_compressed(path, **arrays)
-        return path
+        return atomic_savez(path, arrays)
 
     @classmethod
     def load(cls, path):

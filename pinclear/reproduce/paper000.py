@@ -15,6 +15,7 @@ import os
 import numpy as np
 import pinocchio as pin
 
+from .. import safeio
 from .. import analysis, kinematics
 from ..errors import InputError
 from ..mechanisms import four_ups_upu as mod
@@ -244,7 +245,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
         axf[0].legend(fontsize=8)
         axf[0].set_title("Contact force at S2 (K as printed)", fontsize=10)
         fig_f.tight_layout()
-        fig_f.savefig(out / "contact_force.png", dpi=90)
+        safeio.savefig(fig_f, out / "contact_force.png", dpi=90)
         two = t_eval >= t_end - 2 * T - 1e-9
         for j, c in enumerate("XYZ"):
             for row, name in enumerate(("position [m]", "velocity [m/s]", "acceleration [m/s^2]")):
@@ -257,7 +258,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
         fig_r.suptitle("Platform with the S2 clearance vs the ideal motion law (acceleration: "
                        "derivative of the exact velocity on the output grid)", fontsize=9)
         fig_r.tight_layout()
-        fig_r.savefig(out / "platform_responses.png", dpi=90)
+        safeio.savefig(fig_r, out / "platform_responses.png", dpi=90)
         plt.close(fig_f)
         plt.close(fig_r)
         figures += ["platform_responses.png", "contact_force.png"]
@@ -307,7 +308,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
                 for a in row[2 * k:2 * k + 2]:
                     a.ticklabel_format(useOffset=False)
         fig.tight_layout()
-        fig.savefig(out / "phase_poincare_mu.png", dpi=80)
+        safeio.savefig(fig, out / "phase_poincare_mu.png", dpi=80)
         plt.close(fig)
         figures.append("phase_poincare_mu.png")
     for res, name, label in ((bmu, "bifurcation_mu.png", "mu"), (bc, "bifurcation_clearance.png", "clearance [m]")):
@@ -319,7 +320,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
             ax.yaxis.set_major_formatter(MM)
             ax.set_xlabel(label)
         fig.tight_layout()
-        fig.savefig(out / name, dpi=80)
+        safeio.savefig(fig, out / name, dpi=80)
         plt.close(fig)
         figures.append(name)
 

@@ -19,6 +19,7 @@ import time
 
 import numpy as np
 
+from .. import safeio
 from .. import analysis as an
 from ..analysis.classify import classify_state
 from ..models import model_path
@@ -248,7 +249,7 @@ def _response(runs, s, out, plt):
         ax[2, 0].set_xlabel("t [s]")
         fig.suptitle(title)
         fig.tight_layout()
-        fig.savefig(out / fig_name, dpi=90)
+        safeio.savefig(fig, out / fig_name, dpi=90)
         plt.close(fig)
         figs.append(fig_name)
     return results, notes, table, figs
@@ -388,7 +389,7 @@ def _portraits(res, values, name, title, plt, out):
             a.ticklabel_format(axis="both", style="sci", scilimits=(0, 0), useOffset=False)
             a.set_title(f"{title(v)}, joint {j}", fontsize=9)
     fig.tight_layout()
-    fig.savefig(out / name, dpi=90)
+    safeio.savefig(fig, out / name, dpi=90)
     plt.close(fig)
     return name
 
@@ -403,7 +404,7 @@ def _diagrams(res, name, label, plt, out):
         a.set_ylabel(f"d/dt {j}.eccentricity[0] [mm/s]")
         a.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{1e3 * v:.6g}"))   # no offset, no multiplier
     fig.tight_layout()
-    fig.savefig(out / name, dpi=90)
+    safeio.savefig(fig, out / name, dpi=90)
     plt.close(fig)
     return name
 

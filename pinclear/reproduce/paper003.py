@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import safeio
 from .. import analysis
 from ..errors import InputError
 from ..mechanisms import three_upru_up as mod
@@ -109,7 +110,7 @@ def lever_sidecar(folder, shift):
             c["frame2"] = {"parent": c["frame2"], "xyz": [0.0, 0.0, shift], "name": "slider_centre_shifted"}
     folder.mkdir(parents=True, exist_ok=True)
     path = folder / f"three_upru_up_shift_{shift:+.3f}.yaml"
-    path.write_text(yaml.safe_dump(sc, sort_keys=False))
+    safeio.write_text(path, yaml.safe_dump(sc, sort_keys=False))
     return path
 
 
@@ -337,7 +338,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None):
         ax.set_xlabel("t [s]")
         ax.set_yscale("symlog", linthresh=100)
     fig.tight_layout()
-    fig.savefig(out / "responses.png", dpi=90)
+    safeio.savefig(fig, out / "responses.png", dpi=90)
     plt.close(fig)
     return {"title": "Paper 003: 3-UPRU+UP polishing robot with a prismatic clearance", "paper": "003",
             "settings": {"mode": "quick" if quick else "full", "simulated": f"{s['t_end']:g} s",

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .. import safeio
 from .. import screw
 from ..mechanisms import four_ups_upr as mod
 from .report import compare
@@ -114,10 +115,10 @@ def run(out, quick=False, workers=None, scheduler=None):
     axes[0].legend(fontsize=8, ncol=4, loc="upper center", bbox_to_anchor=(0.5, -0.08), framealpha=1.0)
     axes[-1].set_xlabel("t [s]")
     fig.tight_layout()
-    fig.savefig(out / "drive_forces.png", dpi=100)
+    safeio.savefig(fig, out / "drive_forces.png", dpi=100)
     plt.close(fig)
     figc.tight_layout()
-    figc.savefig(out / "peak_vs_cutoff.png", dpi=100)
+    safeio.savefig(figc, out / "peak_vs_cutoff.png", dpi=100)
     plt.close(figc)
 
     for lay in "abcdef":

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import safeio
 from ..errors import ModelFileError, PinclearError
 from .inverse_dynamics import inverse_dynamics
 from .section import read_section
@@ -77,12 +78,13 @@ def cli_main(argv=None) -> int:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
         header = ["t"] + res.drive_names + [f"virtual{k + 1}" for k in range(res.virtual.shape[1])] + ["cond"]
-        np.savetxt(out / "drive_forces.csv", np.column_stack([res.t, res.tau, res.virtual, res.cond]),
-                   delimiter=",", header=",".join(header), comments="")
+        table = np.column_stack([res.t, res.tau, res.virtual, res.cond])
+        safeio.write_atomic(out / "drive_forces.csv",
+                            lambda fh: np.savetxt(fh, table, delimiter=",", header=",".join(header), comments=""))
         summ = res.summary()
         summ.update({"mechanism": mech.name, "law": args.law, "options": mech.options, "t_end": t_end,
                      "samples": args.n, "units": "N for prismatic drives, N m for revolute"})
-        (out / "peaks.json").write_text(json.dumps(summ, indent=2))
+        safeio.write_text(out / "peaks.json", json.dumps(summ, indent=2))
         plot(res, out / "drive_forces.png",
              f"{mech.name} {args.law or 'platform.motion'} limbs={'on' if args.limbs else 'off'}")
         outside = summ["peak_abs_outside_intervals"]
@@ -125,5 +127,5 @@ def plot(res, path, title):
     ax[1].set_ylabel("cond(G_p^q)")
     ax[1].set_xlabel("t [s]")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    safeio.savefig(fig, path, dpi=100)
     plt.close(fig)

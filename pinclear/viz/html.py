@@ -17,11 +17,11 @@ from __future__ import annotations
 import base64
 import html as _html
 import json
-import os
 from pathlib import Path
 
 import meshcat
 
+from .. import safeio
 from .scene import MechanismScene
 
 _MAIN_JS = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
@@ -117,11 +117,7 @@ def scene_html(scene: MechanismScene) -> str:
 
 
 def export_html(scene: MechanismScene, path) -> Path:
-    path = Path(path)
-    if path.parent and not path.parent.exists():
-        os.makedirs(path.parent, exist_ok=True)
-    path.write_text(scene_html(scene), encoding="utf-8")
-    return path
+    return safeio.write_text(path, scene_html(scene))
 
 
 CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",

@@ -25,6 +25,7 @@ import numpy as np
 import pinocchio as pin
 from matplotlib.figure import Figure
 
+from pinclear import safeio
 from pinclear.kinematics import frame_motion
 
 from .elements import active_clearances, recorded_clearances, run_clearances
@@ -266,6 +267,6 @@ def save_all(traj, out_dir, mech=None, ref=None, fmt="png", dpi=110, frame=None)
             skipped[name] = fig
             continue
         path = out / f"{name}.{fmt}"
-        fig.savefig(path, dpi=dpi)
+        safeio.savefig(fig, path, dpi=dpi)
         written[name] = path
     return written, skipped
