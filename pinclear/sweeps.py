@@ -395,6 +395,10 @@ def sweep(model, vary, t_end, out, **kw) -> SweepResult:
     folder = Path(out)
     if folder.exists() and not folder.is_dir():
         raise InputError(f"--out {str(folder)!r} is an existing file; give a folder")
+    for name in ("points", "sweep.json"):
+        if (folder / name).is_symlink():
+            raise InputError(f"--out {str(folder)!r}: {str(folder / name)!r} is a link; pinclear never follows a "
+                             "link inside a results folder (remove it or choose another --out)")
     with safeio.folder_lock(folder):
         return _sweep_in_folder(model, vary, t_end, out, **kw)
 
