@@ -445,20 +445,20 @@ class Trajectory:
             if arr.ndim == 2 and len(arr) and arr.shape[1] != n:
                 raise InputError(f"{path}: {k} has {arr.shape[1]} columns, mechanism {mech.name!r} needs {n}")
 
-    def load_mechanism(self, trust=None):
-        """The mechanism this run used, loaded again with the same options, overrides and
-        active clearances (from the saved metadata). A file that names code outside pinclear is
-        refused unless ``trust`` (see pinclear.load)."""
+    def load_mechanism(self, path=None, trust=None):
+        """The mechanism this run used, loaded again with the recorded options, overrides and
+        active clearances. ``path``: the mechanism file, named by the caller; without it only a
+        bundled mechanism is loaded, by the name the run records (a path recorded in a results
+        file is never opened). ``trust`` covers the file at ``path`` only: recorded arguments
+        never add code or files (pinclear.trust.check_recorded_args), and a bundled mechanism
+        needs no trust (docs/security.md)."""
         from .sidecar import load
+        from .trust import check_recorded_args, recorded_mechanism
 
-        la = self.meta.get("load_args") or {}
-        path = la.get("path") or self.mech_path
+        kw = check_recorded_args(self.meta.get("load_args"), "<saved run>")
         if path is None:
-            from .errors import ModelFileError
-
-            raise ModelFileError("<trajectory>", "mech_path", "the run does not name its mechanism file")
-        mech = load(path, options=la.get("options") or None, overrides=la.get("overrides") or None,
-                    clearances=la.get("clearances") or None, trust=trust)
+            path, trust = recorded_mechanism(self.meta, "<saved run>"), False
+        mech = load(path, **kw, trust=trust)
         self.check_mechanism(mech)
         self.mech = mech
         return self.mech

@@ -13,6 +13,7 @@ the user has chosen to run the file's code.
 from __future__ import annotations
 
 import importlib
+import re
 import os
 import types
 from types import MappingProxyType
@@ -79,3 +80,74 @@ def _import(spec, mod, parts, file, key):
     except (ImportError, AttributeError) as exc:
         raise ModelFileError(file, key, f"cannot import {spec!r}: {exc}") from None
     return obj
+
+
+# --------------------------------------------------------------- what a results file may name
+#: sidecar keys that name code or files: a results file may never set them, under --trust too
+CODE_AND_FILE_KEYS = frozenset({"function", "hook", "ik", "motions", "virtual", "urdf", "mesh", "meshes",
+                                "package_dirs", "filename", "path", "file"})
+_FUNCTION_NAME = re.compile(r"^\s*[A-Za-z_][\w.]*\s*:\s*[A-Za-z_][\w.]*\s*$")
+
+
+def check_recorded_args(load_args, run_file) -> dict:
+    """The options, overrides and active clearances recorded in a saved run, refused (one line
+    naming the run file and the key) when any could add code or a file to the mechanism: a key
+    path through :data:`CODE_AND_FILE_KEYS`, or a value holding such a key or a string spelled
+    like a function name (``module:function``, unless offered to data files). ``--trust`` is the
+    user's word about the mechanism file named on the command line; nothing recorded in a
+    results file may add code, laws or files to it. Returns the keyword arguments for load()."""
+    la = load_args if isinstance(load_args, dict) else {}
+    out = {}
+    for part in ("options", "overrides"):
+        rec = la.get(part)
+        if rec in (None, {}):
+            out[part] = None
+            continue
+        if not isinstance(rec, dict):
+            raise ModelFileError(str(run_file), f"load_args.{part}", f"expected a mapping, got {type(rec).__name__}")
+        for k, v in rec.items():
+            _refuse_code(k, v, run_file, f"load_args.{part}.{k}")
+        out[part] = rec
+    cl = la.get("clearances")
+    if cl not in (None, []) and not (isinstance(cl, list) and all(isinstance(c, str) for c in cl)):
+        raise ModelFileError(str(run_file), "load_args.clearances", "expected a list of clearance names")
+    out["clearances"] = cl or None
+    return out
+
+
+def _refuse_code(key, value, run_file, where, depth=0):
+    segments = re.split(r"[.\[\]]+", str(key)) if depth == 0 else [str(key)]
+    bad = next((s for s in segments if s in CODE_AND_FILE_KEYS), None)
+    if bad is None and isinstance(value, str) and _FUNCTION_NAME.match(value) and value.strip() not in OFFERED:
+        bad = "a function name"
+    if bad is not None:
+        raise ModelFileError(str(run_file), where, f"a saved run may not set {bad!r} (code or a file): a results "
+                             "file never adds code, laws or files to a mechanism, with --trust neither; give the "
+                             "mechanism file and its options on the command line (--mech FILE, --set KEY=VALUE)")
+    if depth > 32:
+        raise ModelFileError(str(run_file), where, "nested too deeply")
+    if isinstance(value, dict):
+        for k, v in value.items():
+            _refuse_code(k, v, run_file, f"{where}.{k}", depth + 1)
+    elif isinstance(value, list):
+        for i, v in enumerate(value):
+            _refuse_code(i, v, run_file, f"{where}[{i}]", depth + 1)
+
+
+def recorded_mechanism(meta, run_file) -> str:
+    """The bundled mechanism a saved run was made with, by name. A path recorded in a results
+    file is never opened: a run of any other mechanism file needs the file named by the user
+    (``--mech FILE``, ``load_mechanism(path)``); the error quotes only the run file's own text."""
+    from .models import available
+
+    la = meta.get("load_args") if isinstance(meta.get("load_args"), dict) else {}
+    rec = la.get("path") or meta.get("mech_path")
+    if not isinstance(rec, str) or not rec:
+        raise ModelFileError(str(run_file), "mech_path", "the run does not name its mechanism file; pass --mech FILE.yaml")
+    name = rec.replace("\\", "/").rsplit("/", 1)[-1]
+    stem = name[:-5] if name.endswith(".yaml") else None
+    if stem is None or stem not in available():
+        raise ModelFileError(str(run_file), "mech_path", f"the run was made with {rec[:300]!r}, not a bundled "
+                             "mechanism: pinclear opens no file a results file names; pass the mechanism file "
+                             "yourself (--mech FILE.yaml, or Trajectory.load_mechanism(path))")
+    return stem

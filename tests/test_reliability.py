@@ -73,8 +73,10 @@ def test_1_saved_run_does_not_import_code_on_load(tmp_path, monkeypatch):
     tr.save(tmp_path / "run.npz")
     back = pinclear.Trajectory.load(tmp_path / "run.npz")          # reads arrays only
     with pytest.raises(pinclear.ModelFileError, match="trust"):
-        back.load_mechanism()
-    assert back.load_mechanism(trust=True).name == mech.name
+        back.load_mechanism(path)
+    with pytest.raises(pinclear.ModelFileError, match="not a bundled mechanism"):    # its path is never opened
+        back.load_mechanism(trust=True)
+    assert back.load_mechanism(path, trust=True).name == mech.name
 
 
 def test_2_urdf_outside_the_allowed_folders_is_refused(tmp_path):

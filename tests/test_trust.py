@@ -142,18 +142,22 @@ def test_viewing_or_plotting_a_run_calls_no_sidecar_code(tmp_path, capsys, monke
         tr = pinclear.simulate(mech, 0.05)
     tr.save(tmp_path / "run.npz")
     marker.unlink()                                  # the save computed the tracking error (trusted)
-    code, _, err = run_cli(["view", str(tmp_path / "run.npz"), "--html", str(tmp_path / "x.html")], capsys)
+    run = str(tmp_path / "run.npz")
+    code, _, err = run_cli(["view", run, "--mech", str(path), "--html", str(tmp_path / "x.html")], capsys)
     assert code == 2 and "refusing" in err and not marker.exists()
-    code, _, err = run_cli(["plot", str(tmp_path / "run.npz"), "--out", str(tmp_path / "figs")], capsys)
+    code, _, err = run_cli(["plot", run, "--mech", str(path), "--out", str(tmp_path / "figs")], capsys)
     assert code == 2 and "refusing" in err and not marker.exists()
     with pytest.raises(ModelFileError, match="refusing"):
-        pinclear.Trajectory.load(tmp_path / "run.npz").load_mechanism()
+        pinclear.Trajectory.load(tmp_path / "run.npz").load_mechanism(path)
+    # without --mech the recorded path is not opened at all (issue 42)
+    code, _, err = run_cli(["view", run, "--html", str(tmp_path / "x.html")], capsys)
+    assert code == 2 and "not a bundled mechanism" in err and not marker.exists()
     assert not marker.exists() and not (tmp_path / "x.html").exists()
     # the attribute-chain spelling of the same motion, recorded in a run: refused as well
     meta_doc = dict(FOUR, platform={"frame": "coupler", "motion": {"function": "pinclear.viz.cli:sys.exit",
                                                                     "args": {}}})
-    write_sidecar(tmp_path, meta_doc, name="m.yaml")
-    code, _, err = run_cli(["view", str(tmp_path / "run.npz"), "--html", str(tmp_path / "x.html")], capsys)
+    m = write_sidecar(tmp_path, meta_doc, name="m.yaml")
+    code, _, err = run_cli(["view", run, "--mech", str(m), "--html", str(tmp_path / "x.html")], capsys)
     assert code == 2 and "refusing" in err
 
 

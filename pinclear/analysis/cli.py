@@ -107,7 +107,8 @@ def build_parser():
     b.add_argument("--out", default="out", help="output folder (created if missing)")
     p = sub.add_parser("poincare", help="phase portrait + Poincaré map of a saved run (trajectory.npz)")
     p.add_argument("trajectory", help="trajectory.npz written by `pinclear simulate`")
-    p.add_argument("--file", help="mechanism sidecar (default: the one recorded in the run)")
+    p.add_argument("--file", help="mechanism sidecar (default: the bundled mechanism the run names; a path "
+                   "recorded in a run is never opened)")
     p.add_argument("--clearance", action="append", metavar="NAME", help="clearance joints active in the run")
     p.add_argument("--period", type=number(unit="s"), required=True, help="driving period [s]")
     p.add_argument("--signal", action="append", required=True, help="as for bifurcation; repeatable")
@@ -159,9 +160,10 @@ def cli_main(argv) -> int:
 
     check_regular(args.trajectory, "path", "trajectory")     # a FIFO or a device would block or never end
     tr0 = Trajectory.load(args.trajectory)
-    path = args.file or tr0.mech_path
-    if not path:
-        raise InputError(f"{args.trajectory}: no mechanism file recorded in the run: give --file")
+    from ..trust import recorded_mechanism
+
+    # a path recorded in the run is never opened: --file, or the bundled mechanism it names
+    path = args.file or recorded_mechanism(tr0.meta, args.trajectory)
     if args.clearance is None:
         from ..sidecar import read_yaml
 
@@ -169,7 +171,8 @@ def cli_main(argv) -> int:
         if not isinstance(sc, dict):
             raise ModelFileError(str(path), "sidecar", "expected a mapping")
         names = {c.get("name") for c in sc.get("clearances") or [] if isinstance(c, dict)}
-        ran = {f.get("name") for f in tr0.meta.get("mechanism", {}).get("forces", [])}
+        rec = tr0.meta.get("mechanism") if isinstance(tr0.meta.get("mechanism"), dict) else {}
+        ran = {f.get("name") for f in rec.get("forces") or [] if isinstance(f, dict)}
         args.clearance = sorted(names & ran)
     mech = load(path, clearances=args.clearance or None)
     traj = Trajectory.load(args.trajectory, mech=mech)

@@ -38,11 +38,13 @@ def load_run(npz, mech_path=None, trust=None):
     """A saved trajectory and the mechanism it was run on (same options and active clearances
     as recorded in its metadata), checked to be that mechanism (:func:`check_run_mechanism`).
 
-    Without ``mech_path`` the recorded mechanism file is loaded again (also from beside the
-    .npz when the run's folder was moved).  A mechanism file that names Python code outside
-    pinclear is refused unless ``trust`` (see pinclear.load)."""
+    Without ``mech_path`` only a bundled mechanism is loaded again, by the name the run
+    records: a path recorded in a results file is never opened. ``trust`` covers the file at
+    ``mech_path`` (named by the user) only; the recorded options and overrides never add code
+    or files (pinclear.trust.check_recorded_args; docs/security.md)."""
     import pinclear
     from pinclear.errors import ModelFileError, PinclearError
+    from pinclear.trust import check_recorded_args, recorded_mechanism
 
     npz = Path(npz)
     if not npz.exists():
@@ -52,23 +54,12 @@ def load_run(npz, mech_path=None, trust=None):
     except (PinclearError, OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
         why = str(exc).removeprefix(f"{npz}: ")
         raise ModelFileError(str(npz), "npz", f"not a pinclear trajectory ({why})") from None
-    la = _recorded_load_args(traj)
-    if mech_path is not None:
-        mech = pinclear.load(mech_path, **la, trust=trust)
-    else:
-        recorded = (traj.meta.get("load_args") or {}).get("path") or traj.mech_path
-        if not recorded:
-            raise ModelFileError(str(npz), "mech_path", "the run does not name its mechanism file; "
-                                 "pass --mech FILE.yaml")
-        if Path(recorded).exists():
-            mech = traj.load_mechanism(trust=trust)
-        else:
-            cand = [npz.parent / recorded, npz.parent / Path(recorded).name]
-            path = next((p for p in cand if p.exists()), None)
-            if path is None:
-                raise ModelFileError(str(npz), "mech_path", f"mechanism file {recorded!r} not found "
-                                     f"(looked at {', '.join(map(str, [recorded, *cand]))}); pass --mech FILE.yaml")
-            mech = pinclear.load(path, **la, trust=trust)
+    # recorded options and overrides never add code or files (with --trust neither), and a
+    # recorded path is never opened: the user names the file, or the run's is a bundled one
+    la = check_recorded_args(_recorded_load_args(traj), npz)
+    if mech_path is None:
+        mech_path, trust = recorded_mechanism(traj.meta, npz), False
+    mech = pinclear.load(mech_path, **la, trust=trust)
     check_run_mechanism(traj, mech, npz)
     traj.mech = mech
     return traj, mech
@@ -153,8 +144,10 @@ def build_view_parser():
                     help="NAME.key=value (clearance key) or option=value (scene option)")
     ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE", help="set a scene option")
     ap.add_argument("--trust", action="store_true",
-                    help="trust the mechanism file (and a run's recorded one): allow its Python functions "
-                         "outside pinclear and URDF meshes outside its folders (README: trust)")
+                    help="trust the mechanism file named on the command line (FILE or --mech): allow its "
+                         "Python functions outside pinclear and URDF meshes outside its folders; never a "
+                         "run's recorded file or arguments, which are not opened or applied as code "
+                         "(docs/security.md)")
     _scene_args(ap)
     return ap
 
@@ -241,7 +234,8 @@ def build_plot_parser():
                     help="frame plotted as the platform (default: the sidecar's platform frame)")
     ap.add_argument("--format", default="png", choices=["png", "pdf", "svg"], help="image format")
     ap.add_argument("--trust", action="store_true",
-                    help="trust the run's mechanism file (allow its Python functions outside pinclear)")
+                    help="trust the mechanism file given with --mech (allow its Python functions outside "
+                         "pinclear); a run's recorded file and arguments are never trusted (docs/security.md)")
     return ap
 
 
