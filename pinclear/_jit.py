@@ -15,8 +15,10 @@ compiles everything ahead of time.
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
+import stat
 import sys
 import threading
 import time
@@ -24,6 +26,8 @@ from pathlib import Path
 
 import numba
 from numba.core import event as _event
+
+from .errors import PinclearError
 
 
 #: bump when the compile options of the kernels change (names the cache folder, see below)
@@ -69,10 +73,54 @@ def kernels_digest() -> bytes:
 
 KERNELS_DIGEST = kernels_digest()
 
-if not os.environ.get("NUMBA_CACHE_DIR"):
-    # numba reads this setting when a cached function is first compiled, so setting it before
-    # any kernel module is imported is enough
-    numba.config.CACHE_DIR = str(cache_dir() / f"numba-{KERNEL_OPTIONS}-{KERNELS_DIGEST.hex()[:12]}")
+
+class CacheFolderError(PinclearError):
+    """The kernel cache folder could be written by someone else: refused."""
+
+
+def private_folder(path, what="kernel cache folder") -> Path:
+    """``path``, created with mode 0700 when missing, refused (CacheFolderError, one line) when
+    it is not a folder owned by the user, when group or others may write it, or when a folder
+    above it may be changed by others (owned by another user than the user or root, or writable
+    by others without the sticky bit /tmp has). What is in the kernel cache runs: numba unpickles
+    its index files (``*.nbi``) and pinclear imports the generated stage modules (``stages/``),
+    so a folder another user can write is a folder another user's code runs from."""
+    path = Path(path)
+    fix = "set PINCLEAR_CACHE_DIR to a folder of your own (docs/security.md)"
+    try:
+        if not path.is_dir():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            with contextlib.suppress(FileExistsError):
+                path.mkdir(mode=0o700)
+        st = os.stat(path)
+    except OSError as exc:
+        raise CacheFolderError(f"{path}: cannot create the {what} ({exc.strerror}); {fix}") from None
+    if not stat.S_ISDIR(st.st_mode):
+        raise CacheFolderError(f"{path}: the {what} is not a folder; {fix}")
+    if not hasattr(os, "getuid"):          # pragma: no cover - Windows: the ACLs of the profile folder
+        return path
+    me = os.getuid()
+    if st.st_uid != me:
+        raise CacheFolderError(f"{path}: the {what} is owned by user id {st.st_uid}, not by you ({me}): refused, "
+                               f"its contents would run as code; {fix}")
+    if st.st_mode & 0o022:
+        raise CacheFolderError(f"{path}: the {what} is writable by group or others (mode {stat.S_IMODE(st.st_mode):o}): "
+                               f"refused, its contents would run as code; chmod go-w it or {fix}")
+    for up in path.resolve().parents:
+        a = os.stat(up)
+        if a.st_uid not in (0, me) or (a.st_mode & 0o002 and not a.st_mode & stat.S_ISVTX):
+            raise CacheFolderError(f"{path}: the folder {up} above the {what} can be changed by other users "
+                                   f"(owner id {a.st_uid}, mode {stat.S_IMODE(a.st_mode):o}): refused; {fix}")
+    return path
+
+
+# the folder numba reads cached kernels from (its own NUMBA_CACHE_DIR when set) is checked before
+# any kernel is compiled or loaded; numba reads CACHE_DIR when a cached function is first
+# compiled, so setting it before any kernel module is imported is enough
+if os.environ.get("NUMBA_CACHE_DIR"):
+    private_folder(os.environ["NUMBA_CACHE_DIR"])
+else:
+    numba.config.CACHE_DIR = str(private_folder(cache_dir()) / f"numba-{KERNEL_OPTIONS}-{KERNELS_DIGEST.hex()[:12]}")
 
 
 #: the line printed (once per process, on stderr) when pinclear starts compiling kernels
