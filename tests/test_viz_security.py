@@ -329,11 +329,13 @@ def test_viewing_a_run_imports_no_code_unless_trusted(tmp_path, monkeypatch, cap
     assert marker.exists()                     # trusted: the module ran
     marker.unlink()
     monkeypatch.delitem(sys.modules, mod)
-    assert view_main([str(npz), "--html", str(tmp_path / "x.html")]) == 2
+    assert view_main([str(npz), "--mech", str(side), "--html", str(tmp_path / "x.html")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and f"{mod}:hook" in err and "--trust" in err
     assert not marker.exists()                 # untrusted: the module never ran
-    assert view_main([str(npz), "--trust", "--html", str(tmp_path / "y.html")]) == 0
+    assert view_main([str(npz), "--trust", "--html", str(tmp_path / "y.html")]) == 2    # recorded: never opened
+    assert not marker.exists()
+    assert view_main([str(npz), "--mech", str(side), "--trust", "--html", str(tmp_path / "y.html")]) == 0
     assert marker.exists()
 
 
