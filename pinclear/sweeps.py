@@ -57,10 +57,7 @@ def make_executor(workers=None, scheduler=None):
             from distributed import Client
         except ImportError:
             raise InputError("--scheduler needs dask.distributed: pip install 'pinclear[cluster]'") from None
-        try:
-            client = Client(scheduler, timeout="20s")
-        except OSError as exc:
-            raise InputError(f"cannot reach the Dask scheduler at {scheduler!r}: {exc}") from None
+        client = _dask_client(Client, scheduler)
         return client.get_executor(), lambda abort=False: client.close()
     if workers is not None and int(workers) < 1:
         raise InputError(f"workers must be a positive number of processes, got {workers!r}")
@@ -75,6 +72,35 @@ def make_executor(workers=None, scheduler=None):
                 if proc.is_alive():
                     proc.kill()
     return ex, close
+
+
+#: seconds to wait for a Dask scheduler's answer when connecting
+SCHEDULER_TIMEOUT_S = 20.0
+
+
+def _dask_client(Client, scheduler):
+    """A dask.distributed Client of ``scheduler``, or one InputError line within
+    SCHEDULER_TIMEOUT_S (+5 s): distributed's own timeout covers the TCP connection, not a server
+    that accepts and never answers (it blocked past it), and a server answering garbage made it
+    allocate a declared length ("MemoryError 6.09 EiB"). The connecting thread is a daemon: a
+    hung one does not keep the process alive."""
+    import threading
+
+    box = {}
+
+    def connect():
+        try:
+            box["client"] = Client(scheduler, timeout=f"{SCHEDULER_TIMEOUT_S:g}s")
+        except BaseException as exc:             # MemoryError from a garbage length included
+            box["error"] = exc
+    th = threading.Thread(target=connect, name="pinclear-dask-connect", daemon=True)
+    th.start()
+    th.join(SCHEDULER_TIMEOUT_S + 5.0)
+    if "client" in box:
+        return box["client"]
+    why = (f"no answer within {SCHEDULER_TIMEOUT_S + 5:g} s" if th.is_alive() else
+           f"{type(box['error']).__name__}: {' '.join(str(box['error']).split())[:200]}")
+    raise InputError(f"cannot reach a Dask scheduler at {scheduler!r} ({why}); check --scheduler tcp://HOST:PORT")
 
 
 def _die_with_parent(parent):

@@ -109,6 +109,13 @@ def _check_joint(joint, links, file):
         ends.append(link)
     if ends[0] == ends[1]:
         raise ModelFileError(file, key, f"joins link {ends[0]!r} to itself")
+    mimic = joint.find("mimic")
+    if mimic is not None:
+        # Pinocchio's URDF parser builds a mimic joint as an independent one: info and simulate
+        # would describe another mechanism (one more degree of freedom)
+        raise ModelFileError(file, f"{key}.mimic", f"couples the joint to {mimic.get('joint')!r}, which pinclear does "
+                             "not model yet (it would be simulated as an independent joint); remove <mimic> and "
+                             "couple the joints with a closure or a drive")
     _origin(joint, file, key)
     axis = joint.find("axis")
     if axis is not None:

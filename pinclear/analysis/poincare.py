@@ -12,6 +12,22 @@ from .signals import series
 
 
 
+#: section points of one map or one run's section times: ~0.5 GB of arrays at this size
+MAX_SECTION_POINTS = 10_000_000
+
+
+def check_section_count(sections, samples, period, span):
+    """Refuse, before anything is allocated, a Poincaré map with more section points than the
+    run's samples can resolve (a period shorter than a quarter of the mean sample spacing only
+    interpolates between samples) or than MAX_SECTION_POINTS. `analyse poincare --period 1e-9`
+    allocated until the kernel killed it (23 GB)."""
+    limit = min(MAX_SECTION_POINTS, 4 * samples + 1000)
+    if not sections <= limit:                    # NaN and inf included
+        raise InputError(f"--period {period:.6g} s gives {sections:.3g} section points over the run's {span:.6g} s "
+                         f"of {samples} samples (at most {limit}: a period shorter than the sample spacing is not "
+                         "resolved by the samples); give the driving period, or simulate with a finer --dt-out")
+
+
 def section_times(period, cycles, phase=0.0, t0=0.0, per_period=1):
     """Output times for :func:`pinclear.simulate` (``t_eval``) that contain the Poincaré
     section t0 + phase + k*period, k = 0..cycles, exactly, plus ``per_period - 1`` samples in
@@ -21,6 +37,9 @@ def section_times(period, cycles, phase=0.0, t0=0.0, per_period=1):
         raise InputError(f"period must be a positive number of seconds, got {period!r}")
     if per_period < 1 or cycles < 1:
         raise InputError(f"need cycles >= 1 and per_period >= 1, got {cycles}, {per_period}")
+    if cycles * per_period > MAX_SECTION_POINTS:
+        raise InputError(f"cycles x per_period = {cycles} x {per_period} output times, more than "
+                         f"{MAX_SECTION_POINTS}: refused before allocating")
     j = np.arange(cycles * per_period + 1)
     # (j / per_period) is an exact integer k at the section: the same float as t0 + phase + k*period
     return t0 + phase + (j / per_period) * period
@@ -72,6 +91,7 @@ def poincare(traj, period, signal, phase=0.0, skip_transient=0, t0=0.0, mech=Non
     if len(t) == 0:
         return empty
     tol = match_tol * period
+    check_section_count((t[-1] - t[0]) / period, len(t), period, t[-1] - t[0])
     k_lo = max(int(math.ceil((t[0] - tol - t0 - phase) / period)), int(math.ceil(skip_transient)))
     k_hi = int(math.floor((t[-1] + tol - t0 - phase) / period))
     if k_hi < k_lo:

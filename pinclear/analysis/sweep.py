@@ -193,8 +193,21 @@ class BifurcationResult:
 
     @classmethod
     def load(cls, path):
-        d = np.load(path, allow_pickle=False)
-        meta = json.loads(str(d["meta"]))
+        """A diagram written by :meth:`save`, read as data (pinclear.validate: headers and declared
+        sizes before loading, no objects); a truncated, oversized or foreign file is an
+        InputError naming it, never a traceback."""
+        from .. import validate as V
+
+        arrays = V.read_npz(path, "bifurcation result")
+        meta = V.read_meta(arrays, path, "bifurcation result")
+        try:
+            return cls._from_arrays(arrays, meta)
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+            raise V.file_error(path, f"not a readable bifurcation result ({type(exc).__name__}: "
+                               f"{' '.join(str(exc).split())[:200]})") from None
+
+    @classmethod
+    def _from_arrays(cls, d, meta):
         runs = []
         for m in meta["runs"]:
             i = m["index"]
@@ -204,7 +217,7 @@ class BifurcationResult:
                 secs[key] = PoincareSection(a["k"], a["t"], a["x"], a["xdot"], sm["period"], sm["phase"], sm["label"],
                                             a["interpolated"], sm["exact_rate"], a["scale"])
             pors = {key: tuple(d[f"por/{i}/{key}/{f}"] for f in ("t", "x", "xdot"))
-                    for key in meta["signals"] if f"por/{i}/{key}/t" in d.files}
+                    for key in meta["signals"] if f"por/{i}/{key}/t" in d}
             cls_ = {k: Classification(**c) for k, c in m["classifications"].items()}
             runs.append(BifurcationRun(i, m["value"], m["status"], m["message"], secs, pors, m["stats"], cls_))
         values = np.array([r.value for r in runs], dtype=float if all(is_number(r.value) for r in runs) else object)

@@ -57,6 +57,10 @@ def build_scene(mech, traj=None, *, q=None, fps: float = 30.0, slowdown: float |
     return scene
 
 
+#: seconds any exchange with a meshcat server may take before the viewer gives up
+ZMQ_TIMEOUT_S = 10.0
+
+
 def start_viewer(scene: MechanismScene, zmq_url: str | None = None, open_browser: bool = False):
     """Push a scene to a meshcat server and return the live ``meshcat.Visualizer``.
 
@@ -64,14 +68,28 @@ def start_viewer(scene: MechanismScene, zmq_url: str | None = None, open_browser
     this process (SIGINT, SIGTERM, exit) or with :meth:`MechanismScene.close`; it is kept in
     ``scene.server``.  ``zmq_url`` names a server that is already running (not stopped here)."""
     import meshcat
+    import zmq
+    from meshcat.visualizer import ViewerWindow
+
+    from ..errors import InputError
 
     server = None
     if zmq_url is None:
         server = LocalServer()
         zmq_url = server.zmq_url
+    # every wait on the server is bounded: meshcat's REQ sockets wait forever by default (a URL
+    # nobody answers on blocked `pinclear view --zmq-url tcp://127.0.0.1:1 --no-block` forever)
+    ms = int(ZMQ_TIMEOUT_S * 1000)
+    for opt, value in ((zmq.RCVTIMEO, ms), (zmq.SNDTIMEO, ms), (zmq.LINGER, 0)):
+        ViewerWindow.context.setsockopt(opt, value)
     try:
         vis = meshcat.Visualizer(zmq_url=zmq_url)
         scene.push(vis)
+    except zmq.ZMQError as exc:
+        if server is not None:
+            server.close()
+        raise InputError(f"no meshcat server answered at {zmq_url!r} within {ZMQ_TIMEOUT_S:g} s ({exc}); start one "
+                         "(meshcat-server) or omit --zmq-url") from None
     except BaseException:
         if server is not None:
             server.close()
