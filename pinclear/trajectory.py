@@ -429,7 +429,9 @@ class Trajectory:
         rec = self.meta.get("mechanism") or {}
         have = mech.describe()
         def kinds(forces):           # force elements and active clearances by name and type
-            return sorted((str(f.get("name")), str(f.get("type"))) for f in forces or [])
+            # (a tampered record's entries that are not mappings compare as what they are)
+            return sorted((str(f.get("name")), str(f.get("type"))) if isinstance(f, dict) else ("", repr(f)[:40])
+                          for f in (forces if isinstance(forces, list) else [forces] if forces else []))
         for key in ("name", "nq", "nv", "joints", "closures", "drives", "forces", "gravity"):
             if key not in rec:
                 continue

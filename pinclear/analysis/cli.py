@@ -160,10 +160,11 @@ def cli_main(argv) -> int:
 
     check_regular(args.trajectory, "path", "trajectory")     # a FIFO or a device would block or never end
     tr0 = Trajectory.load(args.trajectory)
+    from ..models import model_path
     from ..trust import recorded_mechanism
 
     # a path recorded in the run is never opened: --file, or the bundled mechanism it names
-    path = args.file or recorded_mechanism(tr0.meta, args.trajectory)
+    path = args.file or model_path(recorded_mechanism(tr0.meta, args.trajectory))
     if args.clearance is None:
         from ..sidecar import read_yaml
 

@@ -91,7 +91,9 @@ def poincare(traj, period, signal, phase=0.0, skip_transient=0, t0=0.0, mech=Non
     if len(t) == 0:
         return empty
     tol = match_tol * period
-    check_section_count((t[-1] - t[0]) / period, len(t), period, t[-1] - t[0])
+    with np.errstate(over="ignore"):              # a count that overflows is inf, refused below
+        count = np.float64(t[-1] - t[0]) / period
+    check_section_count(count, len(t), period, t[-1] - t[0])
     k_lo = max(int(math.ceil((t[0] - tol - t0 - phase) / period)), int(math.ceil(skip_transient)))
     k_hi = int(math.floor((t[-1] + tol - t0 - phase) / period))
     if k_hi < k_lo:
