@@ -26,10 +26,11 @@ from .sidecar import parse_assignments as parse_kv
 
 
 def _load(args):
-    from .sidecar import load
+    from .sidecar import check_disjoint, load
 
-    return load(args.file, options=parse_kv(getattr(args, "option", None), "--option"),
-                overrides=parse_kv(getattr(args, "set", None), "--set"), clearances=getattr(args, "clearance", None),
+    options, overrides = parse_kv(getattr(args, "option", None), "--option"), parse_kv(getattr(args, "set", None), "--set")
+    check_disjoint(options, overrides, "--option", "--set")
+    return load(args.file, options=options, overrides=overrides, clearances=getattr(args, "clearance", None),
                 trust=True if getattr(args, "trust", False) else None)
 
 
@@ -416,7 +417,7 @@ def cmd_bench(args):
 def cmd_sweep(args):
     from .sweeps import parse_vary, sweep
 
-    vary = dict(parse_vary(v) for v in args.vary)
+    vary = [parse_vary(v) for v in args.vary]       # a list: a key varied twice is refused by the grid
     sim = {"method": args.method, "integrator": args.integrator, "rtol": args.rtol}
     if args.dt_out is not None:
         sim["dt_out"] = args.dt_out
@@ -424,6 +425,10 @@ def cmd_sweep(args):
         sim["max_cpu"] = args.max_cpu
     load_kw = {"options": parse_kv(args.option, "--option"), "overrides": parse_kv(args.set, "--set"),
                "clearances": args.clearance}
+    from .sidecar import check_disjoint
+
+    check_disjoint(load_kw["options"], load_kw["overrides"], "--option", "--set")
+    check_disjoint(load_kw["overrides"], {k: "(varied)" for k, _ in vary}, "--set", "--vary")
     if args.trust:
         load_kw["trust"] = True
     show = args.progress == "on" or (args.progress == "auto" and sys.stderr.isatty() and not os.environ.get("CI"))

@@ -393,12 +393,27 @@ def parse_assignments(items, what="--set") -> dict:
             raise InputError(f"{what} expects KEY=VALUE, got {it!r}")
         k, v = it.split("=", 1)
         try:
-            out[k.strip()] = yaml_value(v)
+            value = yaml_value(v)
         except _YAMLRefused as exc:
             raise InputError(f"{what} {it!r}: {exc.message}") from None
         except yaml.YAMLError as exc:
             raise InputError(f"{what} {it!r}: the value is not a YAML scalar ({' '.join(str(exc).split())})") from None
+        k = k.strip()
+        if k in out and out[k] != value:          # the last one silently won before
+            raise InputError(f"{what} {k}={out[k]!r} and {what} {it!r} contradict each other: give {k} once")
+        out[k] = value
     return out
+
+
+def check_disjoint(first: dict, second: dict, what1: str, what2: str):
+    """Refuse a key given by two options that would each set it (one value was silently kept),
+    naming both."""
+    from .errors import InputError
+
+    both = sorted(set(first) & set(second), key=str)
+    if both:
+        k = both[0]
+        raise InputError(f"{what1} {k}={first[k]!r} and {what2} {k}={second[k]!r} both set {k}: give it once")
 
 
 def load(path, options=None, overrides=None, clearances=None, trust=None) -> Mechanism:

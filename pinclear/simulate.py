@@ -97,7 +97,7 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True):
 def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAULT, atol=None, t_eval=None,
              dt_out=None, q0=None, v0=None, t0=0.0, max_step=np.inf, h=None, first_step=None, assemble=True,
              strict=False, max_cpu=None, progress=None, checkpoint=None, checkpoint_every=None, resume=None,
-             min_mean_step=None, loop="auto", **method_options) -> Trajectory:
+             min_mean_step=None, loop="auto", fixed_step_tol=validate.FIXED_STEP_TOL, **method_options) -> Trajectory:
     """Integrate the forward dynamics of ``mech`` from t0 to t_end; return a Trajectory.
 
     method: lagrange | projection | pinocchio | proximal | manifold (pinclear.formulations).
@@ -107,6 +107,11 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     max_cpu exceeded) ends the run with status 'failed', a message saying when and why, the same
     as data in ``traj.failure`` and every sample so far; SIGINT ends it as 'interrupted', samples
     kept. strict=True raises IntegrationError instead (the trajectory attached).
+
+    fixed_step_tol: a fixed-step run (RK4) is checked after it ends (pinclear.validate.
+    check_fixed_step): the same run at 2h gives a step-doubling error estimate, and the estimate,
+    the closure residual (relative to the mechanism's size) and the energy audit's error must stay
+    below this, else the run fails with its samples kept. None skips the check (and the run at 2h).
 
     min_mean_step: an adaptive run whose last 1000 accepted steps average less than this (default
     1e-9 of t_end - t0, at most 1e-8 s; 0 turns the test off) fails as a step-size collapse:
@@ -203,6 +208,10 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         traj.status, traj.message = "interrupted", traj.message + " (outputs not evaluated)"
     if traj.status == "success" and integ.adaptive:
         validate.check_residual(traj, mech, rtol, atol)
+    elif traj.status == "success" and fixed_step_tol is not None and resume is None:
+        _check_fixed_step(traj, mech, t_end, dict(method=method, integrator=integrator, t_eval=t_eval, q0=q, v0=v,
+                                                  t0=t0, assemble=False, loop=loop, **method_options),
+                          h, fixed_step_tol)
     stats["cpu_s_total"] = run_clock() - cpu0
     stats["compile_s"] = compile_cpu() - compile0
     if len(traj.t) > 1:
@@ -215,6 +224,16 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         warnings.warn(f"pinclear.simulate: {traj.message} ({len(samples)} of {len(t_eval)} samples kept)",
                       RuntimeWarning, stacklevel=2)
     return traj
+
+
+def _check_fixed_step(traj, mech, t_end, kw, h, tol):
+    """validate.check_fixed_step with the same run at 2h (its CPU time reported apart)."""
+    c0 = run_clock()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        coarse = simulate(mech, t_end, h=2.0 * h, fixed_step_tol=None, **kw)
+    validate.check_fixed_step(traj, mech, coarse, h, tol)
+    traj.stats.setdefault("fixed_step_check", {})["cpu_s"] = run_clock() - c0
 
 
 def _loop_note(run) -> str:

@@ -124,7 +124,7 @@ STATUSES = ("success", "failed", "interrupted", "empty")
 #: the kinds of a run's failure (Trajectory.failure = (kind, t, detail)): what a program reading
 #: results (pinclear.atlas, sweeps) tells apart, without parsing the message
 FAILURE_KINDS = ("step-size collapse", "rank loss", "singular matrix", "non-finite", "budget", "exception",
-                 "interrupted", "constraint violated")
+                 "interrupted", "constraint violated", "fixed step too large")
 
 
 def _rows(V, arrays, key, path, n):
