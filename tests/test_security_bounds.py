@@ -132,3 +132,51 @@ def test_a_urdf_mimic_joint_is_refused(tmp_path):
     (tmp_path / "m.yaml").write_text("name: m\nurdf: m.urdf\n")
     with pytest.raises(ModelFileError, match=r"m\.urdf: joint 'j2'\.mimic: couples the joint to 'j1'"):
         pinclear.load(tmp_path / "m.yaml")
+
+
+# ------------------------------------------------------------------ silent wrong results
+def test_a_fixed_step_run_with_a_huge_step_fails_with_its_samples(tmp_path, capsys):
+    """`simulate four_bar --integrator RK4 --h 10` ended success with a 0.999 m closure residual.
+    Each criterion of the check on its own case: the residual (four-bar, h = 10), the energy
+    balance (parallelogram, no closure residual to see: h = 10 gives 0.57 of its energy scale),
+    the step-doubling estimate (four-bar, h = 0.1: the run at 2h is unstable). At h = 1e-3 the
+    estimate is ~3e-8, far below the tolerance, and the run succeeds."""
+    code, out, err = run_cli(["simulate", "four_bar", "--integrator", "RK4", "--h", "10", "--t-end", "1",
+                              "--out", str(tmp_path / "o"), "--progress", "off"], capsys)
+    assert code == 1 and '"status": "failed"' in out
+    tr = pinclear.Trajectory.load(tmp_path / "o" / "trajectory.npz")
+    assert tr.failure[0] == "fixed step too large" and "closure residual" in tr.message and len(tr.t) == 501
+    with pytest.warns(RuntimeWarning, match="energy balance"):
+        par = pinclear.simulate(pinclear.load("parallelogram"), 1.0, integrator="RK4", h=10.0)
+    assert par.status == "failed" and par.stats["fixed_step_check"]["energy"] > 0.1
+    with pytest.warns(RuntimeWarning, match="step-doubling"):
+        fb = pinclear.simulate(pinclear.load("four_bar"), 1.0, integrator="RK4", h=0.1)
+    assert fb.status == "failed"
+    ok = pinclear.simulate(pinclear.load("four_bar"), 1.0, integrator="RK4", h=1e-3)
+    check = ok.stats["fixed_step_check"]
+    assert ok.status == "success" and check["step_doubling"] < 1e-6 and check["residual"] < 1e-6
+    off = pinclear.simulate(pinclear.load("four_bar"), 1.0, integrator="RK4", h=10.0, fixed_step_tol=None)
+    assert off.status == "success" and "fixed_step_check" not in off.stats
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--set", "S1.mu=0.1", "--set", "S1.mu=0.2"], ["--set S1.mu=0.1", "S1.mu=0.2", "contradict"]),
+    (["--option", "limbs=true", "--set", "limbs=false"], ["--option limbs=True", "--set limbs=False"]),
+])
+def test_contradicting_options_are_refused_naming_both(tmp_path, capsys, argv, words):
+    code, _, err = run_cli(["simulate", "four_bar", "--t-end", "0.01", "--out", str(tmp_path / "o")] + argv, capsys)
+    assert code == 2, err
+    for w in words:
+        assert w in err
+
+
+def test_a_key_both_varied_and_fixed_in_a_sweep_is_refused(tmp_path, capsys):
+    code, _, err = run_cli(["sweep", "clr_pendulum", "--clearance", "S", "--set", "S.mu=0.1", "--vary",
+                            "S.mu=0,0.2", "--t-end", "0.01", "--out", str(tmp_path / "s")], capsys)
+    assert code == 2 and "--set S.mu=0.1" in err and "--vary" in err
+    code, _, err = run_cli(["sweep", "clr_pendulum", "--clearance", "S", "--vary", "S.mu=0,0.2", "--vary",
+                            "S.mu=0.5", "--t-end", "0.01", "--out", str(tmp_path / "s")], capsys)
+    assert code == 2 and "varied twice" in err
+    with pytest.raises(InputError, match="both varied and fixed"):
+        pinclear.sweep("clr_pendulum", {"S.mu": [0.0]}, 0.01, tmp_path / "s2",
+                       load_options={"clearances": ["S"], "overrides": {"S.mu": 0.1}}, executor="serial")
