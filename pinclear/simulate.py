@@ -15,6 +15,7 @@ from . import formulations, kinematics, stepping, validate
 from ._jit import compile_cpu
 from .errors import InputError, RankLossError
 from .stepping.run import Run, Stop, run_clock
+from .stepping.state import EXTERNAL, ROSENBROCK
 from .trajectory import Checkpoint, Trajectory
 
 INTEGRATORS = tuple(stepping.INTEGRATORS)
@@ -175,6 +176,12 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     run.cpu0, run.cpu_prior, run.evals0 = cpu0, stats["cpu_s"], stats["rhs_evals"]
     run.t0, run.initial = t0, (q, v, z)
     stats["loop"] = _loop_note(run)
+    if resume is not None and run.tab.kind in (ROSENBROCK, EXTERNAL):
+        # the checkpoint holds the state, the step size, the elements' states (onset speeds,
+        # friction) and the events; not an implicit method's matrices or SciPy's history
+        stats["resume_note"] = (f"{integrator} starts afresh at the resume point t = {float(resume.t):.9g} s "
+                                "(its Jacobian is recomputed there): the continuation is not bit-identical to an "
+                                "uninterrupted run")
     stats["setup_cpu_s"] = run_clock() - cpu0          # assembly, rank analysis, stages (not integration)
     status, failure = "success", None
     try:

@@ -113,10 +113,14 @@ class Run:
             self.stats["steps"] += int(st.i[STEPS] - steps)
             self.collect()
             times = st.ring[np.arange(n_acc, st.i[N_ACC]) % STALL_STEPS].tolist()
-            self.bookkeeping(times + ([float(st.r[T])] if code == C.STALLED else []))
             if code == C.EVENT:
+                # handled before the bookkeeping: a checkpoint taken now holds the restart at the
+                # event (its effect on z applied, the event recorded), never the state at the end
+                # of the step past it, which the run itself discards (issue 42: a resume from
+                # there lost the event and drifted)
                 code = self.handle_event()
-            elif code == C.ASK_ROWS:
+            self.bookkeeping(times + ([float(st.r[T])] if code == C.STALLED else []))
+            if code == C.ASK_ROWS:
                 st.i[NO_RESELECT] = not self.form.reselect_rows(float(st.r[T_BAD]))
             elif code == C.RECHART:
                 q, v, z = self.split(st.V[Y])
