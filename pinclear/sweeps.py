@@ -421,10 +421,12 @@ def sweep(model, vary, t_end, out, **kw) -> SweepResult:
     folder = Path(out)
     if folder.exists() and not folder.is_dir():
         raise InputError(f"--out {str(folder)!r} is an existing file; give a folder")
-    for name in ("points", "sweep.json"):
-        if (folder / name).is_symlink():
-            raise InputError(f"--out {str(folder)!r}: {str(folder / name)!r} is a link; pinclear never follows a "
-                             "link inside a results folder (remove it or choose another --out)")
+    for name, kind in (("points", Path.is_dir), ("sweep.json", Path.is_file)):
+        p = folder / name
+        if p.is_symlink() or (p.exists() and not kind(p)):
+            raise InputError(f"--out {str(folder)!r}: {str(p)!r} is a link or not a {'folder' if name == 'points' else 'file'}"
+                             "; pinclear never follows a link inside a results folder (remove it or choose another "
+                             "--out)")
     fixed = (kw.get("load_options") or {}).get("overrides") or {}
     varied = [kv[0] for kv in (vary.items() if isinstance(vary, dict) else vary or []) if isinstance(kv, (tuple, list))]
     both = sorted(set(fixed) & set(varied), key=str)
