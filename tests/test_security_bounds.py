@@ -140,7 +140,7 @@ def test_a_fixed_step_run_with_a_huge_step_fails_with_its_samples(tmp_path, caps
     Each criterion of the check on its own case: the residual (four-bar, h = 10), the energy
     balance (parallelogram, no closure residual to see: h = 10 gives 0.57 of its energy scale),
     the step-doubling estimate (four-bar, h = 0.1: the run at 2h is unstable). At h = 1e-3 the
-    estimate is ~3e-8, far below the tolerance, and the run succeeds."""
+    estimate is ~2e-8, far below the tolerance, and the run succeeds."""
     code, out, err = run_cli(["simulate", "four_bar", "--integrator", "RK4", "--h", "10", "--t-end", "1",
                               "--out", str(tmp_path / "o"), "--progress", "off"], capsys)
     assert code == 1 and '"status": "failed"' in out
