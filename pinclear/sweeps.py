@@ -427,11 +427,6 @@ def sweep(model, vary, t_end, out, **kw) -> SweepResult:
             raise InputError(f"--out {str(folder)!r}: {str(p)!r} is a link or not a {'folder' if name == 'points' else 'file'}"
                              "; pinclear never follows a link inside a results folder (remove it or choose another "
                              "--out)")
-    fixed = (kw.get("load_options") or {}).get("overrides") or {}
-    varied = [kv[0] for kv in (vary.items() if isinstance(vary, dict) else vary or []) if isinstance(kv, (tuple, list))]
-    both = sorted(set(fixed) & set(varied), key=str)
-    if both:                                     # the varied value silently won before
-        raise InputError(f"sweep: {both[0]!r} is both varied and fixed (load_options overrides / --set): give it once")
     with safeio.folder_lock(folder):
         return _sweep_in_folder(model, vary, t_end, out, **kw)
 

@@ -46,12 +46,18 @@ def test_a_write_replaces_a_link_never_its_target(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == ["summary.json"]
 
 
-def test_a_link_below_the_folder_is_refused_and_nothing_leaves_it(tmp_path):
+def _linked_points(tmp_path, name):
+    """(elsewhere, tmp_path/name) where name/points is a link to the folder elsewhere."""
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
-    out = tmp_path / "R"
+    out = tmp_path / name
     out.mkdir()
     (out / "points").symlink_to(elsewhere)
+    return elsewhere, out
+
+
+def test_a_link_below_the_folder_is_refused_and_nothing_leaves_it(tmp_path):
+    elsewhere, out = _linked_points(tmp_path, "R")
     with pytest.raises(safeio.LinkRefused, match="link.*points"):
         safeio.write_bytes(out / "points" / "00000.npz", b"x", root=out)
     with pytest.raises(safeio.LinkRefused):
@@ -145,11 +151,7 @@ def _sweep(out, vary=None, **kw):
 
 
 def test_a_sweep_folder_with_links_writes_nothing_outside(tmp_path):
-    elsewhere = tmp_path / "elsewhere"
-    elsewhere.mkdir()
-    out = tmp_path / "S"
-    out.mkdir()
-    (out / "points").symlink_to(elsewhere)
+    elsewhere, out = _linked_points(tmp_path, "S")
     with pytest.raises(InputError, match="points.*link"):
         _sweep(out)
     assert list(elsewhere.iterdir()) == []

@@ -5,13 +5,12 @@ whose JSON metadata is rewritten as an attacker would."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
-import numpy as np
 import pytest
 
 import pinclear
 from conftest import run_cli
+from test_trust import _tampered as tampered_npz
 from pinclear import validate
 from pinclear.errors import ModelFileError
 from pinclear.trust import check_recorded_args
@@ -26,17 +25,12 @@ def four_bar_run(tmp_path_factory):
     return tr.save(d / "run.npz")
 
 
-def _tampered(src, dst, **meta_changes):
-    arrays = validate.read_npz(src)
-    meta = json.loads(str(arrays["meta"]))
-    for k, v in meta_changes.items():
-        if k == "load_args":
-            meta["load_args"] = dict(meta["load_args"], **v)
-        else:
-            meta[k] = v
-    arrays["meta"] = np.array(json.dumps(meta))
-    np.savez_compressed(dst, **arrays)
-    return dst
+def _tampered(src, dst, load_args=None, **meta_changes):
+    """A copy of a saved run with metadata fields replaced (load_args: entries merged in)."""
+    if load_args is not None:
+        meta = json.loads(str(validate.read_npz(src)["meta"]))
+        meta_changes["load_args"] = dict(meta["load_args"], **load_args)
+    return tampered_npz(src, dst, **meta_changes)
 
 
 def _spawn_force(marker):
