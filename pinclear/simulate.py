@@ -14,8 +14,8 @@ import numpy as np
 from . import formulations, kinematics, stepping, validate
 from ._jit import compile_cpu
 from .errors import InputError, RankLossError
-from .stepping.run import Run, Stop, run_clock
-from .stepping.state import EXTERNAL, ROSENBROCK
+from .stepping.run import Run, Stop, checked_method_state, method_state, run_clock
+from .stepping.state import EXTERNAL
 from .trajectory import Checkpoint, Trajectory
 
 INTEGRATORS = tuple(stepping.INTEGRATORS)
@@ -176,18 +176,24 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     run.cpu0, run.cpu_prior, run.evals0 = cpu0, stats["cpu_s"], stats["rhs_evals"]
     run.t0, run.initial = t0, (q, v, z)
     stats["loop"] = _loop_note(run)
-    if resume is not None and run.tab.kind in (ROSENBROCK, EXTERNAL):
+    if resume is not None and run.tab.kind == EXTERNAL:
         # the checkpoint holds the state, the step size, the elements' states (onset speeds,
-        # friction) and the events; not an implicit method's matrices or SciPy's history
-        stats["resume_note"] = (f"{integrator} starts afresh at the resume point t = {float(resume.t):.9g} s "
-                                "(its Jacobian is recomputed there): the continuation is not bit-identical to an "
-                                "uninterrupted run")
+        # friction), the events and ROS34PW2's Jacobian; not SciPy's internal history
+        stats["resume_note"] = (f"{integrator} (SciPy's) starts afresh at the resume point t = {float(resume.t):.9g} "
+                                "s (its history and Jacobian are recomputed there): the continuation is not "
+                                "bit-identical to an uninterrupted run")
     stats["setup_cpu_s"] = run_clock() - cpu0          # assembly, rank analysis, stages (not integration)
     status, failure = "success", None
+    if resume is not None:         # the integrator's saved matrices, checked before anything runs
+        resumed_state = checked_method_state(run, resume.method_state, resume.path or "<checkpoint>")
+        if not resumed_state and method_state(run):
+            stats["resume_note"] = (f"the checkpoint holds no {integrator} Jacobian (an older pinclear's): it is "
+                                    f"recomputed at t = {float(resume.t):.9g} s and the continuation is not "
+                                    "bit-identical to an uninterrupted run")
     try:
         if resume is not None:
             run.execute(resume.t, run.pack(resume.q_now, resume.v_now, resume.z_now), resume.h_next, resume.samples,
-                        False)
+                        False, resumed_state)
         else:
             run.execute(t0, run.pack(q, v, z), first_step, [], True)
     except KeyboardInterrupt:

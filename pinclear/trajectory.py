@@ -58,6 +58,9 @@ class Checkpoint:
     stats: dict = field(default_factory=dict)
     identity: dict | None = None  # the run it belongs to (pinclear.validate.run_identity)
     path: str | None = None       # the file it was loaded from (named in errors)
+    #: what the integrator carries from step to step beyond the state (ROS34PW2: its Jacobian;
+    #: pinclear.stepping.run.method_state), saved as arrays ``method/NAME``
+    method_state: dict = field(default_factory=dict)
 
     def save(self, path):
         """NPZ, written atomically (a temporary file renamed into place)."""
@@ -69,6 +72,8 @@ class Checkpoint:
                          else np.zeros((0, arrays[k[0]].size)))
         meta = {"t0": self.t0, "t": self.t, "h_next": self.h_next, "stats": self.stats, "identity": self.identity}
         arrays["meta"] = np.array(json.dumps(_jsonable(meta)))
+        for k, a in (self.method_state or {}).items():
+            arrays[f"method/{k}"] = np.asarray(a, float)
         return atomic_savez(path, arrays)
 
     @classmethod
@@ -98,7 +103,9 @@ class Checkpoint:
         return cls(t0=V.number(meta["t0"], path, "t0"), q=vec["q"], v=vec["v"], z=vec["z"],
                    t=V.number(meta["t"], path, "t"), q_now=vec["q_now"], v_now=vec["v_now"], z_now=vec["z_now"],
                    h_next=V.number(meta["h_next"], path, "h_next", positive=True, allow_none=True),
-                   samples=samples, stats=dict(meta["stats"]), identity=identity, path=str(path))
+                   samples=samples, stats=dict(meta["stats"]), identity=identity, path=str(path),
+                   method_state={k[7:]: V.real_array(arrays, k, path, arrays[k].ndim) for k in arrays
+                                 if k.startswith("method/") and arrays[k].ndim in (1, 2)})
 
 
 def atomic_savez(path, arrays: dict, root=None):

@@ -19,7 +19,7 @@ from . import chunk as C
 from .build import Evaluation
 from .checks import reset_monitor
 from .state import (ATOL, BAD, CHART, CODE_BAD, DIRS, EVENT_K, H_ABS, H_FIXED, H_STALL, MAX_STEP, N_ACC, NI,
-                    NO_RESELECT, NR, OUT_I, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, XB, XE, Y, new_steps)
+                    NO_RESELECT, NR, OUT_I, ROSENBROCK, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, XB, XE, Y, new_steps)
 
 #: accepted steps per compiled call; between calls Python looks at progress, checkpoints and
 #: the CPU budget (a chunk of a clearance run takes well under a millisecond)
@@ -89,9 +89,10 @@ class Run:
         if code != C.QUIET:
             self.fail(code)
 
-    def execute(self, t, x, hint, samples, first):
-        """Integrate from (t, x) to t_end; ``samples``: those of a resumed run. Raises Stop (or
-        the exception a Python stage raised) on failure; the samples so far stay (``samples()``)."""
+    def execute(self, t, x, hint, samples, first, resumed_state=None):
+        """Integrate from (t, x) to t_end; ``samples``: those of a resumed run, ``resumed_state``
+        its method_state. Raises Stop (or the exception a Python stage raised) on failure; the
+        samples so far stay (``samples()``)."""
         st = self.st
         nc, nv = self.nc, self.mech.nv
         self.q_rows = st.samples[:, :nc] if self.mech.euclidean else np.zeros((len(self.t_eval), self.mech.nq))
@@ -99,6 +100,8 @@ class Run:
             self.q_rows[k], st.samples[k, nc:nc + nv], st.samples[k, nc + nv:] = q, v, z
         st.i[OUT_I] = self.n_collected = len(samples)
         self.start(t, x, hint)
+        if resumed_state:
+            restore_method_state(self, resumed_state)
         if first:
             while st.i[OUT_I] < len(self.t_eval) and self.t_eval[st.i[OUT_I]] <= t + 1e-15:
                 st.samples[st.i[OUT_I]] = st.V[Y]
@@ -185,7 +188,7 @@ class Run:
     def mark_good(self):
         st = self.st
         self.good = (float(st.r[T]), st.V[Y].copy(), self.anchor[0], float(st.r[H_ABS]), self.n_collected,
-                     len(self.stats["events"]))
+                     len(self.stats["events"]), method_state(self))
 
     def bookkeeping(self, times):
         """After a chunk: progress, checkpoints, the CPU budget (a Stop when spent)."""
@@ -211,7 +214,7 @@ class Run:
         resume redoes them."""
         if self.good is None:
             return
-        tg, xg, anchor, hg, ns, ne = self.good
+        tg, xg, anchor, hg, ns, ne, ms = self.good
         self.n_collected = self.st.i[OUT_I] = ns
         del self.stats["events"][ne:]
         if self.checkpoint is None:
@@ -223,7 +226,7 @@ class Run:
         self.checkpoint(Checkpoint(t0=self.t0, q=q0, v=v0, z=z0, t=tg, q_now=qg, v_now=vg, z_now=zg, h_next=hg,
                                    samples=[(t, q.copy(), v.copy(), z.copy()) for t, q, v, z in self.samples()],
                                    stats=dict(self.stats, events=list(self.stats["events"])),
-                                   identity=self.identity))
+                                   identity=self.identity, method_state=ms))
 
     def evaluations(self):
         return self.evals0 + int(self.system.count[0])
@@ -265,3 +268,61 @@ class Run:
         if self.st.r[CODE_BAD] != self.st.r[CODE_BAD] or self.st.r[CODE_BAD] >= -1.0:
             self.form.accelerations(t, np.array(q), np.array(v), np.array(z))
         raise FloatingPointError(f"at t = {t:.9g} s: {NONFINITE_MESSAGE}")
+
+
+# ----------------------------------------------------------------- the method's state in checkpoints
+def method_state(run) -> dict:
+    """What the integrator carries from one step to the next beyond the state and the step size,
+    for checkpoints (issue 42): ROS34PW2's Jacobian (its rows, its time column, whether it was
+    made at the current state and its age), reused across steps. The LU is not kept: it is made
+    again from the same matrix and step size, which gives the same factors."""
+    if run.tab.kind != ROSENBROCK:
+        return {}
+    from . import rosenbrock as R
+
+    W = run.st.W
+    flat, n = W.reshape(-1), W.shape[1]
+    r0, m = R.meta_rows(n), int(flat[R.M_ROWS])
+    return {"jacobian": W[r0:r0 + m].copy(), "time_column": W[r0 + 2 * m + 2].copy(),
+            "flags": np.array([flat[R.J_STATE], flat[R.J_AGE]])}
+
+
+def checked_method_state(run, state, path="<checkpoint>") -> dict:
+    """A checkpoint's method_state checked as data before the run starts (the shapes of this
+    run's matrices, finite values, a Jacobian state this method writes); InputError naming the
+    file otherwise. An empty one (a checkpoint of an older pinclear) is accepted: the method then
+    starts afresh at the resume point."""
+    from ..errors import InputError
+
+    if not state:
+        return {}
+    want = method_state(run)
+    shapes = {k: np.shape(v) for k, v in want.items()}
+    got = {k: np.shape(v) for k, v in state.items()}
+    if shapes != got:
+        raise InputError(f"{path}: the integrator's saved state has arrays {got}, this run's {run.method.name} "
+                         f"needs {shapes}: the checkpoint does not belong to this run")
+    if not all(np.all(np.isfinite(v)) for v in state.values()):
+        raise InputError(f"{path}: the integrator's saved state holds nan or inf")
+    if state:
+        from . import rosenbrock as R
+
+        j_state, age = (float(x) for x in state["flags"])
+        if j_state not in (R.NONE, R.FRESH, R.AGED) or age < 0:
+            raise InputError(f"{path}: the saved Jacobian state {j_state!r} / age {age!r} is not one this method "
+                             "writes")
+    return state
+
+
+def restore_method_state(run, state):
+    """A checked method_state (checked_method_state) put back after the restart at the resume
+    point."""
+    from . import rosenbrock as R
+
+    j_state, age = (float(x) for x in state["flags"])
+    W = run.st.W
+    flat, n = W.reshape(-1), W.shape[1]
+    r0, m = R.meta_rows(n), int(flat[R.M_ROWS])
+    W[r0:r0 + m] = state["jacobian"]
+    W[r0 + 2 * m + 2] = state["time_column"]
+    flat[R.J_STATE], flat[R.J_AGE], flat[R.LU_H] = j_state, age, 0.0
