@@ -107,7 +107,10 @@ def private_folder(path, what="kernel cache folder") -> Path:
         raise CacheFolderError(f"{path}: the {what} is writable by group or others (mode {stat.S_IMODE(st.st_mode):o}): "
                                f"refused, its contents would run as code; chmod go-w it or {fix}")
     for up in path.resolve().parents:
-        a = os.stat(up)
+        try:
+            a = os.stat(up)
+        except OSError as exc:
+            raise CacheFolderError(f"{path}: cannot check the folder {up} above the {what} ({exc.strerror}); {fix}") from None
         if a.st_uid not in (0, me) or (a.st_mode & 0o002 and not a.st_mode & stat.S_ISVTX):
             raise CacheFolderError(f"{path}: the folder {up} above the {what} can be changed by other users "
                                    f"(owner id {a.st_uid}, mode {stat.S_IMODE(a.st_mode):o}): refused; {fix}")
