@@ -255,6 +255,7 @@ def _simulate(args, stop):
                 traj = simulate(mech, args.t_end, method=args.method, integrator=args.integrator, rtol=args.rtol,
                                 atol=args.atol, h=args.h, dt_out=args.dt_out, max_step=max_step,
                                 max_cpu=args.max_cpu, min_mean_step=args.min_mean_step, progress=progress,
+                                **_fixed_step_tol(args),
                                 checkpoint=save_checkpoint, checkpoint_every=args.checkpoint_every,
                                 resume=resume, **kw)
             finally:
@@ -262,6 +263,12 @@ def _simulate(args, stop):
                     bar.close()
         stop.critical = True           # from here on, everything computed is written whatever arrives
         return _save_run(args, mech, traj, out, stop)
+
+
+def _fixed_step_tol(args) -> dict:
+    """simulate's fixed_step_tol from --fixed-step-tol (0: no check; absent: simulate's default)."""
+    tol = getattr(args, "fixed_step_tol", None)
+    return {} if tol is None else {"fixed_step_tol": tol or None}
 
 
 def _save_run(args, mech, traj, out: Path, stop):
@@ -547,6 +554,9 @@ def build_parser():
     s.add_argument("--min-mean-step", type=number("nonnegative", "s"), default=None, metavar="SECONDS",
                    help="stall test: the run fails as a step-size collapse when its last 1000 steps average less "
                         "(default 1e-9 of the run's span, at most 1e-8 s; 0: off)")
+    s.add_argument("--fixed-step-tol", type=number("nonnegative"), default=None, metavar="TOL",
+                   help="RK4 only: the run fails when its step-doubling error estimate, closure residual or "
+                        "energy-balance error exceeds TOL (relative; default 1e-2; 0: no check; docs/security.md)")
     s.add_argument("--checkpoint-every", type=number(unit="s"), default=None, metavar="SECONDS",
                    help="write OUT/checkpoint.npz every SECONDS of CPU, so a killed run can be resumed "
                         "(default: only when the run ends early)")

@@ -177,3 +177,13 @@ def test_a_key_both_varied_and_fixed_in_a_sweep_is_refused(tmp_path, capsys):
     code, _, err = run_cli(["sweep", "clr_pendulum", "--clearance", "S", "--vary", "S.mu=0,0.2", "--vary",
                             "S.mu=0.5", "--t-end", "0.01", "--out", str(tmp_path / "s")], capsys)
     assert code == 2 and "varied twice" in err
+
+
+def test_the_fixed_step_tolerance_on_the_command_line(tmp_path, capsys):
+    """--fixed-step-tol 0 turns the check off; a tolerance below the run's estimates fails it
+    (four-bar, h = 1e-2: estimate 1.2e-4, residual 1.8e-5 m, both above 1e-6)."""
+    base = ["simulate", "four_bar", "--integrator", "RK4", "--t-end", "1", "--progress", "off"]
+    code, out, _ = run_cli(base + ["--h", "10", "--fixed-step-tol", "0", "--out", str(tmp_path / "a")], capsys)
+    assert code == 0 and '"status": "success"' in out
+    code, _, err = run_cli(base + ["--h", "0.01", "--fixed-step-tol", "1e-6", "--out", str(tmp_path / "b")], capsys)
+    assert code == 1 and "step-doubling error estimate" in err and "fixed_step_tol = 1e-06" in err
