@@ -14,6 +14,7 @@ cylindrical      4   x1.z2 = y1.z2 = 0, x1.d = y1.d = 0
 weld             6   p1 = p2, x1.y2 = y1.z2 = z1.x2 = 0
 planar_point     2   E^T (p1 - p2) = 0, E spans the plane normal to n (world, default z)
 distance         1   |p1 - p2| = L
+coupling         1   q(joint2) = ratio q(joint1) + offset  (pinclear.coupling)
 =============  ====  =====================================================================
 
 The primitives of all closures are compiled into one table evaluated by the kernel
@@ -27,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._kernels import DIST, DOT, PERP, PLANE, POINT
+from ._kernels import COUPLE, DIST, DOT, PERP, PLANE, POINT
 
 # (primitive, arguments, row labels)
 _POINT = ("point", (), ("x", "y", "z"))
@@ -42,6 +43,7 @@ CLOSURE_TYPES: dict[str, list] = {
     "weld": [_POINT] + _ORIENT,
     "planar_point": [("plane", (), ("u", "v"))],
     "distance": [("distance", (), ("d",))],
+    "coupling": [("couple", (), ("c",))],
 }
 #: closure types Pinocchio's rigid constraints express exactly (pin.ContactType)
 PINOCCHIO_TYPES = {"spherical": "CONTACT_3D", "weld": "CONTACT_6D"}
@@ -59,6 +61,7 @@ class Closure:
     f2: int
     normal: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     length: float = 0.0
+    coupling: tuple = None       # (iq1, iv1, iq2, iv2, ratio, offset) of a coupling (pinclear.coupling)
 
     @property
     def nrows(self) -> int:
@@ -111,6 +114,8 @@ class CompiledClosures:
                     g["args"].append(plane_basis(c.normal))
                 elif prim == "distance":
                     g["args"].append(c.length)
+                elif prim == "couple":
+                    g["args"].append(c)
                 else:
                     g["args"].append(args)
                 row += len(labels)
@@ -120,14 +125,18 @@ class CompiledClosures:
         self.row_group = np.array(row_group, dtype=np.int64)
         self.row_group.flags.writeable = False
         # flat table for the compiled kernel: (code, i1, i2, first row, axis a, axis b)
-        codes = {"point": POINT, "plane": PLANE, "dot": DOT, "perp": PERP, "distance": DIST}
+        codes = {"point": POINT, "plane": PLANE, "dot": DOT, "perp": PERP, "distance": DIST, "couple": COUPLE}
         table, E, L = [], [], []
         for prim, g in groups.items():
             for k in range(len(g["i1"])):
                 arg = g["args"][k]
                 ab = tuple(arg) + (0, 0) if isinstance(arg, tuple) else (0, 0)
+                if prim == "couple":
+                    from .coupling import table_entry
+
+                    ab, arg = table_entry(arg)
                 table.append((codes[prim], g["i1"][k], g["i2"][k], g["rows"][k][0], ab[0], ab[1]))
-                E.append(arg if prim == "plane" else np.zeros((2, 3)))
+                E.append(arg if prim in ("plane", "couple") else np.zeros((2, 3)))
                 L.append(arg if prim == "distance" else 0.0)
         self.table = np.array(table, dtype=np.int64).reshape(-1, 6)
         self.E = np.array(E, float).reshape(-1, 2, 3)

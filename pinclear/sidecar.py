@@ -99,10 +99,13 @@ TOP_KEYS = {"name", "urdf", "description", "gravity", "initial", "closures", "dr
 #: a sidecar is a few kilobytes; anything near this is not one
 MAX_SIDECAR_BYTES = 1_000_000
 CLOSURE_KEYS = {"name", "type", "frame1", "frame2", "normal", "length"}
+#: closure types read by their own module: type -> (module, function(model, spec, file, key, name))
+CLOSURE_READERS = {"coupling": ("pinclear.coupling", "coupling_closure")}
 FRAME_KEYS = {"parent", "xyz", "rpy", "axis", "name"}
 DRIVE_KEYS = {"name", "joint", "law"}
 FORCE_TYPES = {"spring_damper": {"name", "type", "frame1", "frame2", "k", "c", "free_length"},
-               "joint_force": {"name", "type", "joint", "law"}}
+               "joint_force": {"name", "type", "joint", "law"},
+               "joint_spring": {"name", "type", "joint", "k", "c", "reference"}}
 CLEARANCE_TYPES = ("spherical", "revolute", "planar_revolute", "prismatic")
 ONE_DOF_JOINTS = ("RX", "RY", "RZ", "PX", "PY", "PZ", "RevoluteUnaligned", "PrismaticUnaligned")
 
@@ -522,7 +525,8 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
     seen = set()
     for i, c in enumerate(sc.get("closures") or []):
         key = f"closures[{i}]"
-        _check_keys(c, CLOSURE_KEYS, file, key)
+        _check_keys(c, CLOSURE_KEYS | ({"joint1", "joint2", "ratio", "offset"} if isinstance(c, dict) and
+                                      c.get("type") == "coupling" else set()), file, key)
         cname = c.get("name", f"loop{i}")
         if cname in seen:
             raise ModelFileError(file, f"{key}.name", f"duplicate closure name {cname!r}")
@@ -530,6 +534,12 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
         ctype = c.get("type")
         if ctype not in CLOSURE_TYPES:
             raise ModelFileError(file, f"{key}.type", f"unknown closure type {ctype!r}", choices=CLOSURE_TYPES)
+        if ctype in CLOSURE_READERS:
+            import importlib
+
+            module, func = CLOSURE_READERS[ctype]
+            closures.append(getattr(importlib.import_module(module), func)(model, c, file, key, cname))
+            continue
         for fk in ("frame1", "frame2"):
             if fk not in c:
                 raise ModelFileError(file, f"{key}.{fk}", "missing")
@@ -572,6 +582,10 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
                 f1, _ = _frame(model, f["frame1"], f"{fname}.frame1", file, f"{key}.frame1")
                 f2, _ = _frame(model, f["frame2"], f"{fname}.frame2", file, f"{key}.frame2")
                 forces.append(SpringDamper(fname, model, f1, f2, f["k"], f.get("c", 0.0), f.get("free_length", 0.0)))
+            elif ftype == "joint_spring":
+                from .joint_spring import joint_spring
+
+                forces.append(joint_spring(model, f, fname, file, key))
             else:
                 jm = _joint(model, f["joint"], file, f"{key}.joint", one_dof=True)
                 forces.append(JointForce(fname, jm.idx_v, build_law(f["law"], file, f"{key}.law", trust)))
