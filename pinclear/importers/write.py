@@ -83,7 +83,7 @@ def urdf_text(g, tree, F) -> str:
         ref = F[c].inverse() * g.bodies[c].X
         if not ref.isIdentity(1e-15):
             out += [f'  <link name="{c}__ref"/>',
-                    f'  <joint name="{c}__ref" type="fixed"><parent link="{c}"/><child link="{c}__ref"/>'
+                    f'  <joint name="{c}__ref_joint" type="fixed"><parent link="{c}"/><child link="{c}__ref"/>'
                     f"{_origin(ref)}</joint>"]
     out.append("</robot>")
     return "\n".join(out) + "\n"
