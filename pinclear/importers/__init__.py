@@ -116,7 +116,7 @@ def import_file(path, out, cut=(), fix=None, name=None) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     name = sidecar["name"]
     (out / f"{name}.urdf").write_text(urdf)
-    text = header(report) + yaml.safe_dump(sidecar, sort_keys=False, width=120)
+    text = header(report) + yaml.safe_dump(sidecar, sort_keys=False, width=120, default_flow_style=None)
     (out / f"{name}.yaml").write_text(text)
     mech = load(out / f"{name}.yaml")
     ws = mech.workspace()
