@@ -15,7 +15,8 @@ import yaml
 from ..errors import ModelFileError
 
 #: file suffix -> (module, reader) of each format
-READERS = {".sdf": ("pinclear.importers.sdf", "read")}
+READERS = {".sdf": ("pinclear.importers.sdf", "read"), ".xml": ("pinclear.importers.mjcf", "read"),
+           ".mjcf": ("pinclear.importers.mjcf", "read")}
 
 
 def read_graph(path):
@@ -51,6 +52,9 @@ def convert(path, cut=(), fix=None, name=None):
         sidecar["closures"] = closures
     if forces:
         sidecar["forces"] = forces
+    if g.sidecar is not None:
+        # a file pinclear exported: its own description wins (closure types MuJoCo cannot express)
+        sidecar = {**g.sidecar, "name": name, "urdf": f"{name}.urdf"}
     accepted = nonphysical_inertias(write.urdf_text(g, tree, F), g.file)
     if accepted:
         sidecar["nonphysical_inertia"] = accepted
@@ -127,19 +131,25 @@ def import_file(path, out, cut=(), fix=None, name=None) -> dict:
     return report
 
 
-def cli_main(argv=None) -> int:
-    import argparse
+def build_parser():
+    """The parser of `pinclear import`."""
+    from .._argtypes import OneLineParser
 
-    p = argparse.ArgumentParser(prog="pinclear import", description="a mechanism from an SDF file (more formats: "
-                                "docs/import_export.md) as a URDF tree + sidecar that pinclear.load accepts")
+    p = OneLineParser(prog="pinclear import", description="a mechanism from an SDF file as a URDF tree + sidecar "
+                      "that pinclear.load accepts (docs/import_export.md)")
     p.add_argument("file", help="the mechanism file (.sdf)")
     p.add_argument("--out", required=True, help="output folder (NAME.urdf, NAME.yaml, NAME.import.json)")
     p.add_argument("--cut", action="append", default=[], metavar="JOINT",
-                   help="cut this joint (repeatable), e.g. the joints that will get clearances")
+                   help="cut this joint (repeatable), e.g. the joints that will get clearances (default: the "
+                        "fewest closure rows)")
     p.add_argument("--fix", default=None, metavar="LINK", help="weld this link to the world (replacing the joints "
                    "between it and the world)")
     p.add_argument("--name", default=None, help="mechanism name (default: the model's)")
-    args = p.parse_args(argv)
+    return p
+
+
+def cli_main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
     report = import_file(args.file, args.out, args.cut, args.fix, args.name)
     print(json.dumps(report, indent=2))
     return 0

@@ -110,6 +110,8 @@ class Graph:
     not_imported: list = field(default_factory=list)  # (what, where, why)
     notes: list = field(default_factory=list)         # (what, soft parameters kept as data)
     root: str = None
+    frames: list = field(default_factory=list)        # (name, body, X world): named frames to keep
+    sidecar: dict = None                              # a pinclear description the file carries
 
     def skip(self, what, where, why):
         self.not_imported.append((what, where, why))

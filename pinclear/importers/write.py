@@ -81,10 +81,14 @@ def urdf_text(g, tree, F) -> str:
     for j, rev in tree.edges:
         c = j.parent if rev else j.child
         ref = F[c].inverse() * g.bodies[c].X
-        if not ref.isIdentity(1e-15):
+        if not ref.isIdentity(1e-12):      # below 1e-12 the two frames are one (rounding of poses)
             out += [f'  <link name="{c}__ref"/>',
                     f'  <joint name="{c}__ref_joint" type="fixed"><parent link="{c}"/><child link="{c}__ref"/>'
                     f"{_origin(ref)}</joint>"]
+    for name, body, X in g.frames:
+        out += [f'  <link name="{name}"/>',
+                f'  <joint name="{name}__frame" type="fixed"><parent link="{body}"/><child link="{name}"/>'
+                f"{_origin(F[body].inverse() * X)}</joint>"]
     out.append("</robot>")
     return "\n".join(out) + "\n"
 
