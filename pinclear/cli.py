@@ -530,7 +530,7 @@ DELEGATED = (("view", "pinclear.viz.cli", "view_main", "meshcat viewer / standal
              ("inverse-dynamics", "pinclear.screw", "cli_main", "screw-theory inverse dynamics (paper 004)"),
              ("analyse", "pinclear.analysis", "cli_main", "phase portraits, Poincare maps, bifurcation diagrams"),
              ("reproduce", "pinclear.reproduce", "cli_main", "a source paper's study with its numbers beside ours"),
-             ("import", "pinclear.importers", "cli_main", "a mechanism from an SDF file as a URDF tree + sidecar"),
+             ("import", "pinclear.importers", "cli_main", "a mechanism from SDF, MJCF or a closing-frame URDF as a URDF tree + sidecar"),
              ("export", "pinclear.export_mjcf", "cli_main", "a mechanism as MuJoCo MJCF (--mjcf OUT.xml)"))
 
 

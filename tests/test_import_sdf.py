@@ -34,14 +34,19 @@ def _bodies(model, data):
     return out
 
 
-def test_four_bar_sdf_imports_to_the_bundled_four_bar(tmp_path):
-    """Masses, inertias and kinematics of the imported tree equal the bundled ones to 1e-12 at
-    every configuration (imported q = bundled q - the fixture's pose), and so do the loop's
-    point rows; the cut joint is B (the deepest of four equal revolute joints)."""
-    rep = import_file(DATA / "import_four_bar.sdf", tmp_path)
-    assert [c["joint"] for c in rep["cut"]] == ["B"]
+@pytest.mark.parametrize("fixture, cuts", [("import_four_bar.sdf", ["B"]), ("import_four_bar.xml", []),
+                                            ("import_four_bar_closing.urdf", [])])
+def test_four_bar_fixtures_import_to_the_bundled_four_bar(tmp_path, fixture, cuts):
+    """SDF, MJCF and closing-frame URDF, each written by hand: masses, inertias and kinematics of
+    the imported tree equal the bundled ones to 1e-12 at every configuration (imported q =
+    bundled q - the fixture's pose), and so do the loop's point rows. The SDF's cut joint is B
+    (the deepest of four equal revolute joints); MJCF's connect and the URDF's closing frames
+    give the loop as a spherical closure B."""
+    rep = import_file(DATA / fixture, tmp_path)
+    assert [c["joint"] for c in rep["cut"]] == cuts
     assert rep["residual_at_reference"] < 1e-15
     imp = pinclear.load(tmp_path / "four_bar.yaml")
+    assert [c.name for c in imp.closures] == ["B"]
     ref = pinclear.load("four_bar_revolute")
     q_star = {"crank_joint": math.pi / 2, "coupler_joint": TC - math.pi / 2, "rocker_joint": TR}
     rng = np.random.default_rng(1)
@@ -154,3 +159,14 @@ def test_cli_import_writes_files_and_reports_one_line_errors(tmp_path):
                         str(tmp_path / "o")], capture_output=True, text=True, cwd=ROOT, timeout=300,
                        env={"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"})
     assert r.returncode == 2 and r.stderr.count("\n") == 1 and "<pose> (line 1)" in r.stderr
+
+
+def test_mjcf_softness_is_kept_and_a_lonely_closing_frame_is_refused(tmp_path):
+    rep = convert(DATA / "import_four_bar.xml")[2]
+    assert any("solref" in n and "0.02 1" in n and "line 23" in n for n in rep["kept_as_data"])
+    text = (DATA / "import_four_bar_closing.urdf").read_text().replace('<link name="closing_B_2"/>', "")
+    text = text[:text.index('  <joint name="closing_B_2_frame"')] + "</robot>\n"
+    (tmp_path / "bad.urdf").write_text(text)
+    with pytest.raises(ModelFileError, match=r"link 'closing_B_1' \(line \d+\): closing frame without its partner "
+                       "closing_B_2"):
+        convert(tmp_path / "bad.urdf")

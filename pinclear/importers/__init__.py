@@ -16,7 +16,7 @@ from ..errors import ModelFileError
 
 #: file suffix -> (module, reader) of each format
 READERS = {".sdf": ("pinclear.importers.sdf", "read"), ".xml": ("pinclear.importers.mjcf", "read"),
-           ".mjcf": ("pinclear.importers.mjcf", "read")}
+           ".mjcf": ("pinclear.importers.mjcf", "read"), ".urdf": ("pinclear.importers.urdf_closing", "read")}
 
 
 def read_graph(path):
@@ -135,9 +135,10 @@ def build_parser():
     """The parser of `pinclear import`."""
     from .._argtypes import OneLineParser
 
-    p = OneLineParser(prog="pinclear import", description="a mechanism from an SDF file as a URDF tree + sidecar "
-                      "that pinclear.load accepts (docs/import_export.md)")
-    p.add_argument("file", help="the mechanism file (.sdf)")
+    p = OneLineParser(prog="pinclear import", description="a mechanism from an SDF, MJCF or closing-frame URDF "
+                      "file as a URDF tree + sidecar that pinclear.load accepts (docs/import_export.md)")
+    p.add_argument("file", help="the mechanism file (.sdf; .xml or .mjcf: MJCF; .urdf with closing_<name>_1/_2 "
+                   "frames)")
     p.add_argument("--out", required=True, help="output folder (NAME.urdf, NAME.yaml, NAME.import.json)")
     p.add_argument("--cut", action="append", default=[], metavar="JOINT",
                    help="cut this joint (repeatable), e.g. the joints that will get clearances (default: the "
