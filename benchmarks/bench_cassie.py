@@ -209,12 +209,14 @@ def main(argv=None):
           "max |a_lagrange|; ratio: cost per evaluation over pin.constraintDynamics at pinclear's settings. "
           "pinclear's rows time its whole right-hand side (springs, dampers, the passes, the solve: what a run "
           "calls); Pinocchio's rows time the dynamics call alone with the applied forces given.", "",
-          "| solver | us / evaluation | ratio | residual | agreement | iterations | note |", "|---|---|---|---|---|---|---|"]
+          "| solver | us / evaluation | ratio | residual | agreement | iterations | note |",
+          "|---|---|---|---|---|---|---|"]
     for r in rows:
         if "skipped" in r:
             md.append(f"| {r['solver']} | - | - | - | - | - | cannot run: {r['skipped']} |")
         else:
-            note = "; ".join(x for x in (f"converged {r['converged']}" if "converged" in r else "", r.get("note", "")) if x)
+            conv = f"converged {r['converged']}" if "converged" in r else ""
+            note = "; ".join(x for x in (conv, r.get("note", "")) if x)
             md.append(f"| {r['solver']} | {r['time_us']:.1f} | {r['ratio']:.2f} | {r['residual']:.1e} | "
                       f"{r['agreement']:.1e} | {r.get('iterations', '-')} | {note} |")
     Path(args.out, "bench_cassie.md").write_text("\n".join(md) + "\n")

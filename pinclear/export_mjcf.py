@@ -96,9 +96,6 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True):
     model = mech.model
     names = {j: model.names[j] for j in range(1, model.njoints)}
     kinds, notes = {}, []
-    children = {j: [] for j in range(model.njoints)}
-    for j in range(1, model.njoints):
-        children[model.parents[j]].append(j)
     sites = {j: [] for j in range(model.njoints)}
     equality = []
     solref = f'solref="{tc:.17g} 1" solimp="{DMAX} {DMAX} 0.001 0.5 2"'
@@ -131,6 +128,33 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True):
             continue
         equality += _equality(c, add_site, pdata, model, solref)
 
+    world = _tree_xml(model, names, sites, extras, kinds)
+    g = model.gravity.linear
+    more, eqs, actuators = _drives_xml(mech, g, tc, solref, drives, notes)
+    world += more
+    equality += eqs
+    xml = "\n".join([
+        f'<mujoco model="{mech.name}">',
+        *[f"  <!-- pinclear: {n} -->" for n in notes],
+        '  <compiler angle="radian" autolimits="true" inertiafromgeom="false"/>',
+        f'  <option timestep="{h:.17g}" integrator="{integrator}" gravity="{vec(g)}" solver="Newton" '
+        'iterations="50" tolerance="1e-12" jacobian="dense">',
+        '    <flag contact="disable"' + (' refsafe="disable"' if tc < 2 * h else "") + "/>",
+        "  </option>",
+        "  <worldbody>", *world, "  </worldbody>",
+        *(["  <equality>", *[f"    {e}" for e in equality], "  </equality>"] if equality else []),
+        *(["  <actuator>", *[f"    {a}" for a in actuators], "  </actuator>"] if actuators else []),
+        "</mujoco>"])
+    return xml, names, kinds, notes
+
+
+def _tree_xml(model, names, sites, extras, kinds):
+    """The worldbody's lines: one body per joint (named after the link it moves), its joint,
+    inertial and sites; every other link of the tree (merged into a body, the root) as a site
+    ``pinclear:frame:NAME`` so that an import gets its frames back."""
+    children = {j: [] for j in range(model.njoints)}
+    for j in range(1, model.njoints):
+        children[model.parents[j]].append(j)
     body_name = {j: f"b{j}_{names[j]}" for j in range(1, model.njoints)}
     named = set()
     for f in model.frames:
@@ -139,7 +163,8 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True):
                 body_name[f.parentJoint] = f.name          # the link the joint moves
                 named.add(f.parentJoint)
             else:                                          # a link merged into its parent, or the root
-                sites[f.parentJoint].append(f'<site name="pinclear:frame:{f.name}" pos="{vec(f.placement.translation)}" '
+                sites[f.parentJoint].append(f'<site name="pinclear:frame:{f.name}" '
+                                            f'pos="{vec(f.placement.translation)}" '
                                             f'quat="{vec(quat_wxyz(f.placement.rotation))}"/>')
 
     def body(j, indent):
@@ -161,7 +186,13 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True):
     world = [f"    {s}" for s in sites[0]]
     for j in children[0]:
         world += body(j, 4)
-    g = model.gravity.linear
+    return world
+
+
+def _drives_xml(mech, g, tc, solref, drives, notes):
+    """(worldbody lines, equality lines, actuator lines) of the drives: a clock joint and joint
+    equalities (the peer), or position servos (the export; named in ``notes``)."""
+    world, equality = [], []
     actuators = []
     if mech.drives and drives == "clock":
         # the clock's slide axis is normal to gravity: no generalized gravity force on it
@@ -179,19 +210,7 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True):
                              f'kv="{2.0 / tc:.17g}"/>')
             notes.append(f"drive {d.name!r}: a position servo (kp = 1/tc^2, kv = 2/tc); set its ctrl to the law "
                          f"{d.law.describe()} each step (MuJoCo has no time law)")
-    xml = "\n".join([
-        f'<mujoco model="{mech.name}">',
-        *[f"  <!-- pinclear: {n} -->" for n in notes],
-        '  <compiler angle="radian" autolimits="true" inertiafromgeom="false"/>',
-        f'  <option timestep="{h:.17g}" integrator="{integrator}" gravity="{vec(g)}" solver="Newton" '
-        'iterations="50" tolerance="1e-12" jacobian="dense">',
-        '    <flag contact="disable"' + (' refsafe="disable"' if tc < 2 * h else "") + "/>",
-        "  </option>",
-        "  <worldbody>", *world, "  </worldbody>",
-        *(["  <equality>", *[f"    {e}" for e in equality], "  </equality>"] if equality else []),
-        *(["  <actuator>", *[f"    {a}" for a in actuators], "  </actuator>"] if actuators else []),
-        "</mujoco>"])
-    return xml, names, kinds, notes
+    return world, equality, actuators
 
 
 def _equality(c, add_site, pdata, model, solref):

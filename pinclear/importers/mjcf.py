@@ -65,9 +65,7 @@ def _pose(el, file, degrees, seq):
 
 def read(path) -> Graph:
     file = str(path)
-    root = xml.parse(path, "MJCF file")
-    if root.tag != "mujoco":
-        raise ModelFileError(file, xml.where(root), "not an MJCF file: the root element is <mujoco>")
+    root = xml.parse_root(path, "mujoco", "an MJCF file")
     g = Graph(root.get("model", "model"), file, "mjcf")
     comp = root.find("compiler")
     degrees = comp is None or comp.get("angle", "degree") == "degree"

@@ -40,9 +40,7 @@ LEFT_OUT = {"collision": "collision geometry is not part of a pinclear mechanism
 def read(path) -> Graph:
     """The Graph of the first <model> of an SDF file (SDF 1.6 or later)."""
     file = str(path)
-    root = xml.parse(path, "SDF file")
-    if root.tag != "sdf":
-        raise ModelFileError(file, xml.where(root), "not an SDF file: the root element is <sdf>")
+    root = xml.parse_root(path, "sdf", "an SDF file")
     version = root.get("version", "")
     try:
         major_minor = tuple(int(x) for x in version.split(".")[:2])
@@ -185,7 +183,8 @@ def _geometry(el, file, g):
     if shape.tag == "sphere":
         return {"sphere": xml.child_number(shape, "radius", file, 1.0)}
     if shape.tag == "cylinder":
-        return {"cylinder": (xml.child_number(shape, "radius", file, 1.0), xml.child_number(shape, "length", file, 1.0))}
+        return {"cylinder": (xml.child_number(shape, "radius", file, 1.0),
+                             xml.child_number(shape, "length", file, 1.0))}
     if shape.tag == "mesh":
         uri = (shape.findtext("uri") or "").strip()
         scale = shape.find("scale")

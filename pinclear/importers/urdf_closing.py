@@ -27,14 +27,13 @@ def _origin(el, file):
     o = el.find("origin")
     if o is None:
         return pin.SE3.Identity()
-    return se3(xml.numbers(o.get("xyz", "0 0 0"), 3, file, o, "xyz"), xml.numbers(o.get("rpy", "0 0 0"), 3, file, o, "rpy"))
+    return se3(xml.numbers(o.get("xyz", "0 0 0"), 3, file, o, "xyz"),
+               xml.numbers(o.get("rpy", "0 0 0"), 3, file, o, "rpy"))
 
 
 def read(path) -> Graph:
     file = str(path)
-    root = xml.parse(path, "URDF file")
-    if root.tag != "robot":
-        raise ModelFileError(file, xml.where(root), "not a URDF file: the root element is <robot>")
+    root = xml.parse_root(path, "robot", "a URDF file")
     g = Graph(root.get("name", "robot"), file, "urdf")
     g.gravity_source = "the default (a URDF holds no gravity)"
     links = {el.get("name"): el for el in root.findall("link")}
@@ -110,7 +109,8 @@ def _joint(j, X, g, file):
             g.skip("dynamics friction", xml.where(dyn), "Coulomb joint friction is not modelled by an ideal joint")
     mim = j.find("mimic")
     if mim is not None:
-        g.couplings.append(Coupling(f"{jt.name}.mimic", float(mim.get("multiplier", 1.0)), float(mim.get("offset", 0.0)),
+        g.couplings.append(Coupling(f"{jt.name}.mimic", float(mim.get("multiplier", 1.0)),
+                                    float(mim.get("offset", 0.0)),
                                     joint1=mim.get("joint"), joint2=jt.name, line=mim.line))
     g.joints.append(jt)
 

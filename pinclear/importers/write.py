@@ -97,9 +97,10 @@ def _link(b, F):
     lines = [f'  <link name="{b.name}">']
     if b.mass > 0:
         I = b.inertia
+        moments = " ".join(f'{k}="{float(I[i, j])!r}"' for k, i, j in (("ixx", 0, 0), ("ixy", 0, 1), ("ixz", 0, 2),
+                                                                       ("iyy", 1, 1), ("iyz", 1, 2), ("izz", 2, 2)))
         lines += ["    <inertial>", f"      {_origin(F.inverse() * b.C)}", f'      <mass value="{float(b.mass)!r}"/>',
-                  f'      <inertia ixx="{float(I[0, 0])!r}" ixy="{float(I[0, 1])!r}" ixz="{float(I[0, 2])!r}" iyy="{float(I[1, 1])!r}" '
-                  f'iyz="{float(I[1, 2])!r}" izz="{float(I[2, 2])!r}"/>', "    </inertial>"]
+                  f"      <inertia {moments}/>", "    </inertial>"]
     for X, geom in b.visuals:
         if "mesh" in geom:
             shape = f'<mesh filename="{geom["mesh"]}" scale="{_fmt(geom["scale"])}"/>'

@@ -77,6 +77,14 @@ def parse(path, what="robot description"):
     return root[0]
 
 
+def parse_root(path, tag, what):
+    """The root Element of ``path``, refused unless it is ``<tag>`` (a ``what``)."""
+    root = parse(path, what)
+    if root.tag != tag:
+        raise ModelFileError(str(path), where(root), f"not {what}: the root element is <{tag}>")
+    return root
+
+
 def where(el) -> str:
     """``<tag name="...">`` (line N): how errors and the report name an element."""
     name = el.get("name")
