@@ -143,3 +143,15 @@ def test_gearbox_couplings_hold_in_a_passive_swing(method):
         ip, op = (m.joints[m.getJointId(f"left-{joint}-{x}")].idx_q for x in ("ip", "op"))
         assert np.abs(tr.q[:, op] + ratio * tr.q[:, ip]).max() < 1e-8
     assert np.abs(tr.q[-1]).max() > 1e-3                       # it moved
+
+
+def test_view_reads_the_package_meshes():
+    """The visuals' package://example-robot-data/... meshes resolve to example-robot-data's STL
+    files (the meshcat view, pinclear.viz.geometry), one per link of cassie_v2."""
+    from pinclear.sidecar import allowed_roots
+    from pinclear.viz.geometry import confined_visual_model
+
+    mech = pinclear.load("cassie_v2")
+    vm = confined_visual_model(mech.model, models_dir() / "cassie_v2.urdf", allowed_roots(models_dir() / "x.yaml"))
+    meshes = [g.meshPath for g in vm.geometryObjects]
+    assert len(meshes) == 23 and all(p.endswith(".stl") and "cassie_description/meshes" in p for p in meshes)
