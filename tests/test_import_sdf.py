@@ -170,3 +170,81 @@ def test_mjcf_softness_is_kept_and_a_lonely_closing_frame_is_refused(tmp_path):
     with pytest.raises(ModelFileError, match=r"link 'closing_B_1' \(line \d+\): closing frame without its partner "
                        "closing_B_2"):
         convert(tmp_path / "bad.urdf")
+
+
+def _sdf_of(mech, q):
+    """An SDF 1.7 text of a mechanism's tree placed at the assembled q, its spherical closures as
+    ball joints (written from Pinocchio's kinematics at q: an independent path to the file)."""
+    model, data = mech.model, mech.model.createData()
+    J = pin.computeJointJacobians(model, data, q)
+    pin.framesForwardKinematics(model, data, q)
+    link = {0: "world"}
+    for f in model.frames:
+        if f.type == pin.FrameType.BODY and f.parentJoint > 0 and f.placement.isIdentity(0.0):
+            link.setdefault(f.parentJoint, f.name)
+
+    def pose(X):
+        return " ".join(repr(float(x)) for x in list(X.translation) + list(pin.rpy.matrixToRpy(X.rotation)))
+
+    out = ['<sdf version="1.7"><model name="leg">']
+    for j in range(1, model.njoints):
+        Y = model.inertias[j]
+        I = Y.inertia
+        out.append(f'<link name="{link[j]}"><pose>{pose(data.oMi[j])}</pose><inertial><pose>'
+                   f'{" ".join(map(repr, map(float, Y.lever)))} 0 0 0</pose><mass>{Y.mass!r}</mass><inertia>'
+                   + "".join(f"<{k}>{float(I[a, b])!r}</{k}>" for k, a, b in (
+                       ("ixx", 0, 0), ("iyy", 1, 1), ("izz", 2, 2), ("ixy", 0, 1), ("ixz", 0, 2), ("iyz", 1, 2)))
+                   + "</inertia></inertial></link>")
+        jm = model.joints[j]
+        prismatic = jm.shortname().startswith("JointModelP")
+        axis = J[:3 if prismatic else 6, jm.idx_v][-3:] if not prismatic else J[:3, jm.idx_v]
+        out.append(f'<joint name="{model.names[j]}" type="{"prismatic" if prismatic else "revolute"}">'
+                   f"<parent>{link[model.parents[j]]}</parent><child>{link[j]}</child>"
+                   f'<pose relative_to="__model__">{pose(data.oMi[j])}</pose>'
+                   f'<axis><xyz expressed_in="__model__">{" ".join(map(repr, map(float, axis)))}</xyz></axis></joint>')
+    for c in mech.closures:
+        assert c.type == "spherical"
+        p1, p2 = (link[model.frames[f].parentJoint] for f in (c.f1, c.f2))
+        out.append(f'<joint name="{c.name}" type="ball"><parent>{p1}</parent><child>{p2}</child>'
+                   f'<pose relative_to="__model__">{pose(data.oMf[c.f2])}</pose></joint>')
+    return "\n".join(out + ["</model></sdf>"])
+
+
+def test_four_ups_upu_sdf_cuts_its_four_ball_joints_and_equals_the_bundled(tmp_path):
+    """The 4UPS-UPU of paper 000 as SDF (tree at the assembled pose, the platform's four S joints
+    as ball joints): the importer cuts exactly the four ball joints (3 rows each, the fewest of
+    every loop), and the imported tree and closures equal the bundled ones to 1e-12 at other
+    configurations (imported q = bundled q - the assembled q)."""
+    ref = pinclear.load("four_ups_upu")
+    q_star = kinematics.assemble(ref, ref.q0)
+    (tmp_path / "leg.sdf").write_text(_sdf_of(ref, q_star))
+    rep = import_file(tmp_path / "leg.sdf", tmp_path / "out")
+    assert sorted(c["joint"] for c in rep["cut"]) == ["S2", "S3", "S4", "S5"]
+    assert rep["closure_rows"] == 12 and rep["residual_at_reference"] < 1e-12
+    imp = pinclear.load(tmp_path / "out" / "leg.yaml")
+    rng = np.random.default_rng(5)
+    di, dr = imp.model.createData(), ref.model.createData()
+    for _ in range(3):
+        qb = q_star + 0.1 * rng.standard_normal(ref.nq)
+        qi = np.zeros(imp.nq)
+        for j in range(1, ref.model.njoints):
+            A, B = ref.model.joints[j], imp.model.joints[imp.model.getJointId(ref.model.names[j])]
+            qi[B.idx_q] = qb[A.idx_q] - q_star[A.idx_q]
+        pin.forwardKinematics(imp.model, di, qi)
+        pin.forwardKinematics(ref.model, dr, qb)
+        for j in range(1, ref.model.njoints):
+            jb = imp.model.getJointId(ref.model.names[j])
+            Xi, Xr = di.oMi[jb], dr.oMi[j]
+            assert np.abs(Xi.translation - Xr.translation).max() < 1e-12
+            Ii, Ir = imp.model.inertias[jb], ref.model.inertias[j]
+            assert abs(Ii.mass - Ir.mass) < 1e-12
+            assert np.abs(Xi.act(Ii.lever) - Xr.act(Ir.lever)).max() < 1e-12
+            Iwi = Xi.rotation @ Ii.inertia @ Xi.rotation.T
+            Iwr = Xr.rotation @ Ir.inertia @ Xr.rotation.T
+            assert np.abs(Iwi - Iwr).max() < 1e-12
+        pi = kinematics.closure_residual(imp, imp.workspace(), qi)
+        pr = kinematics.closure_residual(ref, ref.workspace(), qb)
+        for c in ref.closures:                  # each ball's point rows (world axes), matched by name
+            k = [x.name for x in imp.closures].index(c.name)
+            ri, rr = 3 * k, 3 * ref.closures.index(c)
+            assert np.abs(pi[ri:ri + 3] - pr[rr:rr + 3]).max() < 1e-12
