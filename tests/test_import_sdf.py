@@ -138,6 +138,9 @@ def test_gearbox_coupling_oscillates_at_the_reflected_inertia(tmp_path):
     ('<sdf version="1.6"><model name="m"><link name="a"/>', "malformed XML"),
     ('<sdf version="1.6"><model name="m"><link name="a"><pose relative_to="zz">0 0 0 0 0 0</pose></link>'
      "</model></sdf>", "names the frame 'zz'"),
+    ('<sdf version="1.6"><model name="../../evil"><link name="a"/></model></sdf>', "is not a plain file name"),
+    ('<sdf version="1.6"><model name="m">\n<link name="a&quot;/&gt;&lt;x"/></model></sdf>',
+     "line 2: name 'a\"/><x' holds a character"),
 ])
 def test_malformed_sdf_names_element_and_line(tmp_path, text, where):
     (tmp_path / "bad.sdf").write_text(text)

@@ -7,6 +7,7 @@ spanning tree is chosen in pinclear.importers.cuts and written by pinclear.impor
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +41,7 @@ def convert(path, cut=(), fix=None, name=None):
     g = read_graph(path)
     g.file = shown_path(path)
     name = name or g.name
+    check_names(g, name)
     notes = write.fix_root(g, fix)
     tree = spanning_tree(g, WORLD, tuple(cut))
     F = write.frames_of(g, tree)
@@ -84,6 +86,28 @@ def nonphysical_inertias(urdf, file) -> dict:
                 raise
             accepted[joint] = (f"the values of {Path(file).name} kept as given: their principal moments break the "
                                "triangle inequality (pinclear import)")
+
+
+#: a mechanism's name becomes file names: no folder parts, no hidden files
+SAFE_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.+-]{0,127}")
+#: link, joint and frame names are written into XML attributes and YAML keys
+UNSAFE_CHARS = re.compile(r'[<>&"\'\x00-\x1f\x7f]')
+
+
+def check_names(g, name):
+    """Refuse a mechanism name that is not a plain file name (``<model name="../x">`` would write
+    outside --out) and names or mesh URIs that would not survive as XML attribute values."""
+    if not SAFE_NAME.fullmatch(name):
+        raise ModelFileError(g.file, "name", f"{name!r} is not a plain file name (letters, digits, _ . + -); give "
+                             "--name")
+    items = [(b.name, f"line {b.line}") for b in g.bodies.values()] + [(j.name, f"line {j.line}") for j in g.joints]
+    items += [(geom.get("mesh", ""), f"line {b.line}") for b in g.bodies.values() for _, geom in b.visuals]
+    items += [(c.name, f"line {c.line}") for c in list(g.couplings) + list(g.closings)]
+    items += [(f[0], "frame") for f in g.frames]
+    for text, where in items:
+        if text is None or UNSAFE_CHARS.search(text):
+            raise ModelFileError(g.file, where, f"name {text!r} holds a character pinclear does not write into "
+                                 "XML (< > & quotes, control characters)")
 
 
 def shown_path(path) -> str:
