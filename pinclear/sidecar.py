@@ -104,7 +104,7 @@ TOP = (
         "relative to the sidecar"),
     Key("description", "string", "-", "", doc="one line"),
     Key("gravity", "[x, y, z]", "m/s^2", [0.0, 0.0, -9.81], "finite", doc="gravity in world axes"),
-    Key("baumgarte", "mapping", "1/s", {}, ">= 0", "docs/formulations", "{alpha, beta}: the source's "
+    Key("baumgarte", "mapping", "1/s", {}, ">= 0", "", "{alpha, beta}: the source's "
         "stabilisation gains (simulate(alpha=..., beta=...) wins)"),
     Key("initial", "mapping", "-", {}, doc="{q: {JOINT: value}, v: {JOINT: value}}: the assembly guess (below)"),
     Key("closures", "list", "-", [], doc="loop closures: the cut joints of the tree (below)"),
@@ -123,6 +123,7 @@ TOP = (
         "triangle inequality, kept for reproduction (the reason is required)"),
 )
 TOP_KEYS = set(key_names(TOP))
+_TOP_DEFAULT = {k.name: k.default for k in TOP}
 #: a sidecar is a few kilobytes; anything near this is not one
 MAX_SIDECAR_BYTES = 1_000_000
 CLOSURE_KEYS = set(key_names(CLOSURE_ENTRY_KEYS))
@@ -142,6 +143,19 @@ INITIAL = (Key("q", "mapping", "rad or m", {}, "finite; quaternions and (cos, si
                doc="{JOINT: value or list}: the assembly guess"),
            Key("v", "mapping", "rad/s or m/s", {}, "finite", doc="{JOINT: value or list}: initial velocities "
                "(projected to consistency)"))
+PLATFORM = (Key("frame", "frame", doc="the platform frame: a frame name or {parent, xyz, rpy | axis, name}"),
+            Key("motion", "mapping", "-", None, doc="{function: module:function, args: {...}}: the prescribed pose "
+                "over time (the screw method, the plots' prescribed path)"))
+OPTION = (Key("default", "any", doc="the option's value unless --option / options= / an override sets it"),
+          Key("choices", "list", "-", None, doc="the values allowed"),
+          Key("doc", "string", "-", "", doc="one line"))
+PARAMETER = (Key("name", "string"), Key("value", "any"), Key("unit", "string"),
+             Key("source", "string", doc="where the value comes from (paper, section)"),
+             Key("note", "string", "-", "", doc="free text"))
+BAUMGARTE = (Key("alpha", "number", "1/s", "the formulation's (5)", ">= 0", "formulations/lagrange.py: gamma = "
+                 "-(dJ v) - 2 alpha dPhi - beta^2 Phi", "velocity gain"),
+             Key("beta", "number", "1/s", "the formulation's (5)", ">= 0", "formulations/lagrange.py: gamma = "
+                 "-(dJ v) - 2 alpha dPhi - beta^2 Phi", "position gain"))
 FORCE_TYPES = FORCE_REGISTRY
 CLEARANCE_TYPES = CLEARANCE_REGISTRY
 ONE_DOF_JOINTS = ("RX", "RY", "RZ", "PX", "PY", "PZ", "RevoluteUnaligned", "PrismaticUnaligned")
@@ -509,7 +523,7 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
         if key in sc:
             sc[key] = _substitute(sc[key], opts, file, key)
     _baumgarte(sc.get("baumgarte") or {}, file)
-    model.gravity.linear = _vec3(sc.get("gravity", [0.0, 0.0, -9.81]), file, "gravity")
+    model.gravity.linear = _vec3(sc.get("gravity", _TOP_DEFAULT["gravity"]), file, "gravity")
     ctx = Context(model, file, trust)
     closures = _closures(ctx, sc.get("closures") or [])
     drives = _drives(ctx, sc.get("drives") or [])
@@ -589,7 +603,7 @@ def _scene_options(sc, file, options, overrides):
     for k, spec in declared.items():
         if not isinstance(spec, dict) or "default" not in spec:
             raise ModelFileError(file, f"options.{k}", "each option is a mapping with a 'default'")
-        _check_keys(spec, {"default", "choices", "doc"}, file, f"options.{k}")
+        _check_keys(spec, key_names(OPTION), file, f"options.{k}")
         opts[k] = spec["default"]
     clr_specs = sc.get("clearances") or []
     if not isinstance(clr_specs, list):
@@ -627,7 +641,7 @@ def _scene_options(sc, file, options, overrides):
 
 def _baumgarte(bg, file):
     """The Baumgarte gains of the model's source (read by the formulations that stabilise with them)."""
-    _check_keys(bg, {"alpha", "beta"}, file, "baumgarte")
+    _check_keys(bg, key_names(BAUMGARTE), file, "baumgarte")
     for k, val in bg.items():
         if isinstance(val, bool) or not isinstance(val, (int, float)) or not val >= 0.0:
             raise ModelFileError(file, f"baumgarte.{k}", f"expected a number >= 0 [1/s], got {val!r}")
@@ -709,7 +723,7 @@ def _initial(ctx, init):
     """(q0, v0): the neutral configuration and zero velocity with ``initial:``'s joints set."""
     model, file = ctx.model, ctx.file
     q0, v0 = pin.neutral(model), np.zeros(model.nv)
-    _check_keys(init, {"q", "v"}, file, "initial")
+    _check_keys(init, key_names(INITIAL), file, "initial")
     for which, vec in (("q", q0), ("v", v0)):
         for jn, val in (init.get(which) or {}).items():
             jm = _joint(model, jn, file, f"initial.{which}.{jn}")
@@ -729,7 +743,7 @@ def _initial(ctx, init):
 def _platform(ctx, p):
     """(frame id, motion function or None) of ``platform:``."""
     file = ctx.file
-    _check_keys(p, {"frame", "motion"}, file, "platform")
+    _check_keys(p, key_names(PLATFORM), file, "platform")
     platform_frame, _ = _frame(ctx.model, p.get("frame"), "platform", file, "platform.frame")
     platform_motion = None
     if "motion" in p:
@@ -744,8 +758,8 @@ def _platform(ctx, p):
 def _parameters(params, file):
     """``parameters:``, a documentation table: each entry has name, value, unit and source."""
     for i, prm in enumerate(params):
-        _check_keys(prm, {"name", "value", "unit", "source", "note"}, file, f"parameters[{i}]")
-        for k in ("name", "value", "unit", "source"):
+        _check_keys(prm, key_names(PARAMETER), file, f"parameters[{i}]")
+        for k in [k.name for k in PARAMETER if k.required]:
             if k not in prm:
                 raise ModelFileError(file, f"parameters[{i}].{k}", "missing (each parameter has name, value, "
                                      "unit and source)")

@@ -60,8 +60,9 @@ NORMAL_LAW_KEYS = (
 #: friction law type -> the keys of its mapping besides ``type`` (contact.laws.make_friction_law)
 FRICTION_LAW_KEYS = {
     "none": (),
-    "coulomb": (Key("mu", "number", "-", "the joint's mu", ">= 0", doc="coefficient"),
-                Key("v_eps", "number", "m/s", 1e-4, "> 0", doc="regularisation: mu |vt| / sqrt(|vt|^2 + v_eps^2)")),
+    "coulomb": (Key("mu", "number", "-", "the joint's mu", ">= 0", "contact/laws.py Coulomb", "coefficient"),
+                Key("v_eps", "number", "m/s", 1e-4, "> 0", "contact/laws.py Coulomb",
+                    "regularisation: mu |vt| / sqrt(|vt|^2 + v_eps^2)")),
     "modified_coulomb": (Key("mu", "number", "-", "the joint's mu", ">= 0", "paper 000 eq. 19", "coefficient"),
                          Key("v0", "number", "m/s", 1e-4, ">= 0", "paper 002 eq. 10", "below: no friction"),
                          Key("v1", "number", "m/s", 1e-2, "> v0", "paper 002 eq. 10", "above: full friction")),
