@@ -99,6 +99,10 @@ URDF = """<?xml version="1.0"?>
 </robot>
 """
 M = 2.0
+#: the slider's distance closure D from the origin (the toy clearance type replaces it)
+DISTANCE = ("closures:\n  - {{name: D, type: distance, frame1: {{parent: world, name: anchor}}, "
+            "frame2: {{parent: slider, name: tip}}, length: {L}}}\n")
+GAP = "clearances:\n  - {{name: D, type: toy_gap, closure: D, clearance: {c}, stiffness: {K}{extra}}}\n"
 
 
 def _files(tmp_path, body):
@@ -159,10 +163,7 @@ def test_a_toy_clearance_type_loads_from_a_sidecar_and_matches_its_closed_form(t
     near 1e-10 of the 0.1 m scale; 1e-8 m catches a wrong normal, stiffness or exit speed
     (errors of order c = 1 mm)."""
     L, c, K, v0 = 0.1, 1e-3, 1e4, 0.05
-    path = _files(tmp_path, f"closures:\n  - {{name: D, type: distance, frame1: {{parent: world, name: anchor}}, "
-                  f"frame2: {{parent: slider, name: tip}}, length: {L}}}\n"
-                  f"clearances:\n  - {{name: D, type: toy_gap, closure: D, clearance: {c}, stiffness: {K}, "
-                  "normal_law: {type: hertz, n: 1}}\n")
+    path = _files(tmp_path, DISTANCE.format(L=L) + GAP.format(c=c, K=K, extra=", normal_law: {type: hertz, n: 1}"))
     mech = load(path, clearances=["D"])
     assert not mech.closures and [f.kind for f in mech.forces] == ["toy_gap"]
     w = math.sqrt(K / M)
@@ -175,9 +176,7 @@ def test_a_toy_clearance_type_loads_from_a_sidecar_and_matches_its_closed_form(t
 
 
 def test_a_clearance_on_a_tree_joint_says_clearances_go_on_cut_joints(toys, tmp_path):
-    path = _files(tmp_path, "closures:\n  - {name: D, type: distance, frame1: {parent: world, name: anchor}, "
-                  "frame2: {parent: slider, name: tip}, length: 0.1}\n"
-                  "clearances:\n  - {name: D, type: toy_gap, closure: D, clearance: 1.0e-3, stiffness: 1.0e4}\n")
+    path = _files(tmp_path, DISTANCE.format(L=0.1) + GAP.format(c=1e-3, K=1e4, extra=""))
     with pytest.raises(ModelFileError) as exc:
         load(path, clearances=["slide"])
     msg = str(exc.value)
@@ -186,8 +185,7 @@ def test_a_clearance_on_a_tree_joint_says_clearances_go_on_cut_joints(toys, tmp_
 
 
 def test_a_closure_without_a_clearance_entry_says_how_to_add_one(tmp_path):
-    path = _files(tmp_path, "closures:\n  - {name: D, type: distance, frame1: {parent: world, name: anchor}, "
-                  "frame2: {parent: slider, name: tip}, length: 0.1}\n")
+    path = _files(tmp_path, DISTANCE.format(L=0.1))
     with pytest.raises(ModelFileError, match=r"closure 'D' has no clearances: entry; add one such as"):
         load(path, clearances=["D"])
 
