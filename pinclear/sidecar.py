@@ -771,11 +771,12 @@ def _unknown_clearance(ctx, name, clr_names, closures):
     (a tree joint, a closure without a clearances: entry) and what to do."""
     file, model = ctx.file, ctx.model
     if isinstance(name, str) and model.existJointName(name):
+        cut = sorted({c for t in CLEARANCE_TYPES.types() for c in t.replaces})
         return ModelFileError(file, "clearances", f"{name!r} is a joint of the URDF tree: a clearance replaces a cut "
-                              "joint (a closure of the sidecar's closures:). Make it a cut joint: remove the joint "
-                              "from the URDF (its child link then hangs from another joint), add a closures: entry "
-                              "joining its two frames (type revolute, planar_point, spherical or prismatic) and a "
-                              f"clearances: entry naming that closure", choices=clr_names)
+                              "joint (a closure of the sidecar's closures:). Make it a cut joint: leave the joint out "
+                              "of the URDF (choose the spanning tree so that its child link hangs from its other "
+                              "joints), add a closures: entry joining a frame on each of its two links (type "
+                              f"{', '.join(cut)}) and a clearances: entry naming that closure", choices=clr_names)
     if name in {cl.name for cl in closures}:
         return ModelFileError(file, "clearances", f"closure {name!r} has no clearances: entry; add one such as "
                               f"{{name: {name}, type: planar_revolute, closure: {name}, clearance: 1.0e-4}}",

@@ -184,6 +184,18 @@ def test_a_clearance_on_a_tree_joint_says_clearances_go_on_cut_joints(toys, tmp_
     assert "(valid: D)" in msg
 
 
+def test_the_command_line_says_so_in_one_line(tmp_path, capsys):
+    """`pinclear simulate ... --clearance rod_joint` (a tree joint of the bundled slider-crank)."""
+    from pinclear import cli
+
+    argv = ["simulate", "slider_crank_clearance", "--clearance", "rod_joint", "--t-end", "0.01",
+            "--out", str(tmp_path)]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "'rod_joint' is a joint of the URDF tree" in err
+    assert "Make it a cut joint" in err and err.endswith("(valid: P)")
+
+
 def test_a_closure_without_a_clearance_entry_says_how_to_add_one(tmp_path):
     path = _files(tmp_path, DISTANCE.format(L=0.1))
     with pytest.raises(ModelFileError, match=r"closure 'D' has no clearances: entry; add one such as"):
