@@ -15,7 +15,7 @@ modules behind them (the sidecar checks a type name without loading the contact 
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Callable
 
 
@@ -71,7 +71,6 @@ class PluginType:
     source: str = ""
     replaces: tuple = ()
     plot: Any = None
-    extra: dict = field(default_factory=dict)
 
     def value(self, entry: dict, name: str):
         """``entry[name]``, else the key's declared default (KeyError(name) when it has none)."""

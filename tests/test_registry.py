@@ -18,7 +18,7 @@ from pinclear.contact.laws import FRICTION_LAWS, NORMAL_LAWS, make_friction_law,
 from pinclear.contact.spec import COMMON, FRICTION_LAW_KEYS, NORMAL_LAW_KEYS
 from pinclear.errors import ContactSetupError, ModelFileError
 from pinclear.forces import ForceElement
-from pinclear.registry import CLEARANCE_TYPES, FORCE_TYPES, REQUIRED, ClearancePlot, Key, PluginType
+from pinclear.registry import CLEARANCE_TYPES, FORCE_TYPES, ClearancePlot, Key, PluginType
 from pinclear.sidecar import load
 from pinclear.simulate import simulate
 
