@@ -18,9 +18,17 @@ import numpy as np
 
 from ._jit import njit
 from .errors import ModelFileError
+from .registry import Key, key_names
 
+#: the keys of a coupling closure besides name and type (no frames)
+COUPLING_KEYS = (
+    Key("joint1", "joint name", range="a 1-DoF joint (coupling)", doc="the driving joint (coupling)"),
+    Key("joint2", "joint name", range="another 1-DoF joint (coupling)", doc="the coupled joint (coupling)"),
+    Key("ratio", "number", "-", range="finite (coupling: required)", source="coupling.py: q2 = ratio q1 + offset",
+        doc="q(joint2) = ratio q(joint1) + offset (coupling)"),
+    Key("offset", "number", "rad or m", 0.0, "finite", "coupling.py: q2 = ratio q1 + offset", "(coupling)"))
 #: sidecar keys of a coupling closure
-KEYS = {"name", "type", "joint1", "joint2", "ratio", "offset"}
+KEYS = {"name", "type"} | key_names(COUPLING_KEYS)
 
 
 def coupling_closure(model, spec, file, key, name):

@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from ._jit import njit
-from .errors import ModelFileError
 from .forces import ForceElement
+from .registry import Key, PluginType
 
 
 @njit(cache=True)
@@ -54,15 +54,27 @@ class JointSpring(ForceElement):
         return {"name": self.name, "type": "joint_spring", "k": self.k, "c": self.c, "reference": self.reference}
 
 
-def joint_spring(model, spec, name, file, key):
-    """The JointSpring of a sidecar ``type: joint_spring`` entry (k, c >= 0)."""
-    from .sidecar import _joint, _number
+def parse_joint_spring(f, ctx):
+    """A ``joint_spring`` entry (keys checked) -> JointSpring (k, c >= 0); ``ctx``:
+    pinclear.sidecar.Context."""
+    from .sidecar import _number
 
-    if "joint" not in spec:
-        raise ModelFileError(file, f"{key}.joint", "missing")
-    jm = _joint(model, spec["joint"], file, f"{key}.joint", one_dof=True)
-    k = _number(spec.get("k", 0.0), file, f"{key}.k")
-    c = _number(spec.get("c", 0.0), file, f"{key}.c")
+    jm = ctx.joint(f["joint"], "joint", one_dof=True)
+    v = JOINT_SPRING.value
+    k = _number(v(f, "k"), ctx.file, f"{ctx.key}.k")
+    c = _number(v(f, "c"), ctx.file, f"{ctx.key}.c")
     if k < 0 or c < 0:
-        raise ModelFileError(file, key, f"k = {k}, c = {c}: a spring's stiffness and damping are >= 0")
-    return JointSpring(name, jm.idx_q, jm.idx_v, k, c, _number(spec.get("reference", 0.0), file, f"{key}.reference"))
+        raise ctx.error("", f"k = {k}, c = {c}: a spring's stiffness and damping are >= 0")
+    return JointSpring(ctx.name, jm.idx_q, jm.idx_v, k, c, _number(v(f, "reference"), ctx.file,
+                                                                      f"{ctx.key}.reference"))
+
+
+JOINT_SPRING = PluginType(
+    "joint_spring", parse=parse_joint_spring,
+    doc="Linear spring and damper on a 1-DoF joint (joint_spring.JointSpring): an SDF joint's <dynamics>, an "
+        "MJCF joint's stiffness / damping (pinclear import).",
+    keys=(Key("joint", "joint name", range="a 1-DoF joint of the URDF", doc="the joint it acts on"),
+          Key("k", "number", "N m/rad or N/m", 0.0, ">= 0", "tau = -k (q - reference) - c v", "stiffness"),
+          Key("c", "number", "N m s/rad or N s/m", 0.0, ">= 0", "tau = -k (q - reference) - c v", "damping"),
+          Key("reference", "number", "rad or m", 0.0, "finite", "tau = -k (q - reference) - c v",
+              "the spring's rest coordinate")))
