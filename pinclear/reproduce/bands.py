@@ -193,3 +193,63 @@ class _Point004:
 
     def __call__(self, values):
         return paper004_point(values, self.n)
+
+
+# ------------------------------------------------------------------------------- paper 002
+def _run002(job):
+    """One A 0.5 mm run of paper 002's sec. 3 at a design point (module-level: it pickles):
+    the slider's shift at the ideal peak and the impact and acceleration peaks."""
+    import pinclear
+
+    from ..models import model_path
+    from . import paper002 as p2
+
+    over = {k.format(j="A"): v for k, v in job["values"].items()}
+    mech = pinclear.load(model_path("nine_bar"), clearances=["A"], overrides=over)
+    tr = pinclear.simulate(mech, job["t_end"], method="lagrange", integrator="RK45", rtol=p2.RTOL, dt_out=job["dt"],
+                           q0=job["q0"], v0=job["v0"])
+    x, v, a = p2._slider(tr)
+    i_d, i_v = job["i_d"], job["i_v"]
+    late = tr.t >= p2.STEADY
+    return {"A shift d": 1e3 * float(x[i_d] - job["x_ideal"]), "A shift v": 1e3 * float(abs(v[i_v]) - job["v_ideal"]),
+            "A 0.5 mm impact force peak": p2._peak(tr.t, tr.outputs["A.fn"])[0],
+            "A 0.5 mm acceleration peak steady": p2._peak(tr.t[late], a[late])[0],
+            "status": tr.status, "cpu": tr.stats.get("cpu_s")}
+
+
+def paper002_bands(out, s, executor, q0, v0, budget=None, cost=None):
+    """({row key: (lo, hi, what)}, table) of paper 002's A 0.5 mm rows over the keyed inputs of
+    reconstructed.yaml; ``cost``: CPU s of one run (the centred A 0.5 mm run's), for the budget."""
+    import pinclear
+
+    from ..models import model_path
+    from ..sweeps import run_jobs
+    from . import paper002 as p2
+
+    inputs = reconstructed_inputs("002")
+    pts = within_budget(design(inputs), float(cost or 60.0), budget)
+    ideal = pinclear.simulate(pinclear.load(model_path("nine_bar")), s["response t_end [s]"], rtol=p2.RTOL,
+                              dt_out=s["output step [s]"])
+    xi, vi, _ = p2._slider(ideal)
+    _, t_d = p2._peak(ideal.t, xi, 1.0)
+    _, t_v = p2._peak(ideal.t, vi, 1.0)
+    i_d, i_v = int(np.argmin(np.abs(ideal.t - t_d))), int(np.argmin(np.abs(ideal.t - t_v)))
+    base = {"t_end": s["response t_end [s]"], "dt": s["output step [s]"], "q0": list(q0), "v0": list(v0),
+            "i_d": i_d, "i_v": i_v, "x_ideal": float(xi[i_d]), "v_ideal": float(abs(vi[i_v]))}
+    jobs = [dict(base, label=label, values=values) for label, values in pts]
+    got = {}
+    run_jobs(_run002, jobs, executor, lambda job, res: got.__setitem__(job["label"], res),
+             lambda job, exc: got.__setitem__(job["label"], f"{type(exc).__name__}: {exc}"))
+    ok = {k: v for k, v in got.items() if isinstance(v, dict) and v["status"] == "success"}
+    n_sf = sum(label.startswith("space") for label, _ in pts)
+    what = f"{len(ok)} of {len(pts)} input sets ({len(pts) - n_sf} one-at-a-time, {n_sf} space-filling)"
+    fields = ("A shift d", "A shift v", "A 0.5 mm impact force peak", "A 0.5 mm acceleration peak steady")
+    bands = {f: (lo, hi, what) for f, (lo, hi) in spread(ok, fields).items()}
+    rows = [[label] + ([got[label].get(f, float("nan")) for f in fields] + [got[label]["status"]]
+                       if isinstance(got.get(label), dict) else [float("nan")] * len(fields) + [str(got.get(label))])
+            for label, _ in pts]
+    return bands, {"title": "bands (--bands): the A 0.5 mm run over the reconstructed inputs of reconstructed.yaml",
+                   "columns": ["input set", "displacement shift [mm]", "velocity change [mm/s]", "impact peak [N]",
+                               "steady acceleration peak [m/s^2]", "status"],
+                   "rows": rows, "note": what + "; inputs without an override key (link dimensions) wait for a "
+                                                "regenerated linkage"}
