@@ -237,6 +237,17 @@ def geometry_tables(sw, got, s, path, ideal, notes):
                        "rows": lrows,
                        "note": "the gap lets the slider tilt in the guide by about 2 c / l, and the platform moves by "
                                "that tilt times its distance from the slider"})
+    if sw["lever"]:
+        lever_table(sw, ref, s, ideal, notes, tables, dev, vel)
+    factors = {"dev": (min(dev + [1.0]), max(dev + [1.0])), "vel": (min(vel + [1.0]), max(vel + [1.0])),
+               "what": f"slider length {', '.join(f'{L:g}' for L in s['lengths'])} m, guide shifts "
+                       f"{', '.join(f'{x:+g}' for x in s['lever_shifts'])} m, both contact models"} if dev else None
+    return {"tables": tables, "factors": factors}
+
+
+def lever_table(sw, ref, s, ideal, notes, tables, dev, vel):
+    """The lever-arm table (appended to ``tables``); each run's deviation and velocity ratios to
+    the reconstructed geometry's appended to ``dev`` and ``vel``."""
     zg = mod.GUIDE_Z0 + mod.GUIDE_LEN / 2
     vrows = [[zg, 1e6 * ref["z_dev"], ref["z_dev"] / 1e-4, ref["vz_amp"]]]
     for sh, vp, swl in sw["lever"]:
@@ -259,13 +270,9 @@ def geometry_tables(sw, got, s, path, ideal, notes):
     L0 = float(next(c["length"] for c in ideal.sidecar["clearances"] if c["name"] == "P_UP"))
     ks = [r[2] * L0 / r[0] for r in vrows]
     notes.append("deviation / clearance x slider length / lever arm = " + ", ".join(f"{k:.3f}" for k in ks)
-                 + f" for guide centres " + ", ".join(f"{r[0]:g}" for r in vrows) + " m: the platform's offset is "
+                 + " for guide centres " + ", ".join(f"{r[0]:g}" for r in vrows) + " m: the platform's offset is "
                  f"about {np.mean(ks):.2f} c a / l; the paper's 16-54 clearances would need a / l of "
                  f"{16 / np.mean(ks):.0f}-{54 / np.mean(ks):.0f}")
-    factors = {"dev": (min(dev + [1.0]), max(dev + [1.0])), "vel": (min(vel + [1.0]), max(vel + [1.0])),
-               "what": f"slider length {', '.join(f'{L:g}' for L in s['lengths'])} m, guide shifts "
-                       f"{', '.join(f'{x:+g}' for x in s['lever_shifts'])} m, both contact models"} if dev else None
-    return {"tables": tables, "factors": factors}
 
 
 def _band(values, factor):
