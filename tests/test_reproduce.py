@@ -70,10 +70,16 @@ def test_bands_design_and_budget():
     assert len(bands.within_budget(pts, cost=10.0, budget=10.0 * (1 + 2 * len(inputs)) + 25.0)) == 1 + 2 * len(inputs) + 2
     with pytest.raises(Exception, match="budget"):
         bands.within_budget(pts, cost=1.0, budget=0.0)
-    # every paper lists its reconstructed inputs with a reason and a range or choices
-    for paper in ("000", "002", "003", "004"):
-        assert all(e["reason"] and ("range" in e or "choices" in e)
-                   for e in bands.reconstructed_inputs(paper, keyed=False))
+    # every paper lists its reconstructed inputs with a reason and a range or choices, and docs/papers.md
+    # lists each of them in that paper's section
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "papers.md").read_text()
+    for paper, nxt in (("000", "## Paper 002"), ("002", "## Paper 003"), ("003", "## Paper 004"), ("004", None)):
+        section = doc[doc.index(f"## Paper {paper}"):doc.index(nxt) if nxt else None]
+        for e in bands.reconstructed_inputs(paper, keyed=False):
+            assert e["reason"] and ("range" in e or "choices" in e)
+            assert f"| {e['name']} |" in section, (paper, e["name"])
 
 
 def test_reproduce_names_the_available_papers(tmp_path):

@@ -253,3 +253,92 @@ def paper002_bands(out, s, executor, q0, v0, budget=None, cost=None):
                                "steady acceleration peak [m/s^2]", "status"],
                    "rows": rows, "note": what + "; inputs without an override key (link dimensions) wait for a "
                                                 "regenerated linkage"}
+
+
+# ------------------------------------------------------------------------------- paper 000
+def mechanism000(values, mu, clearance):
+    """The S2-clearance model with one design point's reconstructed inputs (reconstructed.yaml
+    '000': override keys S2.*, the friction ramp's v0 with v1 = 10 v0, gravity's sign, the mass
+    factors of the moving platform and of the rods)."""
+    from ..models import model_path
+    from ..sidecar import load
+    from .paper000 import scale_body
+
+    over = {"S2.mu": mu, "S2.clearance": clearance}
+    for k, v in values.items():
+        if k == "S2.friction_law.v0":
+            over["S2.friction_law"] = {"type": "modified_coulomb", "v0": float(v), "v1": 10.0 * float(v)}
+        elif k.startswith("S2."):
+            over[k] = v
+    mech = load(model_path("four_ups_upu"), clearances=["S2"], overrides=over)
+    mech.model.gravity.linear = float(values.get("gravity_sign", 1.0)) * np.asarray(mech.model.gravity.linear)
+    for key, bodies in (("mass:moving_platform", ("moving_platform",)),
+                        ("mass:rods", tuple(f"rod{i}_{p}" for i in range(1, 6) for p in ("lower", "upper")))):
+        for body in bodies:
+            scale_body(mech.model, body, float(values.get(key, 1.0)))
+    return mech
+
+
+def _run000(job):
+    """Paper 000's measured quantities at one design point (module-level: it pickles): the raw
+    contact-force span per mu and the platform's X offset over the response window, and the
+    clearance's motion at mu 0.01 (classified with the clearance's resolution)."""
+    from .. import analysis
+    from ..mechanisms import four_ups_upu as mod
+    from ..simulate import simulate
+    from . import paper000 as p0
+
+    s, T, out = job["s"], p0.T, {}
+    t_end = s["force_periods"] * T
+    t_eval = np.arange(t_end - s["window_periods"] * T, t_end + 1e-12, s["dt_out"])
+    t_eval[-1] = min(t_eval[-1], t_end)
+    for mu in p0.PAPER_FORCE:
+        mech = mechanism000(job["values"], mu, s["clearance"])
+        tr = simulate(mech, t_end, t_eval=t_eval)
+        if tr.status != "success":
+            return {"status": f"mu {mu}: {tr.status}: {tr.message}"}
+        F = np.linalg.norm(tr.outputs["S2.normal_force"] + tr.outputs["S2.friction_force"], axis=1)
+        out[f"span {mu:g}"] = float(F.max() - F.min())
+        law_x = np.array([mod.platform_position(t)[0][0] for t in tr.t])
+        out[f"x offset {mu:g}"] = 1e3 * abs(float(np.mean(analysis.series(tr, "platform.x", mech).x - law_x)))
+    mech = mechanism000(job["values"], p0.SENS_MU, s["clearance"])
+    n = s["transient"] + s["cycles"]
+    times = analysis.section_times(T, n, per_period=4)
+    tr = simulate(mech, float(times[-1]), t_eval=times)
+    if tr.status != "success":
+        return {"status": f"mu {p0.SENS_MU}: {tr.status}: {tr.message}"}
+    sec = analysis.poincare(tr, T, "S2.eccentricity[1]", skip_transient=s["transient"], mech=mech)
+    c = analysis.classify(sec, resolution=analysis.CLEARANCE_FRACTION * s["clearance"], sim_rtol=1e-8,
+                          steps_per_period=max(tr.stats.get("steps", n), 1) / n)
+    out["kind 0.01"] = c.kind
+    out["status"] = "success"
+    return out
+
+
+#: CPU s of one paper 000 design point (quick: 4 + 13 periods x 4 runs, measured ~12 s; full ~20x)
+COST_000 = {"quick": 15.0, "full": 300.0}
+
+
+def paper000_bands(s, executor, budget=None, quick=True):
+    """({row key: (lo, hi, what) or (kinds, what)}, table) of paper 000 over reconstructed.yaml."""
+    from ..sweeps import run_jobs
+
+    pts = within_budget(design(reconstructed_inputs("000")), COST_000["quick" if quick else "full"], budget)
+    got = {}
+    run_jobs(_run000, [{"label": lb, "values": v, "s": dict(s)} for lb, v in pts], executor,
+             lambda job, res: got.__setitem__(job["label"], res),
+             lambda job, exc: got.__setitem__(job["label"], {"status": f"{type(exc).__name__}: {exc}"}))
+    ok = {k: v for k, v in got.items() if v.get("status") == "success"}
+    n_sf = sum(lb.startswith("space") for lb, _ in pts)
+    what = f"{len(ok)} of {len(pts)} input sets ({len(pts) - n_sf} one-at-a-time, {n_sf} space-filling)"
+    fields = [k for k in next(iter(ok.values()), {}) if k not in ("status", "kind 0.01")]
+    bands = {f: (lo, hi, what) for f, (lo, hi) in spread(ok, fields).items()}
+    bands["kind 0.01"] = (sorted({v["kind 0.01"] for v in ok.values()}), what)
+    bands["smallest span"] = (sorted({"smallest at mu " + min((m for m in ("0.05", "0.1", "0.15")),
+                                                               key=lambda m: v[f"span {m}"]) for v in ok.values()}), what)
+    cols = ["span 0.05", "span 0.1", "span 0.15", "x offset 0.05", "x offset 0.1", "kind 0.01"]
+    rows = [[lb] + [got[lb].get(c, float("nan")) for c in cols] + [got[lb]["status"]] for lb, _ in pts]
+    return bands, {"title": "bands (--bands): paper 000's measured quantities over the reconstructed inputs",
+                   "columns": ["input set", "force span mu 0.05 [N]", "force span mu 0.1 [N]", "force span mu 0.15 [N]",
+                               "X offset mu 0.05 [mm]", "X offset mu 0.1 [mm]", "clearance Y at mu 0.01", "status"],
+                   "rows": rows, "note": what + "; the platform joint angles wait for a regenerated model"}

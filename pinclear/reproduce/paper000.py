@@ -134,7 +134,7 @@ def executor_for(workers, scheduler, n_jobs):
 
 #: the response/contact-force runs, the same in both modes (the paper's values; clearance: the sidecar's 0.5 mm)
 RESPONSE = {"force_mu": list(PAPER_FORCE), "stiffness": ["printed", "conformal"], "clearance": 5e-4,
-            "sensitivity": True}
+            "sensitivity": True, "overrides": {}}
 
 
 def _settings(quick, settings):
@@ -179,9 +179,13 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     s = _settings(quick, settings)
     ex, close = executor_for(workers, scheduler, max(len(PAPER_FORCE) * 2, len(s["mu_values"]),
                                                      len(s["clearance_values"])))
+    bands_ = {}
     try:
         sw, t_eval, t_end = response_runs(out, s, quick, ex)
         bif = bifurcation_runs(s, ex)
+        if bands:
+            from .bands import paper000_bands
+            bands_, band_table = paper000_bands(s, ex, budget, quick)
     finally:
         if close is not None:
             close()
@@ -192,11 +196,11 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     notes = [f"no singular crossing: along the ideal motion the closures + drives Jacobian's condition number "
              f"stays below {cond:.3g}"]
     runs, checks = force_runs(sw, lam, notes)
-    results = response_rows(runs, s, t_eval, notes)
-    results += force_rows(runs, s, notes)
+    results = response_rows(runs, s, t_eval, notes, bands_)
+    results += force_rows(runs, s, notes, bands_)
     figures = [response_figure(out, runs, s, t_eval, t_end), force_figure(out, runs, s, t_eval, lam_mag)]
     kinds = motion_kinds(bif, s)
-    results += chaos_rows(bif, kinds, s)
+    results += chaos_rows(bif, kinds, s, bands_)
     figures += portrait_figure(out, bif["mu"], kinds) + bifurcation_figures(out, bif)
     notes += chaos_notes(bif, kinds, quick)
     notes.append("every result used K as printed in paper 000 (eq. 17, 4/(3(s1+s2)) sqrt(R1R2/(R1+R2))); the "
@@ -212,10 +216,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
                          "bifurcation cycles": f"{s['transient']} transient + {s['cycles']} recorded",
                          "mu values": len(s["mu_values"]), "clearance values": len(s["clearance_values"]),
                          "resolution": f"{analysis.CLEARANCE_FRACTION:g} x the clearance",
-                         "bands": "not measured (--bands: waits for a full-study CPU budget)" if not bands else
-                                  "the sensitivity variants (full study)"},
+                         "bands": "--bands over reconstructed.yaml" if bands else "not measured (--bands)"},
             "results": results, "groups": groups, "notes": notes, "checks": checks, "figures": figures,
-            "sensitivity": sensitivity_tables(bif, s),
+            "sensitivity": sensitivity_tables(bif, s) + ([band_table] if bands else []),
             "classification": {k: {sig: [dict(value=float(v), **c[sig].as_dict()) for v, c in kinds[k].items()
                                          if sig in c] for sig in SIGNALS} for k in ("mu", "clearance")},
             "paper_kind": PAPER_KIND}
@@ -229,7 +232,7 @@ def response_runs(out, s, quick, ex):
     t_eval[-1] = min(t_eval[-1], t_end)
     sw = sweep(model_path("four_ups_upu"), {"S2.mu": list(s["force_mu"]), "S2.stiffness": list(s["stiffness"])},
                t_end, out / f"runs_{'quick' if quick else 'full'}" / "responses",
-               load_options={"clearances": ["S2"], "overrides": {"S2.clearance": s["clearance"]}},
+               load_options={"clearances": ["S2"], "overrides": {**s["overrides"], "S2.clearance": s["clearance"]}},
                sim_options={"t_eval": t_eval}, executor=ex, progress=None)
     return sw, t_eval, t_end
 
@@ -255,7 +258,17 @@ def force_runs(sw, lam, notes):
     return runs, checks
 
 
-def response_rows(runs, s, t_eval, notes):
+def _band(bands, key, ours):
+    """(band, band_from) of a row from --bands' {key: (lo, hi, what)} (ours included), or (None, '')."""
+    b = bands.get(key)
+    if b is None:
+        return None, ""
+    if len(b) == 2:                       # categorical: (kinds, what)
+        return sorted(set(b[0]) | ({ours} if isinstance(ours, str) else set(ours))), b[1]
+    return (min(b[0], ours), max(b[1], ours)), b[2]
+
+
+def response_rows(runs, s, t_eval, notes, bands=None):
     """Sec. 4.2: the platform's deviation from the ideal law (mu 0.05, 0.10) and the X offset row."""
     law = np.array([np.concatenate(mod.platform_position(t)) for t in t_eval])
     results = []
@@ -263,20 +276,23 @@ def response_rows(runs, s, t_eval, notes):
         if (mu, "printed") not in runs:
             continue
         tr, _ = runs[(mu, "printed")]
-        mech = load(model_path("four_ups_upu"), clearances=["S2"], overrides={"S2.mu": mu, "S2.clearance": s["clearance"]})
+        mech = load(model_path("four_ups_upu"), clearances=["S2"],
+                    overrides={**s["overrides"], "S2.mu": mu, "S2.clearance": s["clearance"]})
         for j, c in enumerate("xyz"):
             se = analysis.series(tr, f"platform.{c}", mech)
             notes.append(f"mu = {mu}: platform {c.upper()} deviation from the ideal motion law: position "
                          f"{1e6 * np.abs(se.x - law[:, j]).max():.1f} um, velocity "
                          f"{1e3 * np.abs(se.xdot - law[:, 3 + j]).max():.2f} mm/s")
             if c == "x":
-                off = 1e3 * float(np.mean(se.x - law[:, j]))
+                off = abs(1e3 * float(np.mean(se.x - law[:, j])))
+                band, frm = _band(bands or {}, f"x offset {mu:g}", off)
                 results.append(row(f"platform X offset from the ideal law (window mean), mu {mu}", "platform deviation",
-                                   abs(off), float(PAPER_X_OFFSET), "mm", printed=PAPER_X_OFFSET, group="offset"))
+                                   off, float(PAPER_X_OFFSET), "mm", band=band, band_from=frm, printed=PAPER_X_OFFSET,
+                                   group="offset"))
     return results
 
 
-def force_rows(runs, s, notes):
+def force_rows(runs, s, notes, bands=None):
     """Sec. 4.3: the force band per mu (calibration), its span and the span's ordering by mu."""
     results, spans, contact = [], {}, []
     nav = int(round(SMOOTH / s["dt_out"]))
@@ -294,8 +310,9 @@ def force_rows(runs, s, notes):
                     row(f"contact force max, mu {mu}", "load force", Fm.max(), hi, "N", status="calibration",
                         group="force")]
         spans[mu] = float(Fm.max() - Fm.min())
+        band, frm = _band(bands or {}, f"span {mu:g}", spans[mu])
         results.append(row(f"contact force span (max - min), mu {mu}", "force span", spans[mu], PAPER_SPAN[mu], "N",
-                           reading=0.1, group="span"))
+                           band=band, band_from=frm, reading=0.1, group="span"))
         share = float(np.mean(tr.outputs["S2.contact"] > 0))
         contact.append((mu, share, float(Fm.min())))
         notes.append(f"mu = {mu}, K printed: raw contact force {Fm.min():.1f}-{Fm.max():.0f} N, {SMOOTH:.2g} s average "
@@ -303,8 +320,10 @@ def force_rows(runs, s, notes):
                      f"{100 * share:.0f} % of the window")
     if len(spans) == len(PAPER_SPAN):
         ours = f"smallest at mu {min(spans, key=spans.get):g}"
-        results.append(row("mu with the smallest contact-force span", "ordering", ours,
-                           f"smallest at mu {min(PAPER_SPAN, key=PAPER_SPAN.get):g}", group="span",
+        band, frm = _band(bands or {}, "smallest span", ours)
+        paper = f"smallest at mu {min(PAPER_SPAN, key=PAPER_SPAN.get):g}"
+        results.append(row("mu with the smallest contact-force span", "ordering", ours, paper, band=band, band_from=frm,
+                           group="span",
                            why="spans " + " / ".join(f"{spans[m]:.1f}" for m in sorted(spans)) + " N (paper "
                                + " / ".join(f"{PAPER_SPAN[m]:.1f}" for m in sorted(PAPER_SPAN)) + " N)"))
     if contact and all(sh == 1.0 for _, sh, _ in contact):
@@ -325,7 +344,7 @@ def response_figure(out, runs, s, t_eval, t_end):
         if (mu, "printed") not in runs:
             continue
         tr, _ = runs[(mu, "printed")]
-        mech = load(model_path("four_ups_upu"), clearances=["S2"], overrides={"S2.mu": mu, "S2.clearance": s["clearance"]})
+        mech = load(model_path("four_ups_upu"), clearances=["S2"], overrides={**s["overrides"], "S2.mu": mu, "S2.clearance": s["clearance"]})
         sel = tr.t >= t_end - 2 * T - 1e-9
         for j, c in enumerate("xyz"):
             se = analysis.series(tr, f"platform.{c}", mech)
@@ -375,7 +394,7 @@ def bifurcation_runs(s, ex):
     """{'mu', 'clearance', and with the sensitivity study 'sens', 'sens_rtol'}: BifurcationResults."""
     path = model_path("four_ups_upu")
     common = dict(period=T, signal=SIGNALS, cycles=s["cycles"], transient=s["transient"], per_period=s["per_period"],
-                  keep_portrait=True, load_options={"clearances": ["S2"]}, executor=ex)
+                  keep_portrait=True, load_options={"clearances": ["S2"], "overrides": dict(s["overrides"])}, executor=ex)
     out = {"mu": analysis.bifurcation(str(path), "S2.mu", s["mu_values"], **common),
            "clearance": analysis.bifurcation(str(path), "S2.clearance", s["clearance_values"], **common)}
     if s["sensitivity"]:
@@ -410,7 +429,7 @@ def _kind_set(kinds, values, sig):
     return sorted({kinds[v][sig].kind for v in values if sig in kinds.get(v, {})})
 
 
-def chaos_rows(bif, kinds, s):
+def chaos_rows(bif, kinds, s, bands=None):
     """The paper's central claim as rows: the clearance's motion in the chaos window (mu 0.01,
     0.02) and above it, the platform's, the clearance study, and where the velocity range peaks."""
     Y, Z = "S2.eccentricity[1]", "platform.z"
@@ -427,6 +446,9 @@ def chaos_rows(bif, kinds, s):
             band = sorted({c[Y].kind for c in list(sens.values()) + list(kinds.get("sens_rtol", {}).values())
                            if Y in c} | {ours})
             frm = f"{len(sens)} sensitivity variants + rtol {SENS_RTOL:g}"
+        if mu == SENS_MU and (bands or {}).get("kind 0.01"):
+            kb, what = bands["kind 0.01"]
+            band, frm = sorted(set(band or [ours]) | set(kb)), ", ".join(x for x in (frm, "--bands: " + what) if x)
         rows.append(row(f"clearance Y motion at mu {mu:g} (paper: chaotic, window 0.010-0.022)", "motion kind", ours,
                         "chaotic", band=band, band_from=frm, group="chaos"))
     above = [v for v in mu_k if float(v) > 0.022]

@@ -140,6 +140,9 @@ def _slider(tr):
 
 
 def _peak(t, y, t_max=None):
+    """(largest |y|, its time) up to t_max; (nan, nan) without samples (a run shorter than a window)."""
+    if not len(t):
+        return float("nan"), float("nan")
     keep = np.ones(len(t), bool) if t_max is None else t <= t_max + 1e-12
     i = int(np.argmax(np.abs(np.where(keep, y, 0.0))))
     return float(abs(y[i])), float(t[i])
