@@ -268,18 +268,23 @@ def _band(bands, key, ours):
     return (min(b[0], ours), max(b[1], ours)), b[2]
 
 
-def response_rows(runs, s, t_eval, notes, bands=None):
-    """Sec. 4.2: the platform's deviation from the ideal law (mu 0.05, 0.10) and the X offset row."""
-    law = np.array([np.concatenate(mod.platform_position(t)) for t in t_eval])
-    results = []
+def platform_series(runs, s):
+    """(mu, trajectory, [platform X, Y, Z series]) of the response runs at mu 0.05 and 0.10 (K printed)."""
     for mu in (0.05, 0.10):
         if (mu, "printed") not in runs:
             continue
         tr, _ = runs[(mu, "printed")]
         mech = load(model_path("four_ups_upu"), clearances=["S2"],
                     overrides={**s["overrides"], "S2.mu": mu, "S2.clearance": s["clearance"]})
-        for j, c in enumerate("xyz"):
-            se = analysis.series(tr, f"platform.{c}", mech)
+        yield mu, tr, [analysis.series(tr, f"platform.{c}", mech) for c in "xyz"]
+
+
+def response_rows(runs, s, t_eval, notes, bands=None):
+    """Sec. 4.2: the platform's deviation from the ideal law (mu 0.05, 0.10) and the X offset row."""
+    law = np.array([np.concatenate(mod.platform_position(t)) for t in t_eval])
+    results = []
+    for mu, tr, platform in platform_series(runs, s):
+        for j, (c, se) in enumerate(zip("xyz", platform)):
             notes.append(f"mu = {mu}: platform {c.upper()} deviation from the ideal motion law: position "
                          f"{1e6 * np.abs(se.x - law[:, j]).max():.1f} um, velocity "
                          f"{1e3 * np.abs(se.xdot - law[:, 3 + j]).max():.2f} mm/s")
@@ -340,14 +345,9 @@ def response_figure(out, runs, s, t_eval, t_end):
     law = np.array([np.concatenate(mod.platform_position(t)) for t in t_eval])
     fig, axr = plt.subplots(3, 3, figsize=(12, 8), sharex=True)
     two = t_eval >= t_end - 2 * T - 1e-9
-    for mu in (0.05, 0.10):
-        if (mu, "printed") not in runs:
-            continue
-        tr, _ = runs[(mu, "printed")]
-        mech = load(model_path("four_ups_upu"), clearances=["S2"], overrides={**s["overrides"], "S2.mu": mu, "S2.clearance": s["clearance"]})
+    for mu, tr, platform in platform_series(runs, s):
         sel = tr.t >= t_end - 2 * T - 1e-9
-        for j, c in enumerate("xyz"):
-            se = analysis.series(tr, f"platform.{c}", mech)
+        for j, se in enumerate(platform):
             for r, y in enumerate((se.x, se.xdot, np.gradient(se.xdot, tr.t))):
                 axr[r, j].plot(tr.t[sel], y[sel], lw=0.7, label=f"mu {mu}")
     for j, c in enumerate("XYZ"):
@@ -563,7 +563,8 @@ def sensitivity_tables(bif, s):
         sens.append({"title": f"what the motion at mu = {SENS_MU} (the paper's chaotic end, 0.5 mm gap) hinges on: "
                               "one reconstructed quantity changed at a time",
                      "columns": ["variant", "rtol", "clearance Y (integration tolerance only)",
-                                 "Poincaré spread of clearance Y [um]", "platform Z", "Poincaré spread of platform Z [um]"],
+                                 "Poincaré spread of clearance Y [um]", "platform Z",
+                                 "Poincaré spread of platform Z [um]"],
                      "rows": rows,
                      "note": f"{s['transient']} transient + {s['cycles']} recorded periods per run; kinds here at the "
                              "integration tolerance alone (the results table applies the clearance's resolution). The "

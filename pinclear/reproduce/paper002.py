@@ -113,7 +113,8 @@ def _response_runs(out, s, executor):
     sim = dict(method="lagrange", integrator="RK45", rtol=RTOL, dt_out=dt, q0=q0, v0=v0)
     for label, active, vary, fixed in RESPONSE_SWEEPS:
         res = sweep(path, vary, t_end, out / "runs" / label, sim_options=sim,
-                    load_options={"clearances": active, "overrides": fixed}, executor=executor, progress=None)
+                    load_options={"clearances": active, "overrides": {**s.get("overrides", {}), **fixed}},
+                    executor=executor, progress=None)
         for p in res.points:
             c_mm = 1e3 * next(iter(p.overrides.values()))
             key = f"{label} {c_mm:g}"
@@ -374,7 +375,8 @@ def _bifurcation(parameter, values, period, s, executor, overrides):
     return an.bifurcation(model_path("nine_bar"), parameter, values, period=period, signal=SIGNALS,
                           cycles=s["cycles"], transient=s["transient cycles"], per_period=100, keep_portrait=True,
                           sim_options=dict(method="lagrange", integrator="RK45", rtol=RTOL),
-                          load_options=dict(clearances=list(JOINTS), overrides=overrides), executor=executor)
+                          load_options=dict(clearances=list(JOINTS), overrides={**s.get("overrides", {}), **overrides}),
+                          executor=executor)
 
 
 def _chaos(s, out, executor, plt):
@@ -693,7 +695,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    s = {**_settings(quick), **(settings or {})}
+    s = {**_settings(quick), **(settings or {})}      # "overrides": load() overrides of every run (e.g. A.ce)
     wall0 = time.perf_counter()
     ex, close = make_executor(workers, scheduler)
     try:
