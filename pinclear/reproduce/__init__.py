@@ -40,7 +40,7 @@ def reproduce(paper, out, quick=False, workers=None, scheduler=None, bands=False
 
 def build_parser():
     """The parser of `pinclear reproduce`."""
-    from .._argtypes import OneLineParser
+    from .._argtypes import OneLineParser, number
 
     ap = OneLineParser(prog="pinclear reproduce", description=__doc__.splitlines()[0])
     ap.add_argument("paper", choices=sorted(PAPERS), help="the source paper's study to run")
@@ -48,7 +48,7 @@ def build_parser():
     ap.add_argument("--bands", action="store_true",
                     help="measure each row's band over the reconstructed inputs (one-at-a-time plus a small "
                          "space-filling sample; costs runs: see --budget)")
-    ap.add_argument("--budget", type=float, default=None, metavar="CPU_S",
+    ap.add_argument("--budget", type=number("positive", "CPU s"), default=None, metavar="CPU_S",
                     help="CPU seconds the bands may use (default: the whole design)")
     ap.add_argument("--out", default=None, help="report folder (default: reproduce_PAPER)")
     ap.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per CPU)")
@@ -66,8 +66,6 @@ def cli_main(argv=None) -> int:
         ap.error(f"--workers must be a positive number of processes, got {args.workers}")
     if args.budget is not None and not args.bands:
         ap.error("--budget is the CPU budget of --bands: give --bands too")
-    if args.budget is not None and not args.budget > 0:
-        ap.error(f"--budget must be a positive number of CPU seconds, got {args.budget}")
     rep = reproduce(args.paper, out, quick=args.quick, workers=args.workers, scheduler=args.scheduler,
                     bands=args.bands, budget=args.budget)
     print(f"{rep['title']}: {summary(rep['results'])}; report: {out / 'report.md'}")
