@@ -72,7 +72,7 @@ GROUPS = {
            "excursion needs an acceleration of at least v^2 / (2 d) = 7 m/s^2, the paper prints 0.21 m/s^2 (Fig. 9); "
            "ours follow from the deviation, band as for the deviation. Fig. 10's acceleration amplitudes (0.19-0.42 "
            "m/s^2) are compared with ours after the first landing (the derivative of the exact velocity on the "
-           "output grid)",
+           "output grid: a coarser grid can only miss part of a peak, so our lower end is a lower bound)",
     "force": "the whole run's largest force is the slider's first landing in the gap (it starts centred; the paper "
              "does not give its initial state): not the paper's quantity. After the landing (t >= settle) the force "
              "is the contact's steady load, set by the reconstructed slider geometry; its band is not measured",
