@@ -302,10 +302,10 @@ def force_rows(runs, s, notes, bands=None):
     results, spans, contact = [], {}, []
     nav = int(round(SMOOTH / s["dt_out"]))
     for (mu, stiff), (tr, Fm) in runs.items():
-        band = moving_average(Fm, nav)
+        smooth = moving_average(Fm, nav)
         if stiff != "printed":
             notes.append(f"mu = {mu}, K conformal (R1 R2/(R_socket - R_ball)): contact force mean {Fm.mean():.1f} N, "
-                         f"raw {Fm.min():.1f}-{Fm.max():.0f} N, {SMOOTH:.2g} s band {band.min():.1f}-{band.max():.1f} N")
+                         f"raw {Fm.min():.1f}-{Fm.max():.0f} N, {SMOOTH:.2g} s band {smooth.min():.1f}-{smooth.max():.1f} N")
             continue
         lo, hi = PAPER_FORCE[mu]
         results += [row(f"contact force mean, mu {mu}", "load force", Fm.mean(), 0.5 * (lo + hi), "N",
@@ -321,7 +321,7 @@ def force_rows(runs, s, notes, bands=None):
         share = float(np.mean(tr.outputs["S2.contact"] > 0))
         contact.append((mu, share, float(Fm.min())))
         notes.append(f"mu = {mu}, K printed: raw contact force {Fm.min():.1f}-{Fm.max():.0f} N, {SMOOTH:.2g} s average "
-                     f"{band.min():.1f}-{band.max():.1f} N (span {band.max() - band.min():.1f} N), in contact "
+                     f"{smooth.min():.1f}-{smooth.max():.1f} N (span {smooth.max() - smooth.min():.1f} N), in contact "
                      f"{100 * share:.0f} % of the window")
     if len(spans) == len(PAPER_SPAN):
         ours = f"smallest at mu {min(spans, key=spans.get):g}"
