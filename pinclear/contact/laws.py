@@ -38,7 +38,8 @@ A floor tied to the contact's scale is the same key set to that scale (e.g. the 
 the drive period, or the approach speed whose Hertz impact penetrates 1 % of the clearance);
 floors that bind (10 and 100 mm/s, above the held 1.83 mm/s) lower the persistent contact's
 damping and are measured against the default in docs/contact_models.md ("Persistent contact").
-The default stays: no verdict of papers 000 or 002 moves with the floor (same document).
+The default stays: no class of a row of papers 000 or 002 moves with the floor, though paper 002's
+kind of motion at 0.01 mm and its steady-regime peaks do (same document).
 
 Which law suits which restitution (see ``restitution_1dof`` and ``pinclear bench
 restitution``): Lankarani-Nikravesh is derived for ce close to 1 and overestimates the
