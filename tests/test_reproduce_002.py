@@ -127,3 +127,24 @@ def test_cli_takes_workers_and_scheduler(tmp_path, capsys):
     assert exc.value.code == 0
     usage = capsys.readouterr().out
     assert "--scheduler ADDRESS" in usage and "--workers" in usage and "002" in usage
+
+
+def test_bands_run_the_one_at_a_time_design_through_the_sweep_runner(tmp_path):
+    """--bands for sec. 3 (0.6 s runs here): with a budget below one point's cost only the nominal and
+    one-at-a-time points run (1 + 2 per numeric input + 1 per other choice = 11); every band holds the
+    nominal point's value, and the journal radius moves the first impact the way K ~ sqrt(R_eff) says
+    (a larger journal, a stiffer contact, a larger peak)."""
+    import pinclear
+    from pinclear.models import model_path
+    from pinclear.reproduce import bands
+
+    s = {**p002._settings(True), "response t_end [s]": 0.6, "output step [s]": 1e-3}
+    ideal = pinclear.simulate(pinclear.load(model_path("nine_bar")), 0.6, rtol=p002.RTOL, dt_out=1e-3)
+    got, table = bands.paper002_bands(tmp_path, s, "serial", ideal.q[0].tolist(), ideal.v[0].tolist(), budget=1.0,
+                                      cost=0.5)
+    rows = {r[0]: r for r in table["rows"]}
+    assert len(rows) == 11 and all(r[-1] == "success" for r in rows.values())
+    for key, col in (("A shift d", 1), ("A 0.5 mm impact force peak", 3)):
+        lo, hi, what = got[key]
+        assert lo <= rows["nominal"][col] <= hi and what.startswith("11 of 11 input sets")
+    assert rows["journal radius = 0.005"][3] < rows["nominal"][3] < rows["journal radius = 0.02"][3]
