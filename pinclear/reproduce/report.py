@@ -106,8 +106,44 @@ def _html_table(columns, rows):
                                 for row in rows) + "</table>")
 
 
+def bands_figure(rep, out, name="bands.png"):
+    """Each numeric row with a measured band, as a ratio to the paper's value (log scale): the band
+    as a bar, ours as a dot, the paper at 1 with its tolerance tau shaded; None if there is none."""
+    rows = [r for r in rep["results"] if isinstance(r["ours"], float) and r["band_from"] and r.get("paper")
+            and r["verdict"] not in ("calibration", "not comparable") and min(r["band"]) * r["paper"] > 0]
+    if not rows:
+        return None
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(12, 0.32 * len(rows) + 1.4))
+    for i, r in enumerate(rows):
+        p, (lo, hi) = r["paper"], r["band"]
+        colour = {"contradicted": "C3", "reproduced": "C2"}.get(r["verdict"], "C0")
+        ax.fill_betweenx([i - 0.4, i + 0.4], 1 - r["tau"] / abs(p), 1 + r["tau"] / abs(p), color="0.85", lw=0)
+        ax.plot([lo / p, hi / p], [i, i], color=colour, lw=4, solid_capstyle="butt")
+        ax.plot([r["ours"] / p], [i], "o", ms=4, color=colour, mec="k", mew=0.6)
+    ax.axvline(1.0, color="k", lw=0.8)
+    ax.set_xscale("log")
+    ax.set_yticks(range(len(rows)))
+    ax.set_yticklabels([r["name"][:80] for r in rows], fontsize=7)
+    ax.invert_yaxis()
+    fig.subplots_adjust(left=0.42, right=0.98, bottom=1.0 / (0.32 * len(rows) + 1.4), top=0.98)
+    ax.set_xlabel("ours / paper. Bar: our band over the varied inputs (red contradicted, green reproduced, blue "
+                  "undecided);\ndot: ours at the nominal inputs; grey: the paper's value +- tau", fontsize=8)
+    fig.savefig(Path(out) / name, dpi=90)
+    plt.close(fig)
+    return name
+
+
 def write_report(rep, out):
+    """Write the report files; adds bands.png to ``rep['figures']`` (in place) when a row's band was measured."""
     out = Path(out)
+    fig = bands_figure(rep, out)
+    if fig and fig not in rep["figures"]:
+        rep["figures"] = list(rep["figures"]) + [fig]
     rep = dict(rep, counts=counts(rep["results"]))
     atomic_write_text(out / "report.json", json.dumps(jsonable(rep), indent=1))
     atomic_write_text(out / "report.md", markdown(rep))
