@@ -102,3 +102,12 @@ def test_paper003_reduced_run_z_deviation_grows_with_the_clearance(tmp_path):
     d1, d2 = grow["z_dev_m"]
     assert 1e-6 < d1 < 1e-4                  # inside the gap's reach, far above the ideal residual
     assert 1.5 <= d2 / d1 <= 2.2
+
+
+def test_force_span_ordering_leaves_spans_within_tolerance_unordered():
+    # the paper's 47.3 / 24.9 / 37.6 N: smallest at mu 0.10 alone; ours at nominal inputs 26.4 / 60.8 / 115.4 N;
+    # spans within the force-span tolerance (10 %) of the least are tied
+    assert paper000.smallest_spans(paper000.PAPER_SPAN) == ["smallest at mu 0.1"]
+    assert paper000.smallest_spans({0.05: 26.4, 0.10: 60.8, 0.15: 115.4}) == ["smallest at mu 0.05"]
+    assert paper000.smallest_spans({0.05: 26.67, 0.10: 26.6, 0.15: 26.54}) == [
+        "smallest at mu 0.05", "smallest at mu 0.1", "smallest at mu 0.15"]

@@ -334,8 +334,10 @@ def paper000_bands(s, executor, budget=None, quick=True):
     fields = [k for k in next(iter(ok.values()), {}) if k not in ("status", "kind 0.01")]
     bands = {f: (lo, hi, what) for f, (lo, hi) in spread(ok, fields).items()}
     bands["kind 0.01"] = (sorted({v["kind 0.01"] for v in ok.values()}), what)
-    bands["smallest span"] = (sorted({"smallest at mu " + min((m for m in ("0.05", "0.1", "0.15")),
-                                                               key=lambda m: v[f"span {m}"]) for v in ok.values()}), what)
+    from .paper000 import smallest_spans
+
+    bands["smallest span"] = (sorted({k for v in ok.values() for k in smallest_spans(
+        {float(m): v[f"span {m}"] for m in ("0.05", "0.1", "0.15")})}), what)
     cols = ["span 0.05", "span 0.1", "span 0.15", "x offset 0.05", "x offset 0.1", "kind 0.01"]
     rows = [[lb] + [got[lb].get(c, float("nan")) for c in cols] + [got[lb]["status"]] for lb, _ in pts]
     return bands, {"title": "bands (--bands): paper 000's measured quantities over the reconstructed inputs",

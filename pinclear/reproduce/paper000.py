@@ -297,6 +297,16 @@ def response_rows(runs, s, t_eval, notes, bands=None):
     return results
 
 
+def smallest_spans(spans):
+    """['smallest at mu X', ...]: every mu whose force span lies within the span's tolerance
+    (verdicts.TOLERANCES['force span']) of the smallest: spans closer than that are not ordered."""
+    from .verdicts import tolerance
+
+    rel, _ = tolerance("force span")
+    least = min(spans.values())
+    return sorted(f"smallest at mu {mu:g}" for mu, v in spans.items() if v <= least * (1.0 + rel))
+
+
 def force_rows(runs, s, notes, bands=None):
     """Sec. 4.3: the force band per mu (calibration), its span and the span's ordering by mu."""
     results, spans, contact = [], {}, []
@@ -324,7 +334,7 @@ def force_rows(runs, s, notes, bands=None):
                      f"{smooth.min():.1f}-{smooth.max():.1f} N (span {smooth.max() - smooth.min():.1f} N), in contact "
                      f"{100 * share:.0f} % of the window")
     if len(spans) == len(PAPER_SPAN):
-        ours = f"smallest at mu {min(spans, key=spans.get):g}"
+        ours = smallest_spans(spans)
         band, frm = _band(bands or {}, "smallest span", ours)
         paper = f"smallest at mu {min(PAPER_SPAN, key=PAPER_SPAN.get):g}"
         results.append(row("mu with the smallest contact-force span", "ordering", ours, paper, band=band, band_from=frm,
