@@ -410,6 +410,10 @@ def cmd_bench(args):
         from .contact import bench as cbench
 
         return cbench.restitution_main(args.rest)
+    if args.what == "contact-laws":
+        from .contact import bench as cbench
+
+        return cbench.contact_laws_main(args.rest)
     if args.what == "atlas":
         from . import atlas
 
@@ -642,8 +646,9 @@ def build_parser():
     s.set_defaults(func=cmd_info)
 
     s = sub.add_parser("bench", help="bench rhs FILE | bench runs [FILES] | bench work-precision FILE | "
-                       "bench restitution | bench atlas [FILES] [--quick]", formatter_class=HelpFormatter)
-    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution", "atlas"], help="which benchmark")
+                       "bench restitution | bench contact-laws | bench atlas [FILES] [--quick]", formatter_class=HelpFormatter)
+    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution", "atlas", "contact-laws"],
+                   help="which benchmark")
     s.add_argument("file", nargs="?", help="mechanism sidecar or bundled name (runs, atlas: default all scenes)")
     _add_model_args(s, file_required=False)
     s.add_argument("--methods", default=None, help="comma-separated formulations (default: rhs all; atlas all but "
@@ -711,7 +716,7 @@ def main(argv=None):
         parser = build_parser()
         args, unknown = parser.parse_known_args(argv)
         if unknown:
-            if getattr(args, "what", None) == "restitution":
+            if getattr(args, "what", None) in ("restitution", "contact-laws"):
                 args.rest = list(args.rest or []) + unknown     # its own options, parsed there
             else:
                 parser.error(f"unrecognized arguments: {' '.join(unknown)}")
