@@ -48,10 +48,10 @@ def _add_model_args(p, file_required=True):
 #: the simulate options recorded in OUT/run.json (a record for the user: --resume compares the
 #: command line with it and takes nothing from it)
 RUN_KEYS = ("file", "clearance", "set", "option", "trust", "t_end", "method", "integrator", "rtol", "atol", "h",
-            "max_step", "dt_out", "alpha", "beta", "max_cpu", "min_mean_step")
+            "max_step", "dt_out", "alpha", "beta", "max_cpu", "min_mean_step", "start")
 #: the options that define the run a checkpoint continues (--resume refuses a command line that
 #: differs in one of them); trust is the user's decision of the moment, never the folder's
-RESUME_KEYS = tuple(k for k in RUN_KEYS if k not in ("trust", "max_cpu"))
+RESUME_KEYS = tuple(k for k in RUN_KEYS if k not in ("trust", "max_cpu", "start"))
 #: the files a simulate run writes into --out
 RUN_FILES = ("run.json", "trajectory.npz", "summary.json", "checkpoint.npz")
 
@@ -163,7 +163,7 @@ def _resume_command(recorded: dict, folder) -> str:
     parts = ["pinclear", "simulate", str(recorded.get("file"))]
     for k in RUN_KEYS:
         v = recorded.get(k)
-        if k == "file" or v is None or v is False or v == []:
+        if k in ("file", "start") or v is None or v is False or v == []:
             continue
         flag = "--" + k.replace("_", "-")
         if v is True:
@@ -266,6 +266,8 @@ def _simulate(args, stop):
             print("pinclear: interrupted before the run started; nothing computed", file=sys.stderr)
             return 130
         kw = {k: getattr(args, k) for k in ("alpha", "beta") if getattr(args, k) is not None}
+        if resume is None:
+            kw.update(_start_options(args.start, mech))
         max_step = np.inf if args.max_step is None else args.max_step
         atomic_write_text(out / "run.json", json.dumps({k: getattr(args, k) for k in RUN_KEYS}, indent=2))
 
@@ -296,6 +298,25 @@ def _simulate(args, stop):
                     bar.close()
         stop.critical = True           # from here on, everything computed is written whatever arrives
         return _save_run(args, mech, traj, out, stop)
+
+
+def _start_options(start, mech) -> dict:
+    """simulate()'s start, q0, v0 from --start NAME [FILE] (pinclear.kinematics.STARTS)."""
+    from .kinematics import STARTS
+    from .simulate import read_state
+
+    name, rest = (start[0], start[1:]) if start else ("ideal", [])
+    if name not in STARTS:
+        raise InputError(f"unknown start {name!r}", key="--start", choices=STARTS)
+    if name == "state":
+        if len(rest) != 1:
+            raise InputError("state needs one FILE (.npz with arrays q and v, or .json {\"q\": [...], "
+                             "\"v\": [...]})", key="--start")
+        q, v = read_state(rest[0], mech)
+        return {"start": name, "q0": q, "v0": v}
+    if rest:
+        raise InputError(f"{name} takes no FILE (only state FILE does)", key="--start")
+    return {"start": name}
 
 
 def _fallback_path(target: Path) -> list[Path]:
@@ -604,6 +625,11 @@ def build_parser():
     s.add_argument("--checkpoint-every", type=number(unit="s"), default=None, metavar="SECONDS",
                    help="write OUT/checkpoint.npz every SECONDS of CPU, so a killed run can be resumed "
                         "(default: only when the run ends early)")
+    s.add_argument("--start", nargs="+", default=None, metavar=("NAME", "FILE"),
+                   help="the state at t = 0: ideal (default: the ideal mechanism's assembled state and velocity, "
+                        "every clearance centred with zero relative velocity, as the papers start), rest, "
+                        "least-energy (the clearance mechanism's velocity of least kinetic energy: a start-up "
+                        "impact) or state FILE (q and v from a .npz or .json, kept off centre)")
     s.add_argument("--resume", default=None, metavar="DIR",
                    help="continue the interrupted or stopped run saved in DIR (same options, same steps)")
     s.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
