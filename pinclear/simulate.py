@@ -78,8 +78,6 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True, start="id
     """Assembled q, consistent v (by the named ``start``: pinclear.kinematics.start_state) and
     the force elements' initial internal states."""
     ws = form.ws
-    if start == "state" and (q0 is None or v0 is None):
-        raise InputError("start 'state' needs both q0 and v0 (a state file: --start state FILE)", key="start")
     q = np.array(mech.q0 if q0 is None else q0, float)
     v_guess = np.array(mech.v0 if v0 is None else v0, float)
     if q.shape != (mech.nq,) or v_guess.shape != (mech.nv,):
@@ -99,7 +97,7 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True, start="id
 def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAULT, atol=None, t_eval=None,
              dt_out=None, q0=None, v0=None, t0=0.0, max_step=np.inf, h=None, first_step=None, assemble=True,
              strict=False, max_cpu=None, progress=None, checkpoint=None, checkpoint_every=None, resume=None,
-             min_mean_step=None, loop="auto", start="ideal", **method_options) -> Trajectory:
+             min_mean_step=None, loop="auto", start=None, **method_options) -> Trajectory:
     """Integrate the forward dynamics of ``mech`` from t0 to t_end; return a Trajectory.
 
     method: lagrange | projection | pinocchio | proximal | manifold (pinclear.formulations).
@@ -123,14 +121,17 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     ``checkpoint_every`` CPU seconds and when the run ends early; ``resume`` (a Checkpoint)
     continues such a run exactly where it stopped (same steps, same samples).
 
-    start: the state at t0 (pinclear.kinematics.start_state): "ideal" (default: the ideal
-    mechanism's assembled state and velocity, every clearance centred with zero relative
-    velocity, as the papers start), "rest", "least-energy" (the clearance mechanism's velocity of
-    least kinetic energy: a start-up impact) or "state" (q0 and v0 as given, assembled onto the
-    clearance mechanism's own constraints; :func:`read_state` reads them from a file). q0 and
-    v0 are the guesses the other starts assemble from.
+    start: the state at t0 (pinclear.kinematics.start_state): "ideal" (the default without q0:
+    the ideal mechanism's assembled state and velocity, every clearance centred with zero
+    relative velocity, as the papers start), "rest", "least-energy" (the clearance mechanism's
+    velocity of least kinetic energy: a start-up impact) or "state" (the default with q0: q0 and
+    v0 as given, assembled onto the clearance mechanism's own constraints only, so an off-centre
+    journal stays off centre; :func:`read_state` reads them from a file). The other starts take
+    q0 and v0 as the guesses they assemble from. Without clearances all starts but "rest" agree.
     """
     integ = stepping.get(integrator)
+    if start is None:
+        start = "ideal" if q0 is None else "state"
     if start not in kinematics.STARTS:
         raise InputError(f"unknown start {start!r}", key="start", choices=kinematics.STARTS)
     if loop not in ("auto", "python"):

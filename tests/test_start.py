@@ -115,10 +115,13 @@ def test_state_start_keeps_given_state(nine_a, tmp_path, sim):
     qs, vs = _read(tmp_path / "s.npz", nine_a)
     tr = sim(nine_a, 1e-4, start="state", q0=qs, v0=vs)
     assert np.isclose(np.linalg.norm(_journal_relative(nine_a, tr.q[0], tr.v[0])[0][:2]), e_off, rtol=1e-6)
-    tr = sim(nine_a, 1e-4, q0=qs, v0=vs)                # default ideal: centred again
+    tr = sim(nine_a, 1e-4, q0=qs, v0=vs)                # given q0: the state start by default
+    assert np.isclose(np.linalg.norm(_journal_relative(nine_a, tr.q[0], tr.v[0])[0][:2]), e_off, rtol=1e-6)
+    tr = sim(nine_a, 1e-4, q0=qs, v0=vs, start="ideal")  # the ideal start centres it
     assert np.linalg.norm(_journal_relative(nine_a, tr.q[0], tr.v[0])[0][:2]) < TOL_ASSEMBLY
-    with pytest.raises(InputError, match="needs both q0 and v0"):
-        pinclear.simulate(nine_a, 1e-4, start="state")
+    tr = sim(nine_a, 1e-4)                               # no q0: the ideal start by default
+    assert np.linalg.norm(_journal_relative(nine_a, tr.q[0], tr.v[0])[0][:2]) < TOL_ASSEMBLY
+    assert np.linalg.norm(_journal_relative(nine_a, tr.q[0], tr.v[0])[1][:2]) < 1e-8
 
 
 def _read(path, mech):
