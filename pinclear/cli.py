@@ -400,18 +400,87 @@ def cmd_info(args):
     from . import kinematics
 
     mech = _load(args)
-    q = kinematics.assemble(mech)
+    q = kinematics.start_state(mech, "ideal")[0]       # where a run starts: freed joints assembled with the rest
     mob = kinematics.mobility(mech, q)
     info = mech.describe()
+    model = mech.model
     info.update({"mobility": mob["mobility"], "closure_rows": mob["rows"], "rank": mob["rank"],
                  "redundant_rows": mob["redundant_rows"], "condition": mob["condition"],
-                 "parameters": mech.parameters, "q_assembled": q.tolist()})
+                 "parameters": mech.parameters, "q_assembled": q.tolist(),
+                 "q_assembled_by_joint": {model.names[j]: q[model.joints[j].idx_q:model.joints[j].idx_q
+                                                            + model.joints[j].nq].tolist()
+                                          for j in range(1, model.njoints)}})
     from .economy import economy_report
 
     info["economy"] = economy_report(mech, t_end=args.along, threshold=args.threshold)
     info["redundant_rows_named"] = [r["name"] for r in info["economy"]["redundant_rows"]]
-    print(json.dumps(info, indent=2, default=str))
+    if args.json:
+        print(json.dumps(info, indent=2, default=str))
+    else:
+        print(info_text(mech, q, mob, info["economy"]))
     return 0
+
+
+def _actuation(n_drives, mobility):
+    """'3 drives on mobility 3: fully actuated' and its under- and over-actuated kin."""
+    head = f"{n_drives} drive{'s' * (n_drives != 1)} on mobility {mobility}"
+    if n_drives == mobility:
+        return f"{head}: fully actuated (the drives prescribe every free motion)"
+    if n_drives < mobility:
+        return f"{head}: under-actuated ({mobility - n_drives} free motion(s) follow the dynamics)"
+    return f"{head}: over-actuated ({n_drives - mobility} drive row(s) beyond the mobility: the laws must agree)"
+
+
+def info_text(mech, q, mob, economy) -> str:
+    """pinclear info's readable summary: counts, mobility and actuation, the branch, the
+    assembly residual, the clearances declared and the assembled q by joint name."""
+    from . import kinematics
+
+    ws = mech.workspace()
+    phi = kinematics.closure_residual(mech, ws, q, with_drives=True)
+    J = kinematics.jacobian(mech, ws, q, with_drives=True)
+    lines = [f"{mech.name} ({mech.path}): {mech.model.njoints - 1} tree joints, nq {mech.nq}, nv {mech.nv}",
+             f"closures: {len(mech.closures)} ({', '.join(c.name + ' ' + c.type for c in mech.closures) or 'none'}): "
+             f"{mob['rows']} rows, rank {mob['rank']}, condition {mob['condition']:.3g}; redundant rows: "
+             f"{', '.join(mob['redundant_rows']) or 'none'}",
+             f"mobility {mob['mobility']}; {_actuation(len(mech.drives), mob['mobility'])}"]
+    if mech.replaced_closures:
+        ideal = kinematics.mobility(kinematics.ideal_mechanism(mech), q)["mobility"]
+        lines.append(f"  with {', '.join(mech.replaced_closures)} freed by clearances; the ideal mechanism's "
+                     f"mobility is {ideal}")
+    if J.shape[0] == J.shape[1] and J.size:
+        sign = np.sign(np.linalg.det(J))
+        lines.append(f"branch: sign det [closure rows; drive rows] = {int(sign):+d} (the assembly mode; it changes "
+                     "only through a singular configuration)")
+    else:
+        lines.append(f"branch: not defined by a sign (the Jacobian with drives is {J.shape[0]} x {J.shape[1]})")
+    lines.append(f"assembly residual at t = 0: {np.abs(phi).max() if phi.size else 0.0:.3g} (closures and drives, "
+                 "m or rad)")
+    active = {f.name for f in mech.clearances}
+    decl = [c for c in (mech.sidecar.get("clearances") or []) if isinstance(c, dict)]
+    lines.append(f"clearances declared: {len(decl) or 'none'}")
+    for c in decl:
+        state = "active" if c.get("name") in active else f"inactive (--clearance {c.get('name')})"
+        size = c.get("clearance")
+        size = f", clearance {1e3 * float(size):g} mm" if isinstance(size, (int, float)) else ""
+        lines.append(f"  {c.get('name')}: {c.get('type')} on closure {c.get('closure')}{size}, {state}")
+    lines.append("assembled q by joint (initial guess -> assembled; rad and deg for revolute, m for prismatic):")
+    model = mech.model
+    for j in range(1, model.njoints):
+        jm = model.joints[j]
+        sl = slice(jm.idx_q, jm.idx_q + jm.nq)
+        a, g = q[sl], mech.q0[sl]
+        if jm.nq == 1:
+            unit = "m" if "Prismatic" in jm.shortname() or jm.shortname()[-2] == "P" else "rad"
+            deg = f" ({np.degrees(a[0]):.4g} deg)" if unit == "rad" else ""
+            lines.append(f"  {model.names[j]:<14s} {g[0]: .6g} -> {a[0]: .9g} {unit}{deg}")
+        else:
+            lines.append(f"  {model.names[j]:<14s} {np.round(g, 6).tolist()} -> {np.round(a, 9).tolist()}")
+    planar = (economy or {}).get("planarity") or {}
+    if "planar" in planar:
+        lines.append(f"planar: {'yes' if planar['planar'] else 'no'}")
+    lines.append("(--json: every field as JSON, the economy report included)")
+    return "\n".join(lines)
 
 
 def _split_names(text, default):
@@ -663,6 +732,8 @@ def build_parser():
                    help="also simulate to T_END [s] and test planarity and each body's inertia along the run")
     s.add_argument("--threshold", type=number(), default=0.01,
                    help="relative drive-force change below which a body's inertia is droppable")
+    s.add_argument("--json", action="store_true",
+                   help="print every field as JSON (the economy report included) instead of the summary")
     s.set_defaults(func=cmd_info)
 
     s = sub.add_parser("bench", help="bench rhs FILE | bench runs [FILES] | bench work-precision FILE | "
