@@ -563,10 +563,12 @@ def cmd_bench(args):
 
 
 def cmd_sweep(args):
-    from .sweeps import parse_vary, sweep
+    from .sweeps import TABLE_CSV, TABLE_NPZ, parse_vary, sweep
 
     vary = dict(parse_vary(v) for v in args.vary)
-    sim = {"method": args.method, "integrator": args.integrator, "rtol": args.rtol}
+    sim = {"method": args.method, "integrator": args.integrator}
+    if args.rtol is not None:
+        sim["rtol"] = args.rtol
     if args.dt_out is not None:
         sim["dt_out"] = args.dt_out
     if args.max_cpu is not None:
@@ -583,6 +585,7 @@ def cmd_sweep(args):
     for p in res.points:
         counts[p.status] = counts.get(p.status, 0) + 1
     print(json.dumps({"folder": str(res.folder), "points": len(res.points), "computed_now": res.computed,
+                      "table": [str(res.folder / TABLE_CSV), str(res.folder / TABLE_NPZ)],
                       "status": counts, "failures": [{"point": p.overrides, "status": p.status, "message": p.message}
                                                      for p in res.failures]}, default=str))
     return 0 if not res.failures else 1
@@ -655,7 +658,8 @@ def _add_run_args(s, rtol):
                    help="forward-dynamics formulation (README: formulations)")
     s.add_argument("--integrator", default="RK45", choices=list(INTEGRATORS),
                    help="time integrator (RK4: fixed step --h)")
-    s.add_argument("--rtol", type=number(), default=rtol, help="relative tolerance of the adaptive integrators")
+    s.add_argument("--rtol", type=number(), default=rtol, help="relative tolerance of the adaptive integrators"
+                   + (" (default: simulate's, 1e-8)" if rtol is None else ""))
 
 
 def build_parser():
@@ -713,7 +717,7 @@ def build_parser():
                         "(linear), a:b:n:log, or v1,v2,... (repeatable: the grid of all combinations)")
     s.add_argument("--t-end", type=number(unit="s"), required=True, help="simulated time per point [s]")
     s.add_argument("--out", required=True, help="sweep folder (rerun into it to resume)")
-    _add_run_args(s, rtol=1e-6)
+    _add_run_args(s, rtol=None)      # None: simulate's own default (pinclear.simulate.RTOL_DEFAULT)
     s.add_argument("--dt-out", type=number(unit="s"), default=None,
                    help="output interval [s] (default: 500 intervals per run)")
     s.add_argument("--max-cpu", type=number(unit="s"), default=None,

@@ -85,3 +85,24 @@ def test_ideal_start_first_peak_much_smaller_than_least_energy(sim):
         assert tr.status == "success", tr.message
         peaks[start] = float(np.max(tr.outputs["P2.fn"]))
     assert peaks["ideal"] < 0.25 * peaks["least-energy"]
+
+
+def test_sweep_writes_a_table_at_simulates_tolerance(tmp_path, capsys):
+    """`pinclear sweep` without --rtol runs at simulate's 1e-8 (it was 1e-6, silently) and writes
+    table.csv + table.npz: one row per point, the summary's scalars, the same numbers as each
+    point's own trajectory file."""
+    import csv
+
+    out = tmp_path / "sw"
+    rc = cli.main(["sweep", str(RRR3), "--clearance", "P2", "--vary", "P2.clearance=1e-4,2e-4", "--t-end", "0.02",
+                   "--out", str(out), "--workers", "1", "--progress", "off"])
+    assert rc == 0, capsys.readouterr()
+    rows = list(csv.DictReader((out / "table.csv").open()))
+    npz = np.load(out / "table.npz")
+    assert [float(r["P2.clearance"]) for r in rows] == [1e-4, 2e-4] and list(npz["status"]) == ["success"] * 2
+    for i, r in enumerate(rows):
+        tr = pinclear.Trajectory.load(out / "points" / f"{i:05d}.npz")
+        assert float(r["rtol"]) == 1e-8 == tr.meta["rtol"]
+        assert int(r["events"]) == len(tr.stats["events"]) == npz["events"][i]
+        assert float(r["energy_balance.error"]) == tr.energy_balance()["error"]
+        assert r["energy_balance.ok"] == "True"
