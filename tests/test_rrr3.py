@@ -4,6 +4,7 @@ run at P2 starts from the sidecar as written (issue 41: it was refused for a 23 
 from __future__ import annotations
 
 import importlib.util
+import json
 import math
 
 import numpy as np
@@ -106,3 +107,29 @@ def test_sweep_writes_a_table_at_simulates_tolerance(tmp_path, capsys):
         assert int(r["events"]) == len(tr.stats["events"]) == npz["events"][i]
         assert float(r["energy_balance.error"]) == tr.energy_balance()["error"]
         assert r["energy_balance.ok"] == "True"
+
+
+def test_poincare_suggests_a_period_aligned_grid_and_labels_units(tmp_path, capsys):
+    """With the default grid (t_end / 500 = 4.1e-3 s, not a divisor of the 1 s period) the
+    section is interpolated and the command names --dt-out period/n with a short decimal
+    (1/250 = 0.004 s, the first n >= 244 with one); on that grid no sample is interpolated. The
+    portrait's axes carry the signal's SI unit (m, m/s; rad for a joint)."""
+    from pinclear.analysis import signals
+
+    runs = {}
+    for name, extra in (("default", []), ("aligned", ["--dt-out", "0.004"])):
+        out = tmp_path / name
+        assert cli.main(["simulate", str(RRR3), "--t-end", "2.05", "--out", str(out), "--progress", "off",
+                         *extra]) == 0
+        rep_dir = tmp_path / f"{name}_an"
+        assert cli.main(["analyse", "poincare", str(out / "trajectory.npz"), "--period", "1", "--signal", "A1",
+                         "--signal", "B1", "--out", str(rep_dir)]) == 0
+        runs[name] = json.loads((rep_dir / "poincare.json").read_text())
+    capsys.readouterr()
+    assert runs["default"]["A1"]["interpolated"] > 0
+    assert "--dt-out 0.004 (period 1 s / 250)" in runs["default"]["A1"]["hint"]
+    assert runs["aligned"]["A1"]["interpolated"] == 0 and "hint" not in runs["aligned"]["A1"]
+    assert signals.axis_label("P2.eccentricity[0]", "m", rate=True) == "d/dt P2.eccentricity[0] [m/s]"
+    mech = pinclear.load(RRR3)
+    tr = pinclear.Trajectory.load(tmp_path / "aligned" / "trajectory.npz", mech=mech)
+    assert signals.series(tr, "A1", mech).unit == "rad"
