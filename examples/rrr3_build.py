@@ -23,8 +23,9 @@ AMP, OMEGA = 0.2, 2 * math.pi                     # drive amplitude [rad] and sp
 def build() -> Builder:
     b = Builder("rrr3", gravity=(0, 0, -9.81), description="planar 3-RRR, platform on limb 1, cut joints P2, P3")
     a = [math.pi / 2 + 2 * math.pi * i / 3 for i in range(3)]     # the limbs' directions
-    c1 = (RP * math.cos(a[0]), RP * math.sin(a[0]))
+    c1 = (round(RP * math.cos(a[0]), 15), round(RP * math.sin(a[0]), 15))      # P1 on the platform (cos 90 deg = 0)
     b.body("platform", M_PLATFORM, com=(-c1[0], -c1[1], 0), inertia=plate(M_PLATFORM, RP))
+    b.platform("platform", xyz=(-c1[0], -c1[1], 0))                # its centre, for the platform figure
     for i in range(3):
         k, u = i + 1, (-math.cos(a[i]), -math.sin(a[i]))         # u: base pivot -> platform point
         h = math.sqrt(L1 ** 2 - ((RB - RP) / 2) ** 2)            # the elbow's offset (elbows left)

@@ -109,6 +109,14 @@ class Builder:
                                 **keys})
         return self
 
+    def platform(self, body, xyz=None, name=None):
+        """The frame whose motion the platform figure plots (the sidecar's ``platform: frame:``):
+        ``body``'s own frame, or a new frame ``name`` at ``xyz`` [m] in it (e.g. the centre)."""
+        frame = str(body) if xyz is None else {"parent": str(body), "xyz": [float(x) for x in xyz],
+                                               "name": name or f"{body}_centre"}
+        self.sidecar["platform"] = {"frame": frame}
+        return self
+
     def parameter(self, name, value, unit, source):
         """A row of the sidecar's parameter table (every number of a model with its source)."""
         self.parameters.append({"name": name, "value": value, "unit": unit, "source": source})

@@ -214,8 +214,12 @@ def fig_energy(traj):
     eb = energy_balance(traj)
     if eb.get("bound") is not None and np.isfinite(eb["bound"]) and eb["scale"]:
         lim = eb["bound"] * eb["scale"]
-        ax2.axhline(lim, color="r", lw=0.8, ls="--", label="audit bound", gid="energy.bound")
-        ax2.axhline(-lim, color="r", lw=0.8, ls="--")
+        if lim <= 10 * np.abs(S["balance"]).max():
+            ax2.axhline(lim, color="r", lw=0.8, ls="--", label="audit bound", gid="energy.bound")
+            ax2.axhline(-lim, color="r", lw=0.8, ls="--")
+        else:       # drawn, it would flatten the error to a line: stated instead
+            ax2.text(0.01, 0.92, f"audit bound ±{lim:.2g} J (ok: {eb['ok']})", transform=ax2.transAxes, fontsize=8,
+                     va="top", gid="energy.bound_text")
     ax2.set_xlabel("t [s]")
     ax2.set_ylabel("B - B(0) [J]")
     ax2.legend(fontsize=8)
