@@ -406,7 +406,6 @@ def start_state(mech, start="ideal", q_guess=None, v_guess=None, t=0.0, ws=None)
     rate = ws.dphi[:mech.m]
     if mech.m and np.max(np.abs(rate)) > 1e-12:
         k = int(np.argmax(np.abs(rate)))
-        raise InputError(f"start 'rest': {mech.row_names()[k]!r} moves at t = {t:g} s (rate {-rate[k]:.3g}), so the "
-                         "mechanism cannot start at rest; use start 'ideal' (the default)", key="start",
-                         choices=STARTS)
+        raise InputError(f"'rest' needs every drive at rest at t = {t:g} s, but {mech.row_names()[k]!r} moves (rate "
+                         f"{-rate[k]:.3g} rad/s or m/s); use 'ideal' (the default)", key="start", choices=STARTS)
     return q, np.zeros(mech.nv)
