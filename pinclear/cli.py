@@ -42,7 +42,7 @@ def _add_model_args(p, file_required=True):
                    help="override a clearance key or a scene option (repeatable)")
     p.add_argument("--option", action="append", metavar="KEY=VALUE", help="set a scene option (repeatable)")
     p.add_argument("--trust", action="store_true",
-                   help="allow the mechanism file to import Python code outside pinclear (see docs/manual.md, "Trust")")
+                   help="allow the mechanism file to import Python code outside pinclear (see docs/manual.md, 'Trust')")
 
 
 #: the simulate options recorded in OUT/run.json (a record for the user: --resume compares the
@@ -655,7 +655,7 @@ def _add_run_args(s, rtol):
     from .stepping import INTEGRATORS
 
     s.add_argument("--method", default="lagrange", choices=list(METHODS),
-                   help="forward-dynamics formulation (docs/manual.md, "Formulations and integrators")")
+                   help="forward-dynamics formulation (docs/manual.md, 'Formulations and integrators')")
     s.add_argument("--integrator", default="RK45", choices=list(INTEGRATORS),
                    help="time integrator (RK4: fixed step --h)")
     s.add_argument("--rtol", type=number(), default=rtol, help="relative tolerance of the adaptive integrators"
