@@ -133,3 +133,24 @@ def test_poincare_suggests_a_period_aligned_grid_and_labels_units(tmp_path, caps
     mech = pinclear.load(RRR3)
     tr = pinclear.Trajectory.load(tmp_path / "aligned" / "trajectory.npz", mech=mech)
     assert signals.series(tr, "A1", mech).unit == "rad"
+
+
+def test_builder_errors_name_the_choices(tmp_path):
+    """Mistakes in a builder script are refused where they are made (joint type, unknown body),
+    or by the loader on write() naming the file and the key (a clearance key)."""
+    from pinclear.builder import Builder
+    from pinclear.errors import InputError, PinclearError
+
+    b = Builder("pend").body("arm", 1.0, com=(0.5, 0, 0), inertia=(1e-4, 0.1, 0.1))
+    with pytest.raises(InputError, match="unknown type 'ball'.*revolute"):
+        b.joint("j", "ball", "ground", "arm")
+    with pytest.raises(InputError, match="no body 'hand'.*arm"):
+        b.joint("j", "revolute", "ground", "hand")
+    b.joint("j", "revolute", "ground", "arm", axis=(0, 1, 0), q=0.3)
+    b.clearance("nope", clearance=1e-4)
+    with pytest.raises(PinclearError, match=r"pend\.yaml.*clearances"):
+        b.write(tmp_path)
+    # without the bad clearance it writes, loads and assembles: a 1 kg pendulum at its guess
+    b.clearances.clear()
+    mech = b.write(tmp_path)
+    assert mech.nq == 1 and mech.q0[0] == 0.3 and mech.model.inertias[1].mass == 1.0
