@@ -121,17 +121,18 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     ``checkpoint_every`` CPU seconds and when the run ends early; ``resume`` (a Checkpoint)
     continues such a run exactly where it stopped (same steps, same samples).
 
-    start: the state at t0 (pinclear.kinematics.start_state): "ideal" (the default without q0:
-    the ideal mechanism's assembled state and velocity, every clearance centred with zero
-    relative velocity, as the papers start), "rest", "least-energy" (the clearance mechanism's
-    velocity of least kinetic energy: a start-up impact) or "state" (the default with q0: q0 and
-    v0 as given, assembled onto the clearance mechanism's own constraints only, so an off-centre
-    journal stays off centre; :func:`read_state` reads them from a file). The other starts take
-    q0 and v0 as the guesses they assemble from. Without clearances all starts but "rest" agree.
+    start: the state at t0 (pinclear.kinematics.start_state): "ideal" (the default without q0
+    and v0: the ideal mechanism's assembled state and velocity, every clearance centred with
+    zero relative velocity, as the papers start), "rest", "least-energy" (the clearance
+    mechanism's velocity of least kinetic energy: a start-up impact) or "state" (the default
+    when q0 or v0 is given: that state, the sidecar's initial q or v for the one not given,
+    assembled onto the clearance mechanism's own constraints only, so an off-centre or moving
+    journal stays so; :func:`read_state` reads a state from a file). The other starts take q0
+    and v0 as the guesses they assemble from. Without clearances all starts but "rest" agree.
     """
     integ = stepping.get(integrator)
     if start is None:
-        start = "ideal" if q0 is None else "state"
+        start = "ideal" if q0 is None and v0 is None else "state"
     if start not in kinematics.STARTS:
         raise InputError(f"unknown start {start!r}", key="start", choices=kinematics.STARTS)
     if loop not in ("auto", "python"):

@@ -105,6 +105,7 @@ def test_state_start_keeps_given_state(nine_a, tmp_path, sim):
     """start='state' assembles onto the clearance mechanism's own constraints only: an
     off-centre journal stays off centre (the ideal start would centre it)."""
     q, v = kinematics.start_state(nine_a, "ideal", nine_a.q0, nine_a.v0)
+    v_le = kinematics.consistent_velocity(nine_a, q, nine_a.v0)      # the journal moves in its bearing
     ws = nine_a.workspace()
     J = kinematics.jacobian(nine_a, ws, q, 0.0, with_drives=True)
     null = np.linalg.svd(J)[2][np.linalg.matrix_rank(J):]
@@ -119,9 +120,12 @@ def test_state_start_keeps_given_state(nine_a, tmp_path, sim):
     assert np.isclose(np.linalg.norm(_journal_relative(nine_a, tr.q[0], tr.v[0])[0][:2]), e_off, rtol=1e-6)
     tr = sim(nine_a, 1e-4, q0=qs, v0=vs, start="ideal")  # the ideal start centres it
     assert np.linalg.norm(_journal_relative(nine_a, tr.q[0], tr.v[0])[0][:2]) < TOL_ASSEMBLY
-    tr = sim(nine_a, 1e-4)                               # no q0: the ideal start by default
+    tr = sim(nine_a, 1e-4)                               # no q0, v0: the ideal start by default
     assert np.linalg.norm(_journal_relative(nine_a, tr.q[0], tr.v[0])[0][:2]) < TOL_ASSEMBLY
     assert np.linalg.norm(_journal_relative(nine_a, tr.q[0], tr.v[0])[1][:2]) < 1e-8
+    # v0 alone is a state too: the journal keeps the relative velocity it is given
+    tr = sim(nine_a, 1e-4, v0=v_le)
+    assert np.linalg.norm(_journal_relative(nine_a, tr.q[0], tr.v[0])[1][:2]) > 1e-2
 
 
 def _read(path, mech):
