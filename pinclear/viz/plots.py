@@ -27,7 +27,7 @@ from matplotlib.figure import Figure
 
 from pinclear.kinematics import frame_motion
 
-from .elements import active_clearances, recorded_clearances, run_clearances
+from .elements import active_clearances, clearance_plot, recorded_clearances, run_clearances
 from .elements import clearance_size as element_clearance
 
 AXES = "xyz"
@@ -57,8 +57,13 @@ def clearance_names(traj) -> list[str]:
 
 
 def clearance_type(traj, name: str) -> str | None:
-    """Kind of clearance joint ``name`` (spherical, revolute, planar_revolute, prismatic)."""
+    """Kind of clearance joint ``name`` (a type of pinclear.registry.CLEARANCE_TYPES)."""
     return run_clearances(traj).get(name)
+
+
+def _plot_of(traj, name: str):
+    """The ClearancePlot of joint ``name``'s type (None: unknown type)."""
+    return clearance_plot(clearance_type(traj, name))
 
 
 def clearance_size(traj, name: str):
@@ -76,7 +81,8 @@ def clearance_size(traj, name: str):
         return tuple(map(float, c)) if c.size > 1 else float(c[0])
     e = traj.outputs.get(f"{name}.eccentricity")
     d = traj.outputs.get(f"{name}.penetration")
-    if e is not None and d is not None and np.ndim(e) == 2 and clearance_type(traj, name) != "prismatic":
+    plot = _plot_of(traj, name)
+    if e is not None and d is not None and np.ndim(e) == 2 and not (plot is not None and plot.boundary != "circle"):
         return float(np.median(np.linalg.norm(e, axis=1) - np.ravel(d)))
     return None
 
@@ -139,7 +145,8 @@ def fig_journal(traj):
         E = np.asarray(traj.outputs[f"{n}.eccentricity"], float)
         if E.ndim == 1:
             E = E[:, None]
-        if clearance_type(traj, n) in ("revolute", "planar_revolute", "prismatic") and E.shape[1] == 3:
+        plot = _plot_of(traj, n)
+        if plot is not None and plot.across_axis and E.shape[1] == 3:
             # across the bearing/guide axis (z of its frame): along it is free travel
             i, j = 0, 1
         else:
@@ -163,7 +170,7 @@ def fig_journal(traj):
         ax.locator_params(nbins=5)
         ax.set_xlabel(f"e_{AXES[i]} [mm] (bearing frame)")
         ax.set_ylabel(f"e_{AXES[j]} [mm]")
-        ax.set_title(f"{n}: {'slider' if clearance_type(traj, n) == 'prismatic' else 'journal/ball'} centre")
+        ax.set_title(f"{n}: {plot.body if plot is not None else 'body 2'} centre")
         ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
