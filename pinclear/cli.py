@@ -435,6 +435,7 @@ def info_text(mech, q, mob, economy) -> str:
     """pinclear info's readable summary: counts, mobility and actuation, the branch, the
     assembly residual, the clearances declared and the assembled q by joint name."""
     from . import kinematics
+    from .analysis.signals import joint_unit
 
     ws = mech.workspace()
     phi = kinematics.closure_residual(mech, ws, q, with_drives=True)
@@ -471,7 +472,7 @@ def info_text(mech, q, mob, economy) -> str:
         sl = slice(jm.idx_q, jm.idx_q + jm.nq)
         a, g = q[sl], mech.q0[sl]
         if jm.nq == 1:
-            unit = "m" if "Prismatic" in jm.shortname() or jm.shortname()[-2] == "P" else "rad"
+            unit = joint_unit(jm)
             deg = f" ({np.degrees(a[0]):.4g} deg)" if unit == "rad" else ""
             lines.append(f"  {model.names[j]:<14s} {g[0]: .6g} -> {a[0]: .9g} {unit}{deg}")
         else:
