@@ -190,24 +190,47 @@ def fig_residual(traj):
     return fig
 
 
+#: the energy figure's curves: balance term -> (label, sign in B = T + V_g + V_el + E_diss - W...)
+ENERGY_CURVES = {"kinetic": ("kinetic T", 1), "gravity": ("gravity V_g - V_g(0)", 1), "elastic": ("elastic V_el", 1),
+                 "dissipated": ("dissipated E_diss", 1), "work_drives": ("drives' work W_d", -1),
+                 "work_closures": ("closure rows' work W_c", -1), "work_applied": ("applied forces' work W_a", -1)}
+
+
 def fig_energy(traj):
+    """The audited energy balance over time (pinclear.energy.balance_series): each term of
+    B = T + V_g + V_el + E_diss - W_d - W_c - W_a that is not zero, and below, on its own scale,
+    the balance's error B - B(0) with the audit's bound (a closed balance is a flat line)."""
+    from ..energy import balance_series, energy_balance
+
     try:
-        E = traj.energy()
+        S = balance_series(traj)
     except (AttributeError, KeyError):
         return None
-    fig, ax = _subplots(figsize=(8, 4))
-    # changes from t0: the potential's datum is arbitrary, its changes are not
-    for k in ("kinetic", "potential", "spring", "total"):
-        if k in E and np.any(np.asarray(E[k]) != 0):
-            ax.plot(traj.t, E[k] - E[k][0], lw=1.2 if k == "total" else 1.0, label=k, gid=f"energy.{k}")
-    for n in clearance_names(traj):
-        d = traj.outputs.get(f"{n}.dissipated")
-        if d is not None:
-            ax.plot(traj.t, np.ravel(d), lw=1.0, ls=":", label=f"{n} dissipated", gid=f"energy.{n}.dissipated")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("energy change since t0 [J]")
+    if "message" in S:
+        return None
+    fig, (ax, ax2) = _subplots(2, 1, figsize=(8, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
+    t = S["t"]
+    for key, (label, _) in ENERGY_CURVES.items():
+        if np.any(S[key] != 0):
+            ax.plot(t, S[key], lw=1.0, label=label, gid=f"energy.{key}")
+    ax.set_ylabel("energy [J]")
+    ax.set_title("energy balance B = T + V_g + V_el + E_diss - W_d - W_c - W_a", fontsize=9)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
+    ax2.plot(t, S["balance"], lw=1.0, color="k", label="B - B(0)", gid="energy.balance")
+    eb = energy_balance(traj)
+    if eb.get("bound") is not None and np.isfinite(eb["bound"]) and eb["scale"]:
+        lim = eb["bound"] * eb["scale"]
+        if lim <= 10 * np.abs(S["balance"]).max():
+            ax2.axhline(lim, color="r", lw=0.8, ls="--", label="audit bound", gid="energy.bound")
+            ax2.axhline(-lim, color="r", lw=0.8, ls="--")
+        else:       # drawn, it would flatten the error to a line: stated instead
+            ax2.text(0.01, 0.92, f"audit bound ±{lim:.2g} J (ok: {eb['ok']})", transform=ax2.transAxes, fontsize=8,
+                     va="top", gid="energy.bound_text")
+    ax2.set_xlabel("t [s]")
+    ax2.set_ylabel("B - B(0) [J]")
+    ax2.legend(fontsize=8)
+    ax2.grid(alpha=0.3)
     fig.tight_layout()
     return fig
 
