@@ -14,6 +14,7 @@ import numpy as np
 from . import formulations, kinematics, stepping, validate
 from ._jit import compile_cpu
 from .errors import InputError, RankLossError
+from .failures import Failure, FailureKind
 from .stepping.run import Run, Stop, run_clock
 from .trajectory import Checkpoint, Trajectory
 
@@ -97,7 +98,7 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True):
 def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAULT, atol=None, t_eval=None,
              dt_out=None, q0=None, v0=None, t0=0.0, max_step=np.inf, h=None, first_step=None, assemble=True,
              strict=False, max_cpu=None, progress=None, checkpoint=None, checkpoint_every=None, resume=None,
-             min_mean_step=None, loop="auto", **method_options) -> Trajectory:
+             min_mean_step=None, loop="auto", outputs="compiled", **method_options) -> Trajectory:
     """Integrate the forward dynamics of ``mech`` from t0 to t_end; return a Trajectory.
 
     method: lagrange | projection | pinocchio | proximal | manifold (pinclear.formulations).
@@ -116,6 +117,10 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     Python stage otherwise, named in ``stats['loop']``); "python" evaluates the right-hand side
     through the plug-ins' Python methods (the reference; the same step logic).
 
+    outputs: "compiled" records the samples' outputs in one compiled pass where the plug-ins
+    allow it; "python" sample by sample through the plug-ins' Python methods (the reference,
+    pinclear.stepping.outputs).
+
     progress: callable(t) for every accepted step (reported after each compiled chunk of at most
     pinclear.stepping.run.CHUNK steps). checkpoint: callable(Checkpoint) every
     ``checkpoint_every`` CPU seconds and when the run ends early; ``resume`` (a Checkpoint)
@@ -124,6 +129,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     integ = stepping.get(integrator)
     if loop not in ("auto", "python"):
         raise InputError(f"loop must be 'auto' or 'python', got {loop!r}", key="loop", choices=("auto", "python"))
+    if outputs not in ("compiled", "python"):
+        raise InputError(f"outputs must be 'compiled' or 'python', got {outputs!r}", key="outputs",
+                         choices=("compiled", "python"))
     atol = rtol * 1e-2 if atol is None and rtol is not None else atol
     _check_inputs(t_end, t0, rtol, atol, integ, h, max_step, first_step, t_eval, dt_out)
     if min_mean_step is not None and not (np.isfinite(min_mean_step) and min_mean_step >= 0):
@@ -169,6 +177,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
               checkpoint=checkpoint, checkpoint_every=checkpoint_every, max_cpu=max_cpu)
     run.cpu0, run.cpu_prior, run.evals0 = cpu0, stats["cpu_s"], stats["rhs_evals"]
     run.t0, run.initial = t0, (q, v, z)
+    if resume is not None:
+        run.seed_peaks(resume.stats.get("peaks"))
     stats["loop"] = _loop_note(run)
     stats["setup_cpu_s"] = run_clock() - cpu0          # assembly, rank analysis, stages (not integration)
     status, failure = "success", None
@@ -181,7 +191,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     except KeyboardInterrupt:
         run.save_checkpoint()
         t_at = run.good[0] if run.good else t0
-        status, failure = "interrupted", ("interrupted", t_at, (
+        status, failure = "interrupted", Failure(FailureKind.INTERRUPTED, t_at, (
             f"interrupted at t = {t_at:.9g} s (SIGINT/SIGTERM); continue with simulate(..., resume=checkpoint) / the "
             "same pinclear simulate command and --resume DIR"))
     except Exception as exc:        # every failure, a user function's exception included: keep the samples
@@ -191,13 +201,16 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     stats["rhs_evals"] = run.evaluations()
     stats["cpu_s"] = run.cpu_prior + run_clock() - cpu0
     stats.update(run.method.stats(run))
+    stats["peaks"] = run.peaks()
+    stats["clearances"] = [f.describe() for f in mech.clearances]
     if form.row_changes:
         stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in form.row_changes]
     traj.status, traj.failure = status, failure
     traj.message = failure[2] if failure else "reached t_end"
-    samples = run.output_samples()
+    samples = run.samples()
     try:
-        traj.fill(samples, form)
+        samples, outs = run.outputs(reference=outputs == "python")
+        traj.write_outputs(samples, outs)
     except KeyboardInterrupt:
         traj.fill_states(samples)
         traj.status, traj.message = "interrupted", traj.message + " (outputs not evaluated)"
@@ -212,7 +225,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
             from .errors import IntegrationError
 
             raise IntegrationError(traj.message, trajectory=traj)
-        warnings.warn(f"pinclear.simulate: {traj.message} ({len(samples)} of {len(t_eval)} samples kept)",
+        warnings.warn(f"pinclear.simulate: {traj.message} ({len(traj.t)} of {len(t_eval)} samples kept)",
                       RuntimeWarning, stacklevel=2)
     return traj
 
@@ -227,19 +240,21 @@ def _loop_note(run) -> str:
 
 
 def _failure(exc, integrator, samples, t0):
-    """(kind, t, message) of the exception that ended a run."""
+    """The Failure (kind, t, message) of the exception that ended a run."""
     t_last = samples[-1][0] if samples else t0
     if isinstance(exc, Stop):
-        return exc.kind, exc.t, str(exc)
+        return Failure(exc.kind, exc.t, str(exc))
     if isinstance(exc, RankLossError):
-        return "rank loss", exc.t, str(exc)
+        return Failure(FailureKind.RANK_LOSS, exc.t, str(exc))
     if isinstance(exc, FloatingPointError):
-        return "non-finite", t_last, f"integrator {integrator} failed {exc}"
+        return Failure(FailureKind.NONFINITE, t_last, f"integrator {integrator} failed {exc}")
     if isinstance(exc, np.linalg.LinAlgError):
-        return "singular matrix", t_last, f"linear algebra failure (singular matrix) after t = {t_last:.9g} s: {exc}"
+        return Failure(FailureKind.SINGULAR, t_last,
+                       f"linear algebra failure (singular matrix) after t = {t_last:.9g} s: {exc}")
     if isinstance(exc, ArithmeticError):
-        return "non-finite", t_last, (f"non-finite or invalid value after t = {t_last:.9g} s: "
-                                      f"{type(exc).__name__}: {exc}")
+        return Failure(FailureKind.NONFINITE, t_last, f"non-finite or invalid value after t = {t_last:.9g} s: "
+                                                      f"{type(exc).__name__}: {exc}")
     # a user function (drive law, python hook) raised; a PinclearError too: a trusted law may
     # raise one, the run is not bad input
-    return "exception", t_last, f"a function raised {type(exc).__name__} after t = {t_last:.9g} s: {exc}"
+    return Failure(FailureKind.EXCEPTION, t_last,
+                   f"a function raised {type(exc).__name__} after t = {t_last:.9g} s: {exc}")

@@ -20,6 +20,7 @@ import zlib
 import numpy as np
 
 from .errors import InputError
+from .failures import Failure, FailureKind
 
 #: bound on one array's declared size: a saved run of MAX_SAMPLES samples of a 60-coordinate
 #: tree is ~1 GB, so an array declaring more is not one pinclear wrote
@@ -322,5 +323,5 @@ def check_residual(traj, mech, rtol, atol):
                     f"{traj.t[k]:.9g} s); the motion left its constraint manifold (a singular start, a "
                     "huge initial velocity, an ill-conditioned mass matrix?): try method projection or a "
                     f"smaller rtol (samples kept up to t = {traj.t[-1]:.6g} s)")
-    traj.failure = ("constraint violated", float(traj.t[k]), traj.message)
+    traj.failure = Failure(FailureKind.CONSTRAINT, float(traj.t[k]), traj.message)
     return True
