@@ -3,7 +3,7 @@
 simulate checks the inputs, assembles the initial state, and hands the integration to a
 pinclear.stepping.run.Run: compiled step logic over the run's stages (docs/design.md, "The
 stepping engine"). A failure keeps every sample computed so far and says when and why, as text
-(``message``) and as data (``failure = (kind, t, detail)``).
+(``message``) and as data (``failure``: a pinclear.failures.Failure(kind, t, detail)).
 """
 from __future__ import annotations
 
@@ -13,9 +13,8 @@ import numpy as np
 
 from . import formulations, kinematics, stepping, validate
 from ._jit import compile_cpu
-from .errors import InputError, RankLossError
-from .failures import Failure, FailureKind
-from .stepping.run import Run, Stop, run_clock
+from .errors import InputError
+from .stepping.run import Run, run_clock
 from .trajectory import Checkpoint, Trajectory
 
 INTEGRATORS = tuple(stepping.INTEGRATORS)
@@ -181,39 +180,18 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         run.seed_peaks(resume.stats.get("peaks"))
     stats["loop"] = _loop_note(run)
     stats["setup_cpu_s"] = run_clock() - cpu0          # assembly, rank analysis, stages (not integration)
-    status, failure = "success", None
-    try:
-        if resume is not None:
-            run.execute(resume.t, run.pack(resume.q_now, resume.v_now, resume.z_now), resume.h_next, resume.samples,
-                        False)
-        else:
-            run.execute(t0, run.pack(q, v, z), first_step, [], True)
-    except KeyboardInterrupt:
-        run.save_checkpoint()
-        t_at = run.good[0] if run.good else t0
-        status, failure = "interrupted", Failure(FailureKind.INTERRUPTED, t_at, (
-            f"interrupted at t = {t_at:.9g} s (SIGINT/SIGTERM); continue with simulate(..., resume=checkpoint) / the "
-            "same pinclear simulate command and --resume DIR"))
-    except Exception as exc:        # every failure, a user function's exception included: keep the samples
-        status, failure = "failed", _failure(exc, integrator, run.samples(), t0)
-        if isinstance(exc, RankLossError):
-            stats["rank_loss"] = {"t": exc.t, "rank": exc.rank, "rows": exc.rows, "cond": exc.cond}
-    stats["rhs_evals"] = run.evaluations()
-    stats["cpu_s"] = run.cpu_prior + run_clock() - cpu0
-    stats.update(run.method.stats(run))
-    stats["peaks"] = run.peaks()
-    stats["clearances"] = [f.describe() for f in mech.clearances]
-    if form.row_changes:
-        stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in form.row_changes]
-    traj.status, traj.failure = status, failure
-    traj.message = failure[2] if failure else "reached t_end"
-    samples = run.samples()
-    try:
-        samples, outs = run.outputs(reference=outputs == "python")
-        traj.write_outputs(samples, outs)
-    except KeyboardInterrupt:
-        traj.fill_states(samples)
+    if resume is not None:
+        res = run.integrate(resume.t, run.pack(resume.q_now, resume.v_now, resume.z_now), resume.h_next,
+                            resume.samples, False, reference=outputs == "python")
+    else:
+        res = run.integrate(t0, run.pack(q, v, z), first_step, [], True, reference=outputs == "python")
+    traj.status, traj.failure = res.status, res.failure
+    traj.message = res.failure.detail if res.failure else "reached t_end"
+    if res.outputs is None:
+        traj.fill_states(res.samples)
         traj.status, traj.message = "interrupted", traj.message + " (outputs not evaluated)"
+    else:
+        traj.write_outputs(res.samples, res.outputs)
     if traj.status == "success" and integ.adaptive:
         validate.check_residual(traj, mech, rtol, atol)
     stats["cpu_s_total"] = run_clock() - cpu0
@@ -237,24 +215,3 @@ def _loop_note(run) -> str:
     if b.why:
         return f"python: {b.why}{steps}"
     return ("compiled" if not b.python else f"compiled; python stages: {'; '.join(b.python)}") + steps
-
-
-def _failure(exc, integrator, samples, t0):
-    """The Failure (kind, t, message) of the exception that ended a run."""
-    t_last = samples[-1][0] if samples else t0
-    if isinstance(exc, Stop):
-        return Failure(exc.kind, exc.t, str(exc))
-    if isinstance(exc, RankLossError):
-        return Failure(FailureKind.RANK_LOSS, exc.t, str(exc))
-    if isinstance(exc, FloatingPointError):
-        return Failure(FailureKind.NONFINITE, t_last, f"integrator {integrator} failed {exc}")
-    if isinstance(exc, np.linalg.LinAlgError):
-        return Failure(FailureKind.SINGULAR, t_last,
-                       f"linear algebra failure (singular matrix) after t = {t_last:.9g} s: {exc}")
-    if isinstance(exc, ArithmeticError):
-        return Failure(FailureKind.NONFINITE, t_last, f"non-finite or invalid value after t = {t_last:.9g} s: "
-                                                      f"{type(exc).__name__}: {exc}")
-    # a user function (drive law, python hook) raised; a PinclearError too: a trusted law may
-    # raise one, the run is not bad input
-    return Failure(FailureKind.EXCEPTION, t_last,
-                   f"a function raised {type(exc).__name__} after t = {t_last:.9g} s: {exc}")

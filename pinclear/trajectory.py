@@ -197,13 +197,14 @@ class Trajectory:
         return tr
 
     def fill_states(self, samples):
-        """Times and states of the samples (t, q, v, z), nothing evaluated."""
+        """Times and states of the samples (pinclear.stepping.outputs.Samples: arrays t, q, v,
+        z), nothing evaluated."""
         mech = self.mech
-        n = len(samples)
-        self.t = np.array([s[0] for s in samples], float)
-        self.q = np.array([s[1] for s in samples], float).reshape(n, mech.nq)
-        self.v = np.array([s[2] for s in samples], float).reshape(n, mech.nv)
-        self.z = np.array([s[3] for s in samples], float).reshape(n, mech.nz)
+        n = len(samples.t)
+        self.t = np.array(samples.t, float)
+        self.q = np.array(samples.q, float).reshape(n, mech.nq)
+        self.v = np.array(samples.v, float).reshape(n, mech.nv)
+        self.z = np.array(samples.z, float).reshape(n, mech.nz)
         self.a = np.full((n, mech.nv), np.nan)
         self.residual = np.full(n, np.nan)
         self.drive_error = np.full(n, np.nan)
@@ -214,7 +215,7 @@ class Trajectory:
         residuals, the elements' outputs and the energies of the audit."""
         mech = self.mech
         self.fill_states(samples)
-        n, nv, m, mc = len(samples), mech.nv, mech.m, mech.compiled.m
+        n, nv, m, mc = len(samples.t), mech.nv, mech.m, mech.compiled.m
         core = outs.core
         self.a = np.array(core[:, :nv])
         lam, absphi = core[:, nv:nv + m], np.abs(core[:, nv + m:nv + 2 * m])

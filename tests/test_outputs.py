@@ -70,9 +70,7 @@ def test_peaks_do_not_depend_on_the_output_grid():
     a, b = coarse.peak_summary(), fine.peak_summary()
     assert a["peaks_from"] == b["peaks_from"] == "integration"
     assert a == b
-    # over the accepted steps, not the samples: the coarse grid's sampled maxima fall below them
-    for d in mech.drives:
-        assert a["drive_force_peaks"][d.name] >= np.max(np.abs(coarse.lam[d.name])) * (1 - 1e-12)
+    # located between steps: at least every value of a fine grid of the same dense output
     clr = {c["name"]: c for c in a["clearances"]}
     assert clr["S2"]["peak_normal_force"] >= np.max(fine.outputs["S2.fn"]) * (1 - 1e-9)
     assert a["drive_force_peaks"] == coarse.summary()["drive_force_peaks"]
@@ -98,3 +96,25 @@ def test_a_contact_peak_between_steps_is_the_dense_outputs_maximum():
     miss = 0.5 * curvature * (dt / 2) ** 2
     assert F[k] <= fmax * (1 + 1e-12) + 1e-9
     assert fmax - F[k] <= miss + 1e-9 * fmax
+
+
+def test_drive_force_peaks_are_the_accepted_states_evaluations():
+    """The drive-force and acceleration peaks against a second run sampled exactly at the first
+    run's accepted steps (progress reports them; a sample at a step's end is its state, and the
+    outputs evaluate there again): the largest sampled |lam| and |a| are the peaks, at their times,
+    and no evaluation was added for them (the same steps, the same evaluations)."""
+    mech = pinclear.load("four_ups_upu")
+    steps = []
+    run = _run(mech, 0.2, dt_out=0.2 / 10, progress=steps.append)
+    at = _run(mech, 0.2, t_eval=np.array([0.0] + steps))
+    assert at.stats["steps"] == run.stats["steps"] == len(steps)
+    assert at.stats["rhs_evals"] == run.stats["rhs_evals"]
+    pk = run.stats["peaks"]
+    for d in mech.drives:
+        lam = np.abs(at.lam[d.name])
+        k = int(np.argmax(lam))
+        assert pk["drive_forces"][d.name]["value"] == pytest.approx(lam[k], rel=1e-12)
+        assert pk["drive_forces"][d.name]["t"] == at.t[k]
+    acc = np.abs(at.a).max(axis=0)
+    got = np.array([r["value"] for r in pk["accelerations"].values()])
+    np.testing.assert_allclose(got, acc, rtol=1e-12)

@@ -6,8 +6,8 @@ One compiled pass over the samples (:func:`record_samples`) does it where the ru
 is compiled and every force element declares a compiled record (ForceElement contract 11): per
 sample, the projection onto the constraint manifold (formulations that project), one
 evaluation (its accelerations and multipliers), then the *record stages* (:func:`record_stages`:
-the passes again at the sample's own state where the evaluation moved it, the rows, the
-energies, each element's record kernel) writing one row of a table. Python touches the table
+the placements and joint Jacobian at the sample's own state where the evaluation moved it, the
+rows, the energies, each element's record kernel) writing one row of a table. Python touches the table
 as a whole (:func:`outputs_of`). Samples whose evaluation failed (a rank loss, an exception in a
 Python stage) are finished by :func:`finish_sample` with NaN accelerations and multipliers, as
 the per-sample Python path (:func:`sample_record`, the reference kept for tests and for runs the
@@ -23,15 +23,24 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from .. import kinematics, native
+from .. import kinematics
 from .._jit import njit
-from .._kernels import constraint_rows_all, joint_placements
+from .._kernels import constraint_rows_positions, joint_placements, joint_placements_jacobians
 from .call import ERROR, NONFINITE, run_stages
 from .stage import bind
 from .system import evaluate, project
 
 #: the code a sample gets when its projection failed (the run raises the Python path's error)
 PROJECTION_FAILED = -10.0
+
+
+class Samples(NamedTuple):
+    """A run's output samples as arrays (views of its sample rows): times (n,), q (n, nq),
+    v (n, nv), z (n, nz)."""
+    t: np.ndarray
+    q: np.ndarray
+    v: np.ndarray
+    z: np.ndarray
 
 
 class Outputs(NamedTuple):
@@ -82,12 +91,12 @@ def finish_sample(form, t, q, v, z, a, lam):
     return row, recs
 
 
-def python_outputs(form, samples) -> Outputs:
-    """The outputs of ``samples`` [(t, q, v, z)] sample by sample in Python (the reference)."""
+def python_outputs(form, s: Samples) -> Outputs:
+    """The outputs of the samples ``s`` sample by sample in Python (the reference)."""
     mech = form.mech
-    core = np.zeros((len(samples), core_size(mech)))
+    core = np.zeros((len(s.t), core_size(mech)))
     per = [([], [], {}) for _ in mech.forces]
-    for i, (t, q, v, z) in enumerate(samples):
+    for i, (t, q, v, z) in enumerate(zip(s.t.tolist(), s.q, s.v, s.z)):
         core[i], recs = sample_record(form, t, q, v, z)
         for (pot, loss, outs), (P, L, O) in zip(recs, per):
             P.append(pot)
@@ -111,17 +120,26 @@ def copy_core(a, lam, rec):
 
 @njit(cache=True)
 def sample_rows(R, q, v, fdrv):
-    """Every row's Phi, J and J v + Phi_t at the sample (no stabilisation: gamma is not read)."""
-    constraint_rows_all(R, 0.0, 0.0, q, v, fdrv)
+    """Every row's Phi and J at the sample and J v + Phi_t (closure rows: J v; no
+    accelerations: the joint Jacobian's time derivative is not needed)."""
+    constraint_rows_positions(R, q, v, fdrv)
+    Jc, dphi = R.Jc, R.dphi
+    for r in range(dphi.shape[0] - R.iq.shape[0]):
+        acc = 0.0
+        for c in range(v.shape[0]):
+            acc += Jc[r, c] * v[c]
+        dphi[r] = acc
 
 
 @njit(cache=True)
-def sample_energies(parent, jP, kind, axis, iq, q, O, want, Hj, mass, lever, g, M, v, lam, dphi, mc, phi, rec, off):
+def sample_energies(parent, jP, kind, axis, iq, q, O, want, Hj, mass, lever, Ic, g, J, v, tw, lam, dphi, mc, phi,
+                    rec, off):
     """rec[off - m:off] = the rows' residuals; rec[off:off + 3] = the closure rows' power
-    lam_c . dPhi_c/dt, the kinetic energy v^T M v / 2 (M: crba's upper triangle) and the
-    gravity energy -sum_i m_i g . c_i (c_i: body i's centre of mass in the world, from the joint
-    placements at q), Pinocchio's computeKineticEnergy and computePotentialEnergy in other
-    words (the same sums up to rounding)."""
+    lam_c . dPhi_c/dt, the kinetic energy and the gravity energy, body by body from the joint
+    placements at q (``O``) and the WORLD joint Jacobian ``J``: body j's twist (v_o; w) =
+    its parent's + J[:, iq[j]] v[iq[j]], its centre of mass c = O_j lever_j, T_j = (m |v_o + w x
+    c|^2 + w_b . I_c w_b) / 2 with w_b = R_j^T w, V_j = -m g . c: the sums Pinocchio's
+    computeKineticEnergy and computePotentialEnergy make (equal to rounding)."""
     m = phi.shape[0]
     for r in range(m):
         rec[off - m + r] = phi[r]
@@ -129,21 +147,39 @@ def sample_energies(parent, jP, kind, axis, iq, q, O, want, Hj, mass, lever, g, 
     for r in range(mc):
         p += lam[r] * dphi[r]
     rec[off] = p
-    kin = 0.0
-    nv = v.shape[0]
-    for i in range(nv):
-        acc = 0.5 * M[i, i] * v[i]
-        for j in range(i + 1, nv):
-            acc += M[i, j] * v[j]
-        kin += v[i] * acc
-    rec[off + 1] = kin
     joint_placements(parent, jP, kind, axis, iq, q, O, want, Hj)
-    pot = 0.0
+    kin = pot = 0.0
+    tw[0, :] = 0.0
     for j in range(1, O.shape[0]):
-        for r in range(3):
-            c = O[j, r, 3] + O[j, r, 0] * lever[j, 0] + O[j, r, 1] * lever[j, 1] + O[j, r, 2] * lever[j, 2]
-            pot -= mass[j] * g[r] * c
+        pj, c = parent[j], iq[j]
+        for r in range(6):
+            tw[j, r] = tw[pj, r] + J[r, c] * v[c]
+        cx = O[j, 0, 3] + O[j, 0, 0] * lever[j, 0] + O[j, 0, 1] * lever[j, 1] + O[j, 0, 2] * lever[j, 2]
+        cy = O[j, 1, 3] + O[j, 1, 0] * lever[j, 0] + O[j, 1, 1] * lever[j, 1] + O[j, 1, 2] * lever[j, 2]
+        cz = O[j, 2, 3] + O[j, 2, 0] * lever[j, 0] + O[j, 2, 1] * lever[j, 1] + O[j, 2, 2] * lever[j, 2]
+        pot -= mass[j] * (g[0] * cx + g[1] * cy + g[2] * cz)
+        wx, wy, wz = tw[j, 3], tw[j, 4], tw[j, 5]
+        vx = tw[j, 0] + wy * cz - wz * cy
+        vy = tw[j, 1] + wz * cx - wx * cz
+        vz = tw[j, 2] + wx * cy - wy * cx
+        rot = 0.0
+        for a in range(3):
+            ba = O[j, 0, a] * wx + O[j, 1, a] * wy + O[j, 2, a] * wz
+            acc = 0.0
+            for b in range(3):
+                acc += Ic[j, a, b] * (O[j, 0, b] * wx + O[j, 1, b] * wy + O[j, 2, b] * wz)
+            rot += ba * acc
+        kin += 0.5 * (mass[j] * (vx * vx + vy * vy + vz * vz) + rot)
+    rec[off + 1] = kin
     rec[off + 2] = pot
+
+
+def body_inertias(mech):
+    """(mass (nj,), centre of mass in the joint frame (nj, 3), rotational inertia about it (nj, 3,
+    3), gravity (3,)) of the model's bodies, for sample_energies."""
+    model = mech.model
+    return (np.array([I.mass for I in model.inertias]), np.array([I.lever for I in model.inertias]).reshape(-1, 3),
+            np.array([I.inertia for I in model.inertias]).reshape(-1, 3, 3), np.array(model.gravity.linear, float))
 
 
 def compiled_ready(run) -> str:
@@ -159,7 +195,7 @@ def compiled_ready(run) -> str:
     return ""
 
 
-def record_stages(form, errors, comp):
+def record_stages(form):
     """(stages, the row buffer, [(element offset, layout)]) of the compiled pass (module doc)."""
     mech, ws = form.mech, form.ws
     nv, m = mech.nv, mech.m
@@ -171,21 +207,17 @@ def record_stages(form, errors, comp):
         width += 2 + sum(size for _, size in lay)
     rec = np.zeros(width)
     stages = [bind(copy_core, (ws.a, ws.lam, rec), name="outputs: accelerations and multipliers")]
-    again = not (form.fills_workspace and comp.mass)
-    if again:
-        # the evaluation moved the state (the manifold's projection): the passes at the sample's own
-        from .build import placements_stage
-        stages += [native.passes_stage(mech, ws, True, errors, False), placements_stage(mech, ws, errors)]
-    if again or not form.fills_rows:
+    if not form.fills_workspace:
+        # the evaluation moved the state (the manifold's projection): the placements and the joint
+        # Jacobian at the sample's own (what the rows, the energies and the elements read)
+        stages.append(bind(joint_placements_jacobians, ws.fk.placement_args(ws.q) + (ws.J6,),
+                           name="outputs: placements and joint Jacobian"))
+    if not (form.fills_workspace and form.fills_rows):
         stages.append(bind(sample_rows, (kinematics.row_buffers(mech, ws), ws.q, ws.v, ws.drive_data.f),
                            name="outputs: rows"))
-    model = mech.model
-    mass = np.array([I.mass for I in model.inertias])
-    lever = np.array([I.lever for I in model.inertias]).reshape(-1, 3)
-    g = np.array(model.gravity.linear, float)
-    stages.append(bind(sample_energies, ws.fk.placement_args(ws.q) + (mass, lever, g, ws.data.M, ws.v, ws.lam,
-                                                                       ws.dphi, mech.compiled.m, ws.phi, rec,
-                                                                       nv + 2 * m), name="outputs: energies"))
+    stages.append(bind(sample_energies, ws.fk.placement_args(ws.q) + body_inertias(mech) + (
+        ws.J6, ws.v, np.zeros((mech.model.njoints, 6)), ws.lam, ws.dphi, mech.compiled.m, ws.phi, rec, nv + 2 * m),
+        name="outputs: energies"))
     for f, d, z, zdot, (off, lay) in zip(mech.forces, ws.force_data, ws.z_views, ws.zdot_views, layouts):
         kernel, args = f.record_kernel(mech, ws, d, z, zdot, rec[off:off + 2 + sum(s for _, s in lay)])
         stages.append(bind(kernel, args, name=f"outputs: {f.name}"))
@@ -211,29 +243,28 @@ def record_samples(sys, stages, rec, t_eval, X, out, codes, dx):
     return X.shape[0]
 
 
-def compiled_outputs(run, X, t_eval, samples) -> Outputs:
+def compiled_outputs(run, X, s: Samples) -> Outputs:
     """The outputs of the sample rows X (projected in place where the run projects) in one
-    compiled pass; ``samples``: the (t, q, v, z) views of the rows."""
+    compiled pass; ``s``: the samples, views of the rows."""
     form = run.form
     mech = form.mech
     if run.record is None:
-        run.record = record_stages(form, run.errors, form.compiled())
+        run.record = record_stages(form)
     stages, rec, layouts = run.record
     n = len(X)
     out = np.zeros((n, len(rec)))
     codes = np.zeros(n)
     table = np.array([[s.fn, s.ctx] for s in stages], dtype=np.int64).reshape(len(stages), 2)
-    done = record_samples(run.system, table, rec, np.ascontiguousarray(t_eval[:n]), X, out, codes,
-                          np.zeros(X.shape[1]))
+    done = record_samples(run.system, table, rec, np.ascontiguousarray(s.t), X, out, codes, np.zeros(X.shape[1]))
     if done < n:
-        t, q, v, _ = samples[done]
-        form.project(t, q, v)                # raises the Python path's error
+        t = float(s.t[done])
+        form.project(t, s.q[done], s.v[done])                # raises the Python path's error
         raise FloatingPointError(f"the projection of the output sample at t = {t:.9g} s failed")
     floor = form.monitor()[0]
     for k in np.flatnonzero((codes == ERROR) | ((codes < floor) & (codes != NONFINITE))):
         if codes[k] == ERROR and run.errors:
             run.errors.pop()                   # the failed sample keeps NaN, as on the Python path
-        row, recs = finish_sample(form, *samples[k], None, None)
+        row, recs = finish_sample(form, float(s.t[k]), s.q[k], s.v[k], s.z[k], None, None)
         out[k, :core_size(mech)] = row
         for (off, lay), (pot, loss, outs) in zip(layouts, recs):
             out[k, off:off + 2] = pot, loss

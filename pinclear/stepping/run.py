@@ -10,17 +10,19 @@ its message.
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import numpy as np
 
 from .. import kinematics
 from .._jit import compile_cpu
-from ..failures import FailureKind
+from ..errors import RankLossError
+from ..failures import Failure, FailureKind
 from ..trajectory import Checkpoint
 from . import chunk as C
 from .build import Evaluation
 from .checks import reset_monitor
-from .outputs import compiled_outputs, compiled_ready, python_outputs
+from .outputs import Outputs, Samples, compiled_outputs, compiled_ready, python_outputs
 from .state import (ATOL, BAD, CHART, CODE_BAD, DIRS, EVENT_K, H_ABS, H_FIXED, H_STALL, MAX_STEP, N_ACC, NI,
                     NO_RESELECT, NR, OUT_I, PK_MAX, PK_T, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, XB, XE, Y,
                     new_steps)
@@ -55,6 +57,38 @@ def peak_names(mech) -> list:
     """(kind, name) of the columns of Steps.pk: the drives, the dofs, the clearances."""
     return ([("drive_forces", d.name) for d in mech.drives] + [("accelerations", n) for n in dof_names(mech.model)]
             + [("contact_forces", f.name) for f in mech.clearances])
+
+
+class RunResult(NamedTuple):
+    """What a Run hands back (Run.integrate): 'success', 'failed' or 'interrupted'; the Failure
+    (pinclear.failures) or None; the samples (pinclear.stepping.outputs.Samples); their outputs
+    (pinclear.stepping.outputs.Outputs; None when an interrupt stopped them); the statistics."""
+    status: str
+    failure: Failure | None
+    samples: Samples
+    outputs: Outputs | None
+    stats: dict
+
+
+def failure_of(exc, integrator, t_last) -> Failure:
+    """The Failure (kind, t, message) of the exception that ended a run (``t_last``: the time of
+    its last sample)."""
+    if isinstance(exc, Stop):
+        return Failure(exc.kind, exc.t, str(exc))
+    if isinstance(exc, RankLossError):
+        return Failure(FailureKind.RANK_LOSS, exc.t, str(exc))
+    if isinstance(exc, FloatingPointError):
+        return Failure(FailureKind.NONFINITE, t_last, f"integrator {integrator} failed {exc}")
+    if isinstance(exc, np.linalg.LinAlgError):
+        return Failure(FailureKind.SINGULAR, t_last,
+                       f"linear algebra failure (singular matrix) after t = {t_last:.9g} s: {exc}")
+    if isinstance(exc, ArithmeticError):
+        return Failure(FailureKind.NONFINITE, t_last, f"non-finite or invalid value after t = {t_last:.9g} s: "
+                                                      f"{type(exc).__name__}: {exc}")
+    # a user function (drive law, python hook) raised; a PinclearError too: a trusted law may
+    # raise one, the run is not bad input
+    return Failure(FailureKind.EXCEPTION, t_last,
+                   f"a function raised {type(exc).__name__} after t = {t_last:.9g} s: {exc}")
 
 
 class Stop(Exception):
@@ -145,6 +179,38 @@ class Run:
             elif code not in (C.QUIET, C.FINISHED):
                 self.fail(code)
 
+    def integrate(self, t, x, hint, samples, first, reference=False) -> RunResult:
+        """The whole run from (t, x) (``execute``'s arguments) as one RunResult: its status and
+        failure (every exception of the integration, a user function's included, ends it as
+        data, the samples kept; SIGINT as 'interrupted' after a checkpoint), the samples with
+        their outputs (``reference``: the per-sample Python path) and the run's statistics."""
+        status, failure, stats = "success", None, self.stats
+        try:
+            self.execute(t, x, hint, samples, first)
+        except KeyboardInterrupt:
+            self.save_checkpoint()
+            t_at = self.good[0] if self.good else t
+            status, failure = "interrupted", Failure(FailureKind.INTERRUPTED, t_at, (
+                f"interrupted at t = {t_at:.9g} s (SIGINT/SIGTERM); continue with simulate(..., resume=checkpoint) / "
+                "the same pinclear simulate command and --resume DIR"))
+        except Exception as exc:        # every failure, a user function's exception included: keep the samples
+            n = self.n_collected
+            status, failure = "failed", failure_of(exc, self.method.name, float(self.t_eval[n - 1]) if n else t)
+            if isinstance(exc, RankLossError):
+                stats["rank_loss"] = {"t": exc.t, "rank": exc.rank, "rows": exc.rows, "cond": exc.cond}
+        stats["rhs_evals"] = self.evaluations()
+        stats["cpu_s"] = self.cpu_prior + run_clock() - self.cpu0
+        stats.update(self.method.stats(self))
+        stats["peaks"] = self.peaks()
+        stats["clearances"] = [f.describe() for f in self.mech.clearances]
+        if self.form.row_changes:
+            stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in self.form.row_changes]
+        try:
+            kept, outs = self.outputs(reference)
+        except KeyboardInterrupt:
+            kept, outs = self.sample_arrays(), None
+        return RunResult(status, failure, kept, outs, stats)
+
     def collect(self):
         """The configurations of the samples the last chunk wrote: a non-Euclidean tree's rows
         hold chart coordinates around the current anchor, so they are projected (when the
@@ -165,13 +231,13 @@ class Run:
         3-UPRU+UP: 6 steps, 101 samples). Checkpoints keep the rows as integrated, so a resumed
         run projects exactly as an uninterrupted one. (A non-Euclidean tree's samples are
         projected as they are collected: see collect.)"""
-        samples = self.samples()
+        samples = self.sample_arrays()
         if reference or compiled_ready(self):
             if self.mech.euclidean:
                 for k in range(self.n_collected):
                     self.project_row(k)
             return samples, python_outputs(self.form, samples)
-        return samples, compiled_outputs(self, self.st.samples[:self.n_collected], self.t_eval, samples)
+        return samples, compiled_outputs(self, self.st.samples[:self.n_collected], samples)
 
     def peaks(self) -> dict:
         """The run's peaks from the integration (pinclear.stepping.peaks) by name: {"drive_forces":
@@ -200,6 +266,12 @@ class Run:
         if self.system.project.shape[0] and not C.project(self.system, self.t_eval[k], self.st.samples[k]) >= 0.0:
             q, v, _ = self.split(self.st.samples[k])
             self.form.project(self.t_eval[k], q, v)                # raises the Python path's error
+
+    def sample_arrays(self) -> Samples:
+        """The output samples so far as arrays, views of the rows."""
+        n, nc, nv = self.n_collected, self.nc, self.mech.nv
+        X = self.st.samples[:n]
+        return Samples(self.t_eval[:n], self.q_rows[:n], X[:, nc:nc + nv], X[:, nc + nv:])
 
     def samples(self, n=None):
         """The output samples so far (the first n) as (t, q, v, z) tuples, views of the rows."""

@@ -78,13 +78,19 @@ def evaluate(sys, t, x, dx):
 
 
 @njit(cache=True)
-def event_values(sys, t, x, g):
-    """g = every event channel's value at (t, x) (functions of position, ForceElement contract)."""
+def stage_values(sys, stages, t, x, buf, out):
+    """out = what ``stages`` write into ``buf`` at (t, x) (the state buffer filled first)."""
     for i in range(x.shape[0]):
         sys.x[i] = x[i]
-    run_stages(sys.events, t)
-    for i in range(g.shape[0]):
-        g[i] = sys.g[i]
+    run_stages(stages, t)
+    for i in range(out.shape[0]):
+        out[i] = buf[i]
+
+
+@njit(cache=True)
+def event_values(sys, t, x, g):
+    """g = every event channel's value at (t, x) (functions of position, ForceElement contract)."""
+    stage_values(sys, sys.events, t, x, sys.g, g)
 
 
 @njit(cache=True)
@@ -103,11 +109,7 @@ def project(sys, t, x):
 @njit(cache=True)
 def peak_values(sys, t, x, out):
     """out = every clearance's total normal force at (t, x) (the peak stages; no evaluation)."""
-    for i in range(x.shape[0]):
-        sys.x[i] = x[i]
-    run_stages(sys.peaks, t)
-    for i in range(out.shape[0]):
-        out[i] = sys.pval[i]
+    stage_values(sys, sys.peaks, t, x, sys.pval, out)
 
 
 def ode_system(fn, n, nc=0):
