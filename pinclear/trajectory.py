@@ -12,6 +12,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import kinematics
+from .jsonsafe import jsonable
 from .failures import Failure, FailureKind
 
 
@@ -24,23 +25,8 @@ def _versions():
             "scipy": scipy.__version__, "python": platform.python_version()}
 
 
-def jsonable(x):
-    """A JSON-safe copy of x (arrays to lists, numpy scalars to Python, others by repr)."""
-    return _jsonable(x)
-
-
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, (np.floating, np.integer, np.bool_)):
-        return x.item()
-    if isinstance(x, (str, int, float, bool)) or x is None:
-        return x
-    return repr(x)
+#: one implementation (pinclear.jsonsafe), under its old names here too
+_jsonable = jsonable
 
 
 @dataclass

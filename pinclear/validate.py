@@ -21,6 +21,7 @@ import numpy as np
 
 from .errors import InputError
 from .failures import Failure, FailureKind
+from .jsonsafe import jsonable
 
 #: bound on one array's declared size: a saved run of MAX_SAMPLES samples of a 60-coordinate
 #: tree is ~1 GB, so an array declaring more is not one pinclear wrote
@@ -165,8 +166,6 @@ def mechanism_digest(mech) -> str:
 
 
 def _plain(x):
-    from .trajectory import jsonable
-
     return jsonable(x)
 
 
