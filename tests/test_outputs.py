@@ -121,3 +121,24 @@ def test_drive_force_peaks_are_the_accepted_states_evaluations():
     acc = np.abs(at.a).max(axis=0)
     got = np.array([r["value"] for r in pk["accelerations"].values()])
     np.testing.assert_allclose(got, acc, rtol=1e-12)
+
+
+def test_summary_json_and_summary_give_the_same_peaks(tmp_path, capsys):
+    """summary.json and traj.summary() come from one function: the same drive-force peaks and
+    clearances (with their located peaks), also for the run read back from its file."""
+    import json
+
+    from pinclear.cli import main
+
+    out = tmp_path / "o"
+    assert main(["simulate", "four_ups_upu", "--clearance", "S2", "--t-end", "0.05", "--out", str(out),
+                 "--progress", "off"]) == 0
+    capsys.readouterr()
+    saved = json.loads((out / "summary.json").read_text())
+    back = pinclear.Trajectory.load(out / "trajectory.npz").summary()
+    for key in ("drive_force_peaks", "drive_force_peak_times", "acceleration_peaks", "clearances", "peaks_from"):
+        assert saved[key] == back[key], key
+    assert saved["peaks_from"] == "integration"
+    (s2,) = saved["clearances"]
+    assert s2["name"] == "S2" and s2["peak_normal_force"] > 0 and 0 <= s2["t_peak"] <= 0.05
+    assert set(saved["drive_force_peaks"]) == {d.name for d in pinclear.load("four_ups_upu").drives}
