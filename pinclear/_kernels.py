@@ -14,9 +14,10 @@ from typing import NamedTuple
 import numpy as np
 
 from pinclear._jit import njit
+from pinclear.coupling import coupling_positions, coupling_velocities
 
 # primitive codes of CompiledClosures.table
-POINT, PLANE, DOT, PERP, DIST = 0, 1, 2, 3, 4
+POINT, PLANE, DOT, PERP, DIST, COUPLE = 0, 1, 2, 3, 4, 5
 
 
 class Rows(NamedTuple):
@@ -195,7 +196,7 @@ def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi):
                 Jc[r, k] = (u0 * (Jv[i2, 0, k] - Jv[i1, 0, k]) + u1 * (Jv[i2, 1, k] - Jv[i1, 1, k])
                             + u2 * (Jv[i2, 2, k] - Jv[i1, 2, k])
                             + c0 * Jw[i1, 0, k] + c1 * Jw[i1, 1, k] + c2 * Jw[i1, 2, k])
-        else:  # DIST
+        elif code == DIST:
             d0, d1, d2 = H[i1, 0, 3] - H[i2, 0, 3], H[i1, 1, 3] - H[i2, 1, 3], H[i1, 2, 3] - H[i2, 2, 3]
             nd = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
             n0, n1, n2 = d0 / nd, d1 / nd, d2 / nd
@@ -251,7 +252,7 @@ def closure_velocities(table, E, H, V, W, A, Al, dphi, bias):
             bias[r] = (u0 * (A[i2, 0] - A[i1, 0]) + u1 * (A[i2, 1] - A[i1, 1]) + u2 * (A[i2, 2] - A[i1, 2])
                        + c0 * Al[i1, 0] + c1 * Al[i1, 1] + c2 * Al[i1, 2]
                        + du0 * e0 + du1 * e1 + du2 * e2 + (f0 + g0) * w0 + (f1 + g1) * w1 + (f2 + g2) * w2)
-        else:  # DIST
+        elif code == DIST:
             d0, d1, d2 = H[i1, 0, 3] - H[i2, 0, 3], H[i1, 1, 3] - H[i2, 1, 3], H[i1, 2, 3] - H[i2, 2, 3]
             e0, e1, e2 = V[i1, 0] - V[i2, 0], V[i1, 1] - V[i2, 1], V[i1, 2] - V[i2, 2]
             nd = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
@@ -427,6 +428,7 @@ def constraint_rows_positions(R, q, v, fdrv):
     projections' iterations; zero for closures); bias and gamma are left as they were."""
     frame_positions(R.Hj, R.jidx, R.jMf, R.H, R.fcols, R.nfcols, R.J, R.Jv, R.Jw)
     closure_positions(R.table, R.E, R.L, R.H, R.Jv, R.Jw, R.phi, R.Jc, R.dphi)
+    coupling_positions(R.table, R.E, q, R.phi, R.Jc, R.dphi, COUPLE)
     phi, dphi, iq, iv = R.phi, R.dphi, R.iq, R.iv
     mc = phi.shape[0] - iq.shape[0]
     for k in range(iq.shape[0]):
@@ -442,6 +444,7 @@ def constraint_rows_velocities(R, alpha, beta, v, fdrv):
     J and dJ, every row's J v + Phi_t, bias and gamma (Phi and J kept)."""
     frame_velocities(R.H, R.fcols, R.nfcols, R.J, R.dJ, v, R.V, R.W, R.A, R.Al)
     closure_velocities(R.table, R.E, R.H, R.V, R.W, R.A, R.Al, R.dphi, R.bias)
+    coupling_velocities(R.table, R.E, v, R.dphi, R.bias, COUPLE)
     phi, dphi, bias, gamma, iv = R.phi, R.dphi, R.bias, R.gamma, R.iv
     mc = phi.shape[0] - iv.shape[0]
     for k in range(iv.shape[0]):

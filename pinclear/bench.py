@@ -216,13 +216,14 @@ def draw_chart(rows, path, title, ax=None):
 
 # ---------------------------------------------------------------------- real runs
 def scenes(files=None):
-    """(label, sidecar path, clearances) of every scene: each sidecar with ideal joints, and once
-    more per clearance joint it declares, that joint active."""
-    from .models import available, model_path
+    """(label, sidecar path, clearances) of every scene (default: models.bench_scenes(), the
+    bundled mechanisms less the imported robots): each sidecar with ideal joints, and once more
+    per clearance joint it declares, that joint active."""
+    from .models import bench_scenes, model_path
     from .sidecar import read_yaml
 
     out = []
-    for f in files or available():
+    for f in files or bench_scenes():
         path = model_path(f)
         doc = read_yaml(path) if path.suffix == ".yaml" else {}
         clr = [c["name"] for c in doc.get("clearances") or [] if isinstance(c, dict) and "name" in c]

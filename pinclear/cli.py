@@ -42,16 +42,16 @@ def _add_model_args(p, file_required=True):
                    help="override a clearance key or a scene option (repeatable)")
     p.add_argument("--option", action="append", metavar="KEY=VALUE", help="set a scene option (repeatable)")
     p.add_argument("--trust", action="store_true",
-                   help="allow the mechanism file to import Python code outside pinclear (see README: trust)")
+                   help="allow the mechanism file to import Python code outside pinclear (see docs/manual.md, 'Trust')")
 
 
 #: the simulate options recorded in OUT/run.json (a record for the user: --resume compares the
 #: command line with it and takes nothing from it)
 RUN_KEYS = ("file", "clearance", "set", "option", "trust", "t_end", "method", "integrator", "rtol", "atol", "h",
-            "max_step", "dt_out", "alpha", "beta", "max_cpu", "min_mean_step")
+            "max_step", "dt_out", "alpha", "beta", "max_cpu", "min_mean_step", "start")
 #: the options that define the run a checkpoint continues (--resume refuses a command line that
 #: differs in one of them); trust is the user's decision of the moment, never the folder's
-RESUME_KEYS = tuple(k for k in RUN_KEYS if k not in ("trust", "max_cpu"))
+RESUME_KEYS = tuple(k for k in RUN_KEYS if k not in ("trust", "max_cpu", "start"))
 #: the files a simulate run writes into --out
 RUN_FILES = ("run.json", "trajectory.npz", "summary.json", "checkpoint.npz")
 
@@ -163,7 +163,7 @@ def _resume_command(recorded: dict, folder) -> str:
     parts = ["pinclear", "simulate", str(recorded.get("file"))]
     for k in RUN_KEYS:
         v = recorded.get(k)
-        if k == "file" or v is None or v is False or v == []:
+        if k in ("file", "start") or v is None or v is False or v == []:
             continue
         flag = "--" + k.replace("_", "-")
         if v is True:
@@ -266,6 +266,8 @@ def _simulate(args, stop):
             print("pinclear: interrupted before the run started; nothing computed", file=sys.stderr)
             return 130
         kw = {k: getattr(args, k) for k in ("alpha", "beta") if getattr(args, k) is not None}
+        if resume is None:
+            kw.update(_start_options(args.start, mech))
         max_step = np.inf if args.max_step is None else args.max_step
         atomic_write_text(out / "run.json", json.dumps({k: getattr(args, k) for k in RUN_KEYS}, indent=2))
 
@@ -296,6 +298,25 @@ def _simulate(args, stop):
                     bar.close()
         stop.critical = True           # from here on, everything computed is written whatever arrives
         return _save_run(args, mech, traj, out, stop)
+
+
+def _start_options(start, mech) -> dict:
+    """simulate()'s start, q0, v0 from --start NAME [FILE] (pinclear.kinematics.STARTS)."""
+    from .kinematics import STARTS
+    from .simulate import read_state
+
+    name, rest = (start[0], start[1:]) if start else ("ideal", [])
+    if name not in STARTS:
+        raise InputError(f"unknown start {name!r}", key="--start", choices=STARTS)
+    if name == "state":
+        if len(rest) != 1:
+            raise InputError("state needs one FILE (.npz with arrays q and v, or .json {\"q\": [...], "
+                             "\"v\": [...]})", key="--start")
+        q, v = read_state(rest[0], mech)
+        return {"start": name, "q0": q, "v0": v}
+    if rest:
+        raise InputError(f"{name} takes no FILE (only state FILE does)", key="--start")
+    return {"start": name}
 
 
 def _fallback_path(target: Path) -> list[Path]:
@@ -376,18 +397,88 @@ def cmd_info(args):
     from . import kinematics
 
     mech = _load(args)
-    q = kinematics.assemble(mech)
+    q = kinematics.start_state(mech, "ideal")[0]       # where a run starts: freed joints assembled with the rest
     mob = kinematics.mobility(mech, q)
     info = mech.describe()
+    model = mech.model
     info.update({"mobility": mob["mobility"], "closure_rows": mob["rows"], "rank": mob["rank"],
                  "redundant_rows": mob["redundant_rows"], "condition": mob["condition"],
-                 "parameters": mech.parameters, "q_assembled": q.tolist()})
+                 "parameters": mech.parameters, "q_assembled": q.tolist(),
+                 "q_assembled_by_joint": {model.names[j]: q[model.joints[j].idx_q:model.joints[j].idx_q
+                                                            + model.joints[j].nq].tolist()
+                                          for j in range(1, model.njoints)}})
     from .economy import economy_report
 
     info["economy"] = economy_report(mech, t_end=args.along, threshold=args.threshold)
     info["redundant_rows_named"] = [r["name"] for r in info["economy"]["redundant_rows"]]
-    print(json.dumps(info, indent=2, default=str))
+    if args.json:
+        print(json.dumps(info, indent=2, default=str))
+    else:
+        print(info_text(mech, q, mob, info["economy"]))
     return 0
+
+
+def _actuation(n_drives, mobility):
+    """'3 drives on mobility 3: fully actuated' and its under- and over-actuated kin."""
+    head = f"{n_drives} drive{'s' * (n_drives != 1)} on mobility {mobility}"
+    if n_drives == mobility:
+        return f"{head}: fully actuated (the drives prescribe every free motion)"
+    if n_drives < mobility:
+        return f"{head}: under-actuated ({mobility - n_drives} free motion(s) follow the dynamics)"
+    return f"{head}: over-actuated ({n_drives - mobility} drive row(s) beyond the mobility: the laws must agree)"
+
+
+def info_text(mech, q, mob, economy) -> str:
+    """pinclear info's readable summary: counts, mobility and actuation, the branch, the
+    assembly residual, the clearances declared and the assembled q by joint name."""
+    from . import kinematics
+    from .analysis.signals import joint_unit
+
+    ws = mech.workspace()
+    phi = kinematics.closure_residual(mech, ws, q, with_drives=True)
+    J = kinematics.jacobian(mech, ws, q, with_drives=True)
+    lines = [f"{mech.name} ({mech.path}): {mech.model.njoints - 1} tree joints, nq {mech.nq}, nv {mech.nv}",
+             f"closures: {len(mech.closures)} ({', '.join(c.name + ' ' + c.type for c in mech.closures) or 'none'}): "
+             f"{mob['rows']} rows, rank {mob['rank']}, condition {mob['condition']:.3g}; redundant rows: "
+             f"{', '.join(mob['redundant_rows']) or 'none'}",
+             f"mobility {mob['mobility']}; {_actuation(len(mech.drives), mob['mobility'])}"]
+    if mech.replaced_closures:
+        ideal = kinematics.mobility(kinematics.ideal_mechanism(mech), q)["mobility"]
+        lines.append(f"  with {', '.join(mech.replaced_closures)} freed by clearances; the ideal mechanism's "
+                     f"mobility is {ideal}")
+    if J.shape[0] == J.shape[1] and J.size:
+        sign = np.sign(np.linalg.det(J))
+        lines.append(f"branch: sign det [closure rows; drive rows] = {int(sign):+d} (the assembly mode; it changes "
+                     "only through a singular configuration)")
+    else:
+        lines.append(f"branch: not defined by a sign (the Jacobian with drives is {J.shape[0]} x {J.shape[1]})")
+    lines.append(f"assembly residual at t = 0: {np.abs(phi).max() if phi.size else 0.0:.3g} (closures and drives, "
+                 "m or rad)")
+    active = {f.name for f in mech.clearances}
+    decl = [c for c in (mech.sidecar.get("clearances") or []) if isinstance(c, dict)]
+    lines.append(f"clearances declared: {len(decl) or 'none'}")
+    for c in decl:
+        state = "active" if c.get("name") in active else f"inactive (--clearance {c.get('name')})"
+        size = c.get("clearance")
+        size = f", clearance {1e3 * float(size):g} mm" if isinstance(size, (int, float)) else ""
+        lines.append(f"  {c.get('name')}: {c.get('type')} on closure {c.get('closure')}{size}, {state}")
+    lines.append("assembled q by joint (initial guess -> assembled; rad and deg for revolute, m for prismatic):")
+    model = mech.model
+    for j in range(1, model.njoints):
+        jm = model.joints[j]
+        sl = slice(jm.idx_q, jm.idx_q + jm.nq)
+        a, g = q[sl], mech.q0[sl]
+        if jm.nq == 1:
+            unit = joint_unit(jm)
+            deg = f" ({np.degrees(a[0]):.4g} deg)" if unit == "rad" else ""
+            lines.append(f"  {model.names[j]:<14s} {g[0]: .6g} -> {a[0]: .9g} {unit}{deg}")
+        else:
+            lines.append(f"  {model.names[j]:<14s} {np.round(g, 6).tolist()} -> {np.round(a, 9).tolist()}")
+    planar = (economy or {}).get("planarity") or {}
+    if "planar" in planar:
+        lines.append(f"planar: {'yes' if planar['planar'] else 'no'}")
+    lines.append("(--json: every field as JSON, the economy report included)")
+    return "\n".join(lines)
 
 
 def _split_names(text, default):
@@ -407,6 +498,10 @@ def cmd_bench(args):
         from .contact import bench as cbench
 
         return cbench.restitution_main(args.rest)
+    if args.what == "contact-laws":
+        from .contact import bench as cbench
+
+        return cbench.contact_laws_main(args.rest)
     if args.what == "atlas":
         from . import atlas
 
@@ -480,10 +575,12 @@ def cmd_bench(args):
 
 
 def cmd_sweep(args):
-    from .sweeps import parse_vary, sweep
+    from .sweeps import TABLE_CSV, TABLE_NPZ, parse_vary, sweep
 
     vary = dict(parse_vary(v) for v in args.vary)
-    sim = {"method": args.method, "integrator": args.integrator, "rtol": args.rtol}
+    sim = {"method": args.method, "integrator": args.integrator}
+    if args.rtol is not None:
+        sim["rtol"] = args.rtol
     if args.dt_out is not None:
         sim["dt_out"] = args.dt_out
     if args.max_cpu is not None:
@@ -500,6 +597,7 @@ def cmd_sweep(args):
     for p in res.points:
         counts[p.status] = counts.get(p.status, 0) + 1
     print(json.dumps({"folder": str(res.folder), "points": len(res.points), "computed_now": res.computed,
+                      "table": [str(res.folder / TABLE_CSV), str(res.folder / TABLE_NPZ)],
                       "status": counts, "failures": [{"point": p.overrides, "status": p.status, "message": p.message}
                                                      for p in res.failures]}, default=str))
     return 0 if not res.failures else 1
@@ -536,7 +634,9 @@ DELEGATED = (("view", "pinclear.viz.cli", "view_main", "meshcat viewer / standal
              ("plot", "pinclear.viz.cli", "plot_main", "standard figures of a saved trajectory"),
              ("inverse-dynamics", "pinclear.screw", "cli_main", "screw-theory inverse dynamics (paper 004)"),
              ("analyse", "pinclear.analysis", "cli_main", "phase portraits, Poincare maps, bifurcation diagrams"),
-             ("reproduce", "pinclear.reproduce", "cli_main", "a source paper's study with its numbers beside ours"))
+             ("reproduce", "pinclear.reproduce", "cli_main", "a source paper's study with its numbers beside ours"),
+             ("import", "pinclear.importers", "cli_main", "a mechanism from SDF, MJCF or a closing-frame URDF as a URDF tree + sidecar"),
+             ("export", "pinclear.export_mjcf", "cli_main", "a mechanism as MuJoCo MJCF (--mjcf OUT.xml)"))
 
 
 def _version() -> str:
@@ -569,10 +669,11 @@ def _add_run_args(s, rtol):
     from .stepping import INTEGRATORS
 
     s.add_argument("--method", default="lagrange", choices=list(METHODS),
-                   help="forward-dynamics formulation (README: formulations)")
+                   help="forward-dynamics formulation (docs/manual.md, 'Formulations and integrators')")
     s.add_argument("--integrator", default="RK45", choices=list(INTEGRATORS),
                    help="time integrator (RK4: fixed step --h)")
-    s.add_argument("--rtol", type=number(), default=rtol, help="relative tolerance of the adaptive integrators")
+    s.add_argument("--rtol", type=number(), default=rtol, help="relative tolerance of the adaptive integrators"
+                   + (" (default: simulate's, 1e-8)" if rtol is None else ""))
 
 
 def build_parser():
@@ -611,6 +712,11 @@ def build_parser():
     s.add_argument("--checkpoint-every", type=number(unit="s"), default=None, metavar="SECONDS",
                    help="write OUT/checkpoint.npz every SECONDS of CPU, so a killed run can be resumed "
                         "(default: only when the run ends early)")
+    s.add_argument("--start", nargs="+", default=None, metavar=("NAME", "FILE"),
+                   help="the state at t = 0: ideal (default: the ideal mechanism's assembled state and velocity, "
+                        "every clearance centred with zero relative velocity, as the papers start), rest, "
+                        "least-energy (the clearance mechanism's velocity of least kinetic energy: a start-up "
+                        "impact) or state FILE (q and v from a .npz or .json, kept off centre)")
     s.add_argument("--resume", default=None, metavar="DIR",
                    help="continue the interrupted or stopped run saved in DIR (same options, same steps)")
     s.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
@@ -625,7 +731,7 @@ def build_parser():
                         "(linear), a:b:n:log, or v1,v2,... (repeatable: the grid of all combinations)")
     s.add_argument("--t-end", type=number(unit="s"), required=True, help="simulated time per point [s]")
     s.add_argument("--out", required=True, help="sweep folder (rerun into it to resume)")
-    _add_run_args(s, rtol=1e-6)
+    _add_run_args(s, rtol=None)      # None: simulate's own default (pinclear.simulate.RTOL_DEFAULT)
     s.add_argument("--dt-out", type=number(unit="s"), default=None,
                    help="output interval [s] (default: 500 intervals per run)")
     s.add_argument("--max-cpu", type=number(unit="s"), default=None,
@@ -644,11 +750,14 @@ def build_parser():
                    help="also simulate to T_END [s] and test planarity and each body's inertia along the run")
     s.add_argument("--threshold", type=number(), default=0.01,
                    help="relative drive-force change below which a body's inertia is droppable")
+    s.add_argument("--json", action="store_true",
+                   help="print every field as JSON (the economy report included) instead of the summary")
     s.set_defaults(func=cmd_info)
 
     s = sub.add_parser("bench", help="bench rhs FILE | bench runs [FILES] | bench work-precision FILE | "
-                       "bench restitution | bench atlas [FILES] [--quick] | bench outputs", formatter_class=HelpFormatter)
-    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution", "atlas", "outputs"],
+                       "bench restitution | bench contact-laws | bench atlas [FILES] [--quick] | bench outputs",
+                       formatter_class=HelpFormatter)
+    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution", "atlas", "contact-laws", "outputs"],
                    help="which benchmark (outputs: the cost of a run's outputs against its samples, docs/outputs.md)")
     s.add_argument("file", nargs="?", help="mechanism sidecar or bundled name (runs, atlas: default all scenes)")
     _add_model_args(s, file_required=False)
@@ -717,7 +826,7 @@ def main(argv=None):
         parser = build_parser()
         args, unknown = parser.parse_known_args(argv)
         if unknown:
-            if getattr(args, "what", None) == "restitution":
+            if getattr(args, "what", None) in ("restitution", "contact-laws"):
                 args.rest = list(args.rest or []) + unknown     # its own options, parsed there
             else:
                 parser.error(f"unrecognized arguments: {' '.join(unknown)}")

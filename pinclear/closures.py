@@ -14,6 +14,7 @@ cylindrical      4   x1.z2 = y1.z2 = 0, x1.d = y1.d = 0
 weld             6   p1 = p2, x1.y2 = y1.z2 = z1.x2 = 0
 planar_point     2   E^T (p1 - p2) = 0, E spans the plane normal to n (world, default z)
 distance         1   |p1 - p2| = L
+coupling         1   q(joint2) = ratio q(joint1) + offset  (pinclear.coupling)
 =============  ====  =====================================================================
 
 The primitives of all closures are compiled into one table evaluated by the kernel
@@ -24,25 +25,66 @@ second time derivative at zero joint acceleration (from Pinocchio's dJ/dt, no fi
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import MappingProxyType
 
 import numpy as np
 
-from ._kernels import DIST, DOT, PERP, PLANE, POINT
+from ._kernels import COUPLE, DIST, DOT, PERP, PLANE, POINT
+from .coupling import COUPLING_KEYS
+from .registry import Key
 
 # (primitive, arguments, row labels)
 _POINT = ("point", (), ("x", "y", "z"))
 _ORIENT = [("dot", (0, 1), ("rz",)), ("dot", (1, 2), ("rx",)), ("dot", (2, 0), ("ry",))]
-CLOSURE_TYPES: dict[str, list] = {
-    "spherical": [_POINT],
-    "revolute": [_POINT, ("dot", (0, 2), ("ry",)), ("dot", (1, 2), ("rx",))],
-    "universal": [_POINT, ("dot", (2, 2), ("rn",))],
-    "prismatic": _ORIENT + [("perp", (0,), ("x",)), ("perp", (1,), ("y",))],
-    "cylindrical": [("dot", (0, 2), ("ry",)), ("dot", (1, 2), ("rx",)),
-                    ("perp", (0,), ("x",)), ("perp", (1,), ("y",))],
-    "weld": [_POINT] + _ORIENT,
-    "planar_point": [("plane", (), ("u", "v"))],
-    "distance": [("distance", (), ("d",))],
-}
+
+
+@dataclass(frozen=True)
+class ClosureType:
+    """One closure type: its sidecar name, its geometry (primitives of the compiled table:
+    (primitive, arguments, row labels)), one line for the key reference, the keys of KEYS it
+    reads besides the frames (``keys``) and those its entries must give (``required``)."""
+
+    name: str
+    primitives: tuple
+    doc: str
+    keys: tuple = ()
+    required: tuple = ()
+
+
+_NORMAL = Key("normal", "[x, y, z]", "-", [0, 0, 1], "non-zero (normalised)", "closures.py: E spans the plane "
+              "normal to n", "world normal of the plane the point keeps to (planar_point)")
+_LENGTH = Key("length", "number", "m", 0.0, "> 0 (distance: required)", "closures.py: |p1 - p2| = L",
+              "the distance (distance)")
+
+#: the closure types (sidecar ``closures: [{type: ...}]``): one line each
+CLOSURES = MappingProxyType({t.name: t for t in (
+    ClosureType("spherical", (_POINT,), "p1 = p2 (3 rows)"),
+    ClosureType("revolute", (_POINT, ("dot", (0, 2), ("ry",)), ("dot", (1, 2), ("rx",))),
+                "p1 = p2, x1.z2 = y1.z2 = 0: a hinge about the common z axis (5 rows)"),
+    ClosureType("universal", (_POINT, ("dot", (2, 2), ("rn",))), "p1 = p2, z1.z2 = 0 (4 rows)"),
+    ClosureType("prismatic", tuple(_ORIENT) + (("perp", (0,), ("x",)), ("perp", (1,), ("y",))),
+                "orientations equal, x1.d = y1.d = 0: a slide along z1 (5 rows)"),
+    ClosureType("cylindrical", (("dot", (0, 2), ("ry",)), ("dot", (1, 2), ("rx",)), ("perp", (0,), ("x",)),
+                                ("perp", (1,), ("y",))), "x1.z2 = y1.z2 = 0, x1.d = y1.d = 0 (4 rows)"),
+    ClosureType("weld", (_POINT,) + tuple(_ORIENT), "p1 = p2, orientations equal (6 rows)"),
+    ClosureType("planar_point", (("plane", (), ("u", "v")),), "E^T (p1 - p2) = 0, E spanning the plane normal "
+                "to ``normal``: the point of a planar hinge (2 rows)", keys=(_NORMAL,)),
+    ClosureType("distance", (("distance", (), ("d",)),), "|p1 - p2| = L (1 row)", keys=(_LENGTH,),
+                required=("length",)),
+    ClosureType("coupling", (("couple", (), ("c",)),), "q(joint2) = ratio q(joint1) + offset between two 1-dof "
+                "joints, no frames (1 row; pinclear.coupling: a gearbox, a mimic)", keys=COUPLING_KEYS,
+                required=("joint1", "joint2", "ratio")),
+)})
+#: the keys of a ``closures:`` entry (every type accepts them all; ``ClosureType.keys`` says which it reads)
+KEYS = (Key("name", "string", "-", "loop<index>", "unique", doc="the closure's name (rows are NAME.x, ...)"),
+        Key("type", "string", "-", range="a closure type", doc="the closure type (below)"),
+        Key("frame1", "frame", doc="frame on body 1 (socket, bearing, guide of a clearance): a frame name or "
+            "{parent, xyz, rpy | axis, name}"),
+        Key("frame2", "frame", doc="frame on body 2 (ball, journal, slider), on another body"),
+        _NORMAL, _LENGTH)
+
+#: closure type -> its primitives (the compiled table's rows)
+CLOSURE_TYPES: dict[str, list] = {n: list(t.primitives) for n, t in CLOSURES.items()}
 #: closure types Pinocchio's rigid constraints express exactly (pin.ContactType)
 PINOCCHIO_TYPES = {"spherical": "CONTACT_3D", "weld": "CONTACT_6D"}
 
@@ -59,6 +101,7 @@ class Closure:
     f2: int
     normal: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
     length: float = 0.0
+    coupling: tuple = None       # (iq1, iv1, iq2, iv2, ratio, offset) of a coupling (pinclear.coupling)
 
     @property
     def nrows(self) -> int:
@@ -111,6 +154,8 @@ class CompiledClosures:
                     g["args"].append(plane_basis(c.normal))
                 elif prim == "distance":
                     g["args"].append(c.length)
+                elif prim == "couple":
+                    g["args"].append(c)
                 else:
                     g["args"].append(args)
                 row += len(labels)
@@ -120,14 +165,18 @@ class CompiledClosures:
         self.row_group = np.array(row_group, dtype=np.int64)
         self.row_group.flags.writeable = False
         # flat table for the compiled kernel: (code, i1, i2, first row, axis a, axis b)
-        codes = {"point": POINT, "plane": PLANE, "dot": DOT, "perp": PERP, "distance": DIST}
+        codes = {"point": POINT, "plane": PLANE, "dot": DOT, "perp": PERP, "distance": DIST, "couple": COUPLE}
         table, E, L = [], [], []
         for prim, g in groups.items():
             for k in range(len(g["i1"])):
                 arg = g["args"][k]
                 ab = tuple(arg) + (0, 0) if isinstance(arg, tuple) else (0, 0)
+                if prim == "couple":
+                    from .coupling import table_entry
+
+                    ab, arg = table_entry(arg)
                 table.append((codes[prim], g["i1"][k], g["i2"][k], g["rows"][k][0], ab[0], ab[1]))
-                E.append(arg if prim == "plane" else np.zeros((2, 3)))
+                E.append(arg if prim in ("plane", "couple") else np.zeros((2, 3)))
                 L.append(arg if prim == "distance" else 0.0)
         self.table = np.array(table, dtype=np.int64).reshape(-1, 6)
         self.E = np.array(E, float).reshape(-1, 2, 3)

@@ -35,6 +35,7 @@ _AXIS_WORDS = {
             "ry": "rotation about frame1's y axis", "rn": "angle between the axes z1 and z2 (kept at 90 deg)"},
     "perp": {"x": "translation along frame1's x axis", "y": "translation along frame1's y axis"},
     "distance": {"d": "distance |p1 - p2|"},
+    "couple": {"c": "q(joint2) - ratio q(joint1) - offset (a gear or mimic coupling)"},
 }
 
 

@@ -101,8 +101,9 @@ def energy_balance(traj) -> dict:
         max T + max |V_g - V_g(0)| + max V_el + E_diss(end) + max |W_drives| + max |W_closures|
         + max |W_applied|,
 
-    zero only when nothing moved (then error = 0); ``terms``: each term of B at the end (J);
-    ``bound_terms``: the parts of the bound.
+    zero only when nothing moved (then error = 0); ``terms``: each term of B at the run's last
+    sample, the time ``terms_t`` (J; gravity as the change from t0); ``terms_at_error``: the same
+    at ``t``, the time of the largest error; ``bound_terms``: the parts of the bound.
 
     The bound, written down here and not fitted to any run:
 
@@ -129,28 +130,17 @@ def energy_balance(traj) -> dict:
     The integration term grows with the number of steps: a run whose bound reaches 1 cannot
     be audited at its tolerance (its ``ok`` is then vacuous; tighten rtol).
     """
-    E = traj.energies
-    need = ("kinetic", "potential", "spring", "dissipated", "work_drives", "closure_power", "applied_power")
-    empty = {"error": None, "t": None, "ok": None, "bound": None, "scale": None}
-    if any(k not in E for k in need):
-        return dict(empty, message="energy terms not recorded (outputs not evaluated, or a run saved before "
-                                   "the energy audit)")
-    t = np.asarray(traj.t, float)
-    cols = [np.asarray(E[k], float) for k in need]
-    finite = np.all(np.isfinite(np.array(cols).reshape(len(need), -1)), axis=0) if len(t) else np.zeros(0, bool)
-    n = int(np.argmin(finite)) if not finite.all() else len(t)
-    if n == 0:
-        return dict(empty, message="no sample with finite energies")
-    t = t[:n]
-    T, Vg, Vel, D, Wd, Pc, Pa = (c[:n] for c in cols)
-    Wc = _cumtrapz(Pc, t)
-    Wa = 0.0 - _cumtrapz(Pa, t)     # work of applied forces (their power_loss is negative when they inject)
-    B = T + Vg + Vel + D - Wd - Wc - Wa
-    dev = np.abs(B - B[0])
+    S = balance_series(traj)
+    if "message" in S:
+        return {"error": None, "t": None, "ok": None, "bound": None, "scale": None, "message": S["message"]}
+    t, n = S["t"], len(S["t"])
+    T, Vg, Vel, D, Wd, Wc, Wa = (S[k] for k in SERIES)
+    dev = np.abs(S["balance"])
     k = int(np.argmax(dev))
-    scale = float(T.max() + np.abs(Vg - Vg[0]).max() + Vel.max() + abs(D[-1]) + np.abs(Wd).max()
+    scale = float(T.max() + np.abs(Vg).max() + Vel.max() + abs(D[-1]) + np.abs(Wd).max()
                   + np.abs(Wc).max() + np.abs(Wa).max())
     error = float(dev[k] / scale) if scale > 0 else 0.0
+    Pa, Pc = S["applied_power"], S["closure_power"]
 
     rtol, atol = traj.meta.get("rtol"), traj.meta.get("atol")
     steps = int(traj.stats.get("steps") or 0)
@@ -169,7 +159,37 @@ def energy_balance(traj) -> dict:
         terms["closure_drift"] = terms["quadrature"] = 0.0
     bound = float(sum(terms.values()))
     return {"error": error, "t": float(t[k]), "ok": bool(error <= bound), "bound": bound, "scale": scale,
-            "terms": {"kinetic": float(T[-1]), "gravity": float(Vg[-1] - Vg[0]), "elastic": float(Vel[-1]),
-                      "dissipated": float(D[-1]), "work_drives": float(Wd[-1]), "work_closures": float(Wc[-1]),
-                      "work_applied": float(Wa[-1])},
+            "terms": {key: float(S[key][-1]) for key in SERIES}, "terms_t": float(t[-1]),
+            "terms_at_error": {key: float(S[key][k]) for key in SERIES},
             "bound_terms": terms, "steps": steps, "samples": n}
+
+
+#: the balance's terms: balance_series' series and energy_balance's ``terms``, by the same names
+SERIES = ("kinetic", "gravity", "elastic", "dissipated", "work_drives", "work_closures", "work_applied")
+
+
+def balance_series(traj) -> dict:
+    """The terms of the balance B (module doc) at every sample (J): kinetic T, gravity (V_g -
+    V_g(0)), elastic V_el, dissipated E_diss, work_drives, work_closures, work_applied, and
+    ``balance`` = B - B(0) (zero for an exact run), over the samples ``t`` up to the first with a
+    non-finite energy; also the applied forces' power (``applied_power``, W). A mapping with
+    ``message`` when the run recorded no energies. The one place B is formed (the audit and the
+    energy figure read it)."""
+    E = traj.energies
+    need = ("kinetic", "potential", "spring", "dissipated", "work_drives", "closure_power", "applied_power")
+    if any(k not in E for k in need):
+        return {"message": "energy terms not recorded (outputs not evaluated, or a run saved before the energy audit)"}
+    t = np.asarray(traj.t, float)
+    cols = [np.asarray(E[k], float) for k in need]
+    finite = np.all(np.isfinite(np.array(cols).reshape(len(need), -1)), axis=0) if len(t) else np.zeros(0, bool)
+    n = int(np.argmin(finite)) if not finite.all() else len(t)
+    if n == 0:
+        return {"message": "no sample with finite energies"}
+    t = t[:n]
+    T, Vg, Vel, D, Wd, Pc, Pa = (c[:n] for c in cols)
+    Wc = _cumtrapz(Pc, t)
+    Wa = 0.0 - _cumtrapz(Pa, t)     # work of applied forces (their power_loss is negative when they inject)
+    B = T + Vg + Vel + D - Wd - Wc - Wa
+    return {"t": t, "kinetic": T, "gravity": Vg - Vg[0], "elastic": Vel, "dissipated": D, "work_drives": Wd,
+            "work_closures": Wc, "work_applied": Wa, "balance": B - B[0], "applied_power": Pa,
+            "closure_power": Pc}

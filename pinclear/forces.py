@@ -15,6 +15,7 @@ import numpy as np
 
 from ._jit import njit
 from .kinematics import supporting_dofs
+from .registry import Key, PluginType
 from .stepping.stage import T
 from .timelaws import TimeLaw, eval_laws, law_table
 
@@ -414,6 +415,25 @@ class SpringDamper(ForceElement):
         return {"name": self.name, "type": "spring_damper", "k": self.k, "c": self.c, "free_length": self.L0}
 
 
+def parse_spring_damper(f, ctx):
+    """A ``spring_damper`` entry (keys checked) -> SpringDamper; ``ctx``: pinclear.sidecar.Context."""
+    f1, _ = ctx.frame(f["frame1"], "frame1")
+    f2, _ = ctx.frame(f["frame2"], "frame2")
+    v = SPRING_DAMPER.value
+    return SpringDamper(ctx.name, ctx.model, f1, f2, f["k"], v(f, "c"), v(f, "free_length"))
+
+
+SPRING_DAMPER = PluginType(
+    "spring_damper", parse=parse_spring_damper,
+    doc="Point-to-point spring-damper between two frames' origins: tension F = k (L - L0) + c dL/dt along the "
+        "line joining them, L their distance (forces.SpringDamper).",
+    keys=(Key("frame1", "frame", doc="first end: a frame name or {parent, xyz, rpy | axis, name}"),
+          Key("frame2", "frame", doc="second end, on another body"),
+          Key("k", "number", "N/m", range="finite", source="F = k (L - L0) + c dL/dt", doc="stiffness"),
+          Key("c", "number", "N s/m", 0.0, "finite", "F = k (L - L0) + c dL/dt", "damping"),
+          Key("free_length", "number", "m", 0.0, "finite", "F = k (L - L0) + c dL/dt", "free length L0")))
+
+
 # ------------------------------------------------------------------ joint force
 @njit(cache=True)
 def joint_force(table, t, idx, f, tau):
@@ -484,3 +504,17 @@ class JointForce(ForceElement):
 
     def describe(self):
         return {"name": self.name, "type": "joint_force", "law": self.law.describe()}
+
+
+def parse_joint_force(f, ctx):
+    """A ``joint_force`` entry (keys checked) -> JointForce; ``ctx``: pinclear.sidecar.Context."""
+    jm = ctx.joint(f["joint"], "joint", one_dof=True)
+    return JointForce(ctx.name, jm.idx_v, ctx.law(f["law"], "law"))
+
+
+JOINT_FORCE = PluginType(
+    "joint_force", parse=parse_joint_force,
+    doc="Applied generalized force or torque on a 1-DoF joint following a time law (forces.JointForce).",
+    keys=(Key("joint", "joint name", range="a 1-DoF joint of the URDF", doc="the joint it acts on"),
+          Key("law", "time law", "N or N m", range="a time law (below)", doc="the force (prismatic joint) or "
+              "torque (revolute joint) over time")))

@@ -351,3 +351,61 @@ def consistent_velocity(mech, q, v_guess=None, t=0.0, ws=None):
     rhs = np.concatenate([M @ v0, target])
     sol = np.linalg.lstsq(K, rhs, rcond=1e-12)[0]
     return sol[: mech.model.nv]
+
+
+#: the start states of a run (simulate(..., start=...), pinclear simulate --start)
+STARTS = ("ideal", "rest", "least-energy", "state")
+
+
+def ideal_mechanism(mech):
+    """``mech`` with its clearance joints ideal again: the closures the loader replaced by
+    clearance elements restored, the clearance elements removed (other forces kept). The
+    mechanism itself when it has no clearance."""
+    if not mech.replaced_closures:
+        return mech
+    return mech.replace(closures=list(mech.closures) + list(mech.replaced_closures.values()),
+                        forces=[f for f in mech.forces if not f.is_clearance], replaced_closures={})
+
+
+def start_state(mech, start="ideal", q_guess=None, v_guess=None, t=0.0, ws=None):
+    """(q, v) a run starts from at time t, by the named ``start`` (one of STARTS):
+
+    - ideal: the ideal mechanism's assembled state and velocity (:func:`ideal_mechanism`; the
+      velocity nearest ``v_guess`` in the mass metric on its constraints): every clearance
+      journal, ball or slider centred with zero relative velocity: where the papers' clearance
+      studies start, from the ideal joint's motion (docs/papers.md; paper 002's runs start at the
+      ideal mechanism's initial positions). Without clearances: the mechanism's own assembled,
+      consistent state.
+    - rest: the ideal assembly with every joint at rest (v = 0); refused when a drive moves at t.
+    - least-energy: the ideal assembly with the velocity of least kinetic energy (nearest
+      ``v_guess``) on the clearance mechanism's own constraints, which leaves the clearance's
+      relative velocity free: a start-up impact that is not in the papers.
+    - state: q_guess and v_guess as given (simulate requires both), assembled onto the clearance
+      mechanism's own constraints only (an off-centre journal stays off centre).
+
+    The assembly of a freed joint is solved with the rest of the mechanism (all starts but
+    'state'), so a sidecar written at a home pose needs no pasted q."""
+    from .errors import InputError
+
+    if start not in STARTS:
+        raise InputError(f"unknown start {start!r}", key="start", choices=STARTS)
+    if start == "state":
+        q = assemble(mech, q_guess, t=t, ws=ws)
+        return q, consistent_velocity(mech, q, v_guess, t=t, ws=ws)
+    ideal = ideal_mechanism(mech)
+    ws_ideal = ws if ideal is mech else None
+    q = assemble(ideal, q_guess, t=t, ws=ws_ideal)
+    if start == "ideal":
+        return q, consistent_velocity(ideal, q, v_guess, t=t, ws=ws_ideal)
+    if start == "least-energy":
+        return q, consistent_velocity(mech, q, v_guess, t=t, ws=ws)
+    # rest: v = 0 satisfies J v = -Phi_t only if no row moves with time (the drives at rest)
+    ws = ws or mech.workspace()
+    update_positions(mech, ws, q)
+    constraint_rows(mech, ws, t, q, ws.zero_v)
+    rate = ws.dphi[:mech.m]
+    if mech.m and np.max(np.abs(rate)) > 1e-12:
+        k = int(np.argmax(np.abs(rate)))
+        raise InputError(f"'rest' needs every drive at rest at t = {t:g} s, but {mech.row_names()[k]!r} moves (rate "
+                         f"{-rate[k]:.3g} rad/s or m/s); use 'ideal' (the default)", key="start", choices=STARTS)
+    return q, np.zeros(mech.nv)

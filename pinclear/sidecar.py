@@ -9,11 +9,14 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
-from .closures import CLOSURE_TYPES, Closure
+from .closures import CLOSURES, Closure
+from .closures import KEYS as CLOSURE_ENTRY_KEYS
 from .drives import Drive
 from .errors import ModelFileError, PinclearError
-from .forces import JointForce, SpringDamper
 from .mechanism import Mechanism
+from .registry import CLEARANCE_TYPES as CLEARANCE_REGISTRY
+from .registry import FORCE_TYPES as FORCE_REGISTRY
+from .registry import Key, key_names
 from .timelaws import build_law, resolve_function, trusted
 
 
@@ -93,17 +96,70 @@ def read_yaml(path, what="sidecar"):
     except yaml.YAMLError as exc:
         raise ModelFileError(file, "yaml", f"not valid YAML: {' '.join(str(exc).split())}") from None
 
-TOP_KEYS = {"name", "urdf", "description", "gravity", "initial", "closures", "drives", "forces",
-            "clearances", "platform", "options", "hook", "parameters", "screw", "nonphysical_inertia",
-            "baumgarte"}
+#: the top-level keys of a sidecar, each parsed by one section parser below (the key reference's
+#: first table; the sections' own keys are declared next to what they build)
+TOP = (
+    Key("name", "string", "-", "the file's stem", doc="the mechanism's name"),
+    Key("urdf", "file name", range="beside the sidecar, bundled, or trusted", doc="the URDF of the spanning tree, "
+        "relative to the sidecar"),
+    Key("description", "string", "-", "", doc="one line"),
+    Key("gravity", "[x, y, z]", "m/s^2", [0.0, 0.0, -9.81], "finite", doc="gravity in world axes"),
+    Key("baumgarte", "mapping", "1/s", {}, ">= 0", "", "{alpha, beta}: the source's "
+        "stabilisation gains (simulate(alpha=..., beta=...) wins)"),
+    Key("initial", "mapping", "-", {}, doc="{q: {JOINT: value}, v: {JOINT: value}}: the assembly guess (below)"),
+    Key("closures", "list", "-", [], doc="loop closures: the cut joints of the tree (below)"),
+    Key("drives", "list", "-", [], doc="1-DoF joints that follow a time law (below)"),
+    Key("forces", "list", "-", [], doc="force elements (below)"),
+    Key("clearances", "list", "-", [], doc="clearance joints, each replacing a closure when active (below)"),
+    Key("platform", "mapping", "-", None, doc="{frame, motion: {function, args}}: the frame the plots and the "
+        "screw method follow"),
+    Key("options", "mapping", "-", {}, doc="scene switches {NAME: {default, choices, doc}}; \"$NAME\" in drives, "
+        "forces and platform stands for the value"),
+    Key("hook", "module:function", "-", None, "pinclear.trust.OFFERED unless trusted", doc="f(model, options) "
+        "edits the model after loading"),
+    Key("parameters", "list", "-", [], doc="documentation table: each {name, value, unit, source, note}"),
+    Key("screw", "mapping", "-", None, doc="read by pinclear.screw only (docs/screw.md)"),
+    Key("nonphysical_inertia", "mapping", "-", {}, doc="{JOINT: reason}: a body whose printed inertia breaks the "
+        "triangle inequality, kept for reproduction (the reason is required)"),
+)
+TOP_KEYS = set(key_names(TOP))
+_TOP_DEFAULT = {k.name: k.default for k in TOP}
 #: a sidecar is a few kilobytes; anything near this is not one
 MAX_SIDECAR_BYTES = 1_000_000
-CLOSURE_KEYS = {"name", "type", "frame1", "frame2", "normal", "length"}
-FRAME_KEYS = {"parent", "xyz", "rpy", "axis", "name"}
-DRIVE_KEYS = {"name", "joint", "law"}
-FORCE_TYPES = {"spring_damper": {"name", "type", "frame1", "frame2", "k", "c", "free_length"},
-               "joint_force": {"name", "type", "joint", "law"}}
-CLEARANCE_TYPES = ("spherical", "revolute", "planar_revolute", "prismatic")
+CLOSURE_KEYS = set(key_names(CLOSURE_ENTRY_KEYS))
+#: closure types read by their own module (no frames): type -> "module:function(ctx, entry, name)"
+CLOSURE_READERS = {"coupling": "pinclear.coupling:coupling_closure"}
+FRAME = (Key("parent", "link or frame name", doc="what the new frame is fixed to"),
+         Key("xyz", "[x, y, z]", "m", [0, 0, 0], "finite", doc="origin in the parent's axes"),
+         Key("rpy", "[r, p, y]", "rad", [0, 0, 0], "finite; not with axis", doc="orientation (roll, pitch, yaw)"),
+         Key("axis", "[x, y, z]", "-", None, "non-zero; not with rpy", doc="orientation: the frame's z axis (a joint "
+             "axis), x and y chosen"),
+         Key("name", "string", "-", "<entry>.<key>", "a new frame name", doc="the frame's name"))
+FRAME_KEYS = set(key_names(FRAME))
+DRIVE = (Key("name", "string", "-", "the joint's name", doc="the drive's name (its multiplier is lam[NAME])"),
+         Key("joint", "joint name", range="a 1-DoF joint of the URDF", doc="the driven joint"),
+         Key("law", "time law", "m or rad", range="a time law (below)", doc="the joint coordinate over time: its value "
+             "at t = 0 is where assembly starts the joint"))
+DRIVE_KEYS = set(key_names(DRIVE))
+INITIAL = (Key("q", "mapping", "rad or m", {}, "finite; quaternions and (cos, sin) pairs normalised",
+               doc="{JOINT: value or list}: the assembly guess"),
+           Key("v", "mapping", "rad/s or m/s", {}, "finite", doc="{JOINT: value or list}: initial velocities "
+               "(projected to consistency)"))
+PLATFORM = (Key("frame", "frame", doc="the platform frame: a frame name or {parent, xyz, rpy | axis, name}"),
+            Key("motion", "mapping", "-", None, doc="{function: module:function, args: {...}}: the prescribed pose "
+                "over time (the screw method, the plots' prescribed path)"))
+OPTION = (Key("default", "any", doc="the option's value unless --option / options= / an override sets it"),
+          Key("choices", "list", "-", None, doc="the values allowed"),
+          Key("doc", "string", "-", "", doc="one line"))
+PARAMETER = (Key("name", "string"), Key("value", "any"), Key("unit", "string"),
+             Key("source", "string", doc="where the value comes from (paper, section)"),
+             Key("note", "string", "-", "", doc="free text"))
+BAUMGARTE = (Key("alpha", "number", "1/s", "the formulation's (5)", ">= 0", "formulations/lagrange.py: gamma = "
+                 "-(dJ v) - 2 alpha dPhi - beta^2 Phi", "velocity gain"),
+             Key("beta", "number", "1/s", "the formulation's (5)", ">= 0", "formulations/lagrange.py: gamma = "
+                 "-(dJ v) - 2 alpha dPhi - beta^2 Phi", "position gain"))
+FORCE_TYPES = FORCE_REGISTRY
+CLEARANCE_TYPES = CLEARANCE_REGISTRY
 ONE_DOF_JOINTS = ("RX", "RY", "RZ", "PX", "PY", "PZ", "RevoluteUnaligned", "PrismaticUnaligned")
 
 
@@ -425,25 +481,101 @@ def load(path, options=None, overrides=None, clearances=None, trust=None) -> Mec
                              f"{' '.join(str(exc).split())[:200]})") from None
 
 
+class Context:
+    """What a section parser reads besides its entry: the model (frames are added to it), the
+    file, the trust gate, and the entry's key path and name (``at``). A force element type's
+    parser (pinclear.registry.PluginType.parse) gets one."""
+
+    def __init__(self, model, file, trust, key="", name=""):
+        self.model, self.file, self.trust, self.key, self.name = model, file, trust, key, name
+
+    def at(self, key, name):
+        return Context(self.model, self.file, self.trust, key, name)
+
+    def error(self, sub, message, choices=None):
+        return ModelFileError(self.file, f"{self.key}.{sub}" if sub else self.key, message, choices=choices)
+
+    def frame(self, spec, sub):
+        """(frame id, name) of a frame name or a {parent, xyz, rpy|axis} mapping (added to the
+        model, named NAME.SUB unless it says)."""
+        return _frame(self.model, spec, f"{self.name}.{sub}", self.file, f"{self.key}.{sub}")
+
+    def joint(self, name, sub, one_dof=False):
+        return _joint(self.model, name, self.file, f"{self.key}.{sub}", one_dof=one_dof)
+
+    def law(self, spec, sub):
+        return build_law(spec, self.file, f"{self.key}.{sub}", self.trust)
+
+
 def _load(path, options, overrides, clearances, trust) -> Mechanism:
     from .models import model_path
 
     path = model_path(path)
     file = str(path)
     trust = trusted(trust)
+    sc, all_overrides = _read_sidecar(path, overrides)
+    model = _model(sc, path, trust)
+    name = sc.get("name", path.stem)
+    opts, clr_overrides, clr_specs, clr_names = _scene_options(sc, file, options, all_overrides)
+    if "hook" in sc:
+        resolve_function(sc["hook"], file, "hook", trust)(model, opts)
+    # "$name" anywhere in drives, forces and platform stands for the scene option's value, so one
+    # sidecar serves every variant (e.g. a drive law's args: {law: $law})
+    for key in ("drives", "forces", "platform"):
+        if key in sc:
+            sc[key] = _substitute(sc[key], opts, file, key)
+    _baumgarte(sc.get("baumgarte") or {}, file)
+    model.gravity.linear = _vec3(sc.get("gravity", _TOP_DEFAULT["gravity"]), file, "gravity")
+    ctx = Context(model, file, trust)
+    closures = _closures(ctx, sc.get("closures") or [])
+    drives = _drives(ctx, sc.get("drives") or [])
+    forces = _forces(ctx, sc.get("forces") or [])
+    q0, v0 = _initial(ctx, sc.get("initial") or {})
+    platform_frame, platform_motion = _platform(ctx, sc["platform"]) if "platform" in sc else (None, None)
+    params = _parameters(sc.get("parameters") or [], file)
+    chosen = _chosen_clearances(ctx, clr_specs, clr_names, clearances, clr_overrides, closures)
+    replaced = _replaced_closures(file, chosen, closures)
+    closures = [cl for cl in closures if cl.name not in replaced]
+
+    mech = Mechanism(model, name, closures, drives, forces, q0=q0, v0=v0, path=str(path),
+                     platform_frame=platform_frame, platform_motion=platform_motion, options=opts,
+                     parameters=params, sidecar=sc, replaced_closures=replaced)
+    if chosen:
+        from . import contact
+
+        elems = [contact.build(c, mech, file) for _, c in chosen]
+        mech = mech.replace(forces=list(mech.forces) + elems)
+    # how to load this variant again (saved with every trajectory)
+    mech.load_args = {"path": str(path.resolve()), "options": dict(options or {}),
+                      "overrides": {k: _parse_value(v) for k, v in all_overrides.items()},
+                      "clearances": [c["name"] for _, c in chosen],
+                      # read by plug-ins that resolve functions later (screw); never by a reload
+                      "trust": trust}
+    return mech
+
+
+def _read_sidecar(path, overrides):
+    """The sidecar's mapping (a bare URDF: a minimal one) with the overrides that name a sidecar
+    key path ("forces[spring].k", "drives[0].law.terms[0].amp") applied before anything is built
+    from it; returns it and every override given."""
+    file = str(path)
     if path.suffix.lower() == ".urdf":
         sc = {"name": path.stem, "urdf": path.name}
     else:
         sc = read_yaml(path)
     sc = copy.deepcopy(sc)
     _check_keys(sc, TOP_KEYS, file, "")
-    # overrides that name a sidecar key path ("forces[spring].k", "drives[0].law.terms[0].amp")
-    # patch the file's mapping before anything is built from it
     all_overrides = dict(overrides or {})
-    overrides = dict(all_overrides)
-    for k in [k for k in overrides if isinstance(k, str) and re.split(r"[.\[]", k, 1)[0] in TOP_KEYS]:
-        set_key_path(sc, parse_key_path(k), _parse_value(overrides.pop(k), k), file, k)
+    for k in [k for k in all_overrides if isinstance(k, str) and re.split(r"[.\[]", k, 1)[0] in TOP_KEYS]:
+        set_key_path(sc, parse_key_path(k), _parse_value(all_overrides[k], k), file, k)
     _check_finite(sc, file, "")
+    return sc, all_overrides
+
+
+def _model(sc, path, trust):
+    """The Pinocchio model of the sidecar's URDF (read only from the allowed folders unless
+    trusted), its inertias checked."""
+    file = str(path)
     if "urdf" not in sc:
         raise ModelFileError(file, "urdf", "missing: the URDF file of the spanning tree")
     if not isinstance(sc["urdf"], str):
@@ -460,16 +592,20 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
     accepted = sc.get("nonphysical_inertia") or {}
     _check_keys(accepted, set(accepted), file, "nonphysical_inertia")
     check_inertias(model, urdf, accepted, file)
-    name = sc.get("name", path.stem)
+    return model
 
-    # ---- scene options and overrides
+
+def _scene_options(sc, file, options, overrides):
+    """(scene option values, {clearance: {key: value}}, the ``clearances:`` entries, their
+    names) from the declared ``options:``, the caller's options and the overrides that are not
+    key paths."""
     declared = sc.get("options") or {}
     _check_keys(declared, set(declared), file, "options")
     opts = {}
     for k, spec in declared.items():
         if not isinstance(spec, dict) or "default" not in spec:
             raise ModelFileError(file, f"options.{k}", "each option is a mapping with a 'default'")
-        _check_keys(spec, {"default", "choices", "doc"}, file, f"options.{k}")
+        _check_keys(spec, key_names(OPTION), file, f"options.{k}")
         opts[k] = spec["default"]
     clr_specs = sc.get("clearances") or []
     if not isinstance(clr_specs, list):
@@ -480,7 +616,9 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
             raise ModelFileError(file, f"options.{k}", "unknown scene option", choices=list(opts))
         opts[k] = val
     clr_overrides: dict[str, dict] = {}
-    for k, val in dict(overrides or {}).items():
+    for k, val in overrides.items():
+        if isinstance(k, str) and re.split(r"[.\[]", k, 1)[0] in TOP_KEYS:
+            continue                  # a key path, applied by _read_sidecar
         val = _parse_value(val, k)
         if "." in k:
             cname, key = k.split(".", 1)
@@ -500,92 +638,104 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
         choices = declared[k].get("choices")
         if choices is not None and val not in choices:
             raise ModelFileError(file, f"options.{k}", f"invalid value {val!r}", choices=choices)
-    if "hook" in sc:
-        resolve_function(sc["hook"], file, "hook", trust)(model, opts)
-    # "$name" anywhere in drives, forces and platform stands for the scene option's value, so one
-    # sidecar serves every variant (e.g. a drive law's args: {law: $law})
-    for key in ("drives", "forces", "platform"):
-        if key in sc:
-            sc[key] = _substitute(sc[key], opts, file, key)
+    return opts, clr_overrides, clr_specs, clr_names
 
-    # ---- Baumgarte gains of the model's source (read by the formulations that stabilise with them)
-    bg = sc.get("baumgarte") or {}
-    _check_keys(bg, {"alpha", "beta"}, file, "baumgarte")
+
+def _baumgarte(bg, file):
+    """The Baumgarte gains of the model's source (read by the formulations that stabilise with them)."""
+    _check_keys(bg, key_names(BAUMGARTE), file, "baumgarte")
     for k, val in bg.items():
         if isinstance(val, bool) or not isinstance(val, (int, float)) or not val >= 0.0:
             raise ModelFileError(file, f"baumgarte.{k}", f"expected a number >= 0 [1/s], got {val!r}")
-    # ---- gravity
-    model.gravity.linear = _vec3(sc.get("gravity", [0.0, 0.0, -9.81]), file, "gravity")
 
-    # ---- closures
-    closures = []
-    seen = set()
-    for i, c in enumerate(sc.get("closures") or []):
+
+def _closures(ctx, entries):
+    """``closures:`` -> [Closure]; each type's geometry is its pinclear.closures.CLOSURES record."""
+    file, model = ctx.file, ctx.model
+    closures, seen = [], set()
+    for i, c in enumerate(entries):
         key = f"closures[{i}]"
+        ctype = c.get("type") if isinstance(c, dict) else None
+        if ctype in CLOSURE_READERS:
+            import importlib
+
+            module, func = CLOSURE_READERS[ctype].split(":")
+            cname = c.get("name", f"loop{i}")
+            if cname in seen:
+                raise ModelFileError(file, f"{key}.name", f"duplicate closure name {cname!r}")
+            seen.add(cname)
+            closures.append(getattr(importlib.import_module(module), func)(model, c, file, key, cname))
+            continue
         _check_keys(c, CLOSURE_KEYS, file, key)
         cname = c.get("name", f"loop{i}")
         if cname in seen:
             raise ModelFileError(file, f"{key}.name", f"duplicate closure name {cname!r}")
         seen.add(cname)
-        ctype = c.get("type")
-        if ctype not in CLOSURE_TYPES:
-            raise ModelFileError(file, f"{key}.type", f"unknown closure type {ctype!r}", choices=CLOSURE_TYPES)
+        if ctype not in CLOSURES:
+            raise ModelFileError(file, f"{key}.type", f"unknown closure type {ctype!r}", choices=CLOSURES)
         for fk in ("frame1", "frame2"):
             if fk not in c:
                 raise ModelFileError(file, f"{key}.{fk}", "missing")
-        f1, n1 = _frame(model, c["frame1"], f"{cname}.frame1", file, f"{key}.frame1")
-        f2, n2 = _frame(model, c["frame2"], f"{cname}.frame2", file, f"{key}.frame2")
+        here = ctx.at(key, cname)
+        f1, n1 = here.frame(c["frame1"], "frame1")
+        f2, n2 = here.frame(c["frame2"], "frame2")
         if model.frames[f1].parentJoint == model.frames[f2].parentJoint:
             raise ModelFileError(file, key, "frame1 and frame2 are on the same body: nothing to close")
-        if ctype == "distance" and "length" not in c:
-            raise ModelFileError(file, f"{key}.length", "missing for a distance closure")
+        for req in CLOSURES[ctype].required:
+            if req not in c:
+                raise ModelFileError(file, f"{key}.{req}", f"missing for a {ctype} closure")
         # |p1 - p2| = 0 has no gradient at its solution: a distance is > 0 (a spherical closure is L = 0)
         length = _number(c.get("length", 0.0), file, f"{key}.length", positive=ctype == "distance")
         closures.append(Closure(cname, ctype, n1, n2, f1, f2,
                                 normal=_vec3(c.get("normal", [0, 0, 1]), file, f"{key}.normal", direction=True),
                                 length=length))
+    return closures
 
-    # ---- drives
+
+def _drives(ctx, entries):
+    """``drives:`` -> [Drive], at most one per joint."""
+    file = ctx.file
     drives = []
-    for i, d in enumerate(sc.get("drives") or []):
+    for i, d in enumerate(entries):
         key = f"drives[{i}]"
         _check_keys(d, DRIVE_KEYS, file, key)
-        jm = _joint(model, d.get("joint"), file, f"{key}.joint", one_dof=True)
+        here = ctx.at(key, d.get("name"))
+        jm = here.joint(d.get("joint"), "joint", one_dof=True)
         if "law" not in d:
             raise ModelFileError(file, f"{key}.law", "missing")
-        drives.append(Drive(d.get("name", d["joint"]), d["joint"], jm.idx_q, jm.idx_v,
-                            build_law(d["law"], file, f"{key}.law", trust)))
+        drives.append(Drive(d.get("name", d["joint"]), d["joint"], jm.idx_q, jm.idx_v, here.law(d["law"], "law")))
     if len({d.idx_v for d in drives}) != len(drives):
         raise ModelFileError(file, "drives", "two drives act on the same joint")
+    return drives
 
-    # ---- force elements
+
+def _forces(ctx, entries):
+    """``forces:`` -> [ForceElement], each built by its type's parser (pinclear.registry.FORCE_TYPES)."""
+    file = ctx.file
     forces = []
-    for i, f in enumerate(sc.get("forces") or []):
+    for i, f in enumerate(entries):
         key = f"forces[{i}]"
         ftype = f.get("type") if isinstance(f, dict) else None
         if ftype not in FORCE_TYPES:
-            raise ModelFileError(file, f"{key}.type", f"unknown force element type {ftype!r}", choices=FORCE_TYPES)
-        _check_keys(f, FORCE_TYPES[ftype], file, key)
-        fname = f.get("name", f"{ftype}{i}")
+            raise ModelFileError(file, f"{key}.type", f"unknown force element type {ftype!r}",
+                                 choices=FORCE_TYPES.names())
+        _check_keys(f, FORCE_TYPES.allowed(ftype), file, key)
         try:
-            if ftype == "spring_damper":
-                f1, _ = _frame(model, f["frame1"], f"{fname}.frame1", file, f"{key}.frame1")
-                f2, _ = _frame(model, f["frame2"], f"{fname}.frame2", file, f"{key}.frame2")
-                forces.append(SpringDamper(fname, model, f1, f2, f["k"], f.get("c", 0.0), f.get("free_length", 0.0)))
-            else:
-                jm = _joint(model, f["joint"], file, f"{key}.joint", one_dof=True)
-                forces.append(JointForce(fname, jm.idx_v, build_law(f["law"], file, f"{key}.law", trust)))
+            forces.append(FORCE_TYPES.get(ftype).parse(f, ctx.at(key, f.get("name", f"{ftype}{i}"))))
         except KeyError as exc:
             raise ModelFileError(file, f"{key}.{exc.args[0]}", "missing") from None
         except (TypeError, ValueError) as exc:
             if isinstance(exc, ModelFileError):
                 raise
             raise ModelFileError(file, key, f"bad value: {exc}") from None
+    return forces
 
-    # ---- initial guess
+
+def _initial(ctx, init):
+    """(q0, v0): the neutral configuration and zero velocity with ``initial:``'s joints set."""
+    model, file = ctx.model, ctx.file
     q0, v0 = pin.neutral(model), np.zeros(model.nv)
-    init = sc.get("initial") or {}
-    _check_keys(init, {"q", "v"}, file, "initial")
+    _check_keys(init, key_names(INITIAL), file, "initial")
     for which, vec in (("q", q0), ("v", v0)):
         for jn, val in (init.get(which) or {}).items():
             jm = _joint(model, jn, file, f"initial.{which}.{jn}")
@@ -599,34 +749,61 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
             if which == "q" and jm.nq != jm.nv:
                 arr = _unit_parts(model, jm, arr, file, f"initial.q.{jn}", val)
             vec[idx:idx + n] = arr
+    return q0, v0
 
-    # ---- platform
-    platform_frame, platform_motion = None, None
-    if "platform" in sc:
-        p = sc["platform"]
-        _check_keys(p, {"frame", "motion"}, file, "platform")
-        platform_frame, _ = _frame(model, p.get("frame"), "platform", file, "platform.frame")
-        if "motion" in p:
-            m = p["motion"]
-            _check_keys(m, {"function", "args"}, file, "platform.motion")
-            func = resolve_function(m.get("function"), file, "platform.motion.function", trust)
-            args = dict(m.get("args") or {})
-            platform_motion = lambda t, _f=func, _a=args: _f(t, **_a)  # noqa: E731
 
-    # ---- parameter table
-    params = sc.get("parameters") or []
+def _platform(ctx, p):
+    """(frame id, motion function or None) of ``platform:``."""
+    file = ctx.file
+    _check_keys(p, key_names(PLATFORM), file, "platform")
+    platform_frame, _ = _frame(ctx.model, p.get("frame"), "platform", file, "platform.frame")
+    platform_motion = None
+    if "motion" in p:
+        m = p["motion"]
+        _check_keys(m, {"function", "args"}, file, "platform.motion")
+        func = resolve_function(m.get("function"), file, "platform.motion.function", ctx.trust)
+        args = dict(m.get("args") or {})
+        platform_motion = lambda t, _f=func, _a=args: _f(t, **_a)  # noqa: E731
+    return platform_frame, platform_motion
+
+
+def _parameters(params, file):
+    """``parameters:``, a documentation table: each entry has name, value, unit and source."""
     for i, prm in enumerate(params):
-        _check_keys(prm, {"name", "value", "unit", "source", "note"}, file, f"parameters[{i}]")
-        for k in ("name", "value", "unit", "source"):
+        _check_keys(prm, key_names(PARAMETER), file, f"parameters[{i}]")
+        for k in [k.name for k in PARAMETER if k.required]:
             if k not in prm:
                 raise ModelFileError(file, f"parameters[{i}].{k}", "missing (each parameter has name, value, "
                                      "unit and source)")
+    return params
 
-    # ---- clearances: validated and built by pinclear.contact
+
+def _unknown_clearance(ctx, name, clr_names, closures):
+    """The error for ``--clearance NAME`` that names no clearance joint: what NAME is instead
+    (a tree joint, a closure without a clearances: entry) and what to do."""
+    file, model = ctx.file, ctx.model
+    if isinstance(name, str) and model.existJointName(name):
+        cut = sorted({c for t in CLEARANCE_TYPES.types() for c in t.replaces})
+        return ModelFileError(file, "clearances", f"{name!r} is a joint of the URDF tree: a clearance replaces a cut "
+                              "joint (a closure of the sidecar's closures:). Make it a cut joint: leave the joint out "
+                              "of the URDF (choose the spanning tree so that its child link hangs from its other "
+                              "joints), add a closures: entry joining a frame on each of its two links (type "
+                              f"{', '.join(cut)}) and a clearances: entry naming that closure", choices=clr_names)
+    if name in {cl.name for cl in closures}:
+        return ModelFileError(file, "clearances", f"closure {name!r} has no clearances: entry; add one such as "
+                              f"{{name: {name}, type: planar_revolute, closure: {name}, clearance: 1.0e-4}}",
+                              choices=clr_names)
+    return ModelFileError(file, "clearances", f"unknown clearance joint {name!r}", choices=clr_names)
+
+
+def _chosen_clearances(ctx, clr_specs, clr_names, clearances, clr_overrides, closures):
+    """[(index, entry with its overrides)] of the clearance joints to activate: those named by
+    the caller and those with ``active: true``."""
+    file = ctx.file
     active = set(clearances or [])
     unknown = active - set(clr_names)
     if unknown:
-        raise ModelFileError(file, "clearances", f"unknown clearance joint {sorted(unknown)[0]!r}", choices=clr_names)
+        raise _unknown_clearance(ctx, sorted(unknown)[0], clr_names, closures)
     on = active | {c["name"] for c in clr_specs if isinstance(c, dict) and c.get("active", False)}
     idle = sorted(set(clr_overrides) - on)
     if idle:
@@ -642,8 +819,13 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
             ctype = c.get("type")
             if ctype not in CLEARANCE_TYPES:
                 raise ModelFileError(file, f"clearances[{i}].type", f"unknown clearance type {ctype!r}",
-                                     choices=CLEARANCE_TYPES)
+                                     choices=CLEARANCE_TYPES.names())
             chosen.append((i, c))
+    return chosen
+
+
+def _replaced_closures(file, chosen, closures):
+    """{closure name: Closure} of the closures the chosen clearance joints replace."""
     replaced = {}
     for i, c in chosen:
         target = c.get("closure")
@@ -652,20 +834,4 @@ def _load(path, options, overrides, clearances, trust) -> Mechanism:
             raise ModelFileError(file, f"clearances[{i}].closure", f"no closure named {target!r} to replace",
                                  choices=[cl.name for cl in closures])
         replaced[target] = match[0]
-    closures = [cl for cl in closures if cl.name not in replaced]
-
-    mech = Mechanism(model, name, closures, drives, forces, q0=q0, v0=v0, path=str(path),
-                     platform_frame=platform_frame, platform_motion=platform_motion, options=opts,
-                     parameters=params, sidecar=sc, replaced_closures=replaced)
-    if chosen:
-        from . import contact
-
-        elems = [contact.build(c, mech, file) for _, c in chosen]
-        mech = mech.replace(forces=list(mech.forces) + elems)
-    # how to load this variant again (saved with every trajectory)
-    mech.load_args = {"path": str(path.resolve()), "options": dict(options or {}),
-                      "overrides": {k: _parse_value(v) for k, v in all_overrides.items()},
-                      "clearances": [c["name"] for _, c in chosen],
-                      # read by plug-ins that resolve functions later (screw); never by a reload
-                      "trust": trust}
-    return mech
+    return replaced

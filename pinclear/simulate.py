@@ -74,8 +74,9 @@ def output_times(t0, t_end, dt_out=None):
     return t_eval
 
 
-def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True):
-    """Assembled q, consistent v and the force elements' initial internal states."""
+def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True, start="ideal"):
+    """Assembled q, consistent v (by the named ``start``: pinclear.kinematics.start_state) and
+    the force elements' initial internal states."""
     ws = form.ws
     q = np.array(mech.q0 if q0 is None else q0, float)
     v_guess = np.array(mech.v0 if v0 is None else v0, float)
@@ -84,8 +85,7 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True):
     if not (np.all(np.isfinite(q)) and np.all(np.isfinite(v_guess))):
         raise InputError("initial state: q and v must be finite (found nan or inf)")
     if assemble:
-        q = kinematics.assemble(mech, q, t=t0, ws=ws)
-        v = kinematics.consistent_velocity(mech, q, v_guess, t=t0, ws=ws)
+        q, v = kinematics.start_state(mech, start, q, v_guess, t=t0, ws=ws)
     else:
         v = v_guess
     kinematics.update(mech, ws, q, v)
@@ -97,7 +97,7 @@ def initial_state(mech, form, q0=None, v0=None, t0=0.0, assemble=True):
 def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAULT, atol=None, t_eval=None,
              dt_out=None, q0=None, v0=None, t0=0.0, max_step=np.inf, h=None, first_step=None, assemble=True,
              strict=False, max_cpu=None, progress=None, checkpoint=None, checkpoint_every=None, resume=None,
-             min_mean_step=None, loop="auto", outputs="compiled", **method_options) -> Trajectory:
+             min_mean_step=None, loop="auto", start=None, outputs="compiled", **method_options) -> Trajectory:
     """Integrate the forward dynamics of ``mech`` from t0 to t_end; return a Trajectory.
 
     method: lagrange | projection | pinocchio | proximal | manifold (pinclear.formulations).
@@ -124,8 +124,21 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     pinclear.stepping.run.CHUNK steps). checkpoint: callable(Checkpoint) every
     ``checkpoint_every`` CPU seconds and when the run ends early; ``resume`` (a Checkpoint)
     continues such a run exactly where it stopped (same steps, same samples).
+
+    start: the state at t0 (pinclear.kinematics.start_state): "ideal" (the default without q0
+    and v0: the ideal mechanism's assembled state and velocity, every clearance centred with
+    zero relative velocity, as the papers start), "rest", "least-energy" (the clearance
+    mechanism's velocity of least kinetic energy: a start-up impact) or "state" (the default
+    when q0 or v0 is given: that state, the sidecar's initial q or v for the one not given,
+    assembled onto the clearance mechanism's own constraints only, so an off-centre or moving
+    journal stays so; :func:`read_state` reads a state from a file). The other starts take q0
+    and v0 as the guesses they assemble from. Without clearances all starts but "rest" agree.
     """
     integ = stepping.get(integrator)
+    if start is None:
+        start = "ideal" if q0 is None and v0 is None else "state"
+    if start not in kinematics.STARTS:
+        raise InputError(f"unknown start {start!r}", key="start", choices=kinematics.STARTS)
     if loop not in ("auto", "python"):
         raise InputError(f"loop must be 'auto' or 'python', got {loop!r}", key="loop", choices=("auto", "python"))
     if outputs not in ("compiled", "python"):
@@ -154,7 +167,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         validate.check_checkpoint(resume, mech, resume.path or "<checkpoint>", identity, form.ws)
         q, v, z = resume.q, resume.v, resume.z
     else:
-        q, v, z = initial_state(mech, form, q0, v0, t0, assemble)
+        q, v, z = initial_state(mech, form, q0, v0, t0, assemble, start)
     # redundant rows: found once at the start, dropped by formulations that need a full-rank S
     J = kinematics.jacobian(mech, form.ws, q, t0, with_drives=True)
     _, indep, redundant = kinematics.rank_analysis(J, mech.row_names())
@@ -206,6 +219,42 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         warnings.warn(f"pinclear.simulate: {traj.message} ({len(traj.t)} of {len(t_eval)} samples kept)",
                       RuntimeWarning, stacklevel=2)
     return traj
+
+
+def read_state(path, mech=None):
+    """(q, v) of a state file: .npz (arrays q and v; no pickles) or .json ({"q": [...], "v":
+    [...]}), one state each; checked against ``mech``'s sizes when given. For
+    simulate(..., start="state", q0=q, v0=v) and ``pinclear simulate --start state FILE``."""
+    import json
+    from pathlib import Path
+
+    path = Path(path)
+    try:
+        if path.suffix == ".json":
+            raw = json.loads(path.read_text(encoding="utf-8"))
+            if not isinstance(raw, dict):
+                raise ValueError("expected a mapping with q and v")
+            get = raw.get
+        elif path.suffix == ".npz":
+            with np.load(path, allow_pickle=False) as npz:
+                raw = {k: npz[k] for k in ("q", "v") if k in npz.files}
+            get = raw.get
+        else:
+            raise InputError(f"{path}: a state file is .npz (arrays q, v) or .json ({{\"q\": [...], \"v\": [...]}})",
+                             key="start")
+        q, v = (None if get(k) is None else np.asarray(get(k), float) for k in ("q", "v"))
+    except (OSError, ValueError, TypeError) as exc:
+        if isinstance(exc, InputError):
+            raise
+        raise InputError(f"{path}: not a readable state file ({type(exc).__name__}: {exc})", key="start") from None
+    for name, arr, n in (("q", q, mech.nq if mech else None), ("v", v, mech.nv if mech else None)):
+        if arr is None:
+            raise InputError(f"{path}: no {name!r} in the state file (it holds q and v)", key=f"start.{name}")
+        if arr.ndim != 1 or (n is not None and arr.size != n) or not np.all(np.isfinite(arr)):
+            raise InputError(f"{path}: {name} has shape {arr.shape}; a state file holds one state of "
+                             f"{n if n is not None else 'nq/nv'} finite numbers (from a trajectory take one sample, "
+                             f"e.g. np.savez('state.npz', q=tr.q[k], v=tr.v[k]))", key=f"start.{name}")
+    return q, v
 
 
 def _loop_note(run) -> str:

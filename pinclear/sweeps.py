@@ -435,4 +435,72 @@ def sweep(model, vary, t_end, out, *, sim_options=None, load_options=None, worke
             close()
         if bar is not None:
             bar.close()
+    write_table(folder, keys, state)
     return SweepResult(folder, keys, state, len(jobs))
+
+
+# ------------------------------------------------------------------------------- the table
+#: the per-point table a sweep writes beside its points (one row per point)
+TABLE_CSV, TABLE_NPZ = "table.csv", "table.npz"
+
+
+def summary_scalars(summary, prefix="") -> dict:
+    """The scalars of a run's summary (Trajectory.summary()) as flat columns: nested mappings
+    joined by '.', e.g. ``energy_balance.error``, ``drive_force_peaks.A1_drive``; numbers, flags
+    and texts kept, lists dropped (they are not one number per point)."""
+    out = {}
+    for k, v in (summary or {}).items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(summary_scalars(v, key + "."))
+        elif v is None or isinstance(v, (bool, int, float, str)):
+            out[key] = v
+    return out
+
+
+def point_summary(point) -> dict:
+    """The summary a point's trajectory file recorded (its metadata only, bounded as the status
+    read is), {} for a point without one (an error or a pending point)."""
+    if point.file is None or point.file.suffix != ".npz":
+        return {}
+    with zipfile.ZipFile(point.file) as z:
+        if z.getinfo("meta.npy").file_size > MAX_POINT_META_BYTES:
+            return {}
+    with np.load(point.file, allow_pickle=False) as d:
+        meta = json.loads(str(d["meta"]))
+    return (meta.get("summary") or {}) if isinstance(meta, dict) else {}
+
+
+def write_table(folder, keys, points):
+    """FOLDER/table.csv and FOLDER/table.npz: one row per point with the varied values, status,
+    message and every scalar of the point's summary (peaks, events, energy error...), columns in
+    order of first appearance; numbers as float64 (nan where a point has none), the rest as text.
+    Rewritten whole after every sweep call (points computed earlier included)."""
+    import csv
+    import io
+
+    rows = []
+    for p in points:
+        try:
+            scalars = summary_scalars(point_summary(p))
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+            scalars = {"table_error": f"{type(exc).__name__}: {exc}"}
+        scalars.pop("status", None)
+        scalars.pop("message", None)
+        rows.append({"index": p.index, **p.overrides, "status": p.status, "message": p.message, **scalars})
+    cols = list(dict.fromkeys(["index", *keys, "status", "message"] + [c for r in rows for c in r]))
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=cols, restval="", lineterminator="\n")
+    w.writeheader()
+    w.writerows(rows)
+    atomic_write_text(Path(folder) / TABLE_CSV, buf.getvalue())
+    arrays = {}
+    for c in cols:
+        vals = [r.get(c) for r in rows]
+        numeric = all(v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)) for v in vals)
+        arrays[c] = (np.array([np.nan if v is None else float(v) for v in vals]) if numeric
+                     else np.array(["" if v is None else str(v) for v in vals]))
+    fd, tmp = tempfile.mkstemp(prefix=".table.", suffix=".npz", dir=folder)
+    with os.fdopen(fd, "wb") as fh:
+        np.savez(fh, **arrays)
+    os.replace(tmp, Path(folder) / TABLE_NPZ)

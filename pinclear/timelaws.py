@@ -10,6 +10,7 @@ import numpy as np
 
 from ._jit import njit
 from .errors import ModelFileError
+from .registry import Key
 # the trust gate lives in pinclear.trust; re-exported here, where sidecar and screw import it
 from .trust import TRUST_ENV, resolve_function, trusted  # noqa: F401
 
@@ -142,8 +143,10 @@ class Sines(TimeLaw):
         self.terms = [dict(t) for t in terms]
         # (amp, omega, phase) with a cosine written as a sine advanced by pi/2; plain floats and
         # math.sin: a law has a few terms and is evaluated at every right-hand side
-        self._t = [(float(t.get("amp", 1.0)), float(t.get("omega", 1.0)),
-                    float(t.get("phase", 0.0)) + (math.pi / 2 if t.get("kind", "sin") == "cos" else 0.0))
+        # the defaults are SINE_TERM_KEYS' (the key reference's)
+        self._t = [(float(t.get("amp", _TERM["amp"])), float(t.get("omega", _TERM["omega"])),
+                    float(t.get("phase", _TERM["phase"]))
+                    + (math.pi / 2 if t.get("kind", _TERM["kind"]) == "cos" else 0.0))
                    for t in self.terms]
 
     def eval(self, t):
@@ -262,8 +265,36 @@ class Callable(TimeLaw):
         return d
 
 
-LAW_TYPES = {"constant": ("value",), "sines": ("offset", "terms"), "polynomial": ("coeffs",),
-             "spline": ("t", "y", "bc_type"), "python": ("function", "args", "index")}
+#: the keys of a ``sines`` law's ``terms`` entries (y = offset + sum amp sin|cos(omega t + phase))
+SINE_TERM_KEYS = (
+    Key("amp", "number", "m, rad, N or N m", 1.0, "finite", "Sines", "amplitude"),
+    Key("omega", "number", "rad/s", 1.0, "finite", "Sines", "angular frequency"),
+    Key("phase", "number", "rad", 0.0, "finite", "Sines", "phase at t = 0 (the law's value at t = 0 is "
+        "offset + amp sin(phase))"),
+    Key("kind", "string", "-", "sin", "sin | cos", "Sines", "sine or cosine (a cosine is a sine advanced by pi/2)"))
+_TERM = {k.name: k.default for k in SINE_TERM_KEYS}
+
+#: law type -> (its keys besides ``type``, one line); a law's value is in the unit of what it drives
+LAW_KEYS = {
+    "constant": ((Key("value", "number", "m, rad, N or N m", range="finite", doc="the constant value"),),
+                 "y = value"),
+    "sines": ((Key("offset", "number", "m, rad, N or N m", 0.0, "finite", doc="constant part"),
+               Key("terms", "list of terms", "-", [], doc="each {amp, omega, phase, kind} (sine terms below)")),
+              "y = offset + sum amp sin|cos(omega t + phase)"),
+    "polynomial": ((Key("coeffs", "list of numbers", "SI per s^k", range="non-empty, finite", doc="[c0, c1, ...]"),),
+                   "y = c0 + c1 t + c2 t^2 + ..."),
+    "spline": ((Key("t", "list of numbers", "s", range="increasing", doc="knot times"),
+                Key("y", "list of numbers", "m, rad, N or N m", range="finite, one per knot", doc="knot values"),
+                Key("bc_type", "string", "-", "not-a-knot", "scipy.interpolate.CubicSpline's bc_type",
+                    doc="end conditions")),
+               "cubic spline through (t, y); its derivatives are the spline's"),
+    "python": ((Key("function", "module:function", range="pinclear.trust.OFFERED unless trusted (--trust)",
+                    doc="f(t, **args) -> (y, y', y'')"),
+                Key("args", "mapping", "-", {}, doc="keyword arguments of the function"),
+                Key("index", "integer", "-", None, ">= 0", doc="the component of a vector function")),
+               "a Python function returning (y, y', y'')"),
+}
+LAW_TYPES = {kind: tuple(k.name for k in keys) for kind, (keys, _) in LAW_KEYS.items()}
 
 
 def _finite(law, file, key):
@@ -328,10 +359,10 @@ def build_law(spec, file="<python>", key="law", trust=None) -> TimeLaw:
             return _finite(Constant(spec["value"]), file, key)
         if kind == "sines":
             for i, term in enumerate(spec.get("terms", [])):
-                bad = set(term) - {"amp", "omega", "phase", "kind"}
+                bad = set(term) - set(_TERM)
                 if bad:
                     raise ModelFileError(file, f"{key}.terms[{i}].{sorted(bad)[0]}", "unknown key",
-                                         choices=["amp", "omega", "phase", "kind"])
+                                         choices=list(_TERM))
                 if term.get("kind", "sin") not in ("sin", "cos"):
                     raise ModelFileError(file, f"{key}.terms[{i}].kind", f"{term['kind']!r}", choices=["sin", "cos"])
             return _finite(Sines(spec.get("offset", 0.0), spec.get("terms", [])), file, key)

@@ -136,7 +136,14 @@ def test_chaos_01_test():
         assert abs(an.chaos_01(phi)) < 0.1
     assert an.chaos_01(np.full(500, 2.0)) == 0.0
     c = an.classify(_logistic(4.0, 1000))
-    assert c.kind == "chaotic" and c.period is None and c.K > an.CHAOS_THRESHOLD
+    # the 0-1 test alone does not make chaos: 'irregular' until a Lyapunov exponent confirms it
+    assert c.kind == "irregular" and c.period is None and c.K > an.CHAOS_THRESHOLD
+    # the map's own exponent, mean ln|f'(x)| = ln|4 (1 - 2x)| along the orbit (exactly ln 2), at two lengths
+    x = _logistic(4.0, 4000)
+    ev = an.confirm_chaos(lambda _r, n: float(np.mean(np.log(np.abs(4.0 * (1.0 - 2.0 * x[:int(n)]))))),
+                          rtols=[0.0], lengths=[2000, 4000], rel=0.1)
+    assert ev.confirmed and abs(ev.exponent - np.log(2.0)) < 0.05
+    assert an.classify(_logistic(4.0, 1000), lyapunov=ev).kind == "chaotic"
     q = an.classify(np.cos(2 * np.pi * k * (np.sqrt(5) - 1) / 2))
     assert q.kind == "quasi-periodic" and q.K < 0.1
     with pytest.raises(InputError):
@@ -282,7 +289,7 @@ def test_double_well_period_one_and_chaos():
     assert np.max(np.abs(one.section.x - ref[0])) < 1e-6 and np.max(np.abs(one.section.xdot - ref[1])) < 1e-6
     assert one.section.x.min() > 0                              # stays in the right-hand well
     c = chaos.classification
-    assert c.kind == "chaotic" and c.K > 0.9 and c.clusters == 151
+    assert c.kind == "irregular" and c.K > 0.9 and c.clusters == 151     # no Lyapunov confirmation asked
     assert chaos.section.x.min() < -0.5 < 1.0 < chaos.section.x.max()   # visits both wells
 
 
@@ -405,7 +412,7 @@ def test_duffing_chaos_and_a_decaying_transient():
     assert c.kind == "unresolved" and c.clusters == len(P)
     P, spp = _strobe(ueda, 2 * np.pi, 200, [3.0, 4.0], skip=20)
     c = an.classify(P, sim_rtol=SIM_RTOL, steps_per_period=spp)
-    assert c.kind == "chaotic" and c.K > 0.9
+    assert c.kind == "irregular" and c.K > 0.9          # chaos needs a Lyapunov exponent too
     weak = lambda t, y: [y[1], 0.3 * np.cos(t) - 0.2 * y[1] - y[0] - y[0] ** 3]  # noqa: E731
     P, spp = _strobe(weak, 2 * np.pi, 12, [0.0, 0.0])
     c = an.classify(P, sim_rtol=SIM_RTOL, steps_per_period=spp)

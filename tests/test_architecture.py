@@ -189,7 +189,7 @@ def test_one_parameter_language_reaches_any_sidecar_value(tmp_path, capsys):
         pinclear.load(osc, overrides={"forces[sprung].k": 1.0})
     from pinclear import cli
 
-    assert cli.main(["info", str(osc), "--set", "forces[spring].k=2.5"]) == 0
+    assert cli.main(["info", str(osc), "--set", "forces[spring].k=2.5", "--json"]) == 0
     assert '"k": 2.5' in capsys.readouterr().out
 
 

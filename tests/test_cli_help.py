@@ -21,7 +21,7 @@ from pinclear.viz import cli as viz_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 COMMANDS = ["simulate", "sweep", "info", "bench", "warmup", "view", "plot", "inverse-dynamics", "analyse",
-            "reproduce"]
+            "reproduce", "import", "export"]
 
 
 def _main(argv):
@@ -42,6 +42,9 @@ def _parsers():
     out += [("analyse", an)] + [(f"analyse {n}", p) for n, p in an_sub.choices.items()]
     out += [("view", viz_cli.build_view_parser()), ("plot", viz_cli.build_plot_parser()),
             ("inverse-dynamics", screw_cli.build_parser()), ("reproduce", reproduce_parser())]
+    from pinclear import export_mjcf, importers
+
+    out += [("import", importers.build_parser()), ("export", export_mjcf.build_parser())]
     return out
 
 

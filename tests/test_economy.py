@@ -257,7 +257,7 @@ def test_influence_not_applicable_without_prescribed_motion_and_bad_threshold(cr
 
 # --------------------------------------------------------------------------- command line
 def test_cli_info_along_reports_economy(capsys):
-    rc = main(["info", "slider_crank_clearance", "--along", "0.012", "--threshold", "0.01"])
+    rc = main(["info", "slider_crank_clearance", "--along", "0.012", "--threshold", "0.01", "--json"])
     assert rc == 0
     info = json.loads(capsys.readouterr().out)
     eco = info["economy"]
@@ -265,7 +265,7 @@ def test_cli_info_along_reports_economy(capsys):
     assert eco["planarity"]["planar"] and eco["planarity"]["planar_model"]["saved_rows"] == 0
     assert [b["joint"] for b in eco["inertia_influence"]["droppable"]] == ["crank_joint"]
     assert info["redundant_rows_named"] == []
-    rc = main(["info", "a04_bricard"])
+    rc = main(["info", "a04_bricard", "--json"])
     info = json.loads(capsys.readouterr().out)
     assert len(info["redundant_rows_named"]) == 1 and "'J5'" in info["redundant_rows_named"][0]
     assert "run" not in info["economy"] and "inertia_influence" not in info["economy"]

@@ -96,3 +96,23 @@ def test_analysis_double_well(tmp_path):
     """Weak forcing of the double-well oscillator is period-1 (small oscillation in one well)."""
     text = run_example("analysis_double_well.py", tmp_path)
     assert re.search(r"0\.200\s+success\s+period-1", text), text
+
+
+def test_rrr3_clearance(tmp_path):
+    """The tutorial's 3-RRR: every run succeeds with its loops closed and its energy audited, and
+    the first contact-force peak from the ideal start is a fraction of the least-energy start's
+    (whose journal moves relative to its bearing at t = 0)."""
+    text = run_example("rrr3_clearance.py", tmp_path)
+    assert text.count("status success") == 3 and "ok False" not in text
+    assert number(text, "max closure residual") < 1e-6
+    ideal = number(text, "P2 contact-force peak, clearance start:")
+    least = number(text, "P2 contact-force peak, least-energy start:")
+    assert 0 < ideal < 0.5 * least
+    for name in ("energy", "contact_force", "journal", "platform"):
+        assert (_out(tmp_path) / "clearance" / f"{name}.png").stat().st_size > 10_000
+
+
+def test_rrr3_build_quick(tmp_path):
+    text = run_example("rrr3_build.py", tmp_path)
+    assert "mobility 3, 3 drives" in text
+    assert (_out(tmp_path) / "rrr3.yaml").exists()

@@ -89,7 +89,8 @@ def test_q_layout_matches_pinocchio_kinematics_four_ups_upu():
         mujoco.mj_kinematics(sc.m, sc.d)
         pin.framesForwardKinematics(model, data, q)
         for j in range(1, model.njoints):
-            bid = mujoco.mj_name2id(sc.m, mujoco.mjtObj.mjOBJ_BODY, f"b{j}_{model.names[j]}")
+            # the body a joint moves (named after its link: pinclear.export_mjcf)
+            bid = sc.m.jnt_bodyid[mujoco.mj_name2id(sc.m, mujoco.mjtObj.mjOBJ_JOINT, model.names[j])]
             assert np.allclose(sc.d.xpos[bid], data.oMi[j].translation, atol=1e-12)
             assert np.allclose(sc.d.xmat[bid].reshape(3, 3), data.oMi[j].rotation, atol=1e-12)
         for c in mech.closures:
@@ -139,7 +140,8 @@ def test_quaternion_mapping_against_pinocchio():
         mujoco.mj_forward(sc.m, sc.d)
         pin.forwardKinematics(model, data, q, v)
         for j in range(1, model.njoints):
-            bid = mujoco.mj_name2id(sc.m, mujoco.mjtObj.mjOBJ_BODY, f"b{j}_{model.names[j]}")
+            # the body a joint moves (named after its link: pinclear.export_mjcf)
+            bid = sc.m.jnt_bodyid[mujoco.mj_name2id(sc.m, mujoco.mjtObj.mjOBJ_JOINT, model.names[j])]
             assert np.allclose(sc.d.xpos[bid], data.oMi[j].translation, atol=1e-12)
             assert np.allclose(sc.d.xmat[bid].reshape(3, 3), data.oMi[j].rotation, atol=1e-12)
         mujoco.mj_energyVel(sc.m, sc.d)          # 1/2 qvel^T M qvel with MuJoCo's mass matrix

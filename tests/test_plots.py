@@ -92,10 +92,22 @@ def test_contact_journal_residual_energy_drive_curves_are_the_run_arrays(runs):
     assert np.all(np.isnan(r[ref.residual == 0]))   # exact zeros cannot sit on a log axis
 
     L = _lines(plots.fig_energy(tr))
-    En = tr.energy()
-    for k in ("kinetic", "potential", "total"):
-        np.testing.assert_allclose(L[f"energy.{k}"].get_ydata(), En[k] - En[k][0])
-    np.testing.assert_allclose(L["energy.A.dissipated"].get_ydata(), tr.outputs["A.dissipated"])
+    # the kinetic curve is 1/2 v^T M(q) v from Pinocchio's mass matrix at the samples
+    data = mech.model.createData()
+    T = [0.5 * v @ pin.crba(mech.model, data, q) @ v for q, v in zip(tr.q, tr.v)]
+    np.testing.assert_allclose(L["energy.kinetic"].get_ydata(), T, rtol=1e-10, atol=1e-14)
+    np.testing.assert_allclose(L["energy.dissipated"].get_ydata(), np.ravel(tr.outputs["A.dissipated"]))
+    # the curves add up to the plotted balance error, which the audit's bound contains
+    signs = {k: sgn for k, (_, sgn) in plots.ENERGY_CURVES.items()}
+    total = sum(signs[k[7:]] * line.get_ydata() for k, line in L.items() if k[7:] in signs)
+    bal = L["energy.balance"].get_ydata()
+    eb = tr.energy_balance()
+    # to round-off of the run's energy scale (the terms are sums of O(scale) numbers)
+    np.testing.assert_allclose(total - total[0], bal, rtol=0, atol=1e-12 * eb["scale"])
+    assert np.abs(bal).max() <= eb["bound"] * eb["scale"]
+    assert eb["terms_t"] == tr.t[-1] and eb["terms"]["kinetic"] == pytest.approx(T[-1], rel=1e-10)
+    k = int(np.argmin(np.abs(tr.t - eb["t"])))
+    assert eb["terms_at_error"]["kinetic"] == pytest.approx(T[k], rel=1e-10)
 
     assert plots.fig_drives(tr) is None                  # the pendulum has no drive
     mech9 = pinclear.load(URDF / "nine_bar.yaml")

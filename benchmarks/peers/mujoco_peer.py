@@ -50,13 +50,11 @@ import pinocchio as pin
 
 from pinclear import kinematics
 from pinclear.errors import InputError
+from pinclear.export_mjcf import CLOCK_ARMATURE, DMAX, SUPPORTED_CLOSURES, mjcf  # noqa: F401  (the translation)
 
 SCENES = {"four_bar", "a02_nfourbar_2", "four_ups_upu"}
 TOLS = [2e-3, 1e-3, 5e-4, 2.5e-4, 1e-4, 5e-5, 2.5e-5]
 INTEGRATORS = ("RK4", "implicitfast", "Euler", "implicit")
-SUPPORTED_CLOSURES = ("spherical", "weld", "revolute", "planar_point")
-DMAX = 0.9999            # MuJoCo's largest impedance (mjMAXIMP)
-CLOCK_ARMATURE = 1e10    # kg: the clock's reaction acceleration |F p'(s)| / 1e10 is negligible
 
 
 def _mujoco():
@@ -65,41 +63,6 @@ def _mujoco():
     except ImportError as exc:  # pragma: no cover - exercised without the extra
         raise InputError("the MuJoCo peer needs the 'mujoco' package: pip install \"pinclear[peers]\"") from exc
     return mujoco
-
-
-def _vec(x):
-    return " ".join(f"{float(v):.17g}" for v in np.asarray(x, float).ravel())
-
-
-def _quat_wxyz(R):
-    q = pin.Quaternion(np.asarray(R, float))
-    q.normalize()
-    return np.array([q.w, q.x, q.y, q.z])
-
-
-def _joint_xml(model, j, name):
-    """MJCF joint element(s) for Pinocchio joint j, and its kind for the q mapping."""
-    jm = model.joints[j]
-    short = jm.shortname()
-    axes = {"X": (1, 0, 0), "Y": (0, 1, 0), "Z": (0, 0, 1)}
-    if short in ("JointModelRX", "JointModelRY", "JointModelRZ"):
-        return f'<joint name="{name}" type="hinge" axis="{_vec(axes[short[-1]])}"/>', "1"
-    if short == "JointModelRevoluteUnaligned":
-        return f'<joint name="{name}" type="hinge" axis="{_vec(jm.extract().axis)}"/>', "1"
-    if short in ("JointModelPX", "JointModelPY", "JointModelPZ"):
-        return f'<joint name="{name}" type="slide" axis="{_vec(axes[short[-1]])}"/>', "1"
-    if short == "JointModelPrismaticUnaligned":
-        return f'<joint name="{name}" type="slide" axis="{_vec(jm.extract().axis)}"/>', "1"
-    if short == "JointModelSpherical":
-        return f'<joint name="{name}" type="ball"/>', "ball"
-    if short == "JointModelFreeFlyer":
-        if model.parents[j] != 0:
-            raise InputError(f"MuJoCo peer: free-flyer joint {model.names[j]!r} must hang from the universe "
-                             "(MuJoCo's free joints are top-level)")
-        return f'<joint name="{name}" type="free"/>', "free"
-    raise InputError(f"MuJoCo peer: joint {model.names[j]!r} of type {short} has no MuJoCo translation; "
-                     "supported: revolute (RX, RY, RZ, unaligned), prismatic (PX, PY, PZ, unaligned), "
-                     "spherical, free-flyer")
 
 
 class QMap:
@@ -209,88 +172,7 @@ class MujocoScene:
 
     # ------------------------------------------------------------------ translation
     def _mjcf(self, mech):
-        model = mech.model
-        names = {j: model.names[j] for j in range(1, model.njoints)}
-        kinds = {}
-        children = {j: [] for j in range(model.njoints)}
-        for j in range(1, model.njoints):
-            children[model.parents[j]].append(j)
-        sites = {j: [] for j in range(model.njoints)}
-        equality = []
-        solref = f'solref="{self.tc:.17g} 1" solimp="{DMAX} {DMAX} 0.001 0.5 2"'
-        pdata = model.createData()
-        pin.framesForwardKinematics(model, pdata, self.q0)
-
-        def add_site(fid, offset=np.zeros(3), label=""):
-            F = model.frames[fid]
-            name = f"site_{len([s for v in sites.values() for s in v])}_{F.name}{label}"
-            pos = F.placement.translation + F.placement.rotation @ offset
-            sites[F.parentJoint].append(f'<site name="{name}" pos="{_vec(pos)}" '
-                                        f'quat="{_vec(_quat_wxyz(F.placement.rotation))}"/>')
-            return name
-
-        for c in mech.closures:
-            if c.type not in SUPPORTED_CLOSURES:
-                raise InputError(f"MuJoCo peer: closure {c.name!r} of type {c.type!r} has no MuJoCo equality; "
-                                 f"supported: {list(SUPPORTED_CLOSURES)}")
-            if c.type == "spherical":
-                equality.append(f'<connect name="{c.name}" site1="{add_site(c.f1)}" site2="{add_site(c.f2)}" {solref}/>')
-            elif c.type == "weld":
-                equality.append(f'<weld name="{c.name}" site1="{add_site(c.f1)}" site2="{add_site(c.f2)}" {solref}/>')
-            elif c.type == "revolute":
-                ez = np.array([0.0, 0.0, 1.0])
-                equality.append(f'<connect name="{c.name}" site1="{add_site(c.f1)}" site2="{add_site(c.f2)}" {solref}/>')
-                equality.append(f'<connect name="{c.name}_axis" site1="{add_site(c.f1, ez, "_z")}" '
-                                f'site2="{add_site(c.f2, ez, "_z")}" {solref}/>')
-            else:  # planar_point: shift point 2 along n by the initial out-of-plane offset
-                n = np.asarray(c.normal, float) / np.linalg.norm(c.normal)
-                p1, p2 = pdata.oMf[c.f1].translation, pdata.oMf[c.f2].translation
-                R2 = pdata.oMf[c.f2].rotation
-                off_world = n * float(n @ (p1 - p2))
-                equality.append(f'<connect name="{c.name}" site1="{add_site(c.f1)}" '
-                                f'site2="{add_site(c.f2, R2.T @ off_world)}" {solref}/>')
-
-        def body(j, indent):
-            jp = model.jointPlacements[j]
-            Y = model.inertias[j]
-            joint_xml, kinds[j] = _joint_xml(model, j, names[j])
-            I = Y.inertia
-            pad = " " * indent
-            out = [f'{pad}<body name="b{j}_{names[j]}" pos="{_vec(jp.translation)}" quat="{_vec(_quat_wxyz(jp.rotation))}">',
-                   f'{pad}  {joint_xml}',
-                   f'{pad}  <inertial pos="{_vec(Y.lever)}" mass="{Y.mass:.17g}" fullinertia="'
-                   f'{_vec([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]])}"/>']
-            out += [f"{pad}  {s}" for s in sites[j]]
-            for k in children[j]:
-                out += body(k, indent + 2)
-            out.append(f"{pad}</body>")
-            return out
-
-        world = [f"    {s}" for s in sites[0]]
-        for j in children[0]:
-            world += body(j, 4)
-        g = model.gravity.linear
-        if mech.drives:
-            # the clock's slide axis is normal to gravity: no generalized gravity force on it
-            a = np.eye(3)[np.argmin(np.abs(g))] if np.linalg.norm(g) else np.array([1.0, 0, 0])
-            axis = a - g * (g @ a) / max(g @ g, 1e-300)
-            world.append(f'    <body name="pinclear_clock_body"><joint name="pinclear_clock" type="slide" '
-                         f'axis="{_vec(axis / np.linalg.norm(axis))}" armature="{CLOCK_ARMATURE:g}"/>'
-                         '<inertial pos="0 0 0" mass="1" diaginertia="1 1 1"/></body>')
-            for d in mech.drives:
-                equality.append(f'<joint name="drive_{d.name}" joint1="{d.joint}" joint2="pinclear_clock" '
-                                f'polycoef="0 0 0 0 0" {solref}/>')
-        integ = {"RK4": "RK4", "implicitfast": "implicitfast", "Euler": "Euler", "implicit": "implicit"}[self.integrator]
-        xml = "\n".join([
-            f'<mujoco model="{mech.name}">',
-            '  <compiler angle="radian" autolimits="true" inertiafromgeom="false"/>',
-            f'  <option timestep="{self.h:.17g}" integrator="{integ}" gravity="{_vec(g)}" solver="Newton" '
-            'iterations="50" tolerance="1e-12" jacobian="dense">',
-            '    <flag contact="disable"' + (' refsafe="disable"' if self.tc < 2 * self.h else "") + "/>",
-            "  </option>",
-            "  <worldbody>", *world, "  </worldbody>",
-            "  <equality>", *[f"    {e}" for e in equality], "  </equality>",
-            "</mujoco>"])
+        xml, names, kinds, _ = mjcf(mech, self.q0, self.h, self.tc, self.integrator, drives="clock", strict=True)
         return xml, names, kinds
 
     # ------------------------------------------------------------------ stepping

@@ -40,10 +40,10 @@ failure as a result, and classifies each value; :func:`plot_phase_portrait`,
 no GUI backend) and return the arrays they drew. Command line (:func:`cli_main`):
 ``pinclear analyse bifurcation|poincare ...``.
 """
-from .classify import (CHAOS_THRESHOLD, Classification, chaos_01, classify, classify_state, detect_period,
+from .classify import (CHAOS_THRESHOLD, CLEARANCE_FRACTION, Classification, chaos_01, classify, classify_state, detect_period,
                        integration_rtol, settled_period)
 from .cli import cli_main
-from .lyapunov import LyapunovResult, largest_lyapunov, mechanism_lyapunov
+from .lyapunov import ChaosEvidence, LyapunovResult, confirm_chaos, largest_lyapunov, mechanism_lyapunov
 from .plots import plot_bifurcation, plot_phase_portrait, plot_poincare
 from .poincare import PoincareSection, poincare, section_times
 from .signals import Series, phase_portrait, relative_rate, series
@@ -54,4 +54,4 @@ __all__ = ["CHAOS_THRESHOLD", "Classification", "chaos_01", "classify", "classif
            "plot_bifurcation", "plot_phase_portrait", "plot_poincare", "PoincareSection", "poincare",
            "section_times", "Series", "phase_portrait", "relative_rate", "series", "BifurcationResult",
            "BifurcationRun", "bifurcation", "signal_key", "LyapunovResult", "largest_lyapunov",
-           "mechanism_lyapunov"]
+           "mechanism_lyapunov", "ChaosEvidence", "confirm_chaos", "CLEARANCE_FRACTION"]

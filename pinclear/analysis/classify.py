@@ -1,4 +1,13 @@
-"""Classification of a Poincaré sequence: period-k detection and the 0-1 test for chaos."""
+"""Classification of a Poincaré sequence: period-k detection, the physical resolution, the 0-1
+test, and chaos only where a positive, converged largest Lyapunov exponent confirms it.
+
+Kinds: ``period-k``; ``below resolution`` (no period-1, but the points spread less than the
+stated resolution, e.g. a fraction of the joint's clearance: a wobble too small to call a motion
+of its own, never reported as chaos); ``quasi-periodic`` (0-1 test K <= threshold);
+``irregular`` (K above the threshold, chaos not confirmed: no Lyapunov exponent given, or it is
+not positive or does not converge); ``chaotic`` (K above the threshold AND a positive largest
+Lyapunov exponent that converges with tolerance and run length, :func:`pinclear.analysis.lyapunov.confirm_chaos`);
+``unresolved`` (too few samples); ``empty``."""
 from __future__ import annotations
 
 import math
@@ -139,7 +148,8 @@ CHAOS_THRESHOLD = 0.5
 
 @dataclass
 class Classification:
-    kind: str                 # "period-k" | "quasi-periodic" | "chaotic" | "unresolved" | "empty"
+    kind: str                 # "period-k" | "below resolution" | "quasi-periodic" | "irregular" | "chaotic" |
+                              # "unresolved" | "empty"
     period: int | None
     clusters: int
     K: float | None           # 0-1 test result (None when a period was found or too few samples)
@@ -151,8 +161,15 @@ class Classification:
                 "note": self.note}
 
 
+#: the default resolution of a clearance joint's response: Poincaré spreads below this fraction of
+#: the clearance are 'below resolution' (1 %: 5 um of a 0.5 mm gap, the scale of surface roughness
+#: and of the contact's own elastic penetration, below which a rigid-body clearance model says
+#: nothing physical)
+CLEARANCE_FRACTION = 0.01
+
+
 def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_samples_01=40, chaos_threshold=None,
-             sim_rtol=None, steps_per_period=None):
+             sim_rtol=None, steps_per_period=None, resolution=None, lyapunov=None):
     """Classify a Poincaré section (PoincareSection or an (n,) / (n, d) array).
 
     First the period (:func:`detect_period` with settle=True): "period-k" if the sequence
@@ -173,6 +190,13 @@ def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_sample
     cycle-to-cycle differences still shrink (a transient decaying towards a periodic orbit:
     run more cycles) or not.
     A section whose rate is not exact (spline-differentiated output) is judged by x alone.
+
+    resolution: the physical resolution of the positions (same unit; e.g. CLEARANCE_FRACTION x
+    the clearance): a sequence that is not period-1 but whose position coordinates spread (max -
+    min) less than it is "below resolution". For a PoincareSection it applies to x; for an array,
+    to every column (give an array with inf for columns it does not apply to).
+    lyapunov: a :class:`pinclear.analysis.lyapunov.ChaosEvidence` (or None): K above the threshold
+    is "chaotic" only when it confirms chaos, else "irregular".
     """
     thr = CHAOS_THRESHOLD if chaos_threshold is None else float(chaos_threshold)
     if (sim_rtol is None) != (steps_per_period is None):
@@ -199,6 +223,12 @@ def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_sample
     if n == 0:
         return Classification("empty", None, 0, None, 0, "no Poincaré samples")
     period, clusters, i0 = settled_period(P, rtol=rtol, atol=atol, scale=scale, max_period=max_period)
+    if period != 1 and resolution is not None:
+        small = _below(P[i0:] if period else P, resolution, section)
+        if small is not None:
+            what = f"period-{period} at the integration tolerance, " if period else ""
+            return Classification("below resolution", period, clusters, None, n,
+                                  f"{what}Poincaré spread {small[0]:.3g} below the resolution {small[1]:.3g}")
     if period is not None:
         note = f"after a transient of {i0} section points" if i0 else ""
         return Classification(f"period-{period}", period, clusters, None, n, note)
@@ -209,9 +239,30 @@ def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_sample
     sc = _coordinate_scale(P, scale)
     # spread within the period tolerance is a fixed point to this resolution
     K = max(chaos_01(P[:, j], flat_tol=atol + rtol * sc[j]) for j in range(P.shape[1]))
-    kind = "chaotic" if K > thr else "quasi-periodic"
     note = "ambiguous (0.1 <= K <= 0.9): longer runs or a smaller tolerance may decide" if 0.1 <= K <= 0.9 else ""
-    return Classification(kind, None, clusters, K, n, note)
+    if K <= thr:
+        return Classification("quasi-periodic", None, clusters, K, n, note)
+    if lyapunov is not None and lyapunov.confirmed:
+        return Classification("chaotic", None, clusters, K, n, "; ".join(x for x in (note, lyapunov.note) if x))
+    why = lyapunov.note if lyapunov is not None else "no largest Lyapunov exponent computed"
+    return Classification("irregular", None, clusters, K, n,
+                          "; ".join(x for x in (note, f"0-1 test only, chaos not confirmed: {why}") if x))
+
+
+def _below(P, resolution, section):
+    """(spread, resolution) when every position coordinate of P spreads less than the resolution,
+    else None. A PoincareSection's positions are its first column."""
+    res = np.asarray(resolution, float)
+    if isinstance(section, PoincareSection):
+        res = np.concatenate([np.broadcast_to(res, (1,)), np.full(P.shape[1] - 1, np.inf)])
+    res = np.broadcast_to(res, (P.shape[1],))
+    cols = np.isfinite(res)
+    if not cols.any() or not len(P):
+        return None
+    spread = np.ptp(P[:, cols], axis=0)
+    if np.all(spread < res[cols]):
+        return float(np.max(spread)), float(np.min(res[cols]))
+    return None
 
 
 def _coordinate_scale(P, scale):
@@ -248,7 +299,8 @@ def classify_state(sections, **options):
     period k, as for the section of the full state; a coordinate that hardly moves (a journal
     pressed against one side of its bearing) cannot make a drifting run look periodic. Points
     are stacked coordinate by coordinate with each section's own scale; ``options`` as for
-    :func:`classify`. The 0-1 test's K is the largest over all coordinates."""
+    :func:`classify`. The 0-1 test's K is the largest over all coordinates. A scalar
+    ``resolution`` applies to each section's position column (not to its rate)."""
     secs = [s for s in sections if s is not None and len(s)]
     if not secs:
         return classify(np.zeros((0, 2)), **options)
@@ -262,4 +314,7 @@ def classify_state(sections, **options):
     if "scale" in options and options["scale"] is not None:
         raise InputError("classify_state takes each section's own scale; do not pass scale")
     options.pop("scale", None)
-    return classify(np.hstack(cols), scale=np.concatenate(scales), **options)
+    res = options.pop("resolution", None)
+    if res is not None and np.ndim(res) == 0:
+        res = np.concatenate([[float(res)] + [np.inf] * (c.shape[1] - 1) for c in cols])
+    return classify(np.hstack(cols), scale=np.concatenate(scales), resolution=res, **options)

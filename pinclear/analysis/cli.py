@@ -13,8 +13,8 @@ from ..errors import InputError, ModelFileError
 from ..sidecar import parse_assignments
 from .classify import classify
 from .plots import plot_bifurcation, plot_phase_portrait, plot_poincare
-from .poincare import poincare
-from .signals import phase_portrait
+from .poincare import aligned_dt_out, poincare
+from .signals import phase_portrait, series
 from .sweep import bifurcation
 
 
@@ -176,13 +176,27 @@ def cli_main(argv) -> int:
     for sig in args.signal:
         sec = poincare(traj, args.period, sig, phase=args.phase, skip_transient=args.skip, mech=mech)
         x, xd = phase_portrait(traj, sig, mech=mech, t_min=args.phase + args.skip * args.period)
-        plot_phase_portrait(x, xd, section=sec, label=sig, path=out / f"phase_{_tag(sig)}.png")
-        plot_poincare(sec, path=out / f"poincare_{_tag(sig)}.png")
+        unit = series(traj, sig, mech).unit
+        plot_phase_portrait(x, xd, section=sec, label=sig, path=out / f"phase_{_tag(sig)}.png", unit=unit)
+        plot_poincare(sec, path=out / f"poincare_{_tag(sig)}.png", unit=unit)
         c = classify(sec)
         report[sig] = dict(c.as_dict(), samples=len(sec), interpolated=int(sec.interpolated.sum()))
+        if report[sig]["interpolated"]:
+            report[sig]["hint"] = _dt_out_hint(traj, args.period, args.phase, report[sig]["interpolated"], len(sec))
+            print(f"pinclear: note: {sig}: {report[sig]['hint']}", file=sys.stderr)
     (out / "poincare.json").write_text(json.dumps(report, indent=2, default=str))
     print(json.dumps(report, indent=2, default=str))
     return 0
+
+
+def _dt_out_hint(traj, period, phase, n_interp, n):
+    """Why a section was interpolated and the simulate option that makes it exact."""
+    dt = aligned_dt_out(period, traj.t, phase)
+    fix = (f"rerun `pinclear simulate` with --dt-out {dt:.6g} (period {period:g} s / "
+           f"{round(period / dt)})" if dt is not None else
+           f"rerun with --dt-out period/n and a --phase that is a multiple of it (phase {phase:g} s is not)")
+    return (f"{n_interp} of {n} section samples fell between output samples and were interpolated (cubic "
+            f"Hermite); {fix} so that every section time is an output sample of the integrator's dense output")
 
 
 if __name__ == "__main__":

@@ -121,3 +121,39 @@ def mechanism_lyapunov(mech, t_end, renorm=0.05, d0=1e-7, transient=0.0, q0=None
     u *= d0 / np.linalg.norm(u)
     comp = place(ref, u[:model.nv], u[model.nv:], 0.0)
     return benettin(advance, separation, renormalise, ref, comp, 0.0, t_end, renorm, d0, transient)
+
+
+@dataclass
+class ChaosEvidence:
+    """Largest Lyapunov exponents of one motion at several integration tolerances and run lengths,
+    and whether they confirm chaos: every estimate positive and their spread within ``rel`` of
+    their mean (the estimate converges with tolerance and run length)."""
+    estimates: list                 # [(rtol, t_end, exponent)]
+    confirmed: bool
+    note: str
+
+    @property
+    def exponent(self):
+        return float(np.mean([e for _, _, e in self.estimates])) if self.estimates else float("nan")
+
+
+def confirm_chaos(estimate, rtols, lengths, rel=0.25) -> ChaosEvidence:
+    """Chaos evidence from ``estimate(rtol, t_end) -> exponent (1/s)`` at every pair of the given
+    tolerances and run lengths. Confirmed when every exponent is positive and max - min <= rel x
+    mean: a regular motion's finite-time exponents scatter about zero (some negative, or a spread
+    as large as their mean), a chaotic one's settle on one positive value."""
+    if not rtols or not lengths or not rel > 0:
+        raise InputError(f"confirm_chaos: need tolerances, run lengths and rel > 0, got {rtols!r}, {lengths!r}, {rel!r}")
+    est = [(float(r), float(t), float(estimate(r, t))) for r in rtols for t in lengths]
+    vals = np.array([e for _, _, e in est])
+    if not np.all(np.isfinite(vals)):
+        return ChaosEvidence(est, False, "a Lyapunov estimate failed")
+    mean, span = float(vals.mean()), float(np.ptp(vals))
+    text = ", ".join(f"{e:.3g}" for e in vals)
+    if np.any(vals <= 0):
+        return ChaosEvidence(est, False, f"largest Lyapunov exponent not positive at every tolerance and length ({text} 1/s)")
+    if span > rel * mean:
+        return ChaosEvidence(est, False, f"largest Lyapunov exponent does not converge ({text} 1/s: spread "
+                                         f"{span / mean:.0%} of the mean, allowed {rel:.0%})")
+    return ChaosEvidence(est, True, f"largest Lyapunov exponent {mean:.3g} 1/s, converged over tolerance and run length "
+                                    f"({text})")

@@ -6,7 +6,7 @@ import numpy as np
 
 from ..errors import InputError
 from .poincare import PoincareSection
-from .signals import phase_portrait
+from .signals import axis_label, phase_portrait, series
 from .sweep import BifurcationResult, is_number
 
 
@@ -20,13 +20,17 @@ def _figure(ax, figsize):
     return fig, fig.subplots()
 
 
-def plot_phase_portrait(x, xdot=None, section=None, label="", ax=None, path=None, mech=None, t_min=None):
-    """Phase portrait (x, xdot); ``x`` may be a Trajectory with ``xdot`` the signal spec.
-    Poincaré samples (``section``) are overlaid as dots. Returns (figure, arrays plotted)."""
+def plot_phase_portrait(x, xdot=None, section=None, label="", ax=None, path=None, mech=None, t_min=None,
+                        unit=None):
+    """Phase portrait (x, xdot); ``x`` may be a Trajectory with ``xdot`` the signal spec (its unit
+    then comes from the signal). Poincaré samples (``section``) are overlaid as dots; ``unit``:
+    the SI unit of x for the axes. Returns (figure, arrays plotted)."""
     if hasattr(x, "t") and hasattr(x, "q"):
         if xdot is None:
             raise InputError("plot_phase_portrait(traj, signal): give the signal")
         label = label or (xdot if isinstance(xdot, str) else "signal")
+        s = series(x, xdot, mech)
+        unit = unit or s.unit
         x, xdot = phase_portrait(x, xdot, mech=mech, t_min=t_min)
     x, xdot = np.asarray(x, float), np.asarray(xdot, float)
     fig, ax = _figure(ax, (5, 4.5))
@@ -36,21 +40,24 @@ def plot_phase_portrait(x, xdot=None, section=None, label="", ax=None, path=None
         ax.plot(section.x, section.xdot, "o", ms=3, color="C3", gid="section", label="Poincaré")
         data.update(section_x=section.x, section_xdot=section.xdot)
         ax.legend(fontsize=8)
-    ax.set_xlabel(label or "x")
-    ax.set_ylabel(f"d/dt {label}" if label else "xdot")
+    ax.set_xlabel(axis_label(label or "x", unit))
+    ax.set_ylabel(axis_label(label or "x", unit, rate=True))
     ax.set_title("phase portrait")
+    ax.ticklabel_format(style="sci", scilimits=(-3, 4))     # mm-sized clearances: no run-together ticks
     ax.grid(alpha=0.3)
     if path is not None:
         fig.savefig(path, dpi=120, bbox_inches="tight")
     return fig, data
 
 
-def plot_poincare(section: PoincareSection, ax=None, path=None):
-    """Poincaré map: (x, xdot) at the section times. Returns (figure, arrays plotted)."""
+def plot_poincare(section: PoincareSection, ax=None, path=None, unit=None):
+    """Poincaré map: (x, xdot) at the section times (``unit``: the SI unit of x, for the axes).
+    Returns (figure, arrays plotted)."""
     fig, ax = _figure(ax, (5, 4.5))
     ax.plot(section.x, section.xdot, ".", ms=4, color="C3", gid="section")
-    ax.set_xlabel(section.label)
-    ax.set_ylabel(f"d/dt {section.label}")
+    ax.set_xlabel(axis_label(section.label, unit))
+    ax.set_ylabel(axis_label(section.label, unit, rate=True))
+    ax.ticklabel_format(style="sci", scilimits=(-3, 4))
     ax.set_title(f"Poincaré map (T = {section.period:.6g} s, phase {section.phase:.3g} s, {len(section)} points)")
     ax.grid(alpha=0.3)
     if path is not None:

@@ -97,3 +97,18 @@ def poincare(traj, period, signal, phase=0.0, skip_transient=0, t0=0.0, mech=Non
     scale = np.maximum([np.ptp(s.x[keep]) if keep.any() else 0.0, np.ptp(s.xdot[keep]) if keep.any() else 0.0],
                        [np.max(np.abs(x)), np.max(np.abs(xd))])
     return PoincareSection(k, ts, x, xd, period, phase, s.label, ~hit, s.exact_rate, scale)
+
+
+def aligned_dt_out(period, t, phase=0.0):
+    """The output interval that puts every section time phase + k period on an output sample
+    (simulate's grid runs from t0 in steps of dt_out): period / n, not coarser than the run's
+    median sample interval, preferring a short decimal (n up to twice the least); also requires phase to be a multiple of it
+    (None when it is not: then give a phase that is). For the hint of a section that had to be
+    interpolated."""
+    t = np.asarray(t, float)
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else period
+    n0 = max(1, int(np.ceil(period / dt - 1e-9)))
+    # the first n whose period / n has a short decimal form (a value a user can type), else n0
+    step = next((period / n for n in range(n0, 2 * n0 + 1) if float(f"{period / n:.6g}") == period / n), period / n0)
+    k = (phase - (t[0] if len(t) else 0.0)) / step
+    return step if abs(k - round(k)) < 1e-9 * max(1.0, abs(k)) else None

@@ -26,6 +26,26 @@ class Series:
     xddot: np.ndarray | None
     label: str
     exact_rate: bool = True
+    unit: str | None = None         # SI unit of x (None: not known); the rate's is unit/s
+
+
+#: units of the force elements' outputs (pinclear.contact._kernels.RECORD, pinclear.forces)
+OUTPUT_UNITS = {"penetration": "m", "normal_force": "N", "friction_force": "N", "fn": "N", "contact": "-",
+                "dissipated": "J", "eccentricity": "m", "length": "m", "force": "N"}
+
+
+def joint_unit(jm) -> str:
+    """'m' for a prismatic joint's coordinate, 'rad' for the others' (revolute, spherical...)."""
+    name = jm.shortname()
+    return "m" if "Prismatic" in name or name[:-1].endswith("JointModelP") else "rad"
+
+
+def axis_label(label, unit, rate=False) -> str:
+    """An axis label with its unit: 'A.eccentricity[0] [m]', 'd/dt A.eccentricity[0] [m/s]'."""
+    text = f"d/dt {label}" if rate else label
+    if unit is None:
+        return text
+    return f"{text} [{'1/s' if rate and unit == '-' else unit + '/s' if rate else unit}]"
 
 
 def _split_index(spec: str):
@@ -100,7 +120,8 @@ def series(traj, signal, mech=None) -> Series:
         if not 0 <= k < jm.nv:
             raise InputError(f"signal {signal!r}: joint {base!r} has {jm.nv} coordinate(s), index {k} is out of range")
         a = traj.a[:, jm.idx_v + k] if traj.a.shape == traj.v.shape else None
-        return Series(t, traj.q[:, jm.idx_q + k].copy(), traj.v[:, jm.idx_v + k].copy(), a, signal)
+        return Series(t, traj.q[:, jm.idx_q + k].copy(), traj.v[:, jm.idx_v + k].copy(), a, signal,
+                      unit=joint_unit(jm))
     # ---- force-element output
     if base in traj.outputs:
         arr = np.asarray(traj.outputs[base], float)
@@ -116,14 +137,15 @@ def series(traj, signal, mech=None) -> Series:
         else:
             x = arr.reshape(len(t)).copy()
         elem_name, _, what = base.rpartition(".")
+        unit = OUTPUT_UNITS.get(what)
         elem = None
         if mech is not None:
             elem = next((f for f in mech.forces if f.name == elem_name), None)
         if what == "eccentricity" and elem is not None and elem.is_clearance \
                 and arr.ndim == 2 and arr.shape[1] == 3:
             rate = relative_rate(model, elem.f1, elem.f2, traj)[:, idx]
-            return Series(t, x, rate, None, signal)
-        return Series(t, x, _spline_rate(t, x), None, signal, exact_rate=False)
+            return Series(t, x, rate, None, signal, unit=unit)
+        return Series(t, x, _spline_rate(t, x), None, signal, exact_rate=False, unit=unit)
     # ---- constraint multiplier (drive force, closure row)
     if signal in traj.lam:
         x = np.asarray(traj.lam[signal], float).copy()
@@ -139,7 +161,7 @@ def series(traj, signal, mech=None) -> Series:
         if fid is not None:
             P, V, A = _frame_series(model, fid, traj)
             c = _AXES[comp]
-            return Series(t, P[:, c], V[:, c], A[:, c], signal)
+            return Series(t, P[:, c], V[:, c], A[:, c], signal, unit="m")
     if mech is None:
         raise InputError(f"signal {signal!r}: not an output of the run ({', '.join(traj.outputs) or 'none'}) and "
                          "the trajectory carries no mechanism: pass mech= to resolve joints and frames")

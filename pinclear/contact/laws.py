@@ -27,6 +27,20 @@ plane                F = E A d / l  [x the same hysteresis]       paper 003 eq. 
 line                 d(P) = P/(pi E* l) [1 - ln(P R/(pi E* l^3))] paper 003 eq. 6 (inverted for P)
 ==================== ===========================================================================
 
+The onset speed in sustained contact (an explicit choice). The damped laws divide by ``ddelta0``,
+the approach speed recorded at the channel's last contact onset. A contact that never separates
+(paper 000's ball rides the socket wall for the whole study) keeps the ``ddelta0`` of its last
+micro-landing, so its damping coefficient K chi / ddelta0 is set by whichever landing came last
+(measured in paper 000: 123 -> 41 -> ... -> 1.83 mm/s, then held). pinclear's choice, stated:
+``ddelta0 = max(recorded onset speed, v_impact_min)`` (the clearance key ``v_impact_min``,
+default 0.1 mm/s, applied by contact/base.py and the compiled kernels): "held, with a floor".
+A floor tied to the contact's scale is the same key set to that scale (e.g. the clearance over
+the drive period, or the approach speed whose Hertz impact penetrates 1 % of the clearance);
+floors that bind (10 and 100 mm/s, above the held 1.83 mm/s) lower the persistent contact's
+damping and are measured against the default in docs/contact_models.md ("Persistent contact").
+The default stays: no class of a row of papers 000 or 002 moves with the floor, though paper 002's
+kind of motion at 0.01 mm and its steady-regime peaks do (same document).
+
 Which law suits which restitution (see ``restitution_1dof`` and ``pinclear bench
 restitution``): Lankarani-Nikravesh is derived for ce close to 1 and overestimates the
 effective restitution badly below about 0.7; Flores et al. and Gonthier et al. track the

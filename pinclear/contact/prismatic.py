@@ -48,13 +48,28 @@ from types import MappingProxyType
 
 import numpy as np
 
+from pinclear.registry import ClearancePlot, Key, PluginType, key_names
+
 from . import _kernels
 from ._kernels import Foundation, Laws, Modes
 from .base import ClearanceData, ClearanceJoint, _readonly
 
-KEYS = frozenset({"section", "length", "edge_radius", "point_law", "line_law", "plane_law", "model"})
 #: normal-force models of the ``model`` key; the first is the default
 MODELS = ("energy", "paper003")
+_KEYS = (
+    Key("section", "number or [a, b]", "m", [0.05, 0.05], "> 0", "paper 003 eq. 1", "slider section a x b"),
+    Key("length", "number", "m", 0.1, "> 0", "paper 003 eq. 1", "slider length L along the guide"),
+    Key("edge_radius", "number", "m", 1e-3, "> 0", "paper 003 eq. 7", "corner radius of the point and line laws"),
+    Key("model", "string", "-", MODELS[0], " | ".join(MODELS), "docs/contact_models.md", "energy: a Winkler "
+        "foundation on each face (conservative); paper003: the paper's per-mode laws (not conservative)"),
+    Key("point_law", "law name or mapping", "-", "lankarani_nikravesh", "a normal law", "paper 003 eq. 7",
+        "paper003 model: corner contacts"),
+    Key("line_law", "law name or mapping", "-", "line", "a normal law", "paper 003 eqs. 5-6",
+        "paper003 model: edge contacts"),
+    Key("plane_law", "law name or mapping", "-", "plane", "a normal law", "paper 003 eq. 4",
+        "paper003 model: face contacts"),
+)
+KEYS = key_names(_KEYS)
 
 #: paper 003 Table 1: (points, lines, planes) -> mode number
 MODES = MappingProxyType({
@@ -331,20 +346,21 @@ class PrismaticClearance(ClearanceJoint):
 
 
 def from_spec(sp, mech, closure):
-    a, b = sp.pair("section", [0.05, 0.05])
+    default = {k.name: k.default for k in _KEYS}
+    a, b = sp.pair("section", default["section"])
     c1, c2 = sp.pair("clearance")
-    L = sp.number("length", 0.1)
-    r = sp.number("edge_radius", 1e-3)
+    L = sp.number("length", default["length"])
+    r = sp.number("edge_radius", default["edge_radius"])
     E1, _ = sp.material(1)
     E2, _ = sp.material(2)
     Es = sp.estar()
     # corner of radius r on a flat face: Hertz sphere-on-plane stiffness 4/3 E* sqrt(r)
-    laws = {"point": sp.normal_law("point_law", "lankarani_nikravesh", K=4.0 / 3.0 * Es * math.sqrt(r))}
+    laws = {"point": sp.normal_law("point_law", default["point_law"], K=4.0 / 3.0 * Es * math.sqrt(r))}
     for key, length in (("line_long", L), ("line_x", b), ("line_y", a)):
-        laws[key] = sp.normal_law("line_law", "line", line=(Es, length, r))
+        laws[key] = sp.normal_law("line_law", default["line_law"], line=(Es, length, r))
     E = min(E1, E2)                                   # the softer body sets the plane compliance
-    laws["plane_x"] = sp.normal_law("plane_law", "plane", plane=(E, L * b, a))
-    laws["plane_y"] = sp.normal_law("plane_law", "plane", plane=(E, L * a, b))
+    laws["plane_x"] = sp.normal_law("plane_law", default["plane_law"], plane=(E, L * b, a))
+    laws["plane_y"] = sp.normal_law("plane_law", default["plane_law"], plane=(E, L * a, b))
     model = sp.choice("model", MODELS)
     # energy model: the foundation modulus E / l of paper 003 eq. 4's plane law, the damping of
     # normal_law's hysteresis (point_law, line_law and plane_law are paper003's)
@@ -354,4 +370,12 @@ def from_spec(sp, mech, closure):
                               **sp.common(min(c1, c2)))
 
 
-__all__ = ["PrismaticClearance", "classify", "MODES", "MODE_NAMES", "SIGNS"]
+PRISMATIC = PluginType(
+    "prismatic", parse=from_spec, replaces=("prismatic",),
+    doc="A rectangular slider (frame2) in a rectangular guide (frame1), sliding along frame1's z: its 8 corners "
+        "against the 4 guide faces, 16 channels; the slider keeps its full pose relative to the guide (paper 003 "
+        "sec. 2).", source="paper 003 eqs. 1-7, Table 1", keys=_KEYS,
+    plot=ClearancePlot(across_axis=True, travel=True, boundary="rectangle", body="slider"))
+
+
+__all__ = ["PrismaticClearance", "PRISMATIC", "classify", "MODES", "MODE_NAMES", "SIGNS"]

@@ -19,12 +19,21 @@ from __future__ import annotations
 
 import numpy as np
 
+import functools
+
+from pinclear.registry import ClearancePlot, Key, PluginType, key_names
+
 from . import _kernels
 from .base import ClearanceJoint
 from .spherical import stiffness
 
-KEYS_PLANAR = frozenset({"radius", "bearing_radius", "length"})
-KEYS_SPATIAL = KEYS_PLANAR | {"axial_clearance"}
+_PLANAR = (Key("radius", "number", "m", 0.01, "> 0", "paper 002 eq. 6", "journal radius R_journal"),
+           Key("bearing_radius", "number", "m", "radius + clearance", "radius + clearance", "paper 002 eq. 6",
+               "bearing radius (a check: it must equal radius + clearance)"),
+           Key("length", "number", "m", "2 x radius", "> 0", "paper 003 eq. 6", "journal length: the line law's "
+               "contact length; revolute: the distance between its two radial channels"))
+_SPATIAL = _PLANAR + (Key("axial_clearance", "number", "m", "clearance", "> 0", "revolute.py",
+                          "gap to each thrust face along the bearing axis"),)
 
 
 class RevoluteClearance(ClearanceJoint):
@@ -59,7 +68,7 @@ class RevoluteClearance(ClearanceJoint):
 
 def from_spec(sp, mech, closure, spatial):
     c = sp.clearance()
-    R2 = sp.number("radius", 0.01)
+    R2 = sp.number("radius", _PLANAR[0].default)
     if "bearing_radius" in sp.d:
         R1 = sp.number("bearing_radius")
         if R1 <= R2:
@@ -76,3 +85,19 @@ def from_spec(sp, mech, closure, spatial):
     return RevoluteClearance(sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(),
                              spatial=spatial, length=L, axial_clearance=ca, stiffness_note=note,
                              **sp.common(min(c, ca or c)))
+
+
+_PLOT = ClearancePlot(across_axis=True, travel=False, boundary="circle", body="journal")
+PLANAR_REVOLUTE = PluginType(
+    "planar_revolute", parse=functools.partial(from_spec, spatial=False),
+    replaces=("revolute", "planar_point", "spherical"),
+    doc="A journal (frame2) in a bearing (frame1), eccentricity taken in the plane normal to the bearing axis "
+        "(frame1 z): one channel at the journal centre. Use it where the rest of the mechanism keeps the motion "
+        "planar (paper 002 sec. 1.1).", source="paper 002 eqs. 1-6", keys=_PLANAR, plot=_PLOT)
+REVOLUTE = PluginType(
+    "revolute", parse=functools.partial(from_spec, spatial=True), replaces=("revolute",),
+    doc="Spatial radial clearance: the journal's two ends against the bearing cylinder and its centre against "
+        "two thrust faces; all five freedoms the ideal revolute removed come back, held by contact.",
+    source="paper 002 eqs. 1-6 per channel", keys=_SPATIAL, plot=_PLOT)
+KEYS_PLANAR = key_names(_PLANAR)
+KEYS_SPATIAL = key_names(_SPATIAL)

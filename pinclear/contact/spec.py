@@ -5,12 +5,80 @@ import math
 import numbers
 
 from pinclear.errors import ContactSetupError
+from pinclear.registry import REQUIRED, Key, key_names
 
-from .laws import HYSTERESIS, MATERIALS, effective_modulus, make_friction_law, make_normal_law
+from .laws import HYSTERESIS, MATERIALS, NORMAL_LAWS, effective_modulus, make_friction_law, make_normal_law
 
-COMMON_KEYS = frozenset({"name", "type", "closure", "active", "notes", "clearance", "mu", "ce",
-                         "normal_law", "friction_law", "material", "material1", "material2", "stiffness",
-                         "v_impact_min", "max_initial_penetration"})
+#: the keys of every ``clearances:`` entry (pinclear.registry.CLEARANCE_TYPES' common keys); a
+#: type's own keys are in its module's PluginType record
+COMMON = (
+    Key("name", "string", doc="the clearance joint's name (--clearance NAME, NAME.key=... overrides, outputs "
+        "NAME.penetration, ...)"),
+    Key("type", "string", range="a clearance type (below)", doc="the clearance type"),
+    Key("closure", "closure name", range="a closure of closures: whose type the clearance type replaces",
+        doc="the ideal closure it replaces when active: its frame1 is the socket / bearing / guide, frame2 the "
+        "ball / journal / slider"),
+    Key("active", "bool", "-", False, doc="active without --clearance NAME"),
+    Key("notes", "string", "-", "", doc="free text"),
+    Key("clearance", "number", "m", REQUIRED, "> 0", "paper 000 eq. 6, paper 002 eq. 6: c = R_outer - R_inner",
+        "radial clearance c; prismatic: c or [c1, c2], the gaps across the guide (paper 003 sec. 2)"),
+    Key("ce", "number", "-", 0.9, "(0, 1]", "paper 000 eq. 17, paper 002 eq. 9", "restitution coefficient of the "
+        "normal law (unless the law gives its own)"),
+    Key("mu", "number", "-", None, ">= 0", "paper 000 eq. 19, paper 002 eq. 10", "friction coefficient: sets the "
+        "friction law's (mu_d of stick_slip, mu_c of lugre); given > 0 without friction_law, modified_coulomb"),
+    Key("normal_law", "law name or mapping", "-", "lankarani_nikravesh", "a normal law (below)", "contact/laws.py",
+        "normal contact force law: a name or {type, ce, K, n, damping}"),
+    Key("friction_law", "law name or mapping", "-", "modified_coulomb if mu > 0, else none",
+        "a friction law (below)", "contact/laws.py", "tangential force law: a name or {type, ...}"),
+    Key("material", "name or {E, nu}", "Pa, -", "steel", "a material (below) or E > 0, -1 < nu < 0.5",
+        "paper 000 eq. 17: E* = 1/(sigma1 + sigma2)", "both bodies' material"),
+    Key("material1", "name or {E, nu}", "Pa, -", "material", "as material", doc="body 1's (socket, bearing, "
+        "guide) material"),
+    Key("material2", "name or {E, nu}", "Pa, -", "material", "as material", doc="body 2's (ball, journal, "
+        "slider) material"),
+    Key("stiffness", "conformal | printed | number", "N/m^n", "conformal", "conformal, printed or > 0",
+        "contact/laws.py hertz_stiffness", "K of the normal law: conformal K = 4/3 E* sqrt(R_i R_o/(R_o - R_i)) "
+        "(an internal contact); printed: R_i R_o/(R_o + R_i) as papers 000 eq. 17 and 002 eq. 8 print it; or a "
+        "number (spherical, revolute types)"),
+    Key("v_impact_min", "number", "m/s", 1e-4, "> 0", "contact/base.py", "floor of the impact speed the damping "
+        "divides by (grazing contacts)"),
+    Key("max_initial_penetration", "number or null", "m", "0.1 x clearance", ">= 0 or null (no check)",
+        "contact/base.py ClearanceJoint.z0", "the start is refused when a channel penetrates more"),
+)
+COMMON_KEYS = key_names(COMMON)
+DEFAULTS = {k.name: k.default for k in COMMON}
+
+#: the keys of a normal law mapping ({type: ..., ...}; contact.laws.make_normal_law)
+NORMAL_LAW_KEYS = (
+    Key("type", "string", "-", "lankarani_nikravesh", ", ".join(NORMAL_LAWS), "contact/laws.py", "the law"),
+    Key("ce", "number", "-", "the joint's ce (hertz: 1)", "(0, 1]", "paper 000 eq. 17", "restitution coefficient"),
+    Key("K", "number", "N/m^n", "the joint's stiffness", "> 0", "F = K d^n (...)", "stiffness (power laws)"),
+    Key("n", "number", "-", 1.5, "> 0", "Hertz: n = 3/2", "exponent (power laws)"),
+    Key("damping", "string", "-", "lankarani_nikravesh", ", ".join(HYSTERESIS), "contact/laws.py HYSTERESIS",
+        "hysteresis factor chi(ce) of the line and plane laws"),
+)
+#: friction law type -> the keys of its mapping besides ``type`` (contact.laws.make_friction_law)
+FRICTION_LAW_KEYS = {
+    "none": (),
+    "coulomb": (Key("mu", "number", "-", "the joint's mu", ">= 0", "contact/laws.py Coulomb", "coefficient"),
+                Key("v_eps", "number", "m/s", 1e-4, "> 0", "contact/laws.py Coulomb",
+                    "regularisation: mu |vt| / sqrt(|vt|^2 + v_eps^2)")),
+    "modified_coulomb": (Key("mu", "number", "-", "the joint's mu", ">= 0", "paper 000 eq. 19", "coefficient"),
+                         Key("v0", "number", "m/s", 1e-4, ">= 0", "paper 002 eq. 10", "below: no friction"),
+                         Key("v1", "number", "m/s", 1e-2, "> v0", "paper 002 eq. 10", "above: full friction")),
+    "stick_slip": (Key("mu_s", "number", "-", "the joint's mu", ">= 0", "paper 003 eq. 3", "static coefficient"),
+                   Key("mu_d", "number", "-", REQUIRED, ">= 0", "paper 003 eq. 3", "dynamic coefficient (the "
+                       "joint's mu sets it)"),
+                   Key("Vs", "number", "m/s", 1e-3, "> 0", "paper 003 eq. 3", "stiction speed"),
+                   Key("Vd", "number", "m/s", 1e-2, "> Vs", "paper 003 eq. 3", "dynamic speed")),
+    "lugre": (Key("mu_c", "number", "-", "the joint's mu", ">= 0", "Canudas de Wit et al. 1995", "Coulomb level "
+                  "(the joint's mu sets it)"),
+              Key("mu_s", "number", "-", "mu_c", ">= 0", "Canudas de Wit et al. 1995", "static level"),
+              Key("vs", "number", "m/s", 1e-3, "> 0", "Canudas de Wit et al. 1995", "Stribeck speed"),
+              Key("s0", "number", "1/m", 1e5, "> 0", "Canudas de Wit et al. 1995", "bristle stiffness per unit Fn"),
+              Key("s1", "number", "s/m", "sqrt(s0)", "finite", "Canudas de Wit et al. 1995", "bristle damping"),
+              Key("s2", "number", "s/m", 0.0, ">= 0", "Canudas de Wit et al. 1995", "viscous term")),
+}
 
 
 class Spec:
@@ -71,7 +139,7 @@ class Spec:
     def material(self, which):
         """(E, nu) of body 1 or 2: ``material1``/``material2`` or the shared ``material``."""
         key = f"material{which}" if f"material{which}" in self.d else "material"
-        m = self.d.get(key, "steel")
+        m = self.d.get(key, DEFAULTS["material"])
         if isinstance(m, str):
             if m not in MATERIALS:
                 raise self.error(key, f"unknown material {m!r}", MATERIALS)
@@ -88,12 +156,12 @@ class Spec:
         return effective_modulus(E1, n1, E2, n2)
 
     def ce(self):
-        ce = self.number("ce", 0.9)
+        ce = self.number("ce", DEFAULTS["ce"])
         if not 0 < ce <= 1:
             raise self.error("ce", f"restitution coefficient {ce} outside (0, 1]")
         return ce
 
-    def normal_law(self, key="normal_law", default="lankarani_nikravesh", **geom):
+    def normal_law(self, key="normal_law", default=DEFAULTS["normal_law"], **geom):
         spec = self.d.get(key, default)
         if isinstance(spec, str):
             spec = {"type": spec}
@@ -154,5 +222,5 @@ class Spec:
     def common(self, scale):
         """Keyword arguments of ClearanceJoint; ``scale`` = clearance for the penetration limit."""
         lim = self.d.get("max_initial_penetration", 0.1 * scale)
-        return dict(v_impact_min=self.number("v_impact_min", 1e-4),
+        return dict(v_impact_min=self.number("v_impact_min", DEFAULTS["v_impact_min"]),
                     max_initial_penetration=None if lim is None else float(lim), file=self.file)

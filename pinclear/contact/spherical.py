@@ -10,11 +10,14 @@ from __future__ import annotations
 
 import numpy as np
 
+from pinclear.registry import ClearancePlot, Key, PluginType, key_names
+
 from . import _kernels
 from .base import ClearanceJoint
 from .laws import hertz_stiffness
+from .spec import DEFAULTS
 
-KEYS = frozenset({"radius", "socket_radius"})
+_RADIUS = Key("radius", "number", "m", 0.01, "> 0", "paper 000 eq. 6", "ball radius R_ball")
 
 
 class SphericalClearance(ClearanceJoint):
@@ -43,7 +46,7 @@ class SphericalClearance(ClearanceJoint):
 
 def from_spec(sp, mech, closure):
     c = sp.clearance()
-    R2 = sp.number("radius", 0.01)
+    R2 = sp.number("radius", _RADIUS.default)
     if "socket_radius" in sp.d:
         R1 = sp.number("socket_radius")
         if R1 <= R2:
@@ -59,9 +62,19 @@ def from_spec(sp, mech, closure):
 
 def stiffness(sp, R_in, R_out):
     """K from ``stiffness``: conformal (default) | printed | a number (N/m^n)."""
-    st = sp.d.get("stiffness", "conformal")
+    st = sp.d.get("stiffness", DEFAULTS["stiffness"])
     if isinstance(st, str):
         if st not in ("conformal", "printed"):
             raise sp.error("stiffness", f"invalid value {st!r}", ["conformal", "printed", "<number N/m^n>"])
         return hertz_stiffness(sp.estar(), R_in, R_out, st), st
     return sp.number("stiffness"), "given"
+
+
+SPHERICAL = PluginType(
+    "spherical", parse=from_spec, replaces=("spherical",),
+    doc="A ball (frame2 of the replaced closure) in a socket (frame1): one contact channel, penetration "
+        "|e| - c (paper 000 sec. 1).", source="paper 000 eqs. 3-16",
+    keys=(_RADIUS, Key("socket_radius", "number", "m", "radius + clearance", "radius + clearance", "paper 000 eq. 6",
+                       "socket radius R_socket (a check: it must equal radius + clearance)")),
+    plot=ClearancePlot(across_axis=False, travel=False, boundary="circle", body="ball"))
+KEYS = key_names(SPHERICAL.keys)

@@ -3,7 +3,7 @@ saved run whose mechanism is not loaded (the element types recorded in its metad
 only place the viewer and the plots tell clearance joints apart."""
 from __future__ import annotations
 
-from pinclear.sidecar import CLEARANCE_TYPES
+from pinclear.registry import CLEARANCE_TYPES
 
 
 def active_clearances(mech) -> list:
@@ -11,9 +11,17 @@ def active_clearances(mech) -> list:
     return [el for el in (getattr(mech, "forces", None) or ()) if el.is_clearance]
 
 
+def clearance_plot(kind):
+    """How clearance type ``kind`` is drawn (pinclear.registry.ClearancePlot), or None for a type
+    not registered (a run saved by a newer pinclear)."""
+    return CLEARANCE_TYPES.get(kind).plot if kind in CLEARANCE_TYPES else None
+
+
 def clearance_size(el):
-    """Radial clearance c of a ball or journal, or the gaps (c1, c2) across a slider's guide."""
-    return (float(el.c1), float(el.c2)) if el.kind == "prismatic" else float(el.c)
+    """Radial clearance c of a ball or journal, or the gaps (c1, c2) across a slider's guide
+    (the type's ClearancePlot.boundary says which)."""
+    plot = clearance_plot(el.kind)
+    return (float(el.c1), float(el.c2)) if plot is not None and plot.boundary == "rectangle" else float(el.c)
 
 
 def recorded_clearances(meta) -> dict[str, dict]:

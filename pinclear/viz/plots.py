@@ -27,7 +27,7 @@ from matplotlib.figure import Figure
 
 from pinclear.kinematics import frame_motion
 
-from .elements import active_clearances, recorded_clearances, run_clearances
+from .elements import active_clearances, clearance_plot, recorded_clearances, run_clearances
 from .elements import clearance_size as element_clearance
 
 AXES = "xyz"
@@ -57,8 +57,13 @@ def clearance_names(traj) -> list[str]:
 
 
 def clearance_type(traj, name: str) -> str | None:
-    """Kind of clearance joint ``name`` (spherical, revolute, planar_revolute, prismatic)."""
+    """Kind of clearance joint ``name`` (a type of pinclear.registry.CLEARANCE_TYPES)."""
     return run_clearances(traj).get(name)
+
+
+def _plot_of(traj, name: str):
+    """The ClearancePlot of joint ``name``'s type (None: unknown type)."""
+    return clearance_plot(clearance_type(traj, name))
 
 
 def clearance_size(traj, name: str):
@@ -76,7 +81,8 @@ def clearance_size(traj, name: str):
         return tuple(map(float, c)) if c.size > 1 else float(c[0])
     e = traj.outputs.get(f"{name}.eccentricity")
     d = traj.outputs.get(f"{name}.penetration")
-    if e is not None and d is not None and np.ndim(e) == 2 and clearance_type(traj, name) != "prismatic":
+    plot = _plot_of(traj, name)
+    if e is not None and d is not None and np.ndim(e) == 2 and not (plot is not None and plot.boundary != "circle"):
         return float(np.median(np.linalg.norm(e, axis=1) - np.ravel(d)))
     return None
 
@@ -139,7 +145,8 @@ def fig_journal(traj):
         E = np.asarray(traj.outputs[f"{n}.eccentricity"], float)
         if E.ndim == 1:
             E = E[:, None]
-        if clearance_type(traj, n) in ("revolute", "planar_revolute", "prismatic") and E.shape[1] == 3:
+        plot = _plot_of(traj, n)
+        if plot is not None and plot.across_axis and E.shape[1] == 3:
             # across the bearing/guide axis (z of its frame): along it is free travel
             i, j = 0, 1
         else:
@@ -163,7 +170,7 @@ def fig_journal(traj):
         ax.locator_params(nbins=5)
         ax.set_xlabel(f"e_{AXES[i]} [mm] (bearing frame)")
         ax.set_ylabel(f"e_{AXES[j]} [mm]")
-        ax.set_title(f"{n}: {'slider' if clearance_type(traj, n) == 'prismatic' else 'journal/ball'} centre")
+        ax.set_title(f"{n}: {plot.body if plot is not None else 'body 2'} centre")
         ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
@@ -183,24 +190,47 @@ def fig_residual(traj):
     return fig
 
 
+#: the energy figure's curves: balance term -> (label, sign in B = T + V_g + V_el + E_diss - W...)
+ENERGY_CURVES = {"kinetic": ("kinetic T", 1), "gravity": ("gravity V_g - V_g(0)", 1), "elastic": ("elastic V_el", 1),
+                 "dissipated": ("dissipated E_diss", 1), "work_drives": ("drives' work W_d", -1),
+                 "work_closures": ("closure rows' work W_c", -1), "work_applied": ("applied forces' work W_a", -1)}
+
+
 def fig_energy(traj):
+    """The audited energy balance over time (pinclear.energy.balance_series): each term of
+    B = T + V_g + V_el + E_diss - W_d - W_c - W_a that is not zero, and below, on its own scale,
+    the balance's error B - B(0) with the audit's bound (a closed balance is a flat line)."""
+    from ..energy import balance_series, energy_balance
+
     try:
-        E = traj.energy()
+        S = balance_series(traj)
     except (AttributeError, KeyError):
         return None
-    fig, ax = _subplots(figsize=(8, 4))
-    # changes from t0: the potential's datum is arbitrary, its changes are not
-    for k in ("kinetic", "potential", "spring", "total"):
-        if k in E and np.any(np.asarray(E[k]) != 0):
-            ax.plot(traj.t, E[k] - E[k][0], lw=1.2 if k == "total" else 1.0, label=k, gid=f"energy.{k}")
-    for n in clearance_names(traj):
-        d = traj.outputs.get(f"{n}.dissipated")
-        if d is not None:
-            ax.plot(traj.t, np.ravel(d), lw=1.0, ls=":", label=f"{n} dissipated", gid=f"energy.{n}.dissipated")
-    ax.set_xlabel("t [s]")
-    ax.set_ylabel("energy change since t0 [J]")
+    if "message" in S:
+        return None
+    fig, (ax, ax2) = _subplots(2, 1, figsize=(8, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1.3]})
+    t = S["t"]
+    for key, (label, _) in ENERGY_CURVES.items():
+        if np.any(S[key] != 0):
+            ax.plot(t, S[key], lw=1.0, label=label, gid=f"energy.{key}")
+    ax.set_ylabel("energy [J]")
+    ax.set_title("energy balance B = T + V_g + V_el + E_diss - W_d - W_c - W_a", fontsize=9)
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
+    ax2.plot(t, S["balance"], lw=1.0, color="k", label="B - B(0)", gid="energy.balance")
+    eb = energy_balance(traj)
+    if eb.get("bound") is not None and np.isfinite(eb["bound"]) and eb["scale"]:
+        lim = eb["bound"] * eb["scale"]
+        if lim <= 10 * np.abs(S["balance"]).max():
+            ax2.axhline(lim, color="r", lw=0.8, ls="--", label="audit bound", gid="energy.bound")
+            ax2.axhline(-lim, color="r", lw=0.8, ls="--")
+        else:       # drawn, it would flatten the error to a line: stated instead
+            ax2.text(0.01, 0.92, f"audit bound ±{lim:.2g} J (ok: {eb['ok']})", transform=ax2.transAxes, fontsize=8,
+                     va="top", gid="energy.bound_text")
+    ax2.set_xlabel("t [s]")
+    ax2.set_ylabel("B - B(0) [J]")
+    ax2.legend(fontsize=8)
+    ax2.grid(alpha=0.3)
     fig.tight_layout()
     return fig
 

@@ -38,7 +38,7 @@ import pinocchio as pin
 import umsgpack
 from meshcat.commands import SetAnimation, SetObject, SetProperty, SetTransform, Delete
 
-from .elements import active_clearances, clearance_size
+from .elements import active_clearances, clearance_plot, clearance_size
 from .geometry import (body_names, mechanism_extent, mechanism_primitives, mesh_roots,
                        rotation_y_to, viewer_trust)
 
@@ -315,7 +315,7 @@ class MechanismScene:
             f1, f2 = clearance_frames(el)
             p1 = self.data.oMf[f1].translation.copy()
             e = self.data.oMf[f2].translation - p1
-            if el.kind == "prismatic":
+            if clearance_plot(el.kind) is not None and clearance_plot(el.kind).travel:
                 # a slider's travel along the guide (z of the guide frame) is motion, not play
                 z1 = self.data.oMf[f1].rotation[:, 2]
                 e = e - (e @ z1) * z1
