@@ -302,7 +302,8 @@ class Trajectory:
         """The run's peaks as summary.json and :meth:`summary` give them (one function for both):
         ``drive_force_peaks`` {drive: N or N m}, ``drive_force_peak_times`` {drive: s},
         ``acceleration_peaks`` {dof: {value, t}}, ``clearances`` (each active clearance's
-        description with ``peak_normal_force`` N and ``t_peak`` s) and ``peaks_from``:
+        description with ``peak_normal_force`` N and ``t_peak`` s), the same as
+        ``contact_force_peaks`` {clearance: N} and ``contact_force_peak_times``, and ``peaks_from``:
         "integration" (over the accepted steps, pinclear.stepping.peaks: independent of the
         output grid) or "samples" (a run saved before the peaks were recorded)."""
         pk = self.stats.get("peaks")
@@ -313,7 +314,10 @@ class Trajectory:
             return {"peaks_from": "integration",
                     "drive_force_peaks": {k: None if r is None else r["value"] for k, r in drives.items()},
                     "drive_force_peak_times": {k: None if r is None else r["t"] for k, r in drives.items()},
-                    "acceleration_peaks": acc, "clearances": clr}
+                    "acceleration_peaks": acc, "clearances": clr,
+                    # the same peaks by name (a sweep's per-point table keeps mappings, not lists)
+                    "contact_force_peaks": {k: None if r is None else r["value"] for k, r in contact.items()},
+                    "contact_force_peak_times": {k: None if r is None else r["t"] for k, r in contact.items()}}
         names = [d["name"] for d in (self.meta.get("mechanism") or {}).get("drives", [])]
         return {"peaks_from": "samples",
                 "drive_force_peaks": {k: float(np.nanmax(np.abs(self.lam[k]))) if len(self.t) and k in self.lam

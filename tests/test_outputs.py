@@ -136,9 +136,11 @@ def test_summary_json_and_summary_give_the_same_peaks(tmp_path, capsys):
     capsys.readouterr()
     saved = json.loads((out / "summary.json").read_text())
     back = pinclear.Trajectory.load(out / "trajectory.npz").summary()
-    for key in ("drive_force_peaks", "drive_force_peak_times", "acceleration_peaks", "clearances", "peaks_from"):
+    for key in ("drive_force_peaks", "drive_force_peak_times", "acceleration_peaks", "clearances", "peaks_from",
+                "contact_force_peaks", "contact_force_peak_times"):
         assert saved[key] == back[key], key
     assert saved["peaks_from"] == "integration"
     (s2,) = saved["clearances"]
     assert s2["name"] == "S2" and s2["peak_normal_force"] > 0 and 0 <= s2["t_peak"] <= 0.05
+    assert saved["contact_force_peaks"] == {"S2": s2["peak_normal_force"]}
     assert set(saved["drive_force_peaks"]) == {d.name for d in pinclear.load("four_ups_upu").drives}
