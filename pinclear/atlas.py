@@ -21,6 +21,7 @@ from scipy.integrate import simpson, solve_ivp
 
 from . import bench, formulations, kinematics, safeio, stepping as integrators
 from .errors import InputError, PinclearError
+from .failures import FailureKind
 from .stepping.run import run_clock as _run_clock
 
 #: columns of atlas.csv, in order (the JSON rows carry the same keys)
@@ -193,8 +194,8 @@ def reference(mech, label, t_end, max_cpu=BUDGET_REFERENCE):
 # ------------------------------------------------------------------------------------ one cell
 #: the atlas's reason for each kind of Trajectory.failure (the run's failure as data: no message
 #: is parsed, so rewording a message cannot change an atlas)
-REASON_OF = {"non-finite": "non-finite", "step-size collapse": "step-size collapse", "budget": "budget",
-             "rank loss": "rank loss", "singular matrix": "rank loss"}
+REASON_OF = {FailureKind.NONFINITE: "non-finite", FailureKind.STEP_SIZE: "step-size collapse",
+             FailureKind.BUDGET: "budget", FailureKind.RANK_LOSS: "rank loss", FailureKind.SINGULAR: "rank loss"}
 
 
 def classify(traj, t_end):
@@ -262,7 +263,7 @@ def run_cell(mech, label, t_end, method, integrator, tol, h, q_ref, max_cpu):
         reason, t_failed = "", None
     else:
         reason, t_failed, note = classify(tr, t_end)
-        row["failure_kind"] = tr.failure[0]
+        row["failure_kind"] = str(tr.failure.kind)
         if note:
             row["message"] += f" [{note}]"
     spread = branch_spread(mech, tr.q) if len(tr.t) else None

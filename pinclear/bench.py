@@ -14,7 +14,9 @@ from . import formulations, safeio
 from .closures import PINOCCHIO_TYPES
 from .errors import InputError, PinclearError
 from .simulate import simulate
+from ._jit import njit
 from .stepping.build import Evaluation
+from .stepping.system import evaluate as evaluate_rhs
 
 
 def baseline_constraints(mech):
@@ -437,3 +439,92 @@ if __name__ == "__main__":  # pragma: no cover
     import sys
 
     print(json.dumps(main_rhs(sys.argv[1]), indent=2))
+
+
+# ---------------------------------------------------------------------- outputs
+#: the runs of the output benchmark: (bundled name, active clearances, method), as issue 40 set it
+OUTPUT_CASES = (("four_ups_upu", ("S2",), "lagrange"), ("a02_nfourbar_2", (), "manifold"))
+
+
+@njit(cache=True)
+def evaluate_all(system, T, X):
+    """One evaluation at each state X[k], time T[k] (compiled loop: an evaluation's own cost)."""
+    dx = np.zeros(X.shape[1])
+    for k in range(X.shape[0]):
+        evaluate_rhs(system, T[k], X[k], dx)
+
+
+def bench_outputs(cases=OUTPUT_CASES, samples=(501, 5001, 20001), t_end=2.0, rtol=1e-6, repeat=3,
+                  reference=(501, 5001), progress=None):
+    """What a run costs outside its integration against its number of output samples (issue 40
+    item 1), beside one evaluation's cost, all in this process: per case and sample count the
+    best of ``repeat`` runs' CPU outside the integration (a whole simulate() less its cpu_s);
+    the slope (per sample) and intercept (fixed cost) of a least-squares line through them, the
+    slope in evaluations; the same for the per-sample Python path (outputs="python", the
+    reference) at the ``reference`` counts."""
+    import warnings
+
+    from .sidecar import load
+
+    out = {"t_end": t_end, "rtol": rtol, "cases": []}
+    for name, clr, method in cases:
+        mech = load(name, clearances=list(clr) or None)
+        row = {"mechanism": name, "clearances": list(clr), "method": method, "compiled": {}, "python": {}}
+
+        def outside(n, how):
+            best, tr = np.inf, None
+            for _ in range(repeat):
+                c0 = time.process_time()
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore")
+                    tr = simulate(mech, t_end, method=method, rtol=rtol, dt_out=t_end / (n - 1), outputs=how)
+                best = min(best, time.process_time() - c0 - tr.stats["cpu_s"])
+            return best, tr
+        outside(samples[0], "compiled")               # warm-up: compiled kernels, first-call caches
+        for how, counts in (("compiled", samples), ("python", reference)):
+            for n in counts:
+                cost, tr = outside(n, how)
+                row[how][n] = {"outside_s": cost, "integration_s": tr.stats["cpu_s"], "steps": tr.stats["steps"],
+                               "rhs_evals": tr.stats["rhs_evals"]}
+                if progress:
+                    progress(f"{name} {how} {n} samples: {cost * 1e3:.2f} ms outside, "
+                             f"{tr.stats['cpu_s'] * 1e3:.1f} ms integrating")
+        # one evaluation at the run's own sample states, compiled loop
+        ev = Evaluation(formulations.get(method)(mech))
+        X = np.array([ev.pack(q, v, z) for q, v, z in zip(tr.q, tr.v, tr.z)])
+        T = np.array(tr.t)
+        evaluate_all(ev.system, T[:2], X[:2])
+        best = np.inf
+        for _ in range(repeat):
+            c0 = time.process_time()
+            evaluate_all(ev.system, T, X)
+            best = min(best, time.process_time() - c0)
+        row["evaluation_s"] = best / len(T)
+        for how in ("compiled", "python"):
+            ns = np.array(sorted(row[how]), float)
+            cost = np.array([row[how][int(n)]["outside_s"] for n in ns])
+            slope, icpt = np.polyfit(ns, cost, 1)
+            row[f"{how}_per_sample_s"], row[f"{how}_fixed_s"] = float(slope), float(icpt)
+            row[f"{how}_per_sample_evaluations"] = float(slope / row["evaluation_s"])
+        out["cases"].append(row)
+    return out
+
+
+def outputs_table(res) -> str:
+    """The output benchmark as a Markdown table (docs/outputs.md)."""
+    lines = ["| run | samples | integration | outside (compiled) | outside (Python path) |",
+             "|---|---|---|---|---|"]
+    for r in res["cases"]:
+        label = f"{r['mechanism']}{' + ' + ','.join(r['clearances']) if r['clearances'] else ''}, {r['method']}"
+        for n in sorted(set(r["compiled"]) | set(r["python"])):
+            c, p = r["compiled"].get(n), r["python"].get(n)
+            ms = ["" if x is None else f"{x['outside_s'] * 1e3:.2f} ms" for x in (c, p)]
+            lines.append(f"| {label} | {n} | {(c or p)['integration_s'] * 1e3:.1f} ms | {ms[0]} | {ms[1]} |")
+    lines += ["", "| run | one evaluation | per sample outside: compiled | = evaluations | fixed | "
+              "per sample: Python path | = evaluations |", "|---|---|---|---|---|---|---|"]
+    for r in res["cases"]:
+        lines.append(f"| {r['mechanism']}, {r['method']} | {r['evaluation_s'] * 1e6:.2f} us | "
+                     f"{r['compiled_per_sample_s'] * 1e6:.2f} us | {r['compiled_per_sample_evaluations']:.2f} | "
+                     f"{r['compiled_fixed_s'] * 1e3:.2f} ms | {r['python_per_sample_s'] * 1e6:.2f} us | "
+                     f"{r['python_per_sample_evaluations']:.2f} |")
+    return "\n".join(lines)

@@ -306,12 +306,9 @@ def _save_run(args, mech, traj, out: Path, stop):
     except Exception as exc:      # e.g. a trusted platform motion raising in the tracking error
         summary = {"status": traj.status, "message": traj.message, "t_end": float(traj.t[-1]) if len(traj.t) else None,
                    "samples": len(traj.t), "summary_error": f"{type(exc).__name__}: {exc}"}
+        summary.update(traj.peak_summary())          # reads the run's stats only, never user code
     summary["mechanism"] = mech.name
     summary["file"] = str(args.file)
-    summary["clearances"] = [f.describe() for f in mech.clearances]
-    with contextlib.suppress(Exception):
-        summary["drive_force_peaks"] = {d.name: float(np.nanmax(np.abs(traj.lam[d.name]))) for d in mech.drives} \
-            if len(traj.t) else {}
     _, problem = write_or_fallback(lambda p, root: atomic_write_text(p, json.dumps(summary, indent=2, default=str),
                                                                      root), out / "summary.json")
     if problem:
@@ -467,6 +464,16 @@ def cmd_bench(args):
         fails = sum(r["status"] != "success" for r in res["rows"])
         print(f"atlas: {len(res['rows'])} cells over {len(res['scenes'])} scenes, {fails} failed; "
               f"{out / 'atlas.json'}, {out / 'atlas.csv'}, heatmap_*.png, work_precision_*.png")
+        return 0
+    if args.what == "outputs":
+        from .trajectory import atomic_write_text
+
+        out = Path(args.out)
+        _check_out_dir(out)
+        res = bench.bench_outputs(t_end=2.0 if args.t_end is None else args.t_end,
+                                  progress=lambda s: print(f"bench outputs: {s}", file=sys.stderr, flush=True))
+        atomic_write_text(out / "bench_outputs.json", json.dumps(res, indent=2, default=str))
+        print(bench.outputs_table(res))
         return 0
     if args.what == "runs":
         from .trajectory import atomic_write_text
@@ -704,9 +711,10 @@ def build_parser():
     s.set_defaults(func=cmd_info)
 
     s = sub.add_parser("bench", help="bench rhs FILE | bench runs [FILES] | bench work-precision FILE | "
-                       "bench restitution | bench contact-laws | bench atlas [FILES] [--quick]", formatter_class=HelpFormatter)
-    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution", "atlas", "contact-laws"],
-                   help="which benchmark")
+                       "bench restitution | bench contact-laws | bench atlas [FILES] [--quick] | bench outputs",
+                       formatter_class=HelpFormatter)
+    s.add_argument("what", choices=["rhs", "runs", "work-precision", "restitution", "atlas", "contact-laws", "outputs"],
+                   help="which benchmark (outputs: the cost of a run's outputs against its samples, docs/outputs.md)")
     s.add_argument("file", nargs="?", help="mechanism sidecar or bundled name (runs, atlas: default all scenes)")
     _add_model_args(s, file_required=False)
     s.add_argument("--methods", default=None, help="comma-separated formulations (default: rhs all; atlas all but "

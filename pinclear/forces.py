@@ -69,6 +69,9 @@ class ForceElement(abc.ABC):
         before the stages run; Pinocchio's passes (contract 3) have run on ``ws.data``. None
         (the default): the run calls the Python method through a Python stage, at Python's cost.
         The Python method and the kernel give the same numbers (tests compare them).
+    11. Compiled outputs are declared: :meth:`record_layout` names the outputs and their sizes,
+        :meth:`record_kernel` returns ``(kernel, args)`` writing one sample's [potential, power
+        loss, outputs] into a row, the numbers :meth:`record` returns (pinclear.stepping.outputs).
     """
 
     name: str = ""
@@ -118,6 +121,19 @@ class ForceElement(abc.ABC):
 
     def outputs(self, mech, ws, d, t, q, v, z) -> dict:
         return {}
+
+    def record_layout(self):
+        """The outputs of :meth:`record` as ((name, size), ...) in the order a compiled record
+        writes them (size 1: a scalar per sample); None when the element has no compiled record
+        (contract 11)."""
+        return None
+
+    def record_kernel(self, mech, ws, d, z, zdot, row):
+        """(kernel, args) of the compiled :meth:`record` (contract 11): after an evaluation at an
+        output sample's state (the kinematics of the sample in ws, what :meth:`add_force` left in
+        ``d``), it writes ``row`` = [potential, power loss, the outputs of :meth:`record_layout`
+        flattened]. None: the run's outputs are made by the Python path."""
+        return None
 
     def record(self, mech, ws, d, t, q, v, z, after_rhs) -> tuple:
         """(potential, power_loss, outputs) of one output sample. ``after_rhs``: the formulation
@@ -305,6 +321,18 @@ def spring_force(law, fr, bodies, v, state, tau):
     add_body_wrench(J, bodies.idx1, -F0, -F1, -F2, z1 * F1 - y1 * F2, x1 * F2 - z1 * F0, y1 * F0 - x1 * F1, tau)
 
 
+@njit(cache=True)
+def spring_record(law, fr, bodies, v, state, row):
+    """One output sample of a spring-damper (SpringDamper.record): potential k (L - L0)^2 / 2,
+    power loss c (dL/dt)^2, length, tension."""
+    spring_state(law, fr, bodies, v, state)
+    L, Ldot = state[0], state[1]
+    row[0] = 0.5 * law.k * (L - law.L0) ** 2
+    row[1] = law.c * Ldot * Ldot
+    row[2] = L
+    row[3] = state[2]
+
+
 class SpringData:
     """One workspace's buffers of a spring-damper: its frames' slot and placements, and what
     :func:`spring_state` writes, (length, rate, tension, unit vector from frame 1 to frame 2)."""
@@ -377,6 +405,12 @@ class SpringDamper(ForceElement):
         return (0.5 * self.k * (L - self.L0) ** 2, self.c * Ldot * Ldot,
                 {"length": np.array(L), "force": np.array(f)})
 
+    def record_layout(self):
+        return (("length", 1), ("force", 1))
+
+    def record_kernel(self, mech, ws, d, z, zdot, row):
+        return spring_record, self._args(ws, d) + (ws.v, d.state, row)
+
     def describe(self):
         return {"name": self.name, "type": "spring_damper", "k": self.k, "c": self.c, "free_length": self.L0}
 
@@ -406,6 +440,16 @@ def joint_force(table, t, idx, f, tau):
     """tau[idx] += the time law's value at t (its value and derivatives go to f (3, 1))."""
     eval_laws(table.codes, table.starts, table.P, t, table.cols, f)
     tau[idx] += f[0, 0]
+
+
+@njit(cache=True)
+def joint_force_record(table, t, idx, f, v, row):
+    """One output sample of a joint force (JointForce.record): no potential, power loss -f v
+    (negative: power injected), the force."""
+    eval_laws(table.codes, table.starts, table.P, t, table.cols, f)
+    row[0] = 0.0
+    row[1] = -f[0, 0] * v[idx]
+    row[2] = f[0, 0]
 
 
 class JointForce(ForceElement):
@@ -442,6 +486,14 @@ class JointForce(ForceElement):
             tau[self.idx_v] += self.law.eval(t)[0]
             return
         joint_force(self.table, float(t), self.idx_v, d, tau)
+
+    def record_layout(self):
+        return None if self.table is None else (("force", 1),)
+
+    def record_kernel(self, mech, ws, d, z, zdot, row):
+        if self.table is None:
+            return None
+        return joint_force_record, (self.table, T, self.idx_v, d, ws.v, row)
 
     def power_loss(self, mech, ws, d, t, q, v, z):
         # negative loss = power injected

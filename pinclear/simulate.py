@@ -3,7 +3,7 @@
 simulate checks the inputs, assembles the initial state, and hands the integration to a
 pinclear.stepping.run.Run: compiled step logic over the run's stages (docs/design.md, "The
 stepping engine"). A failure keeps every sample computed so far and says when and why, as text
-(``message``) and as data (``failure = (kind, t, detail)``).
+(``message``) and as data (``failure``: a pinclear.failures.Failure(kind, t, detail)).
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ import numpy as np
 
 from . import formulations, kinematics, stepping, validate
 from ._jit import compile_cpu
-from .errors import InputError, RankLossError
-from .stepping.run import Run, Stop, checked_method_state, method_state, run_clock
+from .errors import InputError
+from .stepping.run import Run, checked_method_state, method_state, run_clock
 from .stepping.state import EXTERNAL
 from .trajectory import Checkpoint, Trajectory
 
@@ -99,7 +99,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
              dt_out=None, q0=None, v0=None, t0=0.0, max_step=np.inf, h=None, first_step=None, assemble=True,
              strict=False, max_cpu=None, progress=None, checkpoint=None, checkpoint_every=None, resume=None,
              min_mean_step=None, loop="auto", start=None, fixed_step_tol=validate.FIXED_STEP_TOL,
-             **method_options) -> Trajectory:
+             outputs="compiled", **method_options) -> Trajectory:
     """Integrate the forward dynamics of ``mech`` from t0 to t_end; return a Trajectory.
 
     method: lagrange | projection | pinocchio | proximal | manifold (pinclear.formulations).
@@ -123,6 +123,10 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     Python stage otherwise, named in ``stats['loop']``); "python" evaluates the right-hand side
     through the plug-ins' Python methods (the reference; the same step logic).
 
+    outputs: "compiled" records the samples' outputs in one compiled pass where the plug-ins
+    allow it; "python" sample by sample through the plug-ins' Python methods (the reference,
+    pinclear.stepping.outputs).
+
     progress: callable(t) for every accepted step (reported after each compiled chunk of at most
     pinclear.stepping.run.CHUNK steps). checkpoint: callable(Checkpoint) every
     ``checkpoint_every`` CPU seconds and when the run ends early; ``resume`` (a Checkpoint)
@@ -144,6 +148,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         raise InputError(f"unknown start {start!r}", key="start", choices=kinematics.STARTS)
     if loop not in ("auto", "python"):
         raise InputError(f"loop must be 'auto' or 'python', got {loop!r}", key="loop", choices=("auto", "python"))
+    if outputs not in ("compiled", "python"):
+        raise InputError(f"outputs must be 'compiled' or 'python', got {outputs!r}", key="outputs",
+                         choices=("compiled", "python"))
     atol = rtol * 1e-2 if atol is None and rtol is not None else atol
     _check_inputs(t_end, t0, rtol, atol, integ, h, max_step, first_step, t_eval, dt_out)
     if min_mean_step is not None and not (np.isfinite(min_mean_step) and min_mean_step >= 0):
@@ -189,6 +196,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
               checkpoint=checkpoint, checkpoint_every=checkpoint_every, max_cpu=max_cpu)
     run.cpu0, run.cpu_prior, run.evals0 = cpu0, stats["cpu_s"], stats["rhs_evals"]
     run.t0, run.initial = t0, (q, v, z)
+    if resume is not None:
+        run.seed_peaks(resume.stats.get("peaks"))
     stats["loop"] = _loop_note(run)
     if resume is not None and run.tab.kind == EXTERNAL:
         # the checkpoint holds the state, the step size, the elements' states (onset speeds,
@@ -197,42 +206,24 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
                                 "s (its history and Jacobian are recomputed there): the continuation is not "
                                 "bit-identical to an uninterrupted run")
     stats["setup_cpu_s"] = run_clock() - cpu0          # assembly, rank analysis, stages (not integration)
-    status, failure = "success", None
+    resumed_state = None
     if resume is not None:         # the integrator's saved matrices, checked before anything runs
         resumed_state = checked_method_state(run, resume.method_state, resume.path or "<checkpoint>")
         if not resumed_state and method_state(run):
             stats["resume_note"] = (f"the checkpoint holds no {integrator} Jacobian (an older pinclear's): it is "
                                     f"recomputed at t = {float(resume.t):.9g} s and the continuation is not "
                                     "bit-identical to an uninterrupted run")
-    try:
-        if resume is not None:
-            run.execute(resume.t, run.pack(resume.q_now, resume.v_now, resume.z_now), resume.h_next, resume.samples,
-                        False, resumed_state)
-        else:
-            run.execute(t0, run.pack(q, v, z), first_step, [], True)
-    except KeyboardInterrupt:
-        run.save_checkpoint()
-        t_at = run.good[0] if run.good else t0
-        status, failure = "interrupted", ("interrupted", t_at, (
-            f"interrupted at t = {t_at:.9g} s (SIGINT/SIGTERM); continue with simulate(..., resume=checkpoint) / the "
-            "same pinclear simulate command and --resume DIR"))
-    except Exception as exc:        # every failure, a user function's exception included: keep the samples
-        status, failure = "failed", _failure(exc, integrator, run.samples(), t0)
-        if isinstance(exc, RankLossError):
-            stats["rank_loss"] = {"t": exc.t, "rank": exc.rank, "rows": exc.rows, "cond": exc.cond}
-    stats["rhs_evals"] = run.evaluations()
-    stats["cpu_s"] = run.cpu_prior + run_clock() - cpu0
-    stats.update(run.method.stats(run))
-    if form.row_changes:
-        stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in form.row_changes]
-    traj.status, traj.failure = status, failure
-    traj.message = failure[2] if failure else "reached t_end"
-    samples = run.output_samples()
-    try:
-        traj.fill(samples, form)
-    except KeyboardInterrupt:
-        traj.fill_states(samples)
+        res = run.integrate(resume.t, run.pack(resume.q_now, resume.v_now, resume.z_now), resume.h_next,
+                            resume.samples, False, reference=outputs == "python", resumed_state=resumed_state)
+    else:
+        res = run.integrate(t0, run.pack(q, v, z), first_step, [], True, reference=outputs == "python")
+    traj.status, traj.failure = res.status, res.failure
+    traj.message = res.failure.detail if res.failure else "reached t_end"
+    if res.outputs is None:
+        traj.fill_states(res.samples)
         traj.status, traj.message = "interrupted", traj.message + " (outputs not evaluated)"
+    else:
+        traj.write_outputs(res.samples, res.outputs)
     if traj.status == "success" and integ.adaptive:
         validate.check_residual(traj, mech, rtol, atol)
     elif traj.status == "success" and fixed_step_tol is not None and resume is None:
@@ -248,7 +239,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
             from .errors import IntegrationError
 
             raise IntegrationError(traj.message, trajectory=traj)
-        warnings.warn(f"pinclear.simulate: {traj.message} ({len(samples)} of {len(t_eval)} samples kept)",
+        warnings.warn(f"pinclear.simulate: {traj.message} ({len(traj.t)} of {len(t_eval)} samples kept)",
                       RuntimeWarning, stacklevel=2)
     return traj
 
@@ -306,22 +297,3 @@ def _loop_note(run) -> str:
     if b.why:
         return f"python: {b.why}{steps}"
     return ("compiled" if not b.python else f"compiled; python stages: {'; '.join(b.python)}") + steps
-
-
-def _failure(exc, integrator, samples, t0):
-    """(kind, t, message) of the exception that ended a run."""
-    t_last = samples[-1][0] if samples else t0
-    if isinstance(exc, Stop):
-        return exc.kind, exc.t, str(exc)
-    if isinstance(exc, RankLossError):
-        return "rank loss", exc.t, str(exc)
-    if isinstance(exc, FloatingPointError):
-        return "non-finite", t_last, f"integrator {integrator} failed {exc}"
-    if isinstance(exc, np.linalg.LinAlgError):
-        return "singular matrix", t_last, f"linear algebra failure (singular matrix) after t = {t_last:.9g} s: {exc}"
-    if isinstance(exc, ArithmeticError):
-        return "non-finite", t_last, (f"non-finite or invalid value after t = {t_last:.9g} s: "
-                                      f"{type(exc).__name__}: {exc}")
-    # a user function (drive law, python hook) raised; a PinclearError too: a trusted law may
-    # raise one, the run is not bad input
-    return "exception", t_last, f"a function raised {type(exc).__name__} after t = {t_last:.9g} s: {exc}"

@@ -10,6 +10,8 @@ import numpy as np
 import pinocchio as pin
 
 from . import kinematics
+from .jsonsafe import jsonable
+from .failures import Failure, FailureKind
 
 
 def _versions():
@@ -21,23 +23,8 @@ def _versions():
             "scipy": scipy.__version__, "python": platform.python_version()}
 
 
-def jsonable(x):
-    """A JSON-safe copy of x (arrays to lists, numpy scalars to Python, others by repr)."""
-    return _jsonable(x)
-
-
-def _jsonable(x):
-    if isinstance(x, dict):
-        return {str(k): _jsonable(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_jsonable(v) for v in x]
-    if isinstance(x, np.ndarray):
-        return x.tolist()
-    if isinstance(x, (np.floating, np.integer, np.bool_)):
-        return x.item()
-    if isinstance(x, (str, int, float, bool)) or x is None:
-        return x
-    return repr(x)
+#: one implementation (pinclear.jsonsafe), under its old names here too
+_jsonable = jsonable
 
 
 @dataclass
@@ -128,10 +115,8 @@ def atomic_write_text(path, text: str, root=None):
 ENERGY_KEYS = ("kinetic", "potential", "spring", "dissipated_power")
 #: the statuses a run can end with
 STATUSES = ("success", "failed", "interrupted", "empty")
-#: the kinds of a run's failure (Trajectory.failure = (kind, t, detail)): what a program reading
-#: results (pinclear.atlas, sweeps) tells apart, without parsing the message
-FAILURE_KINDS = ("step-size collapse", "rank loss", "singular matrix", "non-finite", "budget", "exception",
-                 "interrupted", "constraint violated", "fixed step too large")
+#: the kinds of a run's failure (Trajectory.failure = Failure(kind, t, detail)), pinclear.failures
+FAILURE_KINDS = tuple(k.value for k in FailureKind)
 
 
 def _rows(V, arrays, key, path, n):
@@ -152,7 +137,7 @@ def _read_failure(V, rec, path):
                            f"{', '.join(FAILURE_KINDS)})")
     if not isinstance(rec["detail"], str):
         raise V.file_error(path, "metadata 'failure.detail': expected a string")
-    return rec["kind"], V.number(rec["t"], path, "failure.t", allow_none=True), rec["detail"]
+    return Failure(FailureKind(rec["kind"]), V.number(rec["t"], path, "failure.t", allow_none=True), rec["detail"])
 
 
 class Trajectory:
@@ -169,7 +154,7 @@ class Trajectory:
         self.energies: dict[str, np.ndarray] = {}
         self.stats: dict = {}
         self.status, self.message = "empty", ""
-        #: why the run did not succeed, as data: (kind in FAILURE_KINDS, time s, detail), or None
+        #: why the run did not succeed, as data: a pinclear.failures.Failure (kind, time s, detail), or None
         self.failure = None
         self.meta: dict = {}
         self.mech = None
@@ -188,68 +173,43 @@ class Trajectory:
         return tr
 
     def fill_states(self, samples):
-        """Times and states of the samples (t, q, v, z), nothing evaluated."""
+        """Times and states of the samples (pinclear.stepping.outputs.Samples: arrays t, q, v,
+        z), nothing evaluated."""
         mech = self.mech
-        n = len(samples)
-        self.t = np.array([s[0] for s in samples], float)
-        self.q = np.array([s[1] for s in samples], float).reshape(n, mech.nq)
-        self.v = np.array([s[2] for s in samples], float).reshape(n, mech.nv)
-        self.z = np.array([s[3] for s in samples], float).reshape(n, mech.nz)
+        n = len(samples.t)
+        self.t = np.array(samples.t, float)
+        self.q = np.array(samples.q, float).reshape(n, mech.nq)
+        self.v = np.array(samples.v, float).reshape(n, mech.nv)
+        self.z = np.array(samples.z, float).reshape(n, mech.nz)
         self.a = np.full((n, mech.nv), np.nan)
         self.residual = np.full(n, np.nan)
         self.drive_error = np.full(n, np.nan)
 
-    def fill(self, samples, form):
-        """Evaluate accelerations, multipliers, residuals, outputs and energies at the samples
-        (t, q, v, z) with the run's formulation."""
+    def write_outputs(self, samples, outs):
+        """The samples (t, q, v, z) and everything recorded at them (``outs``: a
+        pinclear.stepping.outputs.Outputs, whole arrays): accelerations, multipliers by row name,
+        residuals, the elements' outputs and the energies of the audit."""
         mech = self.mech
-        ws = form.ws
         self.fill_states(samples)
-        n = len(samples)
-        lam = np.zeros((n, mech.m))
-        phi = np.zeros((n, mech.m))
-        E = {k: np.zeros(n) for k in ("kinetic", "potential", "spring", "dissipated_power", "applied_power")}
-        # power of the closure rows' forces (pinclear.energy: Baumgarte drift), sampled
-        E["closure_power"] = np.zeros(n)
-        outs: dict[str, list] = {}
-        model = mech.model
-        mc = mech.compiled.m
-        for i, (t, q, v, z) in enumerate(samples):
-            try:
-                self.a[i] = form.accelerations(t, q, v, z)
-                lam[i] = ws.lam
-                fresh = True
-                if not form.fills_workspace:
-                    kinematics.update(mech, ws, q, v)
-            except Exception:               # a failed sample keeps NaN, the run's message says why
-                self.a[i] = np.nan
-                lam[i] = np.nan
-                kinematics.update(mech, ws, q, v)
-                fresh = False
-            # accelerations() ran the kinematics pass at (q, v); the rows only when it says so
-            if not (fresh and form.fills_rows):
-                kinematics.constraint_rows(mech, ws, t, q, v)
-            phi[i] = ws.phi
-            if mc:
-                E["closure_power"][i] = float(lam[i, :mc] @ ws.dphi[:mc])
-            # from the joint velocities and placements the kinematics pass left in data
-            E["kinetic"][i] = pin.computeKineticEnergy(model, ws.data)
-            E["potential"][i] = pin.computePotentialEnergy(model, ws.data)
-            for f, d, sl in zip(mech.forces, ws.force_data, mech.z_slices):
-                pot, loss, rec = f.record(mech, ws, d, t, q, v, z[sl], fresh)
-                E["spring"][i] += pot
-                E["dissipated_power"][i] += loss
-                if f.dissipation_state is None:      # integrated over the samples by the audit
-                    E["applied_power"][i] += loss
-                for k, val in rec.items():
-                    outs.setdefault(f"{f.name}.{k}", []).append(np.asarray(val, float))
-        absphi = np.abs(phi)
+        n, nv, m, mc = len(samples.t), mech.nv, mech.m, mech.compiled.m
+        core = outs.core
+        self.a = np.array(core[:, :nv])
+        lam, absphi = core[:, nv:nv + m], np.abs(core[:, nv + m:nv + 2 * m])
         if n:
             self.residual[:] = absphi[:, :mc].max(axis=1) if mc else 0.0
             self.drive_error[:] = absphi[:, mc:].max(axis=1) if mech.drives else 0.0
-        names = mech.row_names()
-        self.lam = {nm: lam[:, k] for k, nm in enumerate(names)}
-        self.outputs = {k: np.array(v) for k, v in outs.items()}
+        self.lam = {nm: np.array(lam[:, k]) for k, nm in enumerate(mech.row_names())}
+        # power of the closure rows' forces (pinclear.energy: Baumgarte drift), sampled
+        E = {"closure_power": np.array(core[:, nv + 2 * m]), "kinetic": np.array(core[:, nv + 2 * m + 1]),
+             "potential": np.array(core[:, nv + 2 * m + 2])}
+        E["spring"], E["dissipated_power"], E["applied_power"] = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.outputs = {}
+        for f, (pot, loss, named) in zip(mech.forces, outs.elements):
+            E["spring"] += pot
+            E["dissipated_power"] += loss
+            if f.dissipation_state is None:      # integrated over the samples by the audit
+                E["applied_power"] += loss
+            self.outputs.update({f"{f.name}.{k}": np.array(val) for k, val in named.items()})
         # the integrated energy states of the audit (pinclear.energy): dissipated energy of the
         # elements that integrate it, the work of the drive rows
         E["dissipated"] = np.zeros(n)
@@ -325,13 +285,40 @@ class Trajectory:
             if te:
                 s["tracking_error"] = te
         s["energy_balance"] = self.energy_balance()
+        s.update(self.peak_summary())
         return _jsonable(s)
+
+    def peak_summary(self) -> dict:
+        """The run's peaks as summary.json and :meth:`summary` give them (one function for both):
+        ``drive_force_peaks`` {drive: N or N m}, ``drive_force_peak_times`` {drive: s},
+        ``acceleration_peaks`` {dof: {value, t}}, ``clearances`` (each active clearance's
+        description with ``peak_normal_force`` N and ``t_peak`` s), the same as
+        ``contact_force_peaks`` {clearance: N} and ``contact_force_peak_times``, and ``peaks_from``:
+        "integration" (over the accepted steps, pinclear.stepping.peaks: independent of the
+        output grid) or "samples" (a run saved before the peaks were recorded)."""
+        pk = self.stats.get("peaks")
+        if isinstance(pk, dict):
+            drives, acc, contact = (dict(pk.get(k) or {}) for k in ("drive_forces", "accelerations", "contact_forces"))
+            clr = [dict(c, peak_normal_force=(contact.get(c.get("name")) or {}).get("value"),
+                        t_peak=(contact.get(c.get("name")) or {}).get("t")) for c in self.stats.get("clearances", [])]
+            return {"peaks_from": "integration",
+                    "drive_force_peaks": {k: None if r is None else r["value"] for k, r in drives.items()},
+                    "drive_force_peak_times": {k: None if r is None else r["t"] for k, r in drives.items()},
+                    "acceleration_peaks": acc, "clearances": clr,
+                    # the same peaks by name (a sweep's per-point table keeps mappings, not lists)
+                    "contact_force_peaks": {k: None if r is None else r["value"] for k, r in contact.items()},
+                    "contact_force_peak_times": {k: None if r is None else r["t"] for k, r in contact.items()}}
+        names = [d["name"] for d in (self.meta.get("mechanism") or {}).get("drives", [])]
+        return {"peaks_from": "samples",
+                "drive_force_peaks": {k: float(np.nanmax(np.abs(self.lam[k]))) if len(self.t) and k in self.lam
+                                      else None for k in names},
+                "clearances": list(self.stats.get("clearances", []))}
 
     def _failure_record(self):
         if self.failure is None:
             return None
         kind, t, detail = self.failure
-        return {"kind": kind, "t": None if t is None else float(t), "detail": detail}
+        return {"kind": str(kind), "t": None if t is None else float(t), "detail": detail}
 
     def _summary_for_saving(self) -> dict:
         """The summary, or why it could not be computed: the summary calls user code (the

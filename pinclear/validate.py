@@ -20,6 +20,8 @@ import zlib
 import numpy as np
 
 from .errors import InputError
+from .failures import Failure, FailureKind
+from .jsonsafe import jsonable
 
 #: bound on one array's declared size: a saved run of MAX_SAMPLES samples of a 60-coordinate
 #: tree is ~1 GB, so an array declaring more is not one pinclear wrote
@@ -164,8 +166,6 @@ def mechanism_digest(mech) -> str:
 
 
 def _plain(x):
-    from .trajectory import jsonable
-
     return jsonable(x)
 
 
@@ -322,7 +322,7 @@ def check_residual(traj, mech, rtol, atol):
                     f"{traj.t[k]:.9g} s); the motion left its constraint manifold (a singular start, a "
                     "huge initial velocity, an ill-conditioned mass matrix?): try method projection or a "
                     f"smaller rtol (samples kept up to t = {traj.t[-1]:.6g} s)")
-    traj.failure = ("constraint violated", float(traj.t[k]), traj.message)
+    traj.failure = Failure(FailureKind.CONSTRAINT, float(traj.t[k]), traj.message)
     return True
 
 
@@ -391,5 +391,5 @@ def check_fixed_step(traj, mech, coarse, h, tol) -> bool:
     traj.status = "failed"
     traj.message = (f"fixed step h = {h:g} s is too large: " + "; ".join(broken) + f" (fixed_step_tol = {tol:g}); "
                     f"use a smaller h or an adaptive integrator (samples kept up to t = {traj.t[-1]:.6g} s)")
-    traj.failure = ("fixed step too large", float(traj.t[-1]), traj.message)
+    traj.failure = Failure(FailureKind.FIXED_STEP, float(traj.t[-1]), traj.message)
     return True

@@ -615,6 +615,27 @@ def channel_record(delta, n, Fn, F2, M1, M2, dissipated, code, P0, P1, W, out):
         out[10 + i] = acc
 
 
+@njit(cache=True)
+def clearance_record(ch, M, z, zdot, nc, code, P0, P1, W, work, row):
+    """One output sample of a clearance joint (ClearanceJoint.record after its compiled force at
+    this state): row = [elastic energy, dissipated power (the rate of its dissipation state), the
+    RECORD outputs]."""
+    channel_record(ch.delta, ch.n, ch.Fn, ch.F2, M[0], M[1], z[nc], code, P0, P1, W, work)
+    row[0] = work[RECORD_SIZE - 1]
+    row[1] = zdot[nc]
+    for i in range(RECORD_SIZE - 1):
+        row[2 + i] = work[i]
+
+
+@njit(cache=True)
+def total_normal_force(Fn, out, k):
+    """out[k] = the joint's total normal force (the ``fn`` output): its contact-force peak's value."""
+    acc = 0.0
+    for i in range(Fn.shape[0]):
+        acc += Fn[i]
+    out[k] = acc
+
+
 # ------------------------------------------------------------------ energy-consistent prismatic model
 # Each of the slider's four side faces rests on a linear elastic foundation (Winkler) against
 # the guide face it can reach: pressure p = kf delta(xi, eta) where it penetrates. The slider is

@@ -379,6 +379,28 @@ class ClearanceJoint(ForceElement):
         pot, out = self._record(d, z, d.M[0], d.M[1], self._record_laws(d))
         return pot, d.loss, out
 
+    def record_layout(self):
+        if self._kernel is None:
+            return None
+        return tuple((name, size) for name, _, size in _kernels.RECORD)
+
+    def record_kernel(self, mech, ws, d, z, zdot, row):
+        if self._kernel is None:
+            return None
+        # the compiled force of this evaluation left every channel quantity and the frames in d
+        return _kernels.clearance_record, (d.channels, d.M, z, zdot, self.nc, *self._record_laws(d),
+                                           np.zeros(_kernels.RECORD_SIZE), row)
+
+    def peak_kernel(self, mech, ws, d, z, zdot, out, k):
+        """The stages putting this joint's total normal force at the state buffer into ``out[k]``
+        (its contact-force peak, pinclear.stepping.peaks), after the position-level placements and
+        joint Jacobian; None: Python only. The force kernel writes ``ws.tau`` and ``zdot``, which
+        every evaluation writes again."""
+        made = self.force_kernel(mech, ws, d, z, zdot)
+        if made is None:
+            return None
+        return made, (_kernels.total_normal_force, (d.Fn, out, k))
+
     def _record_laws(self, d):
         """(law code, p0, p1, weight) per channel, as the compiled force used them."""
         laws = self._laws

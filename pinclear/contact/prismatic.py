@@ -222,6 +222,9 @@ class PrismaticClearance(ClearanceJoint):
         super()._kept(d, key, zdot, touching)
         d.mode_from_info()                   # the kernel classified this pose (d.info)
 
+    def record_layout(self):
+        return None              # its outputs add the contact mode: made by the Python path
+
     def _record_laws(self, d):
         if self.contact_model == "energy":
             return self._no_laws                  # the face energies come from d.Uf (_record)

@@ -18,7 +18,7 @@ import pinocchio as pin
 
 from .. import energy, kinematics, native
 from .._jit import njit
-from .._kernels import joint_placements
+from .._kernels import joint_placements, joint_placements_jacobians
 from ..errors import RankLossError
 from .call import ERROR, NONFINITE, RANK
 from .stage import bind, python_stage
@@ -108,13 +108,48 @@ def build(form, loop, errors, anchor=None) -> Built:
     else:
         stages, events, project = _compiled_stages(form, errors, g)
         python = [s.name for s in stages + events + project if s.ctx == 0]
+    peaks, pval = _peak_stages(form, errors, chart, why)
+    python += [s.name for s in peaks if s.ctx == 0]
     crate = chart.rate if chart is not None else np.zeros(0)
     system = System(_table(stages), _table(events), _table(project), ws.x, ws.a, ws.zdot, g, crate,
-                    np.zeros(1, dtype=np.int64))
-    return Built(system, stages + events + project, python, why, channels)
+                    np.zeros(1, dtype=np.int64), ws.lam, np.arange(mech.compiled.m, mech.m, dtype=np.int64),
+                    _table(peaks), pval)
+    return Built(system, stages + events + project + peaks, python, why, channels)
 
 
-def _placements(mech, ws, errors):
+def _peak_stages(form, errors, chart, why):
+    """(stages, buffer): the stages writing each clearance's total normal force at the state
+    buffer into the buffer (pinclear.stepping.peaks): the position-level placements and joint
+    Jacobian, then each joint's force kernel and its sum (ClearanceJoint.peak_kernel); one
+    Python stage where the evaluation runs in Python or a joint has no compiled form."""
+    mech, ws = form.mech, form.ws
+    clr = [i for i, f in enumerate(mech.forces) if f.is_clearance]
+    pval = np.zeros(len(clr))
+    if not clr:
+        return [], pval
+    made = [] if why else [mech.forces[i].peak_kernel(mech, ws, ws.force_data[i], ws.z_views[i], ws.zdot_views[i],
+                                                      pval, k) for k, i in enumerate(clr)]
+    if made and ws.fk.chain is not None and all(m is not None for m in made):
+        stages = [bind(joint_placements_jacobians, ws.fk.placement_args(ws.q) + (ws.J6,),
+                       name="peaks: placements and joint Jacobians")]
+        for i, (force, total) in zip(clr, made):
+            stages += [bind(*force, name=f"peaks: force {mech.forces[i].name}"),
+                       bind(*total, name=f"peaks: {mech.forces[i].name} normal force")]
+        return stages, pval
+
+    def python_peaks(t):
+        if chart is not None:
+            chart.load(ws.x)
+        q, v = ws.q.copy(), ws.v.copy()
+        kinematics.update(mech, ws, q, v)
+        for k, i in enumerate(clr):
+            f = mech.forces[i]
+            pval[k] = float(f.outputs(mech, ws, ws.force_data[i], t, q, v, ws.z_views[i].copy())["fn"])
+        return np.inf
+    return [python_stage(python_peaks, errors, name="contact-force peaks (Python)")], pval
+
+
+def placements_stage(mech, ws, errors):
     """The stage computing the joint placements the kernels read (ws.fk), after the passes."""
     fk = ws.fk
     if fk.chain is not None:
@@ -137,7 +172,7 @@ def _compiled_stages(form, errors, g):
     frames = any(m is None for m in made)          # an element in Python reads data.oMf
     stages = list(form.drive_stages()) + list(comp.before) + [native.passes_stage(mech, ws, comp.mass, errors, frames)]
     if native.available() and comp.placements:
-        stages.append(_placements(mech, ws, errors))
+        stages.append(placements_stage(mech, ws, errors))
     if mech.forces:
         stages.append(bind(zero, (ws.tau,), name="zero forces"))
     for fi, (f, d) in enumerate(zip(mech.forces, ws.force_data)):

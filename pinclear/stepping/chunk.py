@@ -35,8 +35,9 @@ from .roots import BRENT_STATE, ROOT_STATE, brent_next, brent_root_next, brent_r
 from .state import (ATOL, BAD as BAD_COUNT, CHART, DENSE, DIRS, DX, EVENT_K, EXTERNAL, F, G_NEW, G_PREV, G_WORK, RK_FIXED,
                     H_ABS, H_PREV, H_STALL, MAX_STEP, MON_MIN, N_ACC, NO_RESELECT, OUT_I, RTOL, STEPS, T, T_BAD,
                     T_BOUND, T_EVENT, T_OLD, XB, XE, Y, Y_OLD, YS)
-from .state import ROSENBROCK
-from .system import evaluate, event_values, project
+from .state import F_OLD, PK_MAX, PK_NOW, PK_SLOPE, PK_T, PK_W1, PK_W2, PK_W3, ROSENBROCK, Y_NEW
+from .peaks import fold, forces_at, stage_forces
+from .system import evaluate, event_values, peak_values, project
 
 #: what a chunk ended with
 (QUIET, FINISHED, EVENT, STALLED, STEP_TOO_SMALL, BAD_EVALUATIONS, RANK_LOSS, NONFINITE_STATE, ASK_ROWS,
@@ -53,6 +54,10 @@ ROOT_MAXITER = 100
 CHART_LIMIT = 0.5
 #: size of Steps.search (the larger of Brent's two states)
 SEARCH_STATE = max(BRENT_STATE, ROOT_STATE)
+#: the contact-force slopes at a step's ends are differences over this fraction of the step
+PEAK_DELTA = 1e-6
+#: most points of the search for one contact-force peak inside a step
+PEAK_MAXITER = 100
 
 
 # --------------------------------------------------------------------------------- dense output
@@ -145,6 +150,7 @@ def start(sys, tab, st, t, x, h_hint, zero_channel):
         return PYTHON_ERROR
     if v == BAD:
         return START_FAILED
+    forces_at(sys, st.pk, t)
     if h_hint > 0.0:
         r[H_ABS] = h_hint
     elif tab.kind != EXTERNAL and tab.kind != RK_FIXED:
@@ -156,6 +162,11 @@ def start(sys, tab, st, t, x, h_hint, zero_channel):
         event_values(sys, t, y, st.G[G_PREV])
         if zero_channel >= 0:
             st.G[G_PREV, zero_channel] = 0.0
+    if sys.pval.shape[0]:
+        c0 = st.pk.shape[1] - sys.pval.shape[0]
+        peak_values(sys, t, y, st.pk[PK_NOW, c0:])
+        fold(st.pk, c0, st.pk.shape[1], t)
+        st.pk[PK_SLOPE, c0:] = np.nan          # not known until a step is taken from here
     return QUIET
 
 
@@ -211,10 +222,74 @@ def locate_event(sys, tab, st):
 
 
 @njit(cache=True)
+def contact_peaks(sys, tab, st, t_stop):
+    """The contact-force peaks of the last step, [T_OLD, t_stop] (t_stop: its end or its
+    event): the force at t_stop and, where it rises at the step's start and falls at its end,
+    the maximum between, located by Brent's minimiser on the dense output (pinclear.stepping.
+    peaks). The states it evaluates go to V[Y_NEW], free after an accepted step."""
+    pk, x = st.pk, st.V[Y_NEW]
+    c0 = pk.shape[1] - sys.pval.shape[0]
+    t_old = st.r[T_OLD]
+    dt = PEAK_DELTA * (t_stop - t_old)
+    if not dt > 0.0:
+        return
+    end, before, work = pk[PK_W1, c0:], pk[PK_W2, c0:], pk[PK_W3, c0:]
+    # the slopes at the ends along f there (no dense output: DOP853's costs three evaluations)
+    V = st.V
+    if t_stop == st.r[T]:
+        peak_values(sys, t_stop, V[Y], end)
+        if tab.kind == EXTERNAL:
+            dense_at(sys, tab, st, t_stop - dt, x)
+        else:
+            for i in range(x.shape[0]):
+                x[i] = V[Y, i] - dt * V[F, i]
+    else:
+        dense_at(sys, tab, st, t_stop, x)
+        peak_values(sys, t_stop, x, end)
+        dense_at(sys, tab, st, t_stop - dt, x)
+    peak_values(sys, t_stop - dt, x, before)
+    if pk[PK_SLOPE, c0] != pk[PK_SLOPE, c0]:          # the first step after a (re)start
+        if tab.kind == EXTERNAL:
+            dense_at(sys, tab, st, t_old + dt, x)
+        else:
+            for i in range(x.shape[0]):
+                x[i] = V[Y_OLD, i] + dt * V[F_OLD, i]
+        peak_values(sys, t_old + dt, x, work)
+        for j in range(c0, pk.shape[1]):
+            pk[PK_SLOPE, j] = pk[PK_W3, j] - pk[PK_NOW, j]
+    for j in range(c0, pk.shape[1]):
+        s1 = pk[PK_W1, j] - pk[PK_W2, j]
+        if pk[PK_SLOPE, j] > 0.0 and s1 < 0.0:
+            s, done = brent_start(t_old, t_stop, 1e-13 * max(1.0, abs(t_stop)), st.search), False
+            while not done:
+                dense_at(sys, tab, st, s, x)
+                peak_values(sys, s, x, work)
+                s, done = brent_next(st.search, -pk[PK_W3, j], PEAK_MAXITER)
+            dense_at(sys, tab, st, s, x)
+            peak_values(sys, s, x, work)
+            if pk[PK_W3, j] > pk[PK_MAX, j]:
+                pk[PK_MAX, j] = pk[PK_W3, j]
+                pk[PK_T, j] = s
+        pk[PK_SLOPE, j] = s1
+        pk[PK_NOW, j] = pk[PK_W1, j]
+    fold(pk, c0, pk.shape[1], t_stop)
+
+
+@njit(cache=True)
 def after_step(sys, tab, st):
     """The checks after an accepted step (the module doc); -1 to go on, else a chunk code."""
     r, ii, y = st.r, st.i, st.V[Y]
     t = r[T]
+    # the drive-force and acceleration peaks of the evaluation at the accepted state (each
+    # compiled method's last; a Python-driven one's only when it was there)
+    at_state = tab.kind != EXTERNAL
+    if not at_state:
+        at_state = True
+        for i in range(y.shape[0]):
+            if sys.x[i] != y[i]:
+                at_state = False
+    if at_state:
+        stage_forces(sys, st.pk)
     if dipped(r, SINGULAR_DIP):
         v = search_dip(sys, tab, st)
         if v == FAILED:
@@ -230,6 +305,10 @@ def after_step(sys, tab, st):
     t_stop = r[T_EVENT] if hit >= 0 else t
     if ii[OUT_I] < st.t_eval.shape[0] and st.t_eval[ii[OUT_I]] <= t_stop:
         write_samples(sys, tab, st, t_stop, False)
+    if sys.pval.shape[0]:
+        contact_peaks(sys, tab, st, t_stop)
+        if hit >= 0 and tab.kind == EXTERNAL:
+            dense_at(sys, tab, st, t_stop, st.V[XE])     # the event's state, which the search moved
     if hit >= 0:
         ii[EVENT_K] = hit
         return EVENT
@@ -241,8 +320,12 @@ def after_step(sys, tab, st):
         v = observe(r, ii, st.V[XB], evaluate(sys, t, y, st.V[F]), t, y)
         if v == FAILED:
             return PYTHON_ERROR
+        stage_forces(sys, st.pk)
+        at_state = True
         if tab.kind == EXTERNAL:
             call_stage(tab.ext[2], 0, t)      # the state goes back into the Python integrator
+    if at_state:
+        fold(st.pk, 0, sys.drows.shape[0] + sys.a.shape[0], t)
     if ii[CHART]:
         nc = y.shape[0] - sys.a.shape[0] - sys.zdot.shape[0]
         for i in range(nc):

@@ -4,22 +4,28 @@ them (pinclear.simulate builds a Run and calls :meth:`Run.execute`).
 Between chunks Python reports progress, writes checkpoints, watches the CPU budget and handles
 what a chunk hands back: an event's effect on the element's internal state (then a restart at
 the event), constraint rows to choose again, a new chart anchor, and failures. A failure is kept
-as data, ``failure = (kind, t, detail)`` with kind one of FAILURE_KINDS, next to its message.
+as data, ``failure = Failure(kind, t, detail)`` with kind a FailureKind (pinclear.failures), next to
+its message.
 """
 from __future__ import annotations
 
 import time
+from typing import NamedTuple
 
 import numpy as np
 
 from .. import kinematics
 from .._jit import compile_cpu
+from ..errors import RankLossError
+from ..failures import Failure, FailureKind
 from ..trajectory import Checkpoint
 from . import chunk as C
 from .build import Evaluation
 from .checks import reset_monitor
+from .outputs import Outputs, Samples, compiled_outputs, compiled_ready, python_outputs
 from .state import (ATOL, BAD, CHART, CODE_BAD, DIRS, EVENT_K, H_ABS, H_FIXED, H_STALL, MAX_STEP, N_ACC, NI,
-                    NO_RESELECT, NR, OUT_I, ROSENBROCK, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, XB, XE, Y, new_steps)
+                    NO_RESELECT, NR, OUT_I, PK_MAX, PK_T, ROSENBROCK, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, XB,
+                    XE, Y, new_steps)
 
 #: accepted steps per compiled call; between calls Python looks at progress, checkpoints and
 #: the CPU budget (a chunk of a clearance run takes well under a millisecond)
@@ -38,8 +44,55 @@ def run_clock() -> float:
     return time.process_time() - compile_cpu()
 
 
+def dof_names(model) -> list:
+    """A name per velocity coordinate: the joint's, with [k] for a joint of several dofs."""
+    names = []
+    for j in range(1, model.njoints):
+        nv = model.joints[j].nv
+        names += [model.names[j]] if nv == 1 else [f"{model.names[j]}[{k}]" for k in range(nv)]
+    return names
+
+
+def peak_names(mech) -> list:
+    """(kind, name) of the columns of Steps.pk: the drives, the dofs, the clearances."""
+    return ([("drive_forces", d.name) for d in mech.drives] + [("accelerations", n) for n in dof_names(mech.model)]
+            + [("contact_forces", f.name) for f in mech.clearances])
+
+
+class RunResult(NamedTuple):
+    """What a Run hands back (Run.integrate): 'success', 'failed' or 'interrupted'; the Failure
+    (pinclear.failures) or None; the samples (pinclear.stepping.outputs.Samples); their outputs
+    (pinclear.stepping.outputs.Outputs; None when an interrupt stopped them); the statistics."""
+    status: str
+    failure: Failure | None
+    samples: Samples
+    outputs: Outputs | None
+    stats: dict
+
+
+def failure_of(exc, integrator, t_last) -> Failure:
+    """The Failure (kind, t, message) of the exception that ended a run (``t_last``: the time of
+    its last sample)."""
+    if isinstance(exc, Stop):
+        return Failure(exc.kind, exc.t, str(exc))
+    if isinstance(exc, RankLossError):
+        return Failure(FailureKind.RANK_LOSS, exc.t, str(exc))
+    if isinstance(exc, FloatingPointError):
+        return Failure(FailureKind.NONFINITE, t_last, f"integrator {integrator} failed {exc}")
+    if isinstance(exc, np.linalg.LinAlgError):
+        return Failure(FailureKind.SINGULAR, t_last,
+                       f"linear algebra failure (singular matrix) after t = {t_last:.9g} s: {exc}")
+    if isinstance(exc, ArithmeticError):
+        return Failure(FailureKind.NONFINITE, t_last, f"non-finite or invalid value after t = {t_last:.9g} s: "
+                                                      f"{type(exc).__name__}: {exc}")
+    # a user function (drive law, python hook) raised; a PinclearError too: a trusted law may
+    # raise one, the run is not bad input
+    return Failure(FailureKind.EXCEPTION, t_last,
+                   f"a function raised {type(exc).__name__} after t = {t_last:.9g} s: {exc}")
+
+
 class Stop(Exception):
-    """A failure found by the run itself: (kind, t, message)."""
+    """A failure found by the run itself: (FailureKind, t, message)."""
 
     def __init__(self, kind, t, message):
         super().__init__(message)
@@ -72,7 +125,7 @@ class Run:
             # CVODES treats quadratures by default (pinclear.energy)
             atol_v[self.nc + mech.nv + mech.z_work.start] = np.inf
         self.st = st = new_steps(n, len(self.built.channels), t_eval, method.rows, method.work, C.SEARCH_STATE,
-                                 STALL_STEPS)
+                                 STALL_STEPS, len(mech.drives) + mech.nv + len(mech.clearances))
         st.r[:] = r
         st.i[:] = i
         st.V[ATOL] = atol_v
@@ -81,6 +134,7 @@ class Run:
         method.setup(self)
         self.tab = method.tableau(self)
         self.n_collected = 0         # output samples written so far (their rows in st.samples)
+        self.record = None           # the compiled output pass's stages, made on first use
         self.good = None             # the state after the last completed chunk (checkpoints)
 
     # ----------------------------------------------------------------- driving
@@ -132,6 +186,38 @@ class Run:
             elif code not in (C.QUIET, C.FINISHED):
                 self.fail(code)
 
+    def integrate(self, t, x, hint, samples, first, reference=False, resumed_state=None) -> RunResult:
+        """The whole run from (t, x) (``execute``'s arguments) as one RunResult: its status and
+        failure (every exception of the integration, a user function's included, ends it as
+        data, the samples kept; SIGINT as 'interrupted' after a checkpoint), the samples with
+        their outputs (``reference``: the per-sample Python path) and the run's statistics."""
+        status, failure, stats = "success", None, self.stats
+        try:
+            self.execute(t, x, hint, samples, first, resumed_state)
+        except KeyboardInterrupt:
+            self.save_checkpoint()
+            t_at = self.good[0] if self.good else t
+            status, failure = "interrupted", Failure(FailureKind.INTERRUPTED, t_at, (
+                f"interrupted at t = {t_at:.9g} s (SIGINT/SIGTERM); continue with simulate(..., resume=checkpoint) / "
+                "the same pinclear simulate command and --resume DIR"))
+        except Exception as exc:        # every failure, a user function's exception included: keep the samples
+            n = self.n_collected
+            status, failure = "failed", failure_of(exc, self.method.name, float(self.t_eval[n - 1]) if n else t)
+            if isinstance(exc, RankLossError):
+                stats["rank_loss"] = {"t": exc.t, "rank": exc.rank, "rows": exc.rows, "cond": exc.cond}
+        stats["rhs_evals"] = self.evaluations()
+        stats["cpu_s"] = self.cpu_prior + run_clock() - self.cpu0
+        stats.update(self.method.stats(self))
+        stats["peaks"] = self.peaks()
+        stats["clearances"] = [f.describe() for f in self.mech.clearances]
+        if self.form.row_changes:
+            stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in self.form.row_changes]
+        try:
+            kept, outs = self.outputs(reference)
+        except KeyboardInterrupt:
+            kept, outs = self.sample_arrays(), None
+        return RunResult(status, failure, kept, outs, stats)
+
     def collect(self):
         """The configurations of the samples the last chunk wrote: a non-Euclidean tree's rows
         hold chart coordinates around the current anchor, so they are projected (when the
@@ -142,24 +228,57 @@ class Run:
                 self.q_rows[k] = self.split(self.st.samples[k])[0]
         self.n_collected = int(self.st.i[OUT_I])
 
-    def output_samples(self):
-        """The samples as a run's outputs: a projecting formulation's moved onto the constraint
-        manifold first (compiled, the run's own projection stages). After the integration and
-        outside its cpu_s (in cpu_s_total): samples never feed back into the steps, so where a
-        run samples more often than it steps the projections would otherwise dominate its cost
-        per evaluation (0.5 s of 3-UPRU+UP: 6 steps, 101 samples). Checkpoints keep the rows as
-        integrated, so a resumed run projects exactly as an uninterrupted one. (A non-Euclidean
-        tree's samples are projected as they are collected: see collect.)"""
-        if self.mech.euclidean:
-            for k in range(self.n_collected):
-                self.project_row(k)
-        return self.samples()
+    def outputs(self, reference=False):
+        """(samples, pinclear.stepping.outputs.Outputs): the samples as a run's outputs, a
+        projecting formulation's moved onto the constraint manifold first, and everything
+        recorded at them, in one compiled pass where the run's plug-ins allow it (``reference``:
+        the per-sample Python path). After the integration and outside its cpu_s (in
+        cpu_s_total): samples never feed back into the steps, so where a run samples more often
+        than it steps the projections would otherwise dominate its cost per evaluation (0.5 s of
+        3-UPRU+UP: 6 steps, 101 samples). Checkpoints keep the rows as integrated, so a resumed
+        run projects exactly as an uninterrupted one. (A non-Euclidean tree's samples are
+        projected as they are collected: see collect.)"""
+        samples = self.sample_arrays()
+        if reference or compiled_ready(self):
+            if self.mech.euclidean:
+                for k in range(self.n_collected):
+                    self.project_row(k)
+            return samples, python_outputs(self.form, samples)
+        return samples, compiled_outputs(self, self.st.samples[:self.n_collected], samples)
+
+    def peaks(self) -> dict:
+        """The run's peaks from the integration (pinclear.stepping.peaks) by name: {"drive_forces":
+        {drive: {"value", "t"}}, "accelerations": {dof: ...}, "contact_forces": {clearance: ...}};
+        None for a quantity no accepted state has shown yet."""
+        pk = self.st.pk
+        out = {"drive_forces": {}, "accelerations": {}, "contact_forces": {}}
+        for j, (kind, name) in enumerate(peak_names(self.mech)):
+            out[kind][name] = None if not pk[PK_MAX, j] >= 0.0 else {"value": float(pk[PK_MAX, j]),
+                                                                      "t": float(pk[PK_T, j])}
+        return out
+
+    def seed_peaks(self, peaks):
+        """The peaks of the run a checkpoint continues (``peaks()``'s mapping), so a resumed run
+        reports the peaks of the whole run."""
+        if not isinstance(peaks, dict):
+            return
+        pk = self.st.pk
+        for j, (kind, name) in enumerate(peak_names(self.mech)):
+            rec = (peaks.get(kind) or {}).get(name)
+            if isinstance(rec, dict) and isinstance(rec.get("value"), float) and isinstance(rec.get("t"), float):
+                pk[PK_MAX, j], pk[PK_T, j] = rec["value"], rec["t"]
 
     def project_row(self, k):
         """Sample k moved onto the constraint manifold (a no-op without projection stages)."""
         if self.system.project.shape[0] and not C.project(self.system, self.t_eval[k], self.st.samples[k]) >= 0.0:
             q, v, _ = self.split(self.st.samples[k])
             self.form.project(self.t_eval[k], q, v)                # raises the Python path's error
+
+    def sample_arrays(self) -> Samples:
+        """The output samples so far as arrays, views of the rows."""
+        n, nc, nv = self.n_collected, self.nc, self.mech.nv
+        X = self.st.samples[:n]
+        return Samples(self.t_eval[:n], self.q_rows[:n], X[:, nc:nc + nv], X[:, nc + nv:])
 
     def samples(self, n=None):
         """The output samples so far (the first n) as (t, q, v, z) tuples, views of the rows."""
@@ -205,7 +324,7 @@ class Run:
             self.last_ckpt = now
         if self.max_cpu is not None and now - self.cpu0 > self.max_cpu and self.st.r[T] < self.st.r[T_BOUND]:
             self.save_checkpoint()
-            raise Stop("budget", float(self.st.r[T]),
+            raise Stop(FailureKind.BUDGET, float(self.st.r[T]),
                        f"stopped at t = {self.st.r[T]:.9g} s: CPU budget max_cpu = {self.max_cpu} s exhausted")
 
     def save_checkpoint(self):
@@ -222,6 +341,7 @@ class Run:
         qg, vg, zg = (np.array(a) for a in self.split(xg, anchor))
         self.stats["rhs_evals"] = self.evaluations()
         self.stats["cpu_s"] = self.cpu_prior + run_clock() - self.cpu0
+        self.stats["peaks"] = self.peaks()
         q0, v0, z0 = self.initial
         self.checkpoint(Checkpoint(t0=self.t0, q=q0, v=v0, z=z0, t=tg, q_now=qg, v_now=vg, z_now=zg, h_next=hg,
                                    samples=[(t, q.copy(), v.copy(), z.copy()) for t, q, v, z in self.samples()],
@@ -242,24 +362,24 @@ class Run:
             self.python_error(float(st.r[T_BAD]), st.V[XB].copy())
         if code == C.STEP_TOO_SMALL:
             msg = self.message or "Required step size is less than spacing between numbers."
-            raise Stop("step-size collapse", t,
+            raise Stop(FailureKind.STEP_SIZE, t,
                        f"integrator {self.method.name} failed at t = {t:.9g} s: {msg} (step-size collapse, last step "
                        f"{st.r[H_ABS]:.3g} s; the problem may be stiff: try ROS34PW2, or the contact stiffness/tolerance)")
         if code == C.STALLED:
             self.save_checkpoint()
             t_back = st.ring[st.i[N_ACC] % STALL_STEPS]
-            raise Stop("step-size collapse", t,
+            raise Stop(FailureKind.STEP_SIZE, t,
                        f"integrator {self.method.name} stalled at t = {t:.9g} s: its last {STALL_STEPS} steps "
                        f"advanced t by {t - t_back:.3g} s (mean step below min_mean_step = {st.r[H_STALL]:.3g} s; "
                        "step-size collapse: a singular configuration or a contact the tolerance cannot resolve; "
                        "try another method, a looser rtol, or ROS34PW2 for stiff contact)")
         if code == C.NONFINITE_STATE:
-            raise Stop("non-finite", t, f"non-finite state at t = {t:.9g} s")
+            raise Stop(FailureKind.NONFINITE, t, f"non-finite state at t = {t:.9g} s")
         if code == C.PROJECTION_FAILED:
             q, v, _ = self.split(st.V[Y])
             self.form.project(t, q, v)
-            raise Stop("non-finite", t, f"the projection onto the constraint manifold failed at t = {t:.9g} s")
-        raise Stop("exception", t, f"the step logic stopped with code {code} at t = {t:.9g} s")
+            raise Stop(FailureKind.NONFINITE, t, f"the projection onto the constraint manifold failed at t = {t:.9g} s")
+        raise Stop(FailureKind.EXCEPTION, t, f"the step logic stopped with code {code} at t = {t:.9g} s")
 
     def python_error(self, t, x):
         """The Python path's error at a bad evaluation (t, x): a RankLossError or LinAlgError from

@@ -36,6 +36,12 @@ NV = 10
 #: rows of Steps.G (event channels): direction, values after the last accepted step, values at
 #: the step's end, work
 (DIRS, G_PREV, G_NEW, G_WORK) = range(4)
+#: rows of Steps.pk (peaks from the integration, pinclear.stepping.peaks; columns: the drives,
+#: the accelerations, the clearances): the largest value so far (-1 before any), its time, the
+#: value at the last accepted state, its slope there (clearances: the change over a small
+#: fraction of the step; nan: not known), work
+(PK_MAX, PK_T, PK_NOW, PK_SLOPE, PK_W1, PK_W2, PK_W3) = range(7)
+NPK = 7
 
 
 class Tableau(NamedTuple):
@@ -101,10 +107,15 @@ class Steps(NamedTuple):
     t_eval: np.ndarray     # (ns,) output times
     samples: np.ndarray    # (ns, n) output samples (written once each)
     search: np.ndarray     # Brent's state (roots.BRENT_STATE / ROOT_STATE, the larger)
+    pk: np.ndarray         # (NPK, peaks) peaks from the integration (PK_MAX, ... above)
 
 
-def new_steps(n, ng, t_eval, rows, work, search, ring):
-    """Zeroed stepping state for a state of n components and ng event channels."""
+def new_steps(n, ng, t_eval, rows, work, search, ring, peaks=0):
+    """Zeroed stepping state for a state of n components, ng event channels and ``peaks``
+    watched quantities (no peak yet)."""
+    pk = np.zeros((NPK, peaks))
+    pk[PK_MAX] = -1.0
+    pk[PK_T] = pk[PK_SLOPE] = np.nan
     return Steps(np.zeros((NV, n)), np.zeros((max(rows, 1), n)), np.zeros((work, n)), np.zeros((7, n)),
                  np.zeros(NR), np.zeros(NI, dtype=np.int64), np.zeros(ring), np.zeros((4, ng)),
-                 np.ascontiguousarray(t_eval, float), np.zeros((len(t_eval), n)), np.zeros(search))
+                 np.ascontiguousarray(t_eval, float), np.zeros((len(t_eval), n)), np.zeros(search), pk)

@@ -39,6 +39,14 @@ class System(NamedTuple):
     crate: np.ndarray
     #: int64 counters: [evaluations]
     count: np.ndarray
+    #: every row's multiplier as the solve wrote it (ws.lam) and the drive rows among them: the
+    #: drive-force peaks are read there (pinclear.stepping.peaks)
+    lam: np.ndarray
+    drows: np.ndarray
+    #: (k, 2) stages writing each clearance's total normal force at the state buffer into ``pval``
+    #: (the contact-force peaks, located between steps on the dense output)
+    peaks: np.ndarray
+    pval: np.ndarray
 
 
 @njit(cache=True)
@@ -70,13 +78,19 @@ def evaluate(sys, t, x, dx):
 
 
 @njit(cache=True)
-def event_values(sys, t, x, g):
-    """g = every event channel's value at (t, x) (functions of position, ForceElement contract)."""
+def stage_values(sys, stages, t, x, buf, out):
+    """out = what ``stages`` write into ``buf`` at (t, x) (the state buffer filled first)."""
     for i in range(x.shape[0]):
         sys.x[i] = x[i]
-    run_stages(sys.events, t)
-    for i in range(g.shape[0]):
-        g[i] = sys.g[i]
+    run_stages(stages, t)
+    for i in range(out.shape[0]):
+        out[i] = buf[i]
+
+
+@njit(cache=True)
+def event_values(sys, t, x, g):
+    """g = every event channel's value at (t, x) (functions of position, ForceElement contract)."""
+    stage_values(sys, sys.events, t, x, sys.g, g)
 
 
 @njit(cache=True)
@@ -92,6 +106,12 @@ def project(sys, t, x):
     return code
 
 
+@njit(cache=True)
+def peak_values(sys, t, x, out):
+    """out = every clearance's total normal force at (t, x) (the peak stages; no evaluation)."""
+    stage_values(sys, sys.peaks, t, x, sys.pval, out)
+
+
 def ode_system(fn, n, nc=0):
     """A System for a plain ODE, no mechanism: ``fn`` the address of a C stage
     (pinclear.stepping.call.CALLBACK) whose ctx is the address of one buffer holding x (n
@@ -100,4 +120,5 @@ def ode_system(fn, n, nc=0):
     buf = np.zeros(2 * n - nc)
     empty = np.zeros((0, 2), dtype=np.int64)
     return System(np.array([[fn, buf.ctypes.data]], dtype=np.int64), empty, empty, buf[:n], buf[n:], np.zeros(0),
-                  np.zeros(0), np.zeros(0), np.zeros(1, dtype=np.int64)), buf
+                  np.zeros(0), np.zeros(0), np.zeros(1, dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int64),
+                  empty, np.zeros(0)), buf
