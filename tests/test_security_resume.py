@@ -83,23 +83,23 @@ def test_an_implicit_resume_reuses_the_saved_jacobian(tmp_path, name, cl):
             pinclear.simulate(mech, 0.05, resume=Checkpoint.load(ck.save(tmp_path / "bad.npz")), strict=True, **kw)
 
 
-def test_a_scipy_integrator_resume_says_it_starts_afresh():
+def _resumed_midway(integrator, method_state=None):
+    """clr_slider + P resumed from its middle checkpoint (``method_state`` replaces the saved one)."""
     mech = _mech("clr_slider", "P")
     saved = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        pinclear.simulate(mech, 0.01, integrator="Radau", rtol=1e-5, checkpoint=saved.append, checkpoint_every=0.0)
-        rest = pinclear.simulate(mech, 0.01, integrator="Radau", rtol=1e-5, resume=saved[len(saved) // 2])
-    assert "starts afresh" in rest.stats["resume_note"]
+        pinclear.simulate(mech, 0.01, integrator=integrator, rtol=1e-5, checkpoint=saved.append, checkpoint_every=0.0)
+        ck = saved[len(saved) // 2]
+        if method_state is not None:
+            ck.method_state = method_state
+        return pinclear.simulate(mech, 0.01, integrator=integrator, rtol=1e-5, resume=ck)
+
+
+def test_a_scipy_integrator_resume_says_it_starts_afresh():
+    assert "starts afresh" in _resumed_midway("Radau").stats["resume_note"]
 
 
 def test_an_older_implicit_checkpoint_without_its_jacobian_still_resumes():
-    mech = _mech("clr_slider", "P")
-    saved = []
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        pinclear.simulate(mech, 0.01, integrator="ROS34PW2", rtol=1e-5, checkpoint=saved.append, checkpoint_every=0.0)
-        ck = saved[len(saved) // 2]
-        ck.method_state = {}
-        rest = pinclear.simulate(mech, 0.01, integrator="ROS34PW2", rtol=1e-5, resume=ck)
+    rest = _resumed_midway("ROS34PW2", method_state={})
     assert rest.status == "success" and "recomputed" in rest.stats["resume_note"]
