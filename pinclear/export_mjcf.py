@@ -39,6 +39,7 @@ SUPPORTED_CLOSURES = ("spherical", "weld", "revolute", "planar_point", "coupling
 DMAX = 0.9999            # MuJoCo's largest impedance (mjMAXIMP)
 CLOCK_ARMATURE = 1e10    # kg: the clock's reaction acceleration |F p'(s)| / 1e10 is negligible
 ANNOTATION = "pinclear:sidecar"
+LINK = "pinclear:link:"  # <custom><text name="pinclear:link:JOINT" data="LINK">: the link a merged joint moves
 
 
 def vec(x):
@@ -51,19 +52,32 @@ def quat_wxyz(R):
     return np.array([q.w, q.x, q.y, q.z])
 
 
-def joint_xml(model, j, name, extra=""):
-    """MJCF joint element for Pinocchio joint j, and its kind for the q mapping."""
+def axis_joint(model, j):
+    """(MJCF type, axis in the joint's frame) of a 1-dof Pinocchio joint, or None."""
+    short = model.joints[j].shortname()
+    axes = {"X": (1.0, 0, 0), "Y": (0, 1.0, 0), "Z": (0, 0, 1.0)}
+    for kind, letter in (("hinge", "R"), ("slide", "P")):
+        if short in tuple(f"JointModel{letter}{a}" for a in "XYZ"):
+            return kind, np.array(axes[short[-1]])
+        if short == f"JointModel{'Revolute' if letter == 'R' else 'Prismatic'}Unaligned":
+            return kind, np.asarray(model.joints[j].extract().axis, float)
+    return None
+
+
+def joint_xml(model, j, name, extra="", frame=None):
+    """MJCF joint element for Pinocchio joint j, and its kind for the q mapping. ``frame``: the
+    joint's frame in the MuJoCo body's frame (a massless body merged into its child, _tree_xml),
+    which sets the joint's ``pos`` and turns its axis."""
     jm = model.joints[j]
     short = jm.shortname()
-    axes = {"X": (1, 0, 0), "Y": (0, 1, 0), "Z": (0, 0, 1)}
-    if short in ("JointModelRX", "JointModelRY", "JointModelRZ"):
-        return f'<joint name="{name}" type="hinge" axis="{vec(axes[short[-1]])}"{extra}/>', "1"
-    if short == "JointModelRevoluteUnaligned":
-        return f'<joint name="{name}" type="hinge" axis="{vec(jm.extract().axis)}"{extra}/>', "1"
-    if short in ("JointModelPX", "JointModelPY", "JointModelPZ"):
-        return f'<joint name="{name}" type="slide" axis="{vec(axes[short[-1]])}"{extra}/>', "1"
-    if short == "JointModelPrismaticUnaligned":
-        return f'<joint name="{name}" type="slide" axis="{vec(jm.extract().axis)}"{extra}/>', "1"
+    one = axis_joint(model, j)
+    if one is not None:
+        kind, axis = one
+        pos = ""
+        if frame is not None:
+            axis = frame.rotation @ axis
+            pos = f' pos="{vec(frame.translation)}"'
+        return f'<joint name="{name}" type="{kind}"{pos} axis="{vec(axis)}"{extra}/>', "1"
     if short == "JointModelSpherical":
         return f'<joint name="{name}" type="ball"/>', "ball"
     if short == "JointModelFreeFlyer":
@@ -90,10 +104,11 @@ def _joint_extras(mech):
     return extra, skipped
 
 
-def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True):
+def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True, annotation=None):
     """(MJCF text, {joint index: name}, {joint index: kind}, notes) of ``mech`` with closures
     assembled at ``q0``, step ``h`` and constraint time constant ``tc``. ``strict``: refuse
-    closures and force elements MuJoCo cannot express (the peer) instead of naming them."""
+    closures and force elements MuJoCo cannot express (the peer) instead of naming them.
+    ``annotation``: text kept in ``<custom><text name="pinclear:sidecar">``."""
     model = mech.model
     names = {j: model.names[j] for j in range(1, model.njoints)}
     kinds, notes = {}, []
@@ -107,9 +122,6 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True):
         raise InputError(f"MuJoCo peer: {mech.name} has force elements {[f.name for f in mech.forces]}; "
                          "the translation covers ideal joints, closures, drives and gravity only")
     notes += skipped
-    notes += [f"body of joint {model.names[j]!r} has no mass: MuJoCo refuses a massless moving body (give it one "
-              "in the URDF to run the file in MuJoCo)" for j in range(1, model.njoints)
-              if model.inertias[j].mass <= 0 or np.linalg.eigvalsh(model.inertias[j].inertia).min() <= 0]
 
     def add_site(fid, offset=np.zeros(3), label=""):
         F = model.frames[fid]
@@ -129,11 +141,15 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True):
             continue
         equality += _equality(c, add_site, pdata, model, solref)
 
-    world = _tree_xml(model, names, sites, extras, kinds)
+    world, links = _tree_xml(model, names, sites, extras, kinds, notes)
     g = model.gravity.linear
     more, eqs, actuators = _drives_xml(mech, g, tc, solref, drives, notes)
     world += more
     equality += eqs
+    # the links of the merged massless bodies, by joint, so that an import names them again
+    texts = [f"<text name={quoteattr(LINK + names[j])} data={quoteattr(link)}/>" for j, link in links.items()]
+    if annotation is not None:
+        texts.append(f"<text name={quoteattr(ANNOTATION)} data={quoteattr(annotation)}/>")
     xml = "\n".join([
         f'<mujoco model="{mech.name}">',
         *[f"  <!-- pinclear: {n} -->" for n in notes],
@@ -145,14 +161,30 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True):
         "  <worldbody>", *world, "  </worldbody>",
         *(["  <equality>", *[f"    {e}" for e in equality], "  </equality>"] if equality else []),
         *(["  <actuator>", *[f"    {a}" for a in actuators], "  </actuator>"] if actuators else []),
+        *(["  <custom>", *[f"    {t}" for t in texts], "  </custom>"] if texts else []),
         "</mujoco>"])
     return xml, names, kinds, notes
 
 
-def _tree_xml(model, names, sites, extras, kinds):
-    """The worldbody's lines: one body per joint (named after the link it moves), its joint,
-    inertial and sites; every other link of the tree (merged into a body, the root) as a site
-    ``pinclear:frame:NAME`` so that an import gets its frames back."""
+def massless(Y) -> bool:
+    """Whether a body carries no mass and no rotational inertia at all."""
+    return not Y.mass > 0 and not np.abs(Y.inertia).max() > 0
+
+
+def _tree_xml(model, names, sites, extras, kinds, notes):
+    """(the worldbody's lines, {joint: link} of the merged bodies): one body per joint (named
+    after the link it moves), its joint, inertial and sites; every other link of the tree (merged
+    into a body, the root) as a site ``pinclear:frame:NAME`` so that an import gets its frames back.
+
+    MuJoCo refuses a moving body without mass or inertia (mjMINVAL), which pinclear's clearance
+    scenes use for the massless links between their six free coordinates. Such a body, when it
+    has one child and no site, is merged into that child: MuJoCo gives a body several joints and
+    applies them in order, each about its axis through its ``pos`` in the body's frame as moved by
+    the joints before it (mj_kinematics), which is Pinocchio's chain joint after joint. So the
+    child's body sits at the composed placement B and each merged joint gets pos and axis from
+    its own frame S in B's axes (B^-1 S): the kinematics are the same map of q, and the massless
+    body adds nothing to the mass matrix or the bias forces, so the dynamics are unchanged
+    (tests/test_export_mjcf.py compares MuJoCo's M and bias with Pinocchio's)."""
     children = {j: [] for j in range(model.njoints)}
     for j in range(1, model.njoints):
         children[model.parents[j]].append(j)
@@ -168,16 +200,27 @@ def _tree_xml(model, names, sites, extras, kinds):
                                             f'pos="{vec(f.placement.translation)}" '
                                             f'quat="{vec(quat_wxyz(f.placement.rotation))}"/>')
 
-    def body(j, indent):
-        jp = model.jointPlacements[j]
+    merged = {j: body_name[j] for j in range(1, model.njoints) if massless(model.inertias[j])
+              and len(children[j]) == 1 and not sites[j] and axis_joint(model, j) is not None}
+    notes += [f"body of joint {names[j]!r} has no mass and cannot be merged into a single child: MuJoCo refuses "
+              "a massless moving body (give it one in the URDF to run the file in MuJoCo)"
+              for j in range(1, model.njoints) if j not in merged and (model.inertias[j].mass <= 0 or
+                                                                        np.linalg.eigvalsh(model.inertias[j].inertia).min() <= 0)]
+
+    def body(j, indent, pending=(), S=pin.SE3.Identity()):
+        S = S * model.jointPlacements[j]                  # joint j's frame in the MuJoCo parent body
+        if j in merged:
+            return body(children[j][0], indent, pending + ((j, S),), S)
         Y = model.inertias[j]
+        pad = " " * indent
+        out = [f'{pad}<body name="{body_name[j]}" pos="{vec(S.translation)}" quat="{vec(quat_wxyz(S.rotation))}">']
+        for i, Si in pending:
+            jx, kinds[i] = joint_xml(model, i, names[i], extras.get(i, ""), S.actInv(Si))
+            out.append(f"{pad}  {jx}")
         jx, kinds[j] = joint_xml(model, j, names[j], extras.get(j, ""))
         I = Y.inertia
-        pad = " " * indent
-        out = [f'{pad}<body name="{body_name[j]}" pos="{vec(jp.translation)}" quat="{vec(quat_wxyz(jp.rotation))}">',
-               f'{pad}  {jx}',
-               f'{pad}  <inertial pos="{vec(Y.lever)}" mass="{Y.mass:.17g}" fullinertia="'
-               f'{vec([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]])}"/>']
+        out += [f'{pad}  {jx}', f'{pad}  <inertial pos="{vec(Y.lever)}" mass="{Y.mass:.17g}" fullinertia="'
+                f'{vec([I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[0, 2], I[1, 2]])}"/>']
         out += [f"{pad}  {s}" for s in sites[j]]
         for k in children[j]:
             out += body(k, indent + 2)
@@ -187,7 +230,7 @@ def _tree_xml(model, names, sites, extras, kinds):
     world = [f"    {s}" for s in sites[0]]
     for j in children[0]:
         world += body(j, 4)
-    return world
+    return world, merged
 
 
 def _drives_xml(mech, g, tc, solref, drives, notes):
@@ -245,10 +288,9 @@ def export_mjcf(mech, h=1e-3, tc_factor=2.0) -> tuple[str, list]:
     from . import kinematics
 
     q0 = kinematics.assemble(mech, mech.q0, t=0.0)
-    xml, _, _, notes = mjcf(mech, q0, h, tc_factor * h, "RK4", drives="position", strict=False)
     ann = json.dumps(mech.sidecar, sort_keys=True, default=str)
-    custom = f"  <custom>\n    <text name={quoteattr(ANNOTATION)} data={quoteattr(ann)}/>\n  </custom>"
-    return xml.replace("\n</mujoco>", "\n" + custom + "\n</mujoco>"), notes
+    xml, _, _, notes = mjcf(mech, q0, h, tc_factor * h, "RK4", drives="position", strict=False, annotation=ann)
+    return xml, notes
 
 
 def build_parser():
