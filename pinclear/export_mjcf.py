@@ -143,7 +143,7 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True, annotat
 
     world, links = _tree_xml(model, names, sites, extras, kinds, notes)
     g = model.gravity.linear
-    more, eqs, actuators = _drives_xml(mech, g, tc, solref, drives, notes)
+    more, eqs, actuators = _drives_xml(mech, g, tc, solref, drives, notes, q0)
     world += more
     equality += eqs
     # the links of the merged massless bodies, by joint, so that an import names them again
@@ -233,9 +233,37 @@ def _tree_xml(model, names, sites, extras, kinds, notes):
     return world, merged
 
 
-def _drives_xml(mech, g, tc, solref, drives, notes):
+def drive_inertias(mech, q):
+    """The inertia each drive's joint reflects at q with the closures held and the other drives
+    free: 1 / (e_i^T P e_i), P = M^-1 - M^-1 J^T S^+ J M^-1 the constrained inverse mass matrix
+    (J: the closure rows at q, S = J M^-1 J^T, its pseudo-inverse for redundant rows)."""
+    from . import kinematics
+
+    data = mech.model.createData()
+    M = pin.crba(mech.model, data, q)
+    Minv = np.linalg.inv(np.triu(M) + np.triu(M, 1).T)
+    J = kinematics.jacobian(mech, mech.workspace(), q)
+    Y = J @ Minv
+    P = Minv - Y.T @ np.linalg.pinv(Y @ J.T, rcond=1e-12, hermitian=True) @ Y
+    g = np.array([P[d.idx_v, d.idx_v] for d in mech.drives])
+    bad = [d.name for d, x in zip(mech.drives, g) if not x > 1e-12 * np.abs(Minv).max()]
+    if bad:
+        raise InputError(f"MJCF export: drive {bad[0]!r} cannot move its joint with the closures held (the loop "
+                         "locks it): no servo gain")
+    return 1.0 / g
+
+
+def _drives_xml(mech, g, tc, solref, drives, notes, q0):
     """(worldbody lines, equality lines, actuator lines) of the drives: a clock joint and joint
-    equalities (the peer), or position servos (the export; named in ``notes``)."""
+    equalities (the peer), or position servos (the export; named in ``notes``).
+
+    A servo's force is kp (ctrl - q) - kv q'; with kp = m / tc^2 and kv = 2 m / tc, m the
+    drive's reflected inertia (drive_inertias), the error e = q - ctrl of a servo tracking
+    ctrl = f(t) obeys m (e'' + 2 e'/tc + e/tc^2) = -m f'' - 2 m f'/tc - (the load it carries): a
+    critically damped lag of time constant tc, e -> -2 tc f' + O(tc^2), first order in MuJoCo's
+    step (tc = 2 h). ctrl = f + 2 tc f' (kp 2 tc f' = kv f') leaves the O(tc^2) part only, and
+    taken at the step's midpoint (MuJoCo holds ctrl over a step) no O(h) hold error either: the
+    run then converges to the prescribed motion at second order (tests/test_export_mjcf.py)."""
     world, equality = [], []
     actuators = []
     if mech.drives and drives == "clock":
@@ -249,11 +277,13 @@ def _drives_xml(mech, g, tc, solref, drives, notes):
             equality.append(f'<joint name="drive_{d.name}" joint1="{d.joint}" joint2="pinclear_clock" '
                             f'polycoef="0 0 0 0 0" {solref}/>')
     elif mech.drives:
-        for d in mech.drives:
-            actuators.append(f'<position name="drive_{d.name}" joint="{d.joint}" kp="{1.0 / tc ** 2:.17g}" '
-                             f'kv="{2.0 / tc:.17g}"/>')
-            notes.append(f"drive {d.name!r}: a position servo (kp = 1/tc^2, kv = 2/tc); set its ctrl to the law "
-                         f"{d.law.describe()} each step (MuJoCo has no time law)")
+        for d, m in zip(mech.drives, drive_inertias(mech, q0)):
+            actuators.append(f'<position name="drive_{d.name}" joint="{d.joint}" kp="{m / tc ** 2:.17g}" '
+                             f'kv="{2.0 * m / tc:.17g}"/>')
+            notes.append(f"drive {d.name!r}: a position servo, critically damped with time constant tc = {tc:g} s "
+                         f"(kp = m/tc^2, kv = 2m/tc, m = {m:.6g} the joint's reflected inertia); MuJoCo has no time law: "
+                         f"set its ctrl every step to f + 2 tc f' at the step's midpoint, f the law "
+                         f"{d.law.describe()} (ctrl = f alone lags the law by 2 tc f')")
     return world, equality, actuators
 
 

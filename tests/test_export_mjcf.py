@@ -138,3 +138,55 @@ def test_mujoco_runs_the_export_and_agrees_at_rest(name, tmp_path):
     a_free = pin.aba(mech.model, mech.model.createData(), q, np.zeros(mech.nv), np.zeros(mech.nv))[iv]
     assert np.abs(a_free).max() > 1.0                          # gravity loads the constraints
     assert np.abs(d.qacc[dofs] - a_pc).max() <= 1e-3 * max(np.abs(a_pc).max(), np.abs(a_free).max())
+
+
+def _mujoco_run(mech, q0, v0, t_end, h):
+    """MuJoCo's q(t_end) (pinclear's joint order) of the export at step h from (q0, v0); every
+    drive's servo gets ctrl = f + 2 tc f' at the step's midpoint (the export's note)."""
+    import mujoco
+
+    xml, _ = export_mjcf(mech, h)
+    m = mujoco.MjModel.from_xml_string(xml)
+    d = mujoco.MjData(m)
+    dofs = _dofs(m, mech)
+    iv = np.array([mech.model.joints[j].idx_v for j in range(1, mech.model.njoints)])
+    d.qpos[dofs], d.qvel[dofs] = q0[iv], v0[iv]
+    act = [mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, f"drive_{x.name}") for x in mech.drives]
+    dd = mech.driverows.create_data()
+    for k in range(int(round(t_end / h))):
+        if act:
+            f = mech.driverows.values((k + 0.5) * h, dd)
+            d.ctrl[act] = f[0] + 2 * (2 * h) * f[1]           # tc = 2 h (export_mjcf)
+        mujoco.mj_step(m, d)
+    assert not d.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
+    return d.qpos[dofs].copy(), iv
+
+
+@pytest.mark.parametrize("name, h", [("clr_pendulum", 1e-3), ("clr_hinge", 1e-3), ("clr_planar_pendulum", 1e-3),
+                                     ("rrr3", 1e-3), ("four_ups_upu", 5e-4)])
+def test_mujoco_run_converges_to_pinclear_at_second_order(name, h):
+    """A 0.1 s run of the export in MuJoCo (RK4) at steps h and h/2 against pinclear's run.
+
+    Expected order 2: MuJoCo's closures are soft with time constant tc = 2 h, and their violation
+    (forced by the dJ/dt v term MuJoCo's constraint rows leave out, and by the impedance's 1e-4
+    leak) settles at O(tc^2); the drives' servos track f with an O(tc^2) error once fed ctrl =
+    f + 2 tc f' (pinclear.export_mjcf._drives_xml); RK4's own O(h^4) is below both. Asserted:
+    e(h) / e(h/2) within 2^(2 +- 0.3), and the Richardson extrapolation q(h/2) + (q(h/2) - q(h))/3
+    nearer pinclear's q than a quarter of e(h/2) (MuJoCo converges to pinclear's motion, not to
+    another). pinclear's own error (rtol 1e-11 against 1e-12) is checked to be below 1% of e(h/2)."""
+    pytest.importorskip("mujoco")
+    mech = pinclear.load(name)
+    ws = mech.workspace()
+    q0 = kinematics.assemble(mech, mech.q0, ws=ws)
+    v0 = kinematics.consistent_velocity(mech, q0, mech.v0, ws=ws)
+    T = 0.1
+    ref = {rtol: pinclear.simulate(mech, T, q0=q0, v0=v0, rtol=rtol, t_eval=np.array([0.0, T])).q[-1]
+           for rtol in (1e-11, 1e-12)}
+    a, iv = _mujoco_run(mech, q0, v0, T, h)
+    b, _ = _mujoco_run(mech, q0, v0, T, h / 2)
+    r = ref[1e-12][iv]
+    e1, e2 = np.abs(a - r).max(), np.abs(b - r).max()
+    assert np.abs(ref[1e-11] - ref[1e-12]).max() < 0.01 * e2
+    assert np.abs(r - q0[iv]).max() > 100 * e2                   # it moved far more than the errors
+    assert 2 ** 1.7 < e1 / e2 < 2 ** 2.3
+    assert np.abs(b + (b - a) / 3 - r).max() < 0.25 * e2
