@@ -62,11 +62,10 @@ class PinocchioCD(Formulation):
         keep = set(int(i) for i in independent)
         redundant = [names[i] for i in range(len(names)) if i not in keep]
         if redundant:
-            raise InputError(f"method 'pinocchio' cannot run {self.mech.name}: closure rows {', '.join(redundant)} "
-                             f"are redundant at the initial configuration (rank {len(names) - len(redundant)} of "
-                             f"{len(names)}) and Pinocchio's rigid constraints take each closure whole; use "
-                             "lagrange, projection, proximal or manifold, which handle redundant rows",
-                             key="method")
+            raise InputError(f"'pinocchio' cannot run {self.mech.name}: closure rows {', '.join(redundant)} are "
+                             f"redundant at the start (rank {len(names) - len(redundant)} of {len(names)}) and "
+                             "Pinocchio's rigid constraints take each closure whole; use lagrange, projection, "
+                             "proximal or manifold", key="method")
 
     @property
     def fills_workspace(self):
