@@ -81,8 +81,10 @@ right shin-spring closure (a prismatic cut joint) keeps rows x and ry whose comb
 others by 2.2e-7 of J's scale only (smallest singular value 3.2e-7 against 1.44; the SDF's rounded poses).
 The Schur complement J M^-1 J^T squares that: condition 1.2e14, above pinclear's 1e12. The rotors' small
 inertias (diagonal of M down to 1.0e-5) add only a factor 2.5 (condition of J L^-T, M = L L^T: 1.1e7, of J:
-4.5e6). Choosing the rows by a mass-weighted rank test at 1e-6 would let lagrange run, with the dropped row
-then violated by about 2e-7 of the motion; not done, as it changes the row choice of every mechanism."""
+4.5e6). The stop is right: that weak row alone locks the right shin triangle (planar Grubler count 0).
+Dropping it (a rank test at 1e-6, tried) lets lagrange run but frees the right knee-shin joint (7e-4 rad in
+0.1 s); manifold keeps both at rest with every row to 4e-16, and proximal frees both (residual 2e-8, knee
+rotors 1.2e-2 rad off manifold's): docs/import_export.md."""
 
 
 def pinclear_solvers(mech, T, Q, V, Z, independent):
