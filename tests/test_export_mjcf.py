@@ -190,3 +190,74 @@ def test_mujoco_run_converges_to_pinclear_at_second_order(name, h):
     assert np.abs(r - q0[iv]).max() > 100 * e2                   # it moved far more than the errors
     assert 2 ** 1.7 < e1 / e2 < 2 ** 2.3
     assert np.abs(b + (b - a) / 3 - r).max() < 0.25 * e2
+
+
+OFFSET_CHAIN = """<?xml version="1.0"?>
+<robot name="offset_chain">
+  <link name="world"/>
+  <joint name="a" type="revolute"><parent link="world"/><child link="l1"/><origin xyz="0.1 -0.2 0.3" rpy="0.3 -0.5 0.7"/>
+    <axis xyz="0.6 0 0.8"/><limit lower="-10" upper="10" effort="1" velocity="1"/></joint>
+  <link name="l1"/>
+  <joint name="b" type="prismatic"><parent link="l1"/><child link="l2"/><origin xyz="0.2 0.1 -0.1" rpy="-0.4 0.2 1.1"/>
+    <axis xyz="0 1 0"/><limit lower="-10" upper="10" effort="1" velocity="1"/></joint>
+  <link name="l2"/>
+  <joint name="c" type="revolute"><parent link="l2"/><child link="body"/><origin xyz="-0.3 0.05 0.2" rpy="0.9 0.1 -0.6"/>
+    <axis xyz="0 0 1"/><limit lower="-10" upper="10" effort="1" velocity="1"/></joint>
+  <link name="body"><inertial><origin xyz="0.1 0.02 -0.03" rpy="0.2 0.3 0.4"/><mass value="1.5"/>
+    <inertia ixx="0.02" ixy="0.001" ixz="-0.002" iyy="0.03" iyz="0.0015" izz="0.025"/></inertial></link>
+  <joint name="d" type="revolute"><parent link="body"/><child link="tip"/><origin xyz="0.4 0 0" rpy="0 0.3 0"/>
+    <axis xyz="0 1 0"/><limit lower="-10" upper="10" effort="1" velocity="1"/></joint>
+  <link name="tip"><inertial><origin xyz="0.2 0 0" rpy="0 0 0"/><mass value="0.5"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.007" iyz="0" izz="0.007"/></inertial></link>
+</robot>
+"""
+
+
+def test_massless_links_off_their_child_merge_exactly(tmp_path):
+    """Two massless links with general placements (rotated and shifted joint frames, an unaligned
+    axis, a slide between two hinges) merge into the massive body below them: MuJoCo's M and bias
+    equal Pinocchio's at random (q, v), the massive bodies sit where Pinocchio puts them, and the
+    round trip (the import splits the three-joint body into named massless links again) gives
+    the same massive-body placements, masses and inertias."""
+    mujoco = pytest.importorskip("mujoco")
+    (tmp_path / "offset_chain.urdf").write_text(OFFSET_CHAIN)
+    (tmp_path / "offset_chain.yaml").write_text("name: offset_chain\nurdf: offset_chain.urdf\n"
+                                               "gravity: [0.3, -9.81, 0.5]\n")
+    mech = pinclear.load(tmp_path / "offset_chain.yaml")
+    xml, notes = export_mjcf(mech)
+    assert not notes and 'data="l1"' in xml and 'data="l2"' in xml
+    rng = np.random.default_rng(11)
+    data = mech.model.createData()
+    for _ in range(3):
+        q = rng.uniform(-1, 1, mech.nq)
+        v = rng.standard_normal(mech.nv)
+        m, d, dofs, iv = _mujoco_at(mech, q, v)
+        assert m.nbody == 3                                   # world, body (a, b, c), tip
+        M = np.zeros((m.nv, m.nv))
+        mujoco.mj_fullM(m, d, M)
+        Mp = pin.crba(mech.model, data, q)
+        Mp = (np.triu(Mp) + np.triu(Mp, 1).T)[np.ix_(iv, iv)]
+        assert np.abs(M[np.ix_(dofs, dofs)] - Mp).max() <= 1e-11 * np.abs(Mp).max()
+        b = pin.nonLinearEffects(mech.model, data, q, v)[iv]
+        assert np.abs(d.qfrc_bias[dofs] - b).max() <= 1e-11 * np.abs(b).max()
+        pin.forwardKinematics(mech.model, data, q)
+        for name in ("body", "tip"):
+            j = mech.model.frames[mech.model.getFrameId(name)].parentJoint
+            X = data.oMi[j]
+            bid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+            assert np.abs(d.xpos[bid] - X.translation).max() < 1e-12
+            assert np.abs(d.xmat[bid].reshape(3, 3) - X.rotation).max() < 1e-12
+    (tmp_path / "x.xml").write_text(xml)
+    import_file(tmp_path / "x.xml", tmp_path / "out")
+    back = pinclear.load(tmp_path / "out" / "offset_chain.yaml")
+    assert sorted(back.model.names) == sorted(mech.model.names)
+    assert {f.name for f in back.model.frames} >= {"l1", "l2", "body", "tip"}
+    q = rng.uniform(-1, 1, mech.nq)
+    db = back.model.createData()
+    pin.forwardKinematics(mech.model, data, q)
+    pin.forwardKinematics(back.model, db, _q_in(back, mech, q))
+    for name in ("c", "d"):
+        ja, jb = mech.model.getJointId(name), back.model.getJointId(name)
+        assert np.abs(data.oMi[ja].homogeneous - db.oMi[jb].homogeneous).max() < 1e-12
+        Ia, Ib = mech.model.inertias[ja], back.model.inertias[jb]
+        assert abs(Ia.mass - Ib.mass) < 1e-12 and np.abs(Ia.inertia - Ib.inertia).max() < 1e-12
