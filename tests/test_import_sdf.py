@@ -334,3 +334,48 @@ def test_four_ups_upu_fixtures_equal_the_bundled(tmp_path, writer, suffix, cuts)
             k = [x.name for x in imp.closures].index(c.name)
             ri, rr = 3 * k, 3 * ref.closures.index(c)
             assert np.abs(pi[ri:ri + 3] - pr[rr:rr + 3]).max() < 1e-12
+
+
+MULTI = """<mujoco model="gimbal">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="arm" pos="0.1 0.2 0.3" quat="0.9 0.1 -0.3 0.2">
+      <joint name="yaw" type="hinge" pos="0.05 0 0" axis="0 0 1"/>
+      <joint name="lift" type="slide" axis="0.3 0.4 0"/>
+      <joint name="pitch" type="hinge" pos="0 -0.1 0.02" axis="0 1 0"/>
+      <inertial pos="0.2 0 0" mass="1.2" diaginertia="0.01 0.02 0.03"/>
+      <body name="hand" pos="0.4 0 0"><joint name="roll" type="hinge" axis="1 0 0"/>
+        <inertial pos="0.05 0 0" mass="0.3" diaginertia="0.001 0.002 0.002"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_mjcf_body_with_several_joints_is_a_chain_of_massless_links(tmp_path):
+    """A body with three joints (MuJoCo applies them in order, each at its pos in the body's
+    frame as moved by the ones before) imports as a chain of massless links named BODY__JOINT;
+    the bodies' world placements equal MuJoCo's own kinematics (mj_kinematics) at random q, to
+    1e-12."""
+    mujoco = pytest.importorskip("mujoco")
+    (tmp_path / "gimbal.xml").write_text(MULTI)
+    import_file(tmp_path / "gimbal.xml", tmp_path / "out")
+    mech = pinclear.load(tmp_path / "out" / "gimbal.yaml")
+    model, data = mech.model, mech.model.createData()
+    assert {f.name for f in model.frames} >= {"arm__yaw", "arm__lift", "arm", "hand"}
+    m = mujoco.MjModel.from_xml_string(MULTI)
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(2)
+    for _ in range(3):
+        q = rng.uniform(-1, 1, mech.nq)
+        for j in range(1, model.njoints):
+            d.qpos[m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, model.names[j])]] = \
+                q[model.joints[j].idx_q]
+        mujoco.mj_kinematics(m, d)
+        pin.framesForwardKinematics(model, data, q)
+        for name in ("arm", "hand"):
+            # the body's own frame: LINK__ref where the URDF link frame moved onto its joint's axis
+            X = data.oMf[model.getFrameId(f"{name}__ref" if model.existFrame(f"{name}__ref") else name)]
+            b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+            assert np.abs(X.translation - d.xpos[b]).max() < 1e-12
+            assert np.abs(X.rotation - d.xmat[b].reshape(3, 3)).max() < 1e-12
