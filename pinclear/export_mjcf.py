@@ -6,7 +6,8 @@ tree, the merged inertias and the joint placements are the ones pinclear integra
 
 * one MJCF body per Pinocchio joint at ``model.jointPlacements[j]`` in its parent's body, with
   ``model.inertias[j]`` (mass, centre of mass, full inertia); revolute -> hinge, prismatic ->
-  slide, spherical -> ball, free-flyer -> free (names kept);
+  slide, spherical -> ball, free-flyer -> free (names kept); a massless body with one child is
+  merged into it, its joint first (MuJoCo refuses massless moving bodies; _tree_xml);
 * closures -> equality constraints between sites at the closure frames: spherical -> connect,
   weld -> weld, revolute -> two connects (the frames' origins and points one unit along the common
   z axis: 6 rows for 5), planar_point -> a connect whose second site is shifted along the normal
@@ -17,8 +18,9 @@ tree, the merged inertias and the joint placements are the ones pinclear integra
   (MuJoCo's passive joint forces are the same law); other force elements are named, not written;
 * drives: ``drives="clock"`` (the peer): a joint equality on a clock joint whose polynomial the
   peer refreshes every step (exact prescribed motion, needs a Python loop); ``drives="position"``
-  (the export): a position actuator per drive (MuJoCo's servo; a MuJoCo user sets its ctrl to the
-  law f(t), kept in the annotation), which is the nearest form MuJoCo offers without a loop;
+  (the export): a position actuator per drive, critically damped at the drive's reflected inertia
+  (a MuJoCo user sets its ctrl to f + 2 tc f', the law kept in the annotation), which is the
+  nearest form MuJoCo offers without a loop;
 * gravity; contacts disabled (ideal joints only).
 
 The mechanism's own description is kept in ``<custom><text name="pinclear:sidecar" data=.../>``
@@ -166,6 +168,11 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True, annotat
     return xml, names, kinds, notes
 
 
+def accepted_inertia(Y) -> bool:
+    """Whether MuJoCo takes a moving body's inertia: positive mass, positive-definite inertia."""
+    return Y.mass > 0 and np.linalg.eigvalsh(Y.inertia).min() > 0
+
+
 def massless(Y) -> bool:
     """Whether a body carries no mass and no rotational inertia at all."""
     return not Y.mass > 0 and not np.abs(Y.inertia).max() > 0
@@ -204,8 +211,7 @@ def _tree_xml(model, names, sites, extras, kinds, notes):
               and len(children[j]) == 1 and not sites[j] and axis_joint(model, j) is not None}
     notes += [f"body of joint {names[j]!r} has no mass and cannot be merged into a single child: MuJoCo refuses "
               "a massless moving body (give it one in the URDF to run the file in MuJoCo)"
-              for j in range(1, model.njoints) if j not in merged and (model.inertias[j].mass <= 0 or
-                                                                        np.linalg.eigvalsh(model.inertias[j].inertia).min() <= 0)]
+              for j in range(1, model.njoints) if j not in merged and not accepted_inertia(model.inertias[j])]
 
     def body(j, indent, pending=(), S=pin.SE3.Identity()):
         S = S * model.jointPlacements[j]                  # joint j's frame in the MuJoCo parent body
@@ -281,8 +287,8 @@ def _drives_xml(mech, g, tc, solref, drives, notes, q0):
             actuators.append(f'<position name="drive_{d.name}" joint="{d.joint}" kp="{m / tc ** 2:.17g}" '
                              f'kv="{2.0 * m / tc:.17g}"/>')
             notes.append(f"drive {d.name!r}: a position servo, critically damped with time constant tc = {tc:g} s "
-                         f"(kp = m/tc^2, kv = 2m/tc, m = {m:.6g} the joint's reflected inertia); MuJoCo has no time law: "
-                         f"set its ctrl every step to f + 2 tc f' at the step's midpoint, f the law "
+                         f"(kp = m/tc^2, kv = 2m/tc, m = {m:.6g} the joint's reflected inertia); MuJoCo has no time "
+                         "law: set its ctrl every step to f + 2 tc f' at the step's midpoint, f the law "
                          f"{d.law.describe()} (ctrl = f alone lags the law by 2 tc f')")
     return world, equality, actuators
 

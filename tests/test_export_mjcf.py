@@ -195,14 +195,16 @@ def test_mujoco_run_converges_to_pinclear_at_second_order(name, h):
 OFFSET_CHAIN = """<?xml version="1.0"?>
 <robot name="offset_chain">
   <link name="world"/>
-  <joint name="a" type="revolute"><parent link="world"/><child link="l1"/><origin xyz="0.1 -0.2 0.3" rpy="0.3 -0.5 0.7"/>
-    <axis xyz="0.6 0 0.8"/><limit lower="-10" upper="10" effort="1" velocity="1"/></joint>
+  <joint name="a" type="revolute"><parent link="world"/><child link="l1"/>
+    <origin xyz="0.1 -0.2 0.3" rpy="0.3 -0.5 0.7"/><axis xyz="0.6 0 0.8"/>
+    <limit lower="-10" upper="10" effort="1" velocity="1"/></joint>
   <link name="l1"/>
   <joint name="b" type="prismatic"><parent link="l1"/><child link="l2"/><origin xyz="0.2 0.1 -0.1" rpy="-0.4 0.2 1.1"/>
     <axis xyz="0 1 0"/><limit lower="-10" upper="10" effort="1" velocity="1"/></joint>
   <link name="l2"/>
-  <joint name="c" type="revolute"><parent link="l2"/><child link="body"/><origin xyz="-0.3 0.05 0.2" rpy="0.9 0.1 -0.6"/>
-    <axis xyz="0 0 1"/><limit lower="-10" upper="10" effort="1" velocity="1"/></joint>
+  <joint name="c" type="revolute"><parent link="l2"/><child link="body"/>
+    <origin xyz="-0.3 0.05 0.2" rpy="0.9 0.1 -0.6"/><axis xyz="0 0 1"/>
+    <limit lower="-10" upper="10" effort="1" velocity="1"/></joint>
   <link name="body"><inertial><origin xyz="0.1 0.02 -0.03" rpy="0.2 0.3 0.4"/><mass value="1.5"/>
     <inertia ixx="0.02" ixy="0.001" ixz="-0.002" iyy="0.03" iyz="0.0015" izz="0.025"/></inertial></link>
   <joint name="d" type="revolute"><parent link="body"/><child link="tip"/><origin xyz="0.4 0 0" rpy="0 0.3 0"/>
