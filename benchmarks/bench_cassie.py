@@ -66,6 +66,27 @@ def applied_and_rows(mech, T, Q, V, Z):
     return out
 
 
+#: what the table cannot show: why method 'pinocchio' is refused, and the gearbox variant's diagnosis
+#: (measured by tests/test_cassie.py and the SVDs quoted)
+NOTES = """Method `pinocchio` is refused before a run (one line, naming the rows and the methods that work) when
+closure rows are redundant at the start: Pinocchio's rigid constraints take a ball closure's three rows whole,
+and at pinclear's settings (mu 1e-12, 50 iterations) its proximal solver does not meet its stopping test on
+them (pin.constraintDynamics above: 50 of 50 iterations at every state; as a run it stopped at t = 0 with
+Pinocchio's residual 7.5). On cassie_reduced and cassie_simple, whose plantar loops are not planar (no
+redundant row), the method runs and ends where lagrange does (tests/test_cassie.py).
+
+The gearbox variant `cassie` (cassie.sdf) runs with proximal and manifold. lagrange and projection stop at
+t = 0 and name the rows: after the rank test on J (tolerance 7e-12 of its scale) drops 8 of the 32 rows, the
+right shin-spring closure (a prismatic cut joint) keeps rows x and ry whose combination is independent of the
+others by 2.2e-7 of J's scale only (smallest singular value 3.2e-7 against 1.44; the SDF's rounded poses).
+The Schur complement J M^-1 J^T squares that: condition 1.2e14, above pinclear's 1e12. The rotors' small
+inertias (diagonal of M down to 1.0e-5) add only a factor 2.5 (condition of J L^-T, M = L L^T: 1.1e7, of J:
+4.5e6). The stop is right: that weak row alone locks the right shin triangle (planar Grubler count 0).
+Dropping it (a rank test at 1e-6, tried) lets lagrange run but frees the right knee-shin joint (7e-4 rad in
+0.1 s); manifold keeps both at rest with every row to 4e-16, and proximal frees both (residual 2e-8, knee
+rotors 1.2e-2 rad off manifold's): docs/import_export.md."""
+
+
 def pinclear_solvers(mech, T, Q, V, Z, independent):
     res = {}
     for name in formulations.METHODS:
@@ -219,6 +240,7 @@ def main(argv=None):
             note = "; ".join(x for x in (conv, r.get("note", "")) if x)
             md.append(f"| {r['solver']} | {r['time_us']:.1f} | {r['ratio']:.2f} | {r['residual']:.1e} | "
                       f"{r['agreement']:.1e} | {r.get('iterations', '-')} | {note} |")
+    md += ["", NOTES]
     Path(args.out, "bench_cassie.md").write_text("\n".join(md) + "\n")
     print("\n".join(md))
 

@@ -11,6 +11,7 @@ import pytest
 
 import pinclear
 from pinclear import kinematics
+from pinclear.errors import InputError
 from pinclear.joint_spring import JointSpring
 from pinclear.mechanisms import cassie
 from pinclear.models import example_robot_data_dir, models_dir
@@ -109,8 +110,10 @@ def _hip_drives(variant):
 
 def test_prescribed_hip_motion_every_formulation_agrees():
     """cassie_v2, both hip-pitch joints driven by 0.2 sin(6 t): lagrange, projection, proximal and
-    manifold reach the same state (to their tolerance) with the energy balance closed; Pinocchio's
-    own solver (method 'pinocchio') stops at its iteration limit on the redundant plantar rows."""
+    manifold reach the same state (to their tolerance) with the energy balance closed. Pinocchio's
+    own solver (method 'pinocchio') is refused before the run, naming the redundant plantar rows
+    (its rigid constraints take a ball closure whole, and its proximal solver does not converge on
+    them: it stopped at t = 0 with a residual of 7)."""
     mech = _hip_drives("cassie_v2")
     ends = {}
     for method in ("lagrange", "projection", "proximal", "manifold"):
@@ -123,17 +126,29 @@ def test_prescribed_hip_motion_every_formulation_agrees():
         ends[method] = tr.q[-1]
     for method, q in ends.items():
         assert np.abs(q - ends["lagrange"]).max() < 1e-5, method
-    with pytest.warns(RuntimeWarning, match="did not converge"):
-        tr = simulate(mech, 0.1, method="pinocchio")
-    assert tr.status == "failed"
+    with pytest.raises(InputError, match=r"closure rows right-plantar-foot-joint.y, left-plantar-foot-joint.y are "
+                       r"redundant .*\(rank 10 of 12\).* use lagrange, projection, proximal or manifold"):
+        simulate(mech, 0.1, method="pinocchio")
+
+
+def test_pinocchio_method_runs_where_no_row_is_redundant():
+    """cassie_reduced tilts the plantar rod's axis (no redundant row): method 'pinocchio' runs
+    and ends where lagrange does (both at rtol 1e-9: the difference is the integration error)."""
+    mech = _hip_drives("cassie_reduced")
+    assert kinematics.mobility(mech, mech.q0)["redundant_rows"] == []
+    ends = {m: simulate(mech, 0.05, method=m, rtol=1e-9) for m in ("lagrange", "pinocchio")}
+    assert all(tr.status == "success" for tr in ends.values())
+    assert np.abs(ends["pinocchio"].q[-1] - ends["lagrange"].q[-1]).max() < 1e-6
 
 
 @pytest.mark.parametrize("method", ["proximal", "manifold"])
 def test_gearbox_couplings_hold_in_a_passive_swing(method):
     """cassie.sdf (rotors, ten gearbox couplings): q_op = -ratio q_ip along a passive swing, with
-    the energy balance closed. (lagrange and projection stop at t = 0: their row selection keeps
-    the right plantar loop's nearly redundant row, its axes 7e-8 rad from planar, and the Schur
-    complement's condition reaches 1e14.)"""
+    the energy balance closed. lagrange and projection stop at t = 0 naming the cause: the right
+    shin-spring closure (a prismatic cut joint, 5 rows) keeps two rows, x and ry, whose combination
+    is independent of the others by 2e-7 of the rows' scale only (the SDF's rounded poses), which
+    passes the rank test on J (7e-12) but squares to a Schur complement J M^-1 J^T of condition
+    1.2e14 (> 1e12; the rotors' small inertias add only a factor 2.5)."""
     mech = pinclear.load("cassie")
     tr = simulate(mech, 0.1, method=method, rtol=1e-8)
     assert tr.status == "success", tr.message
@@ -143,6 +158,36 @@ def test_gearbox_couplings_hold_in_a_passive_swing(method):
         ip, op = (m.joints[m.getJointId(f"left-{joint}-{x}")].idx_q for x in ("ip", "op"))
         assert np.abs(tr.q[:, op] + ratio * tr.q[:, ip]).max() < 1e-8
     assert np.abs(tr.q[-1]).max() > 1e-3                       # it moved
+
+
+def test_gearbox_variant_shin_triangles_stay_rigid_with_manifold():
+    """In cassie.sdf the shin-spring prismatic joint closes a planar triangle (knee, knee spring,
+    shin: planar Grubler count 3 (3 - 1) - 2 x 3 = 0), so the knee-shin spring joint cannot move.
+    The manifold method, which keeps every closure row on the constraint manifold, keeps it at
+    rest on both legs while the legs swing, and every row closed to 1e-12. (The right triangle's
+    lock rests on a row independent by 2e-7 only: dropping that row lets lagrange run but frees
+    the right knee-shin joint, 7e-4 rad in 0.1 s; proximal's regularisation frees both: residual
+    2e-8, knee rotors 1.2e-2 rad off; docs/import_export.md.)"""
+    mech = pinclear.load("cassie")
+    tr = simulate(mech, 0.1, method="manifold", rtol=1e-8, dt_out=0.01)
+    assert tr.status == "success", tr.message
+    ws, m = mech.workspace(), mech.model
+    assert max(np.abs(kinematics.closure_residual(mech, ws, q)).max() for q in tr.q) < 1e-12
+    for side in ("left", "right"):
+        iq = m.joints[m.getJointId(f"{side}-knee-shin-joint")].idx_q
+        assert np.abs(tr.q[:, iq]).max() < 1e-9
+        assert abs(tr.q[-1, m.joints[m.getJointId(f"{side}-knee-ip")].idx_q]) > 1e-2     # the knee swung
+
+
+@pytest.mark.parametrize("method", ["lagrange", "projection"])
+def test_gearbox_variant_stops_naming_the_nearly_dependent_rows(method):
+    """The failure of lagrange and projection on cassie.sdf names the two shin-spring rows the
+    Schur complement cannot separate (docstring above) and the method that works."""
+    mech = pinclear.load("cassie")
+    with pytest.warns(RuntimeWarning, match="nearly dependent rows: right-shin-spring-joint.x, "
+                      f"right-shin-spring-joint.ry\\); method '{method}'.*use method='proximal'"):
+        tr = simulate(mech, 0.1, method=method)
+    assert tr.status == "failed" and tr.t.size == 0
 
 
 def test_view_reads_the_package_meshes():

@@ -175,9 +175,11 @@ def test_mjcf_softness_is_kept_and_a_lonely_closing_frame_is_refused(tmp_path):
         convert(tmp_path / "bad.urdf")
 
 
-def _sdf_of(mech, q):
-    """An SDF 1.7 text of a mechanism's tree placed at the assembled q, its spherical closures as
-    ball joints (written from Pinocchio's kinematics at q: an independent path to the file)."""
+def _tree_at(mech, q):
+    """The mechanism's tree placed at the assembled q, from Pinocchio's kinematics at q (an
+    independent path to the fixture files): per joint (link name, parent joint, world placement,
+    inertia, 'revolute'/'prismatic', world axis), and per spherical closure (its two joints and
+    the world placements of its two frames)."""
     model, data = mech.model, mech.model.createData()
     J = pin.computeJointJacobians(model, data, q)
     pin.framesForwardKinematics(model, data, q)
@@ -185,44 +187,125 @@ def _sdf_of(mech, q):
     for f in model.frames:
         if f.type == pin.FrameType.BODY and f.parentJoint > 0 and f.placement.isIdentity(0.0):
             link.setdefault(f.parentJoint, f.name)
-
-    def pose(X):
-        return " ".join(repr(float(x)) for x in list(X.translation) + list(pin.rpy.matrixToRpy(X.rotation)))
-
-    out = ['<sdf version="1.7"><model name="leg">']
+    joints = {}
     for j in range(1, model.njoints):
-        Y = model.inertias[j]
-        I = Y.inertia
-        out.append(f'<link name="{link[j]}"><pose>{pose(data.oMi[j])}</pose><inertial><pose>'
-                   f'{" ".join(map(repr, map(float, Y.lever)))} 0 0 0</pose><mass>{Y.mass!r}</mass><inertia>'
-                   + "".join(f"<{k}>{float(I[a, b])!r}</{k}>" for k, a, b in (
-                       ("ixx", 0, 0), ("iyy", 1, 1), ("izz", 2, 2), ("ixy", 0, 1), ("ixz", 0, 2), ("iyz", 1, 2)))
-                   + "</inertia></inertial></link>")
         jm = model.joints[j]
         prismatic = jm.shortname().startswith("JointModelP")
-        axis = J[:3 if prismatic else 6, jm.idx_v][-3:] if not prismatic else J[:3, jm.idx_v]
-        out.append(f'<joint name="{model.names[j]}" type="{"prismatic" if prismatic else "revolute"}">'
-                   f"<parent>{link[model.parents[j]]}</parent><child>{link[j]}</child>"
-                   f'<pose relative_to="__model__">{pose(data.oMi[j])}</pose>'
-                   f'<axis><xyz expressed_in="__model__">{" ".join(map(repr, map(float, axis)))}</xyz></axis></joint>')
+        axis = J[:3, jm.idx_v] if prismatic else J[3:, jm.idx_v]       # world direction of the joint's motion
+        joints[j] = (link[j], model.parents[j], pin.SE3(data.oMi[j]), model.inertias[j],
+                     "prismatic" if prismatic else "revolute", axis)
+    balls = []
     for c in mech.closures:
         assert c.type == "spherical"
-        p1, p2 = (link[model.frames[f].parentJoint] for f in (c.f1, c.f2))
-        out.append(f'<joint name="{c.name}" type="ball"><parent>{p1}</parent><child>{p2}</child>'
-                   f'<pose relative_to="__model__">{pose(data.oMf[c.f2])}</pose></joint>')
+        F1, F2 = model.frames[c.f1], model.frames[c.f2]
+        balls.append((c.name, F1.parentJoint, F2.parentJoint, pin.SE3(data.oMf[c.f1]), pin.SE3(data.oMf[c.f2])))
+    return link, joints, balls
+
+
+def _num(x):
+    return " ".join(repr(float(v)) for v in np.asarray(x, float).ravel())
+
+
+def _pose(X):
+    return _num(list(X.translation) + list(pin.rpy.matrixToRpy(X.rotation)))
+
+
+def _inertia_xml(I, attrs=False):
+    keys = (("ixx", 0, 0), ("iyy", 1, 1), ("izz", 2, 2), ("ixy", 0, 1), ("ixz", 0, 2), ("iyz", 1, 2))
+    if attrs:
+        return " ".join(f'{k}="{float(I[a, b])!r}"' for k, a, b in keys)
+    return "".join(f"<{k}>{float(I[a, b])!r}</{k}>" for k, a, b in keys)
+
+
+def _sdf_of(mech, q):
+    """An SDF 1.7 text of a mechanism's tree placed at the assembled q, its spherical closures as
+    ball joints."""
+    link, joints, balls = _tree_at(mech, q)
+    out = ['<sdf version="1.7"><model name="leg">']
+    for j, (name, parent, X, Y, kind, axis) in joints.items():
+        out.append(f'<link name="{name}"><pose>{_pose(X)}</pose><inertial><pose>{_num(Y.lever)} 0 0 0</pose>'
+                   f"<mass>{Y.mass!r}</mass><inertia>{_inertia_xml(Y.inertia)}</inertia></inertial></link>")
+        out.append(f'<joint name="{mech.model.names[j]}" type="{kind}"><parent>{link[parent]}</parent>'
+                   f'<child>{name}</child><pose relative_to="__model__">{_pose(X)}</pose>'
+                   f'<axis><xyz expressed_in="__model__">{_num(axis)}</xyz></axis></joint>')
+    for name, j1, j2, X1, X2 in balls:
+        out.append(f'<joint name="{name}" type="ball"><parent>{link[j1]}</parent><child>{link[j2]}</child>'
+                   f'<pose relative_to="__model__">{_pose(X2)}</pose></joint>')
     return "\n".join(out + ["</model></sdf>"])
 
 
-def test_four_ups_upu_sdf_cuts_its_four_ball_joints_and_equals_the_bundled(tmp_path):
-    """The 4UPS-UPU of paper 000 as SDF (tree at the assembled pose, the platform's four S joints
-    as ball joints): the importer cuts exactly the four ball joints (3 rows each, the fewest of
-    every loop), and the imported tree and closures equal the bundled ones to 1e-12 at other
-    configurations (imported q = bundled q - the assembled q)."""
+def _mjcf_of(mech, q):
+    """An MJCF text of the same tree: nested bodies placed relative to their parents (pos, quat
+    w x y z), one hinge or slide per body with its axis in the body's axes, the spherical closures
+    as connect equalities between sites at the two closure frames."""
+    link, joints, balls = _tree_at(mech, q)
+    X = {0: pin.SE3.Identity(), **{j: v[2] for j, v in joints.items()}}
+    sites = {j: [] for j in X}
+    for name, j1, j2, X1, X2 in balls:
+        for k, (jj, Xs) in enumerate(((j1, X1), (j2, X2)), 1):
+            Y = X[jj].actInv(Xs)
+            sites[jj].append(f'<site name="{name}_{k}" pos="{_num(Y.translation)}" '
+                             f'quat="{_num(pin.Quaternion(Y.rotation).coeffs()[[3, 0, 1, 2]])}"/>')
+
+    def body(j):
+        name, parent, Xj, Y, kind, axis = joints[j]
+        rel = X[parent].actInv(Xj)
+        out = [f'<body name="{name}" pos="{_num(rel.translation)}" '
+               f'quat="{_num(pin.Quaternion(rel.rotation).coeffs()[[3, 0, 1, 2]])}">',
+               f'<joint name="{mech.model.names[j]}" type="{"slide" if kind == "prismatic" else "hinge"}" '
+               f'axis="{_num(Xj.rotation.T @ axis)}"/>',
+               f'<inertial pos="{_num(Y.lever)}" mass="{Y.mass!r}" fullinertia="'
+               f'{_num([Y.inertia[a, b] for a, b in ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))])}"/>',
+               *sites[j]]
+        for k in joints:
+            if joints[k][1] == j:
+                out += body(k)
+        return out + ["</body>"]
+
+    world = list(sites[0]) + [line for j in joints if joints[j][1] == 0 for line in body(j)]
+    eqs = [f'<connect name="{name}" site1="{name}_1" site2="{name}_2"/>' for name, *_ in balls]
+    return "\n".join(['<mujoco model="leg">', '<compiler angle="radian"/>', "<worldbody>", *world, "</worldbody>",
+                      "<equality>", *eqs, "</equality>", "</mujoco>"])
+
+
+def _closing_urdf_of(mech, q):
+    """A URDF text of the same tree as a CAD exporter writes it (onshape-to-robot): each joint's
+    origin relative to its parent link, its axis in its own frame, and each spherical closure as
+    the frames closing_<name>_1 / closing_<name>_2 fixed to its two links."""
+    link, joints, balls = _tree_at(mech, q)
+    X = {0: pin.SE3.Identity(), **{j: v[2] for j, v in joints.items()}}
+    out = ['<robot name="leg">', '<link name="world"/>']
+    for j, (name, parent, Xj, Y, kind, axis) in joints.items():
+        out.append(f'<link name="{name}"><inertial><origin xyz="{_num(Y.lever)}" rpy="0 0 0"/>'
+                   f'<mass value="{Y.mass!r}"/><inertia {_inertia_xml(Y.inertia, attrs=True)}/></inertial></link>')
+        rel = X[parent].actInv(Xj)
+        out.append(f'<joint name="{mech.model.names[j]}" type="{kind}"><parent link="{link[parent]}"/>'
+                   f'<child link="{name}"/><origin xyz="{_num(rel.translation)}" '
+                   f'rpy="{_num(pin.rpy.matrixToRpy(rel.rotation))}"/><axis xyz="{_num(Xj.rotation.T @ axis)}"/>'
+                   '<limit lower="-10" upper="10" effort="1" velocity="1"/></joint>')
+    for name, j1, j2, X1, X2 in balls:
+        for k, (jj, Xs) in enumerate(((j1, X1), (j2, X2)), 1):
+            rel = X[jj].actInv(Xs)
+            out.append(f'<link name="closing_{name}_{k}"/><joint name="closing_{name}_{k}_frame" type="fixed">'
+                       f'<parent link="{link[jj]}"/><child link="closing_{name}_{k}"/><origin '
+                       f'xyz="{_num(rel.translation)}" rpy="{_num(pin.rpy.matrixToRpy(rel.rotation))}"/></joint>')
+    return "\n".join(out + ["</robot>"])
+
+
+@pytest.mark.parametrize("writer, suffix, cuts", [(_sdf_of, "sdf", ["S2", "S3", "S4", "S5"]), (_mjcf_of, "xml", []),
+                                                   (_closing_urdf_of, "urdf", [])])
+def test_four_ups_upu_fixtures_equal_the_bundled(tmp_path, writer, suffix, cuts):
+    """The 4UPS-UPU of paper 000 as SDF, MJCF and closing-frame URDF (tree at the assembled pose,
+    written from Pinocchio's kinematics there; the platform's four S joints as ball joints, connect
+    equalities or closing_S*_1/_2 frames): the SDF importer cuts exactly the four ball joints (3
+    rows each, the fewest of every loop), the others take the four given closures, and the
+    imported tree and closures equal the bundled ones to 1e-12 at other configurations (imported
+    q = bundled q - the assembled q)."""
     ref = pinclear.load("four_ups_upu")
     q_star = kinematics.assemble(ref, ref.q0)
-    (tmp_path / "leg.sdf").write_text(_sdf_of(ref, q_star))
-    rep = import_file(tmp_path / "leg.sdf", tmp_path / "out")
-    assert sorted(c["joint"] for c in rep["cut"]) == ["S2", "S3", "S4", "S5"]
+    (tmp_path / f"leg.{suffix}").write_text(writer(ref, q_star))
+    rep = import_file(tmp_path / f"leg.{suffix}", tmp_path / "out")
+    assert sorted(c["joint"] for c in rep["cut"]) == cuts
     assert rep["closure_rows"] == 12 and rep["residual_at_reference"] < 1e-12
     imp = pinclear.load(tmp_path / "out" / "leg.yaml")
     rng = np.random.default_rng(5)
@@ -251,3 +334,48 @@ def test_four_ups_upu_sdf_cuts_its_four_ball_joints_and_equals_the_bundled(tmp_p
             k = [x.name for x in imp.closures].index(c.name)
             ri, rr = 3 * k, 3 * ref.closures.index(c)
             assert np.abs(pi[ri:ri + 3] - pr[rr:rr + 3]).max() < 1e-12
+
+
+MULTI = """<mujoco model="gimbal">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="arm" pos="0.1 0.2 0.3" quat="0.9 0.1 -0.3 0.2">
+      <joint name="yaw" type="hinge" pos="0.05 0 0" axis="0 0 1"/>
+      <joint name="lift" type="slide" axis="0.3 0.4 0"/>
+      <joint name="pitch" type="hinge" pos="0 -0.1 0.02" axis="0 1 0"/>
+      <inertial pos="0.2 0 0" mass="1.2" diaginertia="0.01 0.02 0.03"/>
+      <body name="hand" pos="0.4 0 0"><joint name="roll" type="hinge" axis="1 0 0"/>
+        <inertial pos="0.05 0 0" mass="0.3" diaginertia="0.001 0.002 0.002"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_mjcf_body_with_several_joints_is_a_chain_of_massless_links(tmp_path):
+    """A body with three joints (MuJoCo applies them in order, each at its pos in the body's
+    frame as moved by the ones before) imports as a chain of massless links named BODY__JOINT;
+    the bodies' world placements equal MuJoCo's own kinematics (mj_kinematics) at random q, to
+    1e-12."""
+    mujoco = pytest.importorskip("mujoco")
+    (tmp_path / "gimbal.xml").write_text(MULTI)
+    import_file(tmp_path / "gimbal.xml", tmp_path / "out")
+    mech = pinclear.load(tmp_path / "out" / "gimbal.yaml")
+    model, data = mech.model, mech.model.createData()
+    assert {f.name for f in model.frames} >= {"arm__yaw", "arm__lift", "arm", "hand"}
+    m = mujoco.MjModel.from_xml_string(MULTI)
+    d = mujoco.MjData(m)
+    rng = np.random.default_rng(2)
+    for _ in range(3):
+        q = rng.uniform(-1, 1, mech.nq)
+        for j in range(1, model.njoints):
+            d.qpos[m.jnt_qposadr[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, model.names[j])]] = \
+                q[model.joints[j].idx_q]
+        mujoco.mj_kinematics(m, d)
+        pin.framesForwardKinematics(model, data, q)
+        for name in ("arm", "hand"):
+            # the body's own frame: LINK__ref where the URDF link frame moved onto its joint's axis
+            X = data.oMf[model.getFrameId(f"{name}__ref" if model.existFrame(f"{name}__ref") else name)]
+            b = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+            assert np.abs(X.translation - d.xpos[b]).max() < 1e-12
+            assert np.abs(X.rotation - d.xmat[b].reshape(3, 3)).max() < 1e-12

@@ -121,14 +121,23 @@ class Formulation(abc.ABC):
         return cho_factor(self.ws.data.M, lower=False, check_finite=False)
 
     def rank_loss(self, S, t):
-        sv = np.linalg.svd(S, compute_uv=False)
+        # S = J M^-1 J^T over the kept rows is symmetric: its eigenvectors of the eigenvalues
+        # below sv_max / RANK_COND are the row combinations that (nearly) vanish; the rows that
+        # carry them are named, so that the user sees which closure is (nearly) redundant
+        w, U = np.linalg.eigh(S)
+        sv = np.abs(w)[::-1]
         tol = sv[0] / RANK_COND
         rank = int(np.sum(sv > tol))
+        weight = (U[:, np.abs(w) <= tol] ** 2).sum(axis=1)
+        names = self.mech.row_names()
+        rows = [names[self.rows[i]] for i in np.argsort(-weight)[:6] if weight[i] > 0.01]
+        cond = float(sv[0] / max(sv[-1], 1e-300))
         raise RankLossError(
             f"{self.mech.name}: constraint Jacobian lost rank at t = {t:.6g} s (rank {rank} of "
-            f"{S.shape[0]} rows, condition {sv[0] / max(sv[-1], 1e-300):.3g}); method {self.name!r} cannot "
-            "continue through a singular or redundant configuration: use method='proximal'",
-            t=t, rank=rank, rows=S.shape[0], cond=float(sv[0] / max(sv[-1], 1e-300)))
+            f"{S.shape[0]} rows, condition {cond:.3g}"
+            + (f"; nearly dependent rows: {', '.join(rows)}" if rows else "")
+            + f"); method {self.name!r} cannot continue through a singular or redundant configuration: use "
+            "method='proximal'", t=t, rank=rank, rows=S.shape[0], cond=cond)
 
     def drive_stages(self) -> tuple:
         """The drive law stages on this workspace (pinclear.drives.DriveRows.stages), built once:

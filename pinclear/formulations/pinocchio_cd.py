@@ -53,6 +53,20 @@ class PinocchioCD(Formulation):
         self.nd = len(mech.drives)
         self._tau = np.zeros(mech.nv)     # applied forces plus the drive forces being solved for
 
+    def use_rows(self, independent):
+        """Refuse closure rows found redundant at the start: Pinocchio's rigid constraints take a
+        closure whole (3 or 6 rows), so a redundant row cannot be dropped, and its proximal
+        solver at mu = 1e-12 does not converge on them (Cassie's planar plantar loops stop it at
+        t = 0 with a residual of 7; benchmarks/bench_cassie.md)."""
+        names = self.mech.compiled.row_names
+        keep = set(int(i) for i in independent)
+        redundant = [names[i] for i in range(len(names)) if i not in keep]
+        if redundant:
+            raise InputError(f"'pinocchio' cannot run {self.mech.name}: closure rows {', '.join(redundant)} are "
+                             f"redundant at the start (rank {len(names) - len(redundant)} of {len(names)}) and "
+                             "Pinocchio's rigid constraints take each closure whole; use lagrange, projection, "
+                             "proximal or manifold", key="method")
+
     @property
     def fills_workspace(self):
         # Pinocchio's constraintDynamics runs on its own data; ws.data sees the state only

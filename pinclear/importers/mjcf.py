@@ -1,9 +1,11 @@
 """MJCF (MuJoCo) read into pinclear.importers.graph: the body tree, joints, inertials and the
 equality constraints.
 
-Bodies nest (MJCF is a tree); a body has at most one joint (hinge, slide, ball) or none (welded
-to its parent). Poses: ``pos`` and ``quat`` (w x y z) or ``euler`` with ``<compiler angle>`` and
-``eulerseq``; a joint's ``pos`` and ``axis`` are in its body's frame. Inertials: ``pos``,
+Bodies nest (MJCF is a tree); a body has joints (hinge, slide) or none (welded to its parent).
+Several joints in one body (MuJoCo applies them in order) become a chain of massless links, named
+by ``<custom><text name="pinclear:link:JOINT" data="LINK">`` where a pinclear export merged them
+(pinclear.export_mjcf), else BODY__JOINT. Poses: ``pos`` and ``quat`` (w x y z) or ``euler``
+with ``<compiler angle>`` and ``eulerseq``; a joint's ``pos`` and ``axis`` are in its body's frame. Inertials: ``pos``,
 ``quat``, ``mass``, ``diaginertia`` or ``fullinertia``. Equalities: ``connect`` (sites, or
 body1/body2 + anchor) -> spherical closure, ``weld`` (sites, or body1/body2) -> weld, ``joint``
 (polycoef: a linear polynomial) -> coupling. Each equality's ``solref``/``solimp`` (MuJoCo's
@@ -25,6 +27,7 @@ from . import xml
 from .graph import WORLD, Body, Closing, Coupling, Graph, Joint
 
 ANNOTATION = "pinclear:sidecar"
+LINK = "pinclear:link:"
 FRAME_SITE = "pinclear:frame:"
 LEFT_OUT = {"geom": "collision/visual geometry is not part of a pinclear mechanism",
             "site": "read where an equality names it", "camera": "not simulated", "light": "not simulated",
@@ -85,7 +88,10 @@ def read(path) -> Graph:
     if world is None:
         raise ModelFileError(file, xml.where(root), "no <worldbody>")
     sites = {}
-    _bodies(world, WORLD, pin.SE3.Identity(), g, file, degrees, seq, sites)
+    # the links of bodies a pinclear export merged into their child (pinclear.export_mjcf._tree_xml)
+    links = {t.get("name")[len(LINK):]: t.get("data") for t in root.findall("custom/text")
+             if (t.get("name") or "").startswith(LINK)}
+    _bodies(world, WORLD, pin.SE3.Identity(), g, file, (degrees, seq, links), sites)
     annotated = _annotation(root, file)
     eq = root.find("equality")
     for e in eq if eq is not None and annotated is None else ():
@@ -98,7 +104,10 @@ def read(path) -> Graph:
     return g
 
 
-def _bodies(parent_el, parent, X_parent, g, file, degrees, seq, sites):
+def _bodies(parent_el, parent, X_parent, g, file, how, sites):
+    """Read the bodies under ``parent_el``; ``how``: (angles in degrees, euler sequence, {joint:
+    link} of the merged bodies)."""
+    degrees, seq, links = how
     for s in parent_el.findall("site"):
         sites[s.get("name")] = (parent, X_parent * _pose(s, file, degrees, seq))
     for el in parent_el:
@@ -121,16 +130,25 @@ def _bodies(parent_el, parent, X_parent, g, file, degrees, seq, sites):
                 body.inertia = np.array([[a[0], a[3], a[4]], [a[3], a[1], a[5]], [a[4], a[5], a[2]]])
             else:
                 body.inertia = np.diag(_floats(ine, "diaginertia", 3, file))
-        g.bodies[name] = body
         joints = b.findall("joint") + b.findall("freejoint")
-        if len(joints) > 1:
-            raise ModelFileError(file, xml.where(joints[1]), f"body {name!r} has {len(joints)} joints: pinclear "
-                                 "imports one joint per body (split the body)")
         if not joints:
             g.joints.append(Joint(f"{name}_weld", "fixed", parent, name, X, line=b.line))
-        else:
-            _joint(joints[0], parent, name, X, g, file, degrees, seq)
-        _bodies(b, name, X, g, file, degrees, seq, sites)
+        # MuJoCo applies a body's joints in order, each in the body's frame as moved by the ones
+        # before: a chain of massless links, one per joint but the last (pinclear.export_mjcf)
+        prev = parent
+        for k, j in enumerate(joints):
+            child = name
+            if k < len(joints) - 1:
+                jname = j.get("name") or f"{name}_joint{k}"
+                child = links.get(jname) or f"{name}__{jname}"
+                if child in g.bodies or child == WORLD:
+                    raise ModelFileError(file, xml.where(j), f"link name {child!r} used twice (or reserved)")
+                Xc = X * pin.SE3(np.eye(3), _floats(j, "pos", 3, file, [0, 0, 0]))
+                g.bodies[child] = Body(child, Xc, C=Xc, line=j.line)
+            _joint(j, prev, child, X, g, file, degrees, seq)
+            prev = child
+        g.bodies[name] = body                 # after its chain's links: the file's order, root first
+        _bodies(b, name, X, g, file, how, sites)
 
 
 def _joint(j, parent, child, X, g, file, degrees, seq):
