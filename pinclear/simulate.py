@@ -159,7 +159,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     form = formulations.get(method)(mech, **method_options)
     if form.supports_projection and not integ.corrects_state:
         raise InputError(f"method {method!r} corrects the state after each step, which {integrator}'s internal "
-                         "history cannot absorb: use RK45, DOP853, ROS34PW2, Radau, BDF or RK4", key="integrator")
+                         f"history cannot absorb: use one of {', '.join(n for n, m in stepping.INTEGRATORS.items() if m.corrects_state)}",
+                         key="integrator")
     compile0, cpu0 = compile_cpu(), run_clock()
     if resume is not None:
         if not isinstance(resume, Checkpoint):
@@ -221,7 +222,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     traj.message = res.failure.detail if res.failure else "reached t_end"
     if res.outputs is None:
         traj.fill_states(res.samples)
-        traj.status, traj.message = "interrupted", traj.message + " (outputs not evaluated)"
+        traj.message += " (outputs not evaluated)"
     else:
         traj.write_outputs(res.samples, res.outputs)
     if traj.status == "success" and integ.adaptive:
