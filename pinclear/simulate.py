@@ -194,9 +194,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     h_stall = min(STALL_FRACTION * (t_end - t0), STALL_MAX) if min_mean_step is None else float(min_mean_step)
     run = Run(form, integ, t_end=t_end, t_eval=t_eval, rtol=rtol, atol=atol, h=h, max_step=max_step,
               h_stall=h_stall if integ.adaptive else 0.0, loop=loop, stats=stats, identity=identity, progress=progress,
-              checkpoint=checkpoint, checkpoint_every=checkpoint_every, max_cpu=max_cpu)
-    run.cpu0, run.cpu_prior, run.evals0 = cpu0, stats["cpu_s"], stats["rhs_evals"]
-    run.t0, run.initial = t0, (q, v, z)
+              checkpoint=checkpoint, checkpoint_every=checkpoint_every, max_cpu=max_cpu, t0=t0, initial=(q, v, z),
+              cpu0=cpu0)
     if resume is not None:
         run.seed_peaks(resume.stats.get("peaks"))
     stats["loop"] = _loop_note(run)
