@@ -18,7 +18,7 @@ from .stepping.run import Run, checked_method_state, method_state, run_clock
 from .stepping.state import EXTERNAL
 from .trajectory import Checkpoint, Trajectory
 
-INTEGRATORS = tuple(stepping.INTEGRATORS)
+INTEGRATORS = stepping.INTEGRATORS       # the registry itself (pinclear.registry): added ones included
 #: simulate()'s relative tolerance when none is given (bifurcation() derives its period tolerance from it)
 RTOL_DEFAULT = 1e-8
 #: rtol outside this range is either below double precision or no error control at all
@@ -158,9 +158,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
                          key="min_mean_step")
     form = formulations.get(method)(mech, **method_options)
     if form.supports_projection and not integ.corrects_state:
+        fit = ", ".join(n for n, m in stepping.INTEGRATORS.items() if m.corrects_state)
         raise InputError(f"method {method!r} corrects the state after each step, which {integrator}'s internal "
-                         f"history cannot absorb: use one of {', '.join(n for n, m in stepping.INTEGRATORS.items() if m.corrects_state)}",
-                         key="integrator")
+                         f"history cannot absorb: use one of {fit}", key="integrator")
     compile0, cpu0 = compile_cpu(), run_clock()
     if resume is not None:
         if not isinstance(resume, Checkpoint):
