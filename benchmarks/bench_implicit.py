@@ -40,7 +40,8 @@ from scipy.integrate import solve_ivp
 import pinclear
 from pinclear.bench import pinocchio_floor, scenes
 from pinclear.models import model_path
-from pinclear.stepping import INTEGRATORS, chunk as C, rk, rosenbrock as R
+from pinclear.stepping import INTEGRATORS, chunk as C, rosenbrock as R
+from pinclear.stepping.base import MethodState
 from pinclear.stepping.checks import reset_monitor
 from pinclear.stepping.run import STALL_STEPS
 from pinclear.stepping.state import ATOL, H_STALL, MAX_STEP, NJAC, RTOL, STEPS, T, T_BOUND, new_steps
@@ -71,17 +72,19 @@ class Ode:
         st.r[T_BOUND], st.r[MAX_STEP], st.r[H_STALL], st.r[RTOL] = t1, np.inf, 0.0, rtol
         st.V[ATOL] = atol
         reset_monitor(st.r)
-        run = types.SimpleNamespace(system=self.sys, st=st, errors=[], keep=[], message="", tab=None)
+        run = types.SimpleNamespace(system=self.sys, st=st, errors=[], mech=None)
         if isinstance(method, R.Rosenbrock):
-            run.st = R.prepare(st, self.n, self.nc, (), method.max_age, method.secant, method.filtered, method.dense)
-            run.tab = R.rosenbrock_tableau(method.coeffs)
-        elif method.name in ("RK45", "DOP853"):
-            run.tab = rk.rk45() if method.name == "RK45" else rk.dop853()
+            own = MethodState(R.rosenbrock_tableau(method.coeffs),
+                              R.work_array(self.n, self.nc, False, (), method.max_age, method.secant, method.filtered,
+                                           method.dense))
         else:
-            run.tab = method.tableau(run)
+            own = method.setup(run)
+        run.st = st = st._replace(W=own.W)
         self.sys.count[0] = 0
         t0 = time.process_time()
-        method.start(run, 0.0, np.asarray(y0, float), None, -1)
+        C.start(self.sys, own.tab, st, 0.0, np.asarray(y0, float), -1.0, -1)
+        method.restart(own, st, 0.0, y0, None)
+        run.tab = own.tab
         status = "success"
         while True:
             code = C.advance(self.sys, run.tab, run.st, 1000)
@@ -167,7 +170,7 @@ def bench_choice(rtol=1e-6, t_end=0.05, max_cpu=60.0):
                 assert not mech.drives
                 base = None
                 for name, meth in CHOICES:
-                    INTEGRATORS["ROS34PW2"] = meth
+                    INTEGRATORS.replace(meth)
                     _quiet(mech, 1e-3, integrator="ROS34PW2", rtol=rtol)
                     tr = _quiet(mech, t_end, integrator="ROS34PW2", rtol=rtol, max_cpu=max_cpu)
                     res = {"problem": f"{scene}+{clr}" + (" coulomb v_eps=1e-6" if over else "") + f" {t_end} s",
@@ -178,7 +181,7 @@ def bench_choice(rtol=1e-6, t_end=0.05, max_cpu=60.0):
                     res["cpu_ratio"] = res["cpu"] / base["cpu"]
                     rows.append(res)
     finally:
-        INTEGRATORS["ROS34PW2"] = keep
+        INTEGRATORS.replace(keep)
     return rows
 
 
@@ -260,14 +263,14 @@ def bench_policy(max_cpu, t_end=0.05, rtol=1e-6):
             mech = pinclear.load(path, clearances=clr or None)
             ref = _quiet(mech, t_end, integrator="DOP853", rtol=1e-10, max_cpu=max_cpu)
             for name, kw in POLICIES.items():
-                INTEGRATORS["ROS34PW2"] = R.Rosenbrock("ROS34PW2", R.ROS34PW2_COEFFS, **kw)
+                INTEGRATORS.replace(R.Rosenbrock("ROS34PW2", R.ROS34PW2_COEFFS, **kw))
                 tr = _quiet(mech, t_end, integrator="ROS34PW2", rtol=rtol, max_cpu=max_cpu)
                 row = _row(label, name, tr)
                 row["same_events"] = ([e["event"] for e in tr.stats["events"]] ==
                                       [e["event"] for e in ref.stats["events"]])
                 rows.append(row)
     finally:
-        INTEGRATORS["ROS34PW2"] = keep
+        INTEGRATORS.replace(keep)
     return rows
 
 

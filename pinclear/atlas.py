@@ -29,7 +29,8 @@ COLUMNS = ["scene", "method", "integrator", "tol", "h", "status", "reason", "fai
            "energy_drift", "energy_kind", "max_residual", "branch_spread", "cpu_s", "rhs_evals", "steps"]
 REASONS = ("rank loss", "step-size collapse", "non-finite", "budget", "branch switch", "other")
 
-INTEGRATORS = ("RK45", "DOP853", "ROS34PW2", "Radau", "BDF", "LSODA", "RK4")
+#: the registry's integrators (pinclear.registry.INTEGRATORS), in its order
+INTEGRATORS = integrators.INTEGRATORS
 QUICK_INTEGRATORS = ("DOP853", "Radau", "RK4")
 TOLS = (1e-4, 1e-6, 1e-8, 1e-10)
 #: formulations of the default grid. ``manifold`` is run on the singular scenes only

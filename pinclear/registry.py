@@ -1,4 +1,5 @@
-"""Registries of the sidecar's plug-in kinds: clearance types and force element types.
+"""Registries of the plug-in kinds: clearance types and force element types (the sidecar's),
+and integrators.
 
 Each type declares, in its own module, one :class:`PluginType` record: its sidecar ``type``
 name, its keys (:class:`Key`: type, unit, default, range, source equation), its parser (the
@@ -98,21 +99,34 @@ class ClearancePlot:
     body: str
 
 
-class Registry:
-    """name -> PluginType, each entry given as a record or as "module:attribute" (imported on
-    first use). Iterating gives the names in registration order."""
+def _resolve(ref: str):
+    module, attr = ref.split(":")
+    return getattr(importlib.import_module(module), attr)
 
-    def __init__(self, what: str, entries: dict, common=()):
+
+class Registry:
+    """name -> record (a PluginType, or the ``record`` class given: an integrator is a
+    pinclear.stepping.base.Method), each entry given as a record or as "module:attribute"
+    (imported on first use). Iterating gives the names in registration order."""
+
+    def __init__(self, what: str, entries: dict, common=(), record=PluginType):
         self.what = what
         self._common = common
+        self._record = record
         self._entries = dict(entries)
+
+    @property
+    def record(self) -> type:
+        """The class every entry is an instance of (given as a class or "module:attribute")."""
+        if isinstance(self._record, str):
+            self._record = _resolve(self._record)
+        return self._record
 
     @property
     def common(self) -> tuple:
         """The keys every entry of this kind holds (given as "module:attribute" or a tuple)."""
         if isinstance(self._common, str):
-            module, attr = self._common.split(":")
-            self._common = tuple(getattr(importlib.import_module(module), attr))
+            self._common = tuple(_resolve(self._common))
         return tuple(self._common)
 
     def __contains__(self, name) -> bool:
@@ -130,12 +144,18 @@ class Registry:
     def get(self, name) -> PluginType:
         entry = self._entries[name]
         if isinstance(entry, str):
-            module, attr = entry.split(":")
-            entry = getattr(importlib.import_module(module), attr)
-            if not isinstance(entry, PluginType) or entry.name != name:
-                raise TypeError(f"{self.what} {name!r}: {self._entries[name]} is not its PluginType record")
+            entry = _resolve(entry)
+            if not isinstance(entry, self.record) or entry.name != name:
+                raise TypeError(f"{self.what} {name!r}: {self._entries[name]} is not its {self.record.__name__} "
+                                "record")
             self._entries[name] = entry
         return entry
+
+    __getitem__ = get
+
+    def items(self) -> list:
+        """(name, record) pairs in registration order (every entry imported)."""
+        return [(n, self.get(n)) for n in self]
 
     def types(self) -> list:
         return [self.get(n) for n in self]
@@ -144,13 +164,23 @@ class Registry:
         """Every key an entry of type ``name`` may hold."""
         return key_names(self.common) | key_names(self.get(name).keys)
 
-    def add(self, record: PluginType):
+    def add(self, record):
         """Register a type defined outside pinclear (the one line of a user's plug-in)."""
-        if not isinstance(record, PluginType):
-            raise TypeError(f"a {self.what} is registered as a PluginType record, got {type(record).__name__}")
+        if not isinstance(record, self.record):
+            raise TypeError(f"a {self.what} is registered as a {self.record.__name__} record, got "
+                            f"{type(record).__name__}")
         if record.name in self._entries:
             raise ValueError(f"{self.what} {record.name!r} is already registered")
         self._entries[record.name] = record
+
+    def replace(self, record):
+        """Put ``record`` in place of the one registered under its name, keeping the order (a
+        benchmark trying variants of a type); returns the one replaced."""
+        old = self.get(record.name)
+        if not isinstance(record, self.record):
+            raise TypeError(f"a {self.what} is registered as a {self.record.__name__} record")
+        self._entries[record.name] = record
+        return old
 
     def remove(self, name):
         """Undo :meth:`add` (tests that register a toy type)."""
@@ -173,3 +203,15 @@ FORCE_TYPES = Registry("force element type", {
     "joint_spring": "pinclear.joint_spring:JOINT_SPRING",
 }, common=(Key("name", "string", default="<type><index>", doc="the element's name (outputs are named NAME.key)"),
            Key("type", "string", doc="the force element type")))
+
+#: integrators (``simulate(..., integrator=NAME)``, ``--integrator``): each a pinclear.stepping.base.
+#: Method instance in its module (its contract there); the atlas runs them in this order
+INTEGRATORS = Registry("integrator", {
+    "RK45": "pinclear.stepping.rk:RK45",
+    "DOP853": "pinclear.stepping.rk:DOP853",
+    "ROS34PW2": "pinclear.stepping.rosenbrock:ROS34PW2",
+    "Radau": "pinclear.stepping.external:RADAU",
+    "BDF": "pinclear.stepping.external:BDF",
+    "LSODA": "pinclear.stepping.external:LSODA",
+    "RK4": "pinclear.stepping.rk:RK4",
+}, record="pinclear.stepping.base:Method")

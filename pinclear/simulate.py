@@ -18,7 +18,7 @@ from .stepping.run import Run, checked_method_state, method_state, run_clock
 from .stepping.state import EXTERNAL
 from .trajectory import Checkpoint, Trajectory
 
-INTEGRATORS = tuple(stepping.INTEGRATORS)
+INTEGRATORS = stepping.INTEGRATORS       # the registry itself (pinclear.registry): added ones included
 #: simulate()'s relative tolerance when none is given (bifurcation() derives its period tolerance from it)
 RTOL_DEFAULT = 1e-8
 #: rtol outside this range is either below double precision or no error control at all
@@ -158,8 +158,9 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
                          key="min_mean_step")
     form = formulations.get(method)(mech, **method_options)
     if form.supports_projection and not integ.corrects_state:
+        fit = ", ".join(n for n, m in stepping.INTEGRATORS.items() if m.corrects_state)
         raise InputError(f"method {method!r} corrects the state after each step, which {integrator}'s internal "
-                         "history cannot absorb: use RK45, DOP853, ROS34PW2, Radau, BDF or RK4", key="integrator")
+                         f"history cannot absorb: use one of {fit}", key="integrator")
     compile0, cpu0 = compile_cpu(), run_clock()
     if resume is not None:
         if not isinstance(resume, Checkpoint):
@@ -193,9 +194,8 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     h_stall = min(STALL_FRACTION * (t_end - t0), STALL_MAX) if min_mean_step is None else float(min_mean_step)
     run = Run(form, integ, t_end=t_end, t_eval=t_eval, rtol=rtol, atol=atol, h=h, max_step=max_step,
               h_stall=h_stall if integ.adaptive else 0.0, loop=loop, stats=stats, identity=identity, progress=progress,
-              checkpoint=checkpoint, checkpoint_every=checkpoint_every, max_cpu=max_cpu)
-    run.cpu0, run.cpu_prior, run.evals0 = cpu0, stats["cpu_s"], stats["rhs_evals"]
-    run.t0, run.initial = t0, (q, v, z)
+              checkpoint=checkpoint, checkpoint_every=checkpoint_every, max_cpu=max_cpu, t0=t0, initial=(q, v, z),
+              cpu0=cpu0)
     if resume is not None:
         run.seed_peaks(resume.stats.get("peaks"))
     stats["loop"] = _loop_note(run)
@@ -221,7 +221,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     traj.message = res.failure.detail if res.failure else "reached t_end"
     if res.outputs is None:
         traj.fill_states(res.samples)
-        traj.status, traj.message = "interrupted", traj.message + " (outputs not evaluated)"
+        traj.message += " (outputs not evaluated)"
     else:
         traj.write_outputs(res.samples, res.outputs)
     if traj.status == "success" and integ.adaptive:

@@ -218,6 +218,11 @@ class Trajectory:
                 E["dissipated"] += self.z[:, sl.start + f.dissipation_state]
         E["work_drives"] = self.z[:, mech.z_work.start].copy() if mech.n_work else np.zeros(n)
         self.energies = E
+        if outs.failures:             # samples whose evaluation failed (NaN a, lam): named, not lost
+            first = outs.failures[0]
+            self.stats["failed_samples"] = {"count": len(outs.failures),
+                                            "kinds": sorted({str(f.kind) for f in outs.failures}),
+                                            "first": {"t": first.t, "kind": str(first.kind), "detail": first.detail}}
         if self.status != "success" and n:
             self.message += f" (samples kept up to t = {self.t[-1]:.6g} s)"
 

@@ -1,8 +1,9 @@
 """Registries of plug-in kinds (pinclear.registry) and the key reference generated from them.
 
-A new force element and a new clearance type are each one module plus one registry line: the
-toy types below are defined here (the module), registered with one ``add`` call (the line),
-loaded from a sidecar and simulated, and their physics checked against closed forms. The key
+A new force element, a new clearance type and a new integrator are each one module plus one
+registry line: the toy types below are defined here (the module), registered with one ``add``
+call (the line), loaded from a sidecar and simulated, and their physics (the integrator's order
+of convergence) checked against closed forms. The key
 reference docs/keys.md is regenerated and compared with the committed file; the declared
 defaults are checked against what the builders do when a key is left out."""
 from __future__ import annotations
@@ -18,7 +19,7 @@ from pinclear.contact.laws import FRICTION_LAWS, NORMAL_LAWS, make_friction_law,
 from pinclear.contact.spec import COMMON, FRICTION_LAW_KEYS, NORMAL_LAW_KEYS
 from pinclear.errors import ContactSetupError, ModelFileError
 from pinclear.forces import ForceElement
-from pinclear.registry import CLEARANCE_TYPES, FORCE_TYPES, ClearancePlot, Key, PluginType
+from pinclear.registry import CLEARANCE_TYPES, FORCE_TYPES, INTEGRATORS, ClearancePlot, Key, PluginType
 from pinclear.sidecar import load
 from pinclear.simulate import simulate
 
@@ -284,3 +285,103 @@ def test_plots_and_viewer_read_the_clearance_registry():
     assert all(isinstance(p, ClearancePlot) for p in plots.values())
     assert [n for n, p in plots.items() if p.travel] == ["prismatic"]
     assert {n for n, p in plots.items() if p.across_axis} == {"planar_revolute", "revolute", "prismatic"}
+
+
+# ------------------------------------------------------------------ a toy integrator (its "module")
+def heun_tableau():
+    """Heun's method (the explicit trapezoidal rule): second order, two stages (Butcher tableau
+    A = [[0, 0], [1, 0]], b = [1/2, 1/2], c = [0, 1]; Hairer, Norsett & Wanner, Solving ODEs I,
+    II.1), taken with fixed steps by the compiled RK step (kind RK_FIXED)."""
+    from pinclear.stepping.state import RK_FIXED, tableau
+
+    return tableau(RK_FIXED, 1, A=[[0.0, 0.0], [1.0, 0.0]], B=[0.5, 0.5], C=[0.0, 1.0])
+
+
+def _heun():
+    from pinclear.stepping.rk import ExplicitRK
+
+    return ExplicitRK("toy_heun", heun_tableau, rows=3, adaptive=False, doc="Heun's method, fixed step h")
+
+
+@pytest.fixture
+def toy_heun():
+    INTEGRATORS.add(_heun())                     # the one line
+    try:
+        yield
+    finally:
+        INTEGRATORS.remove("toy_heun")
+
+
+def test_a_toy_integrator_converges_at_its_order(toys, toy_heun, tmp_path):
+    """m x'' = -k (x - rest) from rest + A with no speed: x = rest + A cos(w t). Heun's global error
+    is C h^2 + O(h^3) (its phase error; the amplitude's is O(h^3), which is why the error is taken
+    in x and v / w at 5/4 of a period, not at a turning point): halving h divides it by 4 up to a
+    relative O(w h) term (w h <= 0.08 here); [3.6, 4.4] excludes first order (2) and RK4's fourth (16), so a wrong
+    tableau, a stage left out or a step of the wrong length fails. Through the registry the
+    integrator is also one of the command line's and the atlas's."""
+    from pinclear import atlas
+    from pinclear.stepping import get
+
+    k, rest, A = 50.0, 0.1, 0.02
+    path = _files(tmp_path, f"initial: {{q: {{slide: {rest + A}}}}}\n"
+                  f"forces:\n  - {{name: spring, type: toy_joint_spring, joint: slide, k: {k}, rest: {rest}}}\n")
+    mech = load(path)
+    w = math.sqrt(k / M)
+    T = 2.5 * math.pi / w
+    errs = []
+    for n in (100, 200, 400):
+        tr = simulate(mech, T, integrator="toy_heun", h=T / n, q0=[rest + A], v0=[0.0], t_eval=[0.0, T])
+        assert tr.status == "success", tr.message
+        assert tr.stats["steps"] == pytest.approx(n, abs=1)     # a last sliver of round-off at most
+        errs.append(math.hypot(tr.q[-1, 0] - (rest + A * math.cos(w * T)), tr.v[-1, 0] / w + A * math.sin(w * T)))
+    ratios = np.array(errs[:-1]) / np.array(errs[1:])
+    assert np.all((ratios > 3.6) & (ratios < 4.4)), (errs, ratios)
+    assert get("toy_heun").name == "toy_heun" and "toy_heun" in atlas.INTEGRATORS
+    with pytest.raises(ValueError, match="already registered"):
+        INTEGRATORS.add(_heun())
+
+
+def test_an_integrator_is_registered_as_a_method():
+    with pytest.raises(TypeError, match="Method"):
+        INTEGRATORS.add(JOINT_SPRING)
+
+
+def _import_graph(package: Path) -> dict:
+    """module -> the modules of ``package`` it imports anywhere (functions' imports included)."""
+    import ast
+
+    names = {}
+    for p in package.rglob("*.py"):
+        parts = p.relative_to(package.parent).with_suffix("").parts
+        names[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = p
+    graph = {}
+    for mod, p in names.items():
+        pkg = mod if p.name == "__init__.py" else mod.rsplit(".", 1)[0]
+        deps = set()
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, ast.ImportFrom):
+                base = pkg
+                for _ in range(node.level - 1):
+                    base = base.rsplit(".", 1)[0]
+                base = (f"{base}.{node.module}" if node.module else base) if node.level else node.module
+                deps.update(f"{base}.{a.name}" if f"{base}.{a.name}" in names else base for a in node.names)
+            elif isinstance(node, ast.Import):
+                deps.update(a.name for a in node.names)
+        graph[mod] = {d for d in deps if d in names and d != mod}
+    return graph
+
+
+def test_the_stepping_engine_has_no_import_circle():
+    """base.py (the integrators' contract) imports no step logic, so rk.py and rosenbrock.py
+    define their kernels and their Method in one file, and chunk.py imports them: no module of
+    pinclear.stepping reaches itself again through its imports (lazy ones included)."""
+    graph = _import_graph(ROOT / "pinclear")
+    inside = {m for m in graph if m.startswith("pinclear.stepping")}
+    for start in inside:
+        seen, todo = set(), [d for d in graph[start] if d in inside]
+        while todo:
+            m = todo.pop()
+            assert m != start, f"{start} imports itself through {sorted(seen)}"
+            if m not in seen:
+                seen.add(m)
+                todo += [d for d in graph[m] if d in inside]

@@ -7,16 +7,15 @@ called through C addresses: ``call``), assembled from the plug-ins (``build``) i
 RK45, DOP853, RK4; ``rosenbrock``; ``external`` for SciPy's) give their coefficients to the
 shared step logic (``chunk``: chunks of accepted steps, and after each the singular-passage
 search, events, samples, projection and the stall test, with ``checks`` and ``roots``);
-``run.Run`` drives the chunks from Python.
+``run.Run`` drives the chunks from Python. The integrators are registered by name in
+pinclear.registry.INTEGRATORS (one module and one line each).
 """
 from ..errors import InputError
-from . import external, rk, rosenbrock
-
-#: the integrators by name
-INTEGRATORS = {m.name: m for m in (rk.RK45(), rk.DOP853(), rk.RK4(), *rosenbrock.METHODS, *external.METHODS)}
+from ..registry import INTEGRATORS
 
 
 def get(name):
+    """The integrator registered as ``name`` (pinclear.registry.INTEGRATORS)."""
     try:
         return INTEGRATORS[name]
     except (KeyError, TypeError):

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import integrate as spi
 
-from .base import Method
+from .base import Method, MethodState
 from .call import NONFINITE
 from .checks import GOOD, observe
 from .control import ACCEPTED, BAD_EVALS, MAX_BAD, TOO_SMALL
@@ -30,6 +30,10 @@ class _Driver:
 
     def __init__(self, method, run):
         self.method, self.run, self.solver, self.dense = method, run, None, None
+        self.message = ""            # SciPy's message when a step failed (the run's failure reads it)
+        # the compiled chunk calls these back (kept alive with the driver for the run)
+        self.stages = [python_stage(f, run.errors, name=f"{method.name} {f.__name__}")
+                       for f in (self.step, self.dense_at, self.reset)]
 
     def fun(self, t, y):
         run = self.run
@@ -60,7 +64,7 @@ class _Driver:
         except _Bad:
             return float(BAD_EVALS)
         if solver.status == "failed":
-            self.run.message = msg
+            self.message = msg
             return float(TOO_SMALL)
         st.V[Y] = solver.y
         st.r[T_OLD], st.r[T] = solver.t_old, solver.t
@@ -88,16 +92,16 @@ class Scipy(Method):
     def __init__(self, name, cls, corrects_state=True):
         self.name, self.cls, self.corrects_state = name, cls, corrects_state
 
-    def tableau(self, run):
-        d = run.external = _Driver(self, run)
-        stages = [python_stage(f, run.errors, name=f"{self.name} {f.__name__}") for f in (d.step, d.dense_at, d.reset)]
-        run.keep.extend(stages)
-        return tableau(EXTERNAL, 0, ext=[s.fn for s in stages])
+    def setup(self, run):
+        driver = _Driver(self, run)
+        tab = tableau(EXTERNAL, 0, ext=[s.fn for s in driver.stages])
+        return MethodState(tab, np.zeros((0, run.st.V.shape[1])), driver)
 
-    def start(self, run, t, x, hint, zero):
-        code = super().start(run, t, x, hint, zero)      # f, event values (SciPy chooses the step)
-        run.external.restart(float(t), np.array(x, float), hint)
-        return code
+    def tableau(self, run):
+        return self.setup(run).tab
+
+    def restart(self, own, st, t, x, hint):
+        own.driver.restart(float(t), np.array(x, float), hint)      # SciPy chooses the first step
 
     def reset_state(self, solver, y, f):
         solver.y = y
@@ -110,6 +114,9 @@ class _BDF(Scipy):
         solver.D[0] = y
 
 
-METHODS = (Scipy("Radau", spi.Radau), _BDF("BDF", spi.BDF),
-           # LSODA keeps an internal history that a corrected state cannot enter
-           Scipy("LSODA", spi.LSODA, corrects_state=False))
+#: the registered SciPy methods (pinclear.registry.INTEGRATORS); any other OdeSolver subclass
+#: (its _step_impl and _dense_output_impl) joins the same way
+RADAU = Scipy("Radau", spi.Radau)
+BDF = _BDF("BDF", spi.BDF)
+#: LSODA keeps an internal history that a corrected state cannot enter
+LSODA = Scipy("LSODA", spi.LSODA, corrects_state=False)

@@ -24,6 +24,8 @@ import numpy as np
 import pinocchio as pin
 
 from .. import kinematics
+from ..errors import RankLossError
+from ..failures import Failure, FailureKind
 from .._jit import njit
 from .._kernels import constraint_rows_positions, joint_placements, joint_placements_jacobians
 from .call import ERROR, NONFINITE, run_stages
@@ -46,9 +48,25 @@ class Samples(NamedTuple):
 class Outputs(NamedTuple):
     """A run's outputs at its n samples, as whole arrays: ``core`` (n, nv + 2 m + 3) in the row
     layout of the module doc; ``elements``: per force element (potential (n,), power loss (n,),
-    {output name: (n,) or (n, size)})."""
+    {output name: (n,) or (n, size)}); ``failures``: a pinclear.failures.Failure per sample whose
+    evaluation failed (its accelerations and multipliers NaN, the rest recorded)."""
     core: np.ndarray
     elements: list
+    failures: tuple = ()
+
+
+#: what a sample's evaluation raises when it fails at that state (the formulations' rank loss,
+#: a singular or indefinite matrix, a non-finite value): the sample keeps NaN accelerations and
+#: multipliers and its Failure names why; anything else (a user function's exception, a bug)
+#: ends the outputs, and the run keeps its samples (pinclear.stepping.run.Run.integrate)
+SAMPLE_FAILURES = (RankLossError, np.linalg.LinAlgError, ArithmeticError)
+
+
+def sample_failure(exc, t) -> Failure:
+    """The Failure of a sample whose evaluation raised ``exc`` (one of SAMPLE_FAILURES)."""
+    kind = (FailureKind.RANK_LOSS if isinstance(exc, RankLossError) else
+            FailureKind.SINGULAR if isinstance(exc, np.linalg.LinAlgError) else FailureKind.NONFINITE)
+    return Failure(kind, t, f"output sample at t = {t:.9g} s: {exc}")
 
 
 def core_size(mech):
@@ -59,12 +77,13 @@ def core_size(mech):
 def sample_record(form, t, q, v, z):
     """One sample's (core row, [(potential, power loss, outputs) per element]) through the
     plug-ins' Python methods: the reference of the compiled pass (the path of every run before
-    it), and the path of runs it does not serve (:func:`compiled_ready`)."""
+    it), and the path of runs it does not serve (:func:`compiled_ready`); the sample's Failure
+    (None when its evaluation succeeded) third."""
     try:
         a = form.accelerations(t, q, v, z)
-    except Exception:                # a failed sample keeps NaN; the run's message says why
-        return finish_sample(form, t, q, v, z, None, None)
-    return finish_sample(form, t, q, v, z, a, form.ws.lam)
+    except SAMPLE_FAILURES as exc:
+        return (*finish_sample(form, t, q, v, z, None, None), sample_failure(exc, t))
+    return (*finish_sample(form, t, q, v, z, a, form.ws.lam), None)
 
 
 def finish_sample(form, t, q, v, z, a, lam):
@@ -96,15 +115,18 @@ def python_outputs(form, s: Samples) -> Outputs:
     mech = form.mech
     core = np.zeros((len(s.t), core_size(mech)))
     per = [([], [], {}) for _ in mech.forces]
+    failures = []
     for i, (t, q, v, z) in enumerate(zip(s.t.tolist(), s.q, s.v, s.z)):
-        core[i], recs = sample_record(form, t, q, v, z)
+        core[i], recs, failed = sample_record(form, t, q, v, z)
+        if failed is not None:
+            failures.append(failed)
         for (pot, loss, outs), (P, L, O) in zip(recs, per):
             P.append(pot)
             L.append(loss)
             for k, val in outs.items():
                 O.setdefault(k, []).append(np.asarray(val, float))
     return Outputs(core, [(np.array(P, float), np.array(L, float), {k: np.array(v) for k, v in O.items()})
-                          for P, L, O in per])
+                          for P, L, O in per], tuple(failures))
 
 
 # ------------------------------------------------------------------ the compiled pass
@@ -261,9 +283,17 @@ def compiled_outputs(run, X, s: Samples) -> Outputs:
         form.project(t, s.q[done], s.v[done])                # raises the Python path's error
         raise FloatingPointError(f"the projection of the output sample at t = {t:.9g} s failed")
     floor = form.monitor()[0]
+    failures = []
     for k in np.flatnonzero((codes == ERROR) | ((codes < floor) & (codes != NONFINITE))):
+        t = float(s.t[k])
         if codes[k] == ERROR and run.errors:
-            run.errors.pop()                   # the failed sample keeps NaN, as on the Python path
+            exc = run.errors.pop()             # the failed sample keeps NaN, its Failure says why
+            failures.append(sample_failure(exc, t) if isinstance(exc, SAMPLE_FAILURES) else
+                            Failure(FailureKind.EXCEPTION, t, f"output sample at t = {t:.9g} s: a function raised "
+                                                              f"{type(exc).__name__}: {exc}"))
+        else:
+            failures.append(Failure(FailureKind.RANK_LOSS, t, f"output sample at t = {t:.9g} s: the constraint "
+                                                              f"rows lost rank (pivot code {codes[k]:.3g})"))
         row, recs = finish_sample(form, float(s.t[k]), s.q[k], s.v[k], s.z[k], None, None)
         out[k, :core_size(mech)] = row
         for (off, lay), (pot, loss, outs) in zip(layouts, recs):
@@ -279,4 +309,4 @@ def compiled_outputs(run, X, s: Samples) -> Outputs:
             named[name] = out[:, a] if size == 1 else out[:, a:a + size]
             a += size
         elements.append((out[:, off], out[:, off + 1], named))
-    return Outputs(out[:, :core_size(mech)], elements)
+    return Outputs(out[:, :core_size(mech)], elements, tuple(failures))

@@ -10,6 +10,7 @@ import numpy as np
 from scipy import integrate as spi
 
 from .._jit import njit
+from .base import Method
 from .checks import BAD, GOOD, observe
 from .control import ACCEPTED, BAD_EVALS, GO_ON, TOO_SMALL, begin, grown, outcome, propose, shrunk
 from .state import (ATOL, DENSE, F, F_OLD, H_ABS, H_FIXED, H_PREV, H_START, RK_DOP853, RK_EMBEDDED, RK_FIXED,
@@ -219,30 +220,23 @@ def rk_dense_at(tab, D, y_old, t_old, h, t, out):
 
 
 # --------------------------------------------------------------------------------- the methods
-from .base import Method  # noqa: E402  (the compiled functions above do not depend on it)
+class ExplicitRK(Method):
+    """An explicit Runge-Kutta method of the compiled step logic given by its coefficients:
+    ``make()`` returns its Tableau (rk45, dop853, rk4 above; any Butcher tableau of kind
+    RK_FIXED takes fixed steps with a cubic Hermite dense output); ``rows``: its stages + 1
+    (K holds f at the proposed state after the stages; DOP853 its extra dense-output stages)."""
 
-
-class RK45(Method):
-    """Dormand-Prince 5(4) (SciPy's RK45): the default; explicit, for non-stiff motion and contact
-    resolved by the tolerance."""
-    name, rows = "RK45", 7
-
-    def tableau(self, run):
-        return rk45()
-
-
-class DOP853(Method):
-    """Dormand-Prince 8(5,3) (SciPy's DOP853): tight tolerances (rtol 1e-9 and below)."""
-    name, rows = "DOP853", 16
+    def __init__(self, name, make, rows, adaptive=True, doc=""):
+        self.name, self.make, self.rows, self.adaptive, self.__doc__ = name, make, rows, adaptive, doc
 
     def tableau(self, run):
-        return dop853()
+        return self.make()
 
 
-class RK4(Method):
-    """Classical fixed-step Runge-Kutta 4 (step h); a failed evaluation ends the run (a fixed step
-    cannot be retried)."""
-    name, rows, adaptive = "RK4", 5, False
-
-    def tableau(self, run):
-        return rk4()
+#: the registered explicit methods (pinclear.registry.INTEGRATORS)
+RK45 = ExplicitRK("RK45", rk45, 7, doc="Dormand-Prince 5(4) (SciPy's RK45): the default; explicit, for non-stiff "
+                  "motion and contact resolved by the tolerance.")
+DOP853 = ExplicitRK("DOP853", dop853, 16, doc="Dormand-Prince 8(5,3) (SciPy's DOP853): tight tolerances (rtol "
+                    "1e-9 and below).")
+RK4 = ExplicitRK("RK4", rk4, 5, adaptive=False, doc="Classical fixed-step Runge-Kutta 4 (step h); a failed "
+                 "evaluation ends the run (a fixed step cannot be retried).")

@@ -55,7 +55,8 @@ import math
 import numpy as np
 
 from .._jit import njit
-from .base import Method
+from ..errors import InputError
+from .base import Method, MethodState
 from .checks import BAD, FAILED, RESELECT, observe
 from .control import ACCEPTED, GO_ON, TOO_SMALL, begin, grown, outcome, propose, shrunk
 from .rk import accept
@@ -159,23 +160,29 @@ def work_rows(n, m):
     return meta_rows(n) + 2 * m + 3
 
 
-def prepare(st, n, p, skip=(), max_age=DEFAULT_MAX_AGE, secant=DEFAULT_SECANT, filtered=True, dense=None,
-            time_column=False):
-    """``st`` with its W sized for this run: n state components of which the first p have
-    dc/dt = v (0: none known); ``skip``: state indices nothing depends on (their Jacobian
-    columns are zero and not differenced); ``time_column``: make df/dt with every Jacobian for
-    the secant test (jacobian)."""
+def work_array(n, p, events, skip=(), max_age=DEFAULT_MAX_AGE, secant=DEFAULT_SECANT, filtered=True, dense=None,
+               time_column=False):
+    """The method's work array W for a run of n state components of which the first p have
+    dc/dt = v (0: none known); ``events``: whether the run locates events (then the dense output
+    is in the error test unless ``dense`` says otherwise); ``skip``: state indices nothing depends
+    on (their Jacobian columns are zero and not differenced); ``time_column``: make df/dt with
+    every Jacobian for the secant test (jacobian)."""
     m = n - p
     W = np.zeros((work_rows(n, m), n))
     flat = W.reshape(-1)
     flat[M_ROWS], flat[J_STATE], flat[MAX_AGE], flat[SECANT], flat[FILTER] = m, NONE, max_age, secant, float(filtered)
     # the dense output is in the error test where events are located on it (dense=None)
-    flat[DENSE_TEST] = float(st.G.shape[1] > 0 if dense is None else dense)
+    flat[DENSE_TEST] = float(events if dense is None else dense)
     flat[TIME_COLUMN] = float(time_column)
     mask = W[meta_rows(n) + 2 * m + 1]
     mask[:] = 1.0
     mask[list(skip)] = 0.0
-    return st._replace(W=W)
+    return W
+
+
+def prepare(st, n, p, **policy):
+    """``st`` with its W made for this run (work_array; the events read from st's channels)."""
+    return st._replace(W=work_array(n, p, st.G.shape[1] > 0, **policy))
 
 
 @njit(cache=True, inline="always")
@@ -548,24 +555,47 @@ class Rosenbrock(Method):
             if f.dissipation_state is not None:
                 skip.append(base + sl.start + f.dissipation_state)
         # W's size depends on the run's state
-        run.st = prepare(run.st, n, p, skip, self.max_age, self.secant, self.filtered, self.dense,
-                         run.form.time_in_positions)
+        W = work_array(n, p, run.st.G.shape[1] > 0, skip, self.max_age, self.secant, self.filtered, self.dense,
+                       run.form.time_in_positions)
+        return MethodState(self.tableau(run), W)
 
     def tableau(self, run):
         return rosenbrock_tableau(self.coeffs)
 
-    def start(self, run, t, x, hint, zero):
-        code = super().start(run, t, x, hint, zero)
+    def restart(self, own, st, t, x, hint):
         # an event changed the dynamics (an impact starts a contact): a new Jacobian (keeping the
         # old one was measured no cheaper on the bundled clearance scenes)
-        run.st.W.reshape(-1)[J_STATE] = NONE
-        return code
+        own.W.reshape(-1)[J_STATE] = NONE
 
-    def stats(self, run):
-        W = run.st.W.reshape(-1)
-        return {"jacobians": int(run.st.i[NJAC]), "lu_decompositions": int(W[N_LU])}
+    def stats(self, own, st):
+        return {"jacobians": int(st.i[NJAC]), "lu_decompositions": int(own.W.reshape(-1)[N_LU])}
+
+    def saved_state(self, own):
+        """The Jacobian (its rows, its time column, whether it was made at the current state and
+        its age), reused across steps (issue 42). The LU is not kept: it is made again from the
+        same matrix and step size, which gives the same factors."""
+        W = own.W
+        flat, n = W.reshape(-1), W.shape[1]
+        r0, m = meta_rows(n), int(flat[M_ROWS])
+        return {"jacobian": W[r0:r0 + m].copy(), "time_column": W[r0 + 2 * m + 2].copy(),
+                "flags": np.array([flat[J_STATE], flat[J_AGE]])}
+
+    def check_saved_state(self, own, state, path):
+        j_state, age = (float(x) for x in state["flags"])
+        if j_state not in (NONE, FRESH, AGED) or age < 0:
+            raise InputError(f"{path}: the saved Jacobian state {j_state!r} / age {age!r} is not one this method "
+                             "writes")
+        return state
+
+    def restore_state(self, own, state):
+        j_state, age = (float(x) for x in state["flags"])
+        W = own.W
+        flat, n = W.reshape(-1), W.shape[1]
+        r0, m = meta_rows(n), int(flat[M_ROWS])
+        W[r0:r0 + m] = state["jacobian"]
+        W[r0 + 2 * m + 2] = state["time_column"]
+        flat[J_STATE], flat[J_AGE], flat[LU_H] = j_state, age, 0.0
 
 
-#: the registered implicit method
+#: the registered implicit method (pinclear.registry.INTEGRATORS)
 ROS34PW2 = Rosenbrock("ROS34PW2", ROS34PW2_COEFFS)
-METHODS = (ROS34PW2,)

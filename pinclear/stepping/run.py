@@ -10,7 +10,7 @@ its message.
 from __future__ import annotations
 
 import time
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -24,7 +24,7 @@ from .build import Evaluation
 from .checks import reset_monitor
 from .outputs import Outputs, Samples, compiled_outputs, compiled_ready, python_outputs
 from .state import (ATOL, BAD, CHART, CODE_BAD, DIRS, EVENT_K, H_ABS, H_FIXED, H_STALL, MAX_STEP, N_ACC, NI,
-                    NO_RESELECT, NR, OUT_I, PK_MAX, PK_T, ROSENBROCK, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, XB,
+                    NO_RESELECT, NR, OUT_I, PK_MAX, PK_T, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, XB,
                     XE, Y, new_steps)
 
 #: accepted steps per compiled call; between calls Python looks at progress, checkpoints and
@@ -62,12 +62,14 @@ def peak_names(mech) -> list:
 class RunResult(NamedTuple):
     """What a Run hands back (Run.integrate): 'success', 'failed' or 'interrupted'; the Failure
     (pinclear.failures) or None; the samples (pinclear.stepping.outputs.Samples); their outputs
-    (pinclear.stepping.outputs.Outputs; None when an interrupt stopped them); the statistics."""
+    (pinclear.stepping.outputs.Outputs; None when an interrupt stopped them); the statistics; the
+    method's own state at the end (pinclear.stepping.base.MethodState)."""
     status: str
     failure: Failure | None
     samples: Samples
     outputs: Outputs | None
     stats: dict
+    method: Any = None
 
 
 def failure_of(exc, integrator, t_last) -> Failure:
@@ -103,11 +105,16 @@ class Run:
     """An integration of ``form``'s mechanism with ``method`` (pinclear.stepping.base.Method)."""
 
     def __init__(self, form, method, *, t_end, t_eval, rtol, atol, h, max_step, h_stall, loop, stats, identity,
-                 progress=None, checkpoint=None, checkpoint_every=None, max_cpu=None):
+                 t0, initial, cpu0, progress=None, checkpoint=None, checkpoint_every=None, max_cpu=None):
+        """``t0``, ``initial`` = (q, v, z): the run's start (a resumed run's original one, which its
+        checkpoints keep); ``cpu0``: run_clock() when the caller started the run (set-up counts in
+        cpu_s_total, not cpu_s); ``stats``: the statistics so far (a resumed run's: its cpu_s and
+        rhs_evals continue)."""
         self.form, self.mech, self.method = form, form.mech, method
         self.stats, self.identity = stats, identity
+        self.t0, self.initial = t0, initial
+        self.cpu0, self.cpu_prior, self.evals0 = cpu0, stats["cpu_s"], stats["rhs_evals"]
         self.progress, self.checkpoint, self.checkpoint_every, self.max_cpu = progress, checkpoint, checkpoint_every, max_cpu
-        self.keep, self.message = [], ""
         self.rhs = Evaluation(form, loop)
         self.errors, self.anchor, self.built, self.system = self.rhs.errors, self.rhs.anchor, self.rhs.built, self.rhs.system
         self.pack, self.split = self.rhs.pack, self.rhs.split
@@ -131,15 +138,21 @@ class Run:
         st.V[ATOL] = atol_v
         st.G[DIRS] = [float(c[2]) for c in self.built.channels]
         reset_monitor(st.r, *form.monitor())
-        method.setup(self)
-        self.tab = method.tableau(self)
+        #: what the method owns in this run (its coefficients, work array W and driver)
+        self.own = method.setup(self)
+        self.st = st._replace(W=self.own.W)
+        self.tab = self.own.tab
         self.n_collected = 0         # output samples written so far (their rows in st.samples)
         self.record = None           # the compiled output pass's stages, made on first use
         self.good = None             # the state after the last completed chunk (checkpoints)
 
     # ----------------------------------------------------------------- driving
     def start(self, t, x, hint=None, zero=-1):
-        code = self.method.start(self, t, x, hint, zero)
+        """(Re)start at (t, x): the compiled start (f there, the first step unless SciPy's
+        chooses it or ``hint`` gives it, the event values), then the method's restart."""
+        code = C.start(self.system, self.tab, self.st, float(t), np.ascontiguousarray(x, float),
+                       -1.0 if hint is None else float(hint), int(zero))
+        self.method.restart(self.own, self.st, t, x, hint)
         if code != C.QUIET:
             self.fail(code)
 
@@ -155,7 +168,7 @@ class Run:
         st.i[OUT_I] = self.n_collected = len(samples)
         self.start(t, x, hint)
         if resumed_state:
-            restore_method_state(self, resumed_state)
+            self.method.restore_state(self.own, resumed_state)
         if first:
             while st.i[OUT_I] < len(self.t_eval) and self.t_eval[st.i[OUT_I]] <= t + 1e-15:
                 st.samples[st.i[OUT_I]] = st.V[Y]
@@ -207,16 +220,25 @@ class Run:
                 stats["rank_loss"] = {"t": exc.t, "rank": exc.rank, "rows": exc.rows, "cond": exc.cond}
         stats["rhs_evals"] = self.evaluations()
         stats["cpu_s"] = self.cpu_prior + run_clock() - self.cpu0
-        stats.update(self.method.stats(self))
+        stats.update(self.method.stats(self.own, self.st))
         stats["peaks"] = self.peaks()
         stats["clearances"] = [f.describe() for f in self.mech.clearances]
         if self.form.row_changes:
             stats["row_changes"] = [{"t": tc, "dropped": names} for tc, names in self.form.row_changes]
+        kept, outs = self.sample_arrays(), None
         try:
             kept, outs = self.outputs(reference)
         except KeyboardInterrupt:
-            kept, outs = self.sample_arrays(), None
-        return RunResult(status, failure, kept, outs, stats)
+            status = "interrupted"
+            failure = failure or Failure(FailureKind.INTERRUPTED, None, "interrupted while the outputs were evaluated")
+        except Exception as exc:
+            # a user function raised at a sample on the per-sample Python path (a sample's own
+            # numeric failure is kept in Outputs.failures instead): as the integration's, its
+            # exception becomes the run's Failure and the samples stay
+            if failure is None:
+                n = self.n_collected
+                status, failure = "failed", failure_of(exc, self.method.name, float(self.t_eval[n - 1]) if n else t)
+        return RunResult(status, failure, kept, outs, stats, self.own)
 
     def collect(self):
         """The configurations of the samples the last chunk wrote: a non-Euclidean tree's rows
@@ -361,7 +383,7 @@ class Run:
         if code in (C.START_FAILED, C.BAD_EVALUATIONS, C.RANK_LOSS) or (code == C.STEP_TOO_SMALL and st.i[BAD]):
             self.python_error(float(st.r[T_BAD]), st.V[XB].copy())
         if code == C.STEP_TOO_SMALL:
-            msg = self.message or "Required step size is less than spacing between numbers."
+            msg = getattr(self.own.driver, "message", "") or "Required step size is less than spacing between numbers."
             raise Stop(FailureKind.STEP_SIZE, t,
                        f"integrator {self.method.name} failed at t = {t:.9g} s: {msg} (step-size collapse, last step "
                        f"{st.r[H_ABS]:.3g} s; the problem may be stiff: try ROS34PW2, or the contact stiffness/tolerance)")
@@ -393,24 +415,14 @@ class Run:
 # ----------------------------------------------------------------- the method's state in checkpoints
 def method_state(run) -> dict:
     """What the integrator carries from one step to the next beyond the state and the step size,
-    for checkpoints (issue 42): ROS34PW2's Jacobian (its rows, its time column, whether it was
-    made at the current state and its age), reused across steps. The LU is not kept: it is made
-    again from the same matrix and step size, which gives the same factors."""
-    if run.tab.kind != ROSENBROCK:
-        return {}
-    from . import rosenbrock as R
-
-    W = run.st.W
-    flat, n = W.reshape(-1), W.shape[1]
-    r0, m = R.meta_rows(n), int(flat[R.M_ROWS])
-    return {"jacobian": W[r0:r0 + m].copy(), "time_column": W[r0 + 2 * m + 2].copy(),
-            "flags": np.array([flat[R.J_STATE], flat[R.J_AGE]])}
+    for checkpoints (issue 42; Method.saved_state: ROS34PW2's Jacobian)."""
+    return run.method.saved_state(run.own)
 
 
 def checked_method_state(run, state, path="<checkpoint>") -> dict:
     """A checkpoint's method_state checked as data before the run starts (the shapes of this
-    run's matrices, finite values, a Jacobian state this method writes); InputError naming the
-    file otherwise. An empty one (a checkpoint of an older pinclear) is accepted: the method then
+    run's matrices, finite values, then the method's own check); InputError naming the file
+    otherwise. An empty one (a checkpoint of an older pinclear) is accepted: the method then
     starts afresh at the resume point."""
     from ..errors import InputError
 
@@ -424,25 +436,4 @@ def checked_method_state(run, state, path="<checkpoint>") -> dict:
                          f"needs {shapes}: the checkpoint does not belong to this run")
     if not all(np.all(np.isfinite(v)) for v in state.values()):
         raise InputError(f"{path}: the integrator's saved state holds nan or inf")
-    if state:
-        from . import rosenbrock as R
-
-        j_state, age = (float(x) for x in state["flags"])
-        if j_state not in (R.NONE, R.FRESH, R.AGED) or age < 0:
-            raise InputError(f"{path}: the saved Jacobian state {j_state!r} / age {age!r} is not one this method "
-                             "writes")
-    return state
-
-
-def restore_method_state(run, state):
-    """A checked method_state (checked_method_state) put back after the restart at the resume
-    point."""
-    from . import rosenbrock as R
-
-    j_state, age = (float(x) for x in state["flags"])
-    W = run.st.W
-    flat, n = W.reshape(-1), W.shape[1]
-    r0, m = R.meta_rows(n), int(flat[R.M_ROWS])
-    W[r0:r0 + m] = state["jacobian"]
-    W[r0 + 2 * m + 2] = state["time_column"]
-    flat[R.J_STATE], flat[R.J_AGE], flat[R.LU_H] = j_state, age, 0.0
+    return run.method.check_saved_state(run.own, state, path)
