@@ -27,18 +27,18 @@ def test_block_sliding_wears_k_F_s_over_H_A():
     # a flat block of contact area A = 2 b L (uniform pressure over whole cells) sliding a distance
     # s = v T at constant load F: Archard's h = k F s / (H A), exactly
     wm = _model(distribution="uniform")
-    F, v, T, n = 50.0, 0.3, 2.0, 400
-    beta = 5 * wm.spacing                                  # the contact covers 10 cells exactly
+    v, T, n = 0.3, 2.0, 400
+    beta = 5 * wm.spacing                                  # the contact covers 10 cells exactly:
     b = beta * wm.R1
+    F = b * b * math.pi * wm.L * wm.estar / (4 * wm.rstar)   # the load whose Hertz half-width is b
+    assert wear.half_width(wm, F) == pytest.approx(b, rel=1e-14)
     theta = np.full(n, 0.5 * wm.spacing + 20 * wm.spacing)   # a cell boundary: 5 cells either side
     t = np.linspace(0.0, T, n)
     w = wear.trapezoid_weights(t)
-    shares = wear.cell_shares(wm, theta, np.full(n, beta))
-    work = wm.k * F * v * w / wm.hardness
-    h = (work @ shares) / (wm.R1 * wm.spacing * wm.L)
+    h = wear.depth_increment(wm, theta, np.full(n, F), np.full(n, v), w)
     ref = wm.k * F * v * T / (wm.hardness * 2 * b * wm.L)
-    covered = np.abs(shares[0]) > 0
-    assert covered.sum() == 10
+    covered = h > 0
+    assert covered.sum() == 10 and np.flatnonzero(covered).tolist() == list(range(16, 26))
     assert h[covered] == pytest.approx(ref, rel=1e-12)
     assert np.all(h[~covered] == 0.0)
 
@@ -129,6 +129,7 @@ def test_scheme_update_factor_converges_and_resumes(tmp_path):
     res = converged(mech, "A", s, out=tmp_path, start=start)
     assert res["converged"]
     (u1, f1, d1), (u2, f2, d2) = res["rounds"][-2:]
+    d1, d2 = d1["A"], d2["A"]
     assert f2 == pytest.approx(f1 / 2) and abs(d2 - d1) <= 0.05 * d2
     # constant load: the depth grows linearly, k p0 v / H per second of service
     wm = mech.forces[-1].wear
@@ -148,7 +149,7 @@ def test_scheme_update_factor_converges_and_resumes(tmp_path):
     with pytest.raises(KeyboardInterrupt):
         wear_run(mech, "A", s4, out=tmp_path / "r", progress=stop, start=start)
     again = wear_run(mech, "A", s4, out=tmp_path / "r", start=start)
-    assert np.array_equal(again["depth"], whole["depth"])
+    assert np.array_equal(again["depth"]["A"], whole["depth"]["A"])
     assert again["history"]["cycles"] == whole["history"]["cycles"]
 
 

@@ -124,16 +124,24 @@ def _ellipse_integral(x):
 
 
 def cell_shares(wm: WearModel, theta, beta):
-    """(samples, nodes) share of each sample's load on each node cell: the distribution centred
-    at the contact angle theta with angular half-width beta, integrated exactly over the cell
-    [theta_i - d/2, theta_i + d/2] (rows sum to 1)."""
-    theta, beta = np.atleast_1d(theta)[:, None], np.clip(np.atleast_1d(beta), 1e-300, math.pi / 2)[:, None]
+    """(nodes, shares), both (samples, K): the node cells each sample's load reaches and its share
+    on each (rows sum to 1): the distribution centred at the contact angle theta with angular
+    half-width beta (<= pi/2), integrated exactly over the cell [theta_i - d/2, theta_i + d/2].
+    Only the K cells around the contact are visited (a wear update costs O(samples x K))."""
+    theta = np.atleast_1d(np.asarray(theta, float))
+    beta = np.clip(np.atleast_1d(np.asarray(beta, float)), 1e-300, math.pi / 2)
     d = wm.spacing
-    rel = np.angle(np.exp(1j * (wm.angles()[None, :] - theta)))          # wrapped to (-pi, pi]
-    lo, hi = (rel - 0.5 * d) / beta, (rel + 0.5 * d) / beta
+    K = int(math.ceil(2.0 * beta.max() / d)) + 3
+    first = np.floor((theta - beta) / d).astype(np.int64)
+    idx = first[:, None] + np.arange(K)[None, :]
+    # node angle idx d, unwrapped around theta: rel is the node's offset from the contact centre
+    rel = idx * d - theta[:, None]
+    lo, hi = (rel - 0.5 * d) / beta[:, None], (rel + 0.5 * d) / beta[:, None]
     if wm.distribution == "uniform":
-        return 0.5 * (np.clip(hi, -1.0, 1.0) - np.clip(lo, -1.0, 1.0))
-    return (_ellipse_integral(hi) - _ellipse_integral(lo)) / (0.5 * math.pi)
+        share = 0.5 * (np.clip(hi, -1.0, 1.0) - np.clip(lo, -1.0, 1.0))
+    else:
+        share = (_ellipse_integral(hi) - _ellipse_integral(lo)) / (0.5 * math.pi)
+    return idx % wm.nodes, share
 
 
 def depth_increment(wm: WearModel, theta, F, slip, dt):
@@ -147,7 +155,9 @@ def depth_increment(wm: WearModel, theta, F, slip, dt):
     th, F, slip, dt = np.atleast_1d(theta)[keep], F[keep], slip[keep], dt[keep]
     beta = half_width(wm, F) / wm.R1
     work = wm.k * F * slip * dt / wm.hardness                              # worn volume per sample, m^3
-    return (work @ cell_shares(wm, th, beta)) / (wm.R1 * wm.spacing * wm.L)
+    nodes, share = cell_shares(wm, th, beta)
+    vol = np.bincount(nodes.ravel(), weights=(work[:, None] * share).ravel(), minlength=wm.nodes)
+    return vol / (wm.R1 * wm.spacing * wm.L)
 
 
 def trapezoid_weights(t):
