@@ -125,13 +125,17 @@ def _report(s, rows, cpu):
     return "\n".join(lines)
 
 
-def cli_main(argv=None) -> int:
+def build_parser():
     p = argparse.ArgumentParser(prog="pinclear study", description="wear studies the seed papers name as their "
                                 "next step (docs/wear_lubrication.md); each writes OUT/README.md with its findings")
     p.add_argument("name", choices=STUDIES, help="the study")
     p.add_argument("--out", default=None, help="output folder (default docs/study/NAME)")
     p.add_argument("--quick", action="store_true", help="a shorter service life and chaos series (minutes)")
-    args = p.parse_args(argv)
+    return p
+
+
+def cli_main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
     if args.name != "paper002":
         raise InputError(f"unknown study {args.name!r}", key="name", choices=STUDIES)
     rows = paper002(args.out or Path("docs") / "study" / args.name, quick=args.quick)
