@@ -589,7 +589,9 @@ DELEGATED = (("view", "pinclear.viz.cli", "view_main", "meshcat viewer / standal
              ("analyse", "pinclear.analysis", "cli_main", "phase portraits, Poincare maps, bifurcation diagrams"),
              ("reproduce", "pinclear.reproduce", "cli_main", "a source paper's study with its numbers beside ours"),
              ("import", "pinclear.importers", "cli_main", "a mechanism from SDF, MJCF or a closing-frame URDF as a URDF tree + sidecar"),
-             ("export", "pinclear.export_mjcf", "cli_main", "a mechanism as MuJoCo MJCF (--mjcf OUT.xml)"))
+             ("export", "pinclear.export_mjcf", "cli_main", "a mechanism as MuJoCo MJCF (--mjcf OUT.xml)"),
+             ("wear", "pinclear.wearing", "cli_main", "Archard wear of revolute clearances over a service life"),
+             ("study", "pinclear.study", "cli_main", "the wear studies (paper 002's linkage worn at A and B)"))
 
 
 def _version() -> str:

@@ -194,6 +194,7 @@ CLEARANCE_TYPES = Registry("clearance type", {
     "planar_revolute": "pinclear.contact.revolute:PLANAR_REVOLUTE",
     "revolute": "pinclear.contact.revolute:REVOLUTE",
     "prismatic": "pinclear.contact.prismatic:PRISMATIC",
+    "lubricated_revolute": "pinclear.contact.lubricated:LUBRICATED_REVOLUTE",
 }, common="pinclear.contact.spec:COMMON")
 
 #: force element types (sidecar ``forces: [{type: ...}]``)

@@ -21,7 +21,7 @@ from pinclear.viz import cli as viz_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 COMMANDS = ["simulate", "sweep", "info", "bench", "warmup", "view", "plot", "inverse-dynamics", "analyse",
-            "reproduce", "import", "export"]
+            "reproduce", "import", "export", "wear", "study"]
 
 
 def _main(argv):
@@ -45,6 +45,9 @@ def _parsers():
     from pinclear import export_mjcf, importers
 
     out += [("import", importers.build_parser()), ("export", export_mjcf.build_parser())]
+    from pinclear import study, wearing
+
+    out += [("wear", wearing.build_parser()), ("study", study.build_parser())]
     return out
 
 

@@ -211,7 +211,8 @@ def test_a_revolute_clearance_on_a_planar_point_closure_names_planar_revolute(tm
         load(path, clearances=["P"])
     msg = str(exc.value)
     assert "a revolute clearance cannot replace the planar_point closure 'P'" in msg
-    assert "takes type planar_revolute" in msg and msg.endswith("(valid: planar_revolute)")
+    assert "takes type planar_revolute or lubricated_revolute" in msg
+    assert msg.endswith("(valid: lubricated_revolute, planar_revolute)")
 
 
 # ------------------------------------------------------------------ the key reference
@@ -284,7 +285,8 @@ def test_plots_and_viewer_read_the_clearance_registry():
     plots = {n: CLEARANCE_TYPES.get(n).plot for n in CLEARANCE_TYPES}
     assert all(isinstance(p, ClearancePlot) for p in plots.values())
     assert [n for n, p in plots.items() if p.travel] == ["prismatic"]
-    assert {n for n, p in plots.items() if p.across_axis} == {"planar_revolute", "revolute", "prismatic"}
+    assert {n for n, p in plots.items() if p.across_axis} == {"planar_revolute", "lubricated_revolute", "revolute",
+                                                             "prismatic"}
 
 
 # ------------------------------------------------------------------ a toy integrator (its "module")

@@ -361,7 +361,61 @@ def radial_geometry(s, a, pts, c, R1, R2, delta, n, p1, p2):
 
 
 #: geometry codes of the fused channel evaluation (``ClearanceJoint.geometry_code``)
-G_SPHERICAL, G_PLANAR_REVOLUTE, G_REVOLUTE, G_PRISMATIC = 0, 1, 2, 3
+G_SPHERICAL, G_PLANAR_REVOLUTE, G_REVOLUTE, G_PRISMATIC, G_WORN_PLANAR = 0, 1, 2, 3, 4
+#: worn planar bearing: gpar = (c, R1, R2, ca, L, N, then the periodic cubic spline's 4 N
+#: coefficients of the wear depth, cell i = [i, i + 1) 2 pi / N, highest power first)
+WORN_HEAD = 6
+
+
+@njit(cache=True)
+def worn_depth(gpar, theta):
+    """(w, dw/dtheta): wear depth of the bearing at its own angle theta (rad, frame1 x towards y),
+    from the periodic cubic spline in gpar (C2 in theta: penetration and normal continuous)."""
+    N = int(gpar[5])
+    h = 2.0 * math.pi / N
+    t = theta % (2.0 * math.pi)
+    i = min(int(t / h), N - 1)
+    x = t - i * h
+    b = WORN_HEAD + 4 * i
+    c3, c2, c1, c0 = gpar[b], gpar[b + 1], gpar[b + 2], gpar[b + 3]
+    return ((c3 * x + c2) * x + c1) * x + c0, (3.0 * c3 * x + 2.0 * c2) * x + c1
+
+
+@njit(cache=True)
+def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
+    """A journal (centre j, radius R2) in a worn bearing of radius R1 + w(theta): with e the
+    eccentricity in the bearing plane, r = |e|, theta its angle in frame1,
+    delta = r - c - w(theta) (the penetration measured along e, as worn-joint models take it:
+    Flores 2009, Mech. Mach. Theory 44, 1211, eq. 5) and n the unit direction of grad delta =
+    e/r - (w'/r) t (t = a x e/r). The contact points lie on the line through j along n (p2 = j +
+    R2 n, p1 = j + (R2 - delta) n), so n . (v2(p2) - v1(p1)) = d(delta)/dt / |grad delta|:
+    scratch[3, 0] = |grad delta|, the factor the normal law's force is scaled by (the force is
+    then -F(delta) grad delta, the exact gradient of the law's energy)."""
+    c, R2 = gpar[0], gpar[2]
+    e0, e1, e2 = j[0] - s[0], j[1] - s[1], j[2] - s[2]
+    u = e0 * a[0] + e1 * a[1] + e2 * a[2]
+    e0 -= u * a[0]
+    e1 -= u * a[1]
+    e2 -= u * a[2]
+    ex = e0 * M1[0, 0] + e1 * M1[1, 0] + e2 * M1[2, 0]
+    ey = e0 * M1[0, 1] + e1 * M1[1, 1] + e2 * M1[2, 1]
+    r = (e0 * e0 + e1 * e1 + e2 * e2) ** 0.5
+    w, dw = worn_depth(gpar, math.atan2(ey, ex))
+    if r > 0.0:
+        r0, r1, r2 = e0 / r, e1 / r, e2 / r
+    else:
+        r0, r1, r2 = M1[0, 0], M1[1, 0], M1[2, 0]
+    # far from any surface (r < c / 2: delta < 0) the tangential term is dropped (it grows as 1/r)
+    k = dw / r if r > 0.5 * c else 0.0
+    t0, t1, t2 = a[1] * r2 - a[2] * r1, a[2] * r0 - a[0] * r2, a[0] * r1 - a[1] * r0
+    g = (1.0 + k * k) ** 0.5
+    n0, n1, n2 = (r0 - k * t0) / g, (r1 - k * t1) / g, (r2 - k * t2) / g
+    d = r - c - w
+    delta[0] = d
+    n[0, 0], n[0, 1], n[0, 2] = n0, n1, n2
+    p2[0, 0], p2[0, 1], p2[0, 2] = j[0] + R2 * n0, j[1] + R2 * n1, j[2] + R2 * n2
+    p1[0, 0], p1[0, 1], p1[0, 2] = j[0] + (R2 - d) * n0, j[1] + (R2 - d) * n1, j[2] + (R2 - d) * n2
+    scratch[3, 0] = g
 
 
 @njit(cache=True)
@@ -471,6 +525,9 @@ def channel_geometry(code, gpar, M1, M2, scratch, delta, n, p1, p2):
         s[i] = M1[i, 3]
         a[i] = 0.0 if code == G_SPHERICAL else M1[i, 2]
         pts[0, i] = M2[i, 3]
+    if code == G_WORN_PLANAR:
+        worn_planar_geometry(gpar, M1, s, a, pts[0], delta, n, p1, p2, scratch)
+        return
     if code != G_REVOLUTE:
         radial_geometry(s, a, pts[0:1], c, R1, R2, delta, n, p1, p2)
         return
@@ -558,6 +615,17 @@ def clearance_force(geo, frames, bodies, laws, fr, ch, v, z, tau, zdot):
 
 
 @njit(cache=True, inline="always")
+def worn_clearance_force(geo, frames, bodies, laws, fr, ch, v, z, tau, zdot):
+    """clearance_force of a worn planar bearing: the normal law's force scaled by |grad delta|
+    (worn_planar_geometry leaves it in scratch[3, 0]; laws.W is this workspace's own array)."""
+    M = frames.M
+    place_frames(frames)
+    channel_geometry(geo.code, geo.gpar, M[0], M[1], ch.scratch, ch.delta, ch.n, ch.p1, ch.p2)
+    laws.W[0] = ch.scratch[3, 0]
+    return channel_forces(bodies, laws, fr, ch, v, z, tau, zdot)
+
+
+@njit(cache=True, inline="always")
 def prismatic_force(geo, frames, bodies, modes, rows, laws, fr, ch, v, z, tau, zdot):
     """The prismatic clearance's right-hand-side contribution in one call (model paper003):
     placements, corner geometry, the contact mode and each channel's law from the law table
@@ -625,6 +693,16 @@ def clearance_record(ch, M, z, zdot, nc, code, P0, P1, W, work, row):
     row[1] = zdot[nc]
     for i in range(RECORD_SIZE - 1):
         row[2 + i] = work[i]
+
+
+@njit(cache=True)
+def worn_record(ch, M, z, zdot, nc, code, P0, P1, W, work, row):
+    """clearance_record followed by the slip speed |vt| of the contact (0 without load): the
+    Archard wear integrand's speed (pinclear.contact.wear)."""
+    clearance_record(ch, M, z, zdot, nc, code, P0, P1, W, work, row)
+    vt = ch.vt
+    slip = (vt[0, 0] * vt[0, 0] + vt[0, 1] * vt[0, 1] + vt[0, 2] * vt[0, 2]) ** 0.5
+    row[RECORD_SIZE + 1] = slip if ch.Fn[0] > 0.0 else 0.0
 
 
 @njit(cache=True)

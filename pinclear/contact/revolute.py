@@ -32,6 +32,10 @@ _PLANAR = (Key("radius", "number", "m", 0.01, "> 0", "paper 002 eq. 6", "journal
                "bearing radius (a check: it must equal radius + clearance)"),
            Key("length", "number", "m", "2 x radius", "> 0", "paper 003 eq. 6", "journal length: the line law's "
                "contact length; revolute: the distance between its two radial channels"))
+#: a worn bearing (contact/wear.py, docs/wear_lubrication.md): planar joints only
+_WEAR = (Key("wear", "mapping", "-", None, "{model: archard, k, hardness, nodes, distribution}",
+             "Archard 1953; contact/wear.py", "Archard wear of the bearing, reshaping its contact geometry "
+             "(pinclear wear)"),)
 _SPATIAL = _PLANAR + (Key("axial_clearance", "number", "m", "clearance", "> 0", "revolute.py",
                           "gap to each thrust face along the bearing axis"),)
 
@@ -39,12 +43,15 @@ _SPATIAL = _PLANAR + (Key("axial_clearance", "number", "m", "clearance", "> 0", 
 class RevoluteClearance(ClearanceJoint):
     """Planar (``spatial=False``, one radial channel at the journal centre) or spatial."""
 
+    #: geometry code of the planar joint (a worn bearing has its own: contact.wear)
+    planar_geometry = _kernels.G_PLANAR_REVOLUTE
+
     def __init__(self, name, model, f1, f2, clearance, R_journal, law, friction, *, spatial=False,
                  length=None, axial_clearance=None, stiffness_note="given", **kw):
         nc = 4 if spatial else 1
         super().__init__(name, model, f1, f2, nc, friction, **kw)
         self.kind = "revolute" if spatial else "planar_revolute"
-        self.geometry_code = _kernels.G_REVOLUTE if spatial else _kernels.G_PLANAR_REVOLUTE
+        self.geometry_code = _kernels.G_REVOLUTE if spatial else self.planar_geometry
         self.spatial = spatial
         self.c = float(clearance)
         self.R2 = float(R_journal)
@@ -82,9 +89,13 @@ def from_spec(sp, mech, closure, spatial):
     Reff = R2 * R1 / c
     law = sp.normal_law(K=K, line=(sp.estar(), L, Reff))
     ca = sp.number("axial_clearance", c) if spatial else None
-    return RevoluteClearance(sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(),
-                             spatial=spatial, length=L, axial_clearance=ca, stiffness_note=note,
-                             **sp.common(min(c, ca or c)))
+    args = (sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law())
+    kw = dict(spatial=spatial, length=L, axial_clearance=ca, stiffness_note=note, **sp.common(min(c, ca or c)))
+    if sp.d.get("wear") is not None:
+        from . import wear
+
+        return wear.WornRevoluteClearance(*args, wear=wear.parse(sp, R1, R2, L), **kw)
+    return RevoluteClearance(*args, **kw)
 
 
 _PLOT = ClearancePlot(across_axis=True, travel=False, boundary="circle", body="journal")
@@ -93,11 +104,11 @@ PLANAR_REVOLUTE = PluginType(
     replaces=("revolute", "planar_point", "spherical"),
     doc="A journal (frame2) in a bearing (frame1), eccentricity taken in the plane normal to the bearing axis "
         "(frame1 z): one channel at the journal centre. Use it where the rest of the mechanism keeps the motion "
-        "planar (paper 002 sec. 1.1).", source="paper 002 eqs. 1-6", keys=_PLANAR, plot=_PLOT)
+        "planar (paper 002 sec. 1.1).", source="paper 002 eqs. 1-6", keys=_PLANAR + _WEAR, plot=_PLOT)
 REVOLUTE = PluginType(
     "revolute", parse=functools.partial(from_spec, spatial=True), replaces=("revolute",),
     doc="Spatial radial clearance: the journal's two ends against the bearing cylinder and its centre against "
         "two thrust faces; all five freedoms the ideal revolute removed come back, held by contact.",
     source="paper 002 eqs. 1-6 per channel", keys=_SPATIAL, plot=_PLOT)
-KEYS_PLANAR = key_names(_PLANAR)
+KEYS_PLANAR = key_names(_PLANAR + _WEAR)
 KEYS_SPATIAL = key_names(_SPATIAL)

@@ -1,0 +1,290 @@
+"""Archard wear of a planar revolute clearance's bearing, and the worn bearing's contact geometry.
+
+Law (Archard 1953, J. Appl. Phys. 24, 981; local form as in Flores 2009, Mech. Mach. Theory 44,
+1211, eq. 1 and Mukras et al. 2010, Wear 268, 643, eq. 2): the wear depth of the bearing surface
+grows at
+
+    dh/dt = k p v_slip / H
+
+(k dimensionless wear coefficient, H hardness of the worn surface in Pa, p the contact pressure,
+v_slip the sliding speed), accumulated on ``nodes`` points of the bearing equally spaced in its own
+angle theta (frame1's x towards y). Integrated over the contact, the worn volume rate is
+k F v_slip / H: Archard's law for the whole load.
+
+Pressure distribution: the normal law's force F (what the joint's contact law gives, its damping
+included) spread over the Hertz half-width of a cylinder in a conformal cylindrical hole,
+b = sqrt(4 F R* / (pi L E*)) with R* = R_j R_b / (R_b - R_j) (Johnson 1985, Contact Mechanics,
+eq. 4.43 with the internal contact's relative curvature), either elliptic
+p(s) = (2 F / (pi b L)) sqrt(1 - s^2 / b^2) (Johnson eq. 4.45: ``distribution: hertz``, the
+default) or uniform F / (2 b L) (``distribution: uniform``). R* is the new bearing's: a worn pocket
+that conforms to the journal widens the true contact (Persson's conformal solution), which this
+distribution does not follow (docs/wear_lubrication.md). Each node receives the exact integral of
+the distribution over its cell, so the worn volume is k F s / H to round-off whatever the nodes.
+
+Geometry: the worn bearing's radius is R_b + w(theta), w a periodic cubic spline through the node
+depths (C2 in theta), evaluated in the compiled kernel (contact._kernels.worn_planar_geometry):
+penetration and normal are continuous in the state, and the normal force is the exact gradient of
+the law's energy (the energy audit closes between reshapes).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from pinclear.registry import Key
+
+from . import _kernels
+from ._kernels import Laws
+from .base import ClearanceData
+from .revolute import RevoluteClearance
+
+MODELS = ("archard",)
+DISTRIBUTIONS = ("hertz", "uniform")
+
+#: the keys of a clearance's ``wear:`` mapping (docs/keys.md, docs/wear_lubrication.md)
+WEAR_KEYS = (
+    Key("model", "string", "-", "archard", ", ".join(MODELS), "Archard 1953", "the wear law"),
+    Key("k", "number", "-", None, "> 0", "Archard 1953: V = k F s / H", "dimensionless wear coefficient"),
+    Key("hardness", "number", "Pa", None, "> 0", "Archard 1953", "hardness H of the worn bearing"),
+    Key("nodes", "integer", "-", 360, ">= 16", "contact/wear.py", "wear nodes around the bearing"),
+    Key("distribution", "string", "-", "hertz", ", ".join(DISTRIBUTIONS), "Johnson 1985 eqs. 4.43-4.45",
+        "pressure over the Hertz half-width: elliptic (hertz) or uniform"),
+)
+_WEAR_NAMES = tuple(k.name for k in WEAR_KEYS)
+
+
+@dataclass(frozen=True)
+class WearModel:
+    """What the wear law needs of one joint: k, H, the node count, the distribution and the
+    contact's geometry (journal and bearing radii, length, E*, R*)."""
+    k: float
+    hardness: float
+    nodes: int
+    distribution: str
+    R1: float
+    R2: float
+    L: float
+    estar: float
+    rstar: float
+
+    @property
+    def spacing(self) -> float:
+        return 2.0 * math.pi / self.nodes
+
+    def angles(self) -> np.ndarray:
+        """Node angles (rad, bearing frame)."""
+        return np.arange(self.nodes) * self.spacing
+
+
+def parse(sp, R1, R2, L):
+    """The ``wear:`` mapping of a clearance entry as a WearModel (None without it)."""
+    w = sp.d.get("wear")
+    if w is None:
+        return None
+    if not isinstance(w, dict):
+        raise sp.error("wear", f"expected a mapping {{model: archard, k, hardness, ...}}, got {w!r}", _WEAR_NAMES)
+    bad = sorted(set(w) - set(_WEAR_NAMES))
+    if bad:
+        raise sp.error(f"wear.{bad[0]}", "unknown key", _WEAR_NAMES)
+    model = w.get("model", "archard")
+    if model not in MODELS:
+        raise sp.error("wear.model", f"unknown wear model {model!r}", MODELS)
+    dist = w.get("distribution", "hertz")
+    if dist not in DISTRIBUTIONS:
+        raise sp.error("wear.distribution", f"unknown distribution {dist!r}", DISTRIBUTIONS)
+    vals = {}
+    for key in ("k", "hardness"):
+        v = w.get(key)
+        try:
+            # YAML 1.1 reads 1.0e8 (no exponent sign) as a string
+            x = float(v) if not isinstance(v, bool) else math.nan
+        except (TypeError, ValueError):
+            x = math.nan
+        if not (math.isfinite(x) and x > 0):
+            raise sp.error(f"wear.{key}", f"required, a number > 0, got {v!r}")
+        vals[key] = x
+    nodes = w.get("nodes", 360)
+    if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 16:
+        raise sp.error("wear.nodes", f"an integer >= 16, got {nodes!r}")
+    return WearModel(vals["k"], vals["hardness"], int(nodes), dist, R1, R2, L, sp.estar(), R2 * R1 / (R1 - R2))
+
+
+# ------------------------------------------------------------------ the law
+def half_width(wm: WearModel, F):
+    """Hertz half-width b (m) of the journal's line contact under the load F (N), Johnson eq. 4.43."""
+    return np.sqrt(4.0 * np.maximum(F, 0.0) * wm.rstar / (math.pi * wm.L * wm.estar))
+
+
+def _ellipse_integral(x):
+    """int_0^x sqrt(1 - s^2) ds for x clipped to [-1, 1]."""
+    x = np.clip(x, -1.0, 1.0)
+    return 0.5 * (x * np.sqrt(1.0 - x * x) + np.arcsin(x))
+
+
+def cell_shares(wm: WearModel, theta, beta):
+    """(nodes, shares), both (samples, K): the node cells each sample's load reaches and its share
+    on each (rows sum to 1): the distribution centred at the contact angle theta with angular
+    half-width beta (<= pi/2), integrated exactly over the cell [theta_i - d/2, theta_i + d/2].
+    Only the K cells around the contact are visited (a wear update costs O(samples x K))."""
+    theta = np.atleast_1d(np.asarray(theta, float))
+    beta = np.clip(np.atleast_1d(np.asarray(beta, float)), 1e-300, math.pi / 2)
+    d = wm.spacing
+    K = int(math.ceil(2.0 * beta.max() / d)) + 3
+    first = np.floor((theta - beta) / d).astype(np.int64)
+    idx = first[:, None] + np.arange(K)[None, :]
+    # node angle idx d, unwrapped around theta: rel is the node's offset from the contact centre
+    rel = idx * d - theta[:, None]
+    lo, hi = (rel - 0.5 * d) / beta[:, None], (rel + 0.5 * d) / beta[:, None]
+    if wm.distribution == "uniform":
+        share = 0.5 * (np.clip(hi, -1.0, 1.0) - np.clip(lo, -1.0, 1.0))
+    else:
+        share = (_ellipse_integral(hi) - _ellipse_integral(lo)) / (0.5 * math.pi)
+    return idx % wm.nodes, share
+
+
+def depth_increment(wm: WearModel, theta, F, slip, dt):
+    """Wear depth (m) added at each node by the samples (contact angle theta, normal force F, slip
+    speed, time weight dt): sum k F v dt / H times the sample's share of the cell, over the cell's
+    area R_b d L (so the worn volume is k sum F v dt / H exactly)."""
+    F, slip, dt = (np.atleast_1d(np.asarray(x, float)) for x in (F, slip, dt))
+    keep = (F > 0.0) & (slip > 0.0) & (dt > 0.0)
+    if not keep.any():
+        return np.zeros(wm.nodes)
+    th, F, slip, dt = np.atleast_1d(theta)[keep], F[keep], slip[keep], dt[keep]
+    beta = half_width(wm, F) / wm.R1
+    work = wm.k * F * slip * dt / wm.hardness                              # worn volume per sample, m^3
+    nodes, share = cell_shares(wm, th, beta)
+    vol = np.bincount(nodes.ravel(), weights=(work[:, None] * share).ravel(), minlength=wm.nodes)
+    return vol / (wm.R1 * wm.spacing * wm.L)
+
+
+def trapezoid_weights(t):
+    """Quadrature weights of samples at times t (trapezoid rule)."""
+    t = np.asarray(t, float)
+    w = np.zeros(len(t))
+    if len(t) > 1:
+        dt = np.diff(t)
+        w[:-1] += 0.5 * dt
+        w[1:] += 0.5 * dt
+    return w
+
+
+def block_increment(wm: WearModel, name, traj):
+    """Node depth increment (m) worn over one simulated block (a Trajectory of the worn joint
+    ``name``): the samples' angle (outputs NAME.eccentricity, frame1 axes), load (NAME.fn) and
+    slip speed (NAME.slip), trapezoid rule in time."""
+    out = traj.outputs
+    e = out[f"{name}.eccentricity"]
+    return depth_increment(wm, np.arctan2(e[:, 1], e[:, 0]), out[f"{name}.fn"], out[f"{name}.slip"],
+                           trapezoid_weights(traj.t))
+
+
+def spline_coefficients(depth):
+    """(N, 4) coefficients (highest power first, local in each cell) of the periodic cubic spline
+    through the node depths: the worn profile the kernel evaluates (C2, exact at the nodes)."""
+    from scipy.interpolate import CubicSpline
+
+    depth = np.asarray(depth, float)
+    N = len(depth)
+    th = np.arange(N + 1) * (2.0 * math.pi / N)
+    sp = CubicSpline(th, np.append(depth, depth[0]), bc_type="periodic")
+    return sp.c.T.copy()
+
+
+# ------------------------------------------------------------------ the worn joint
+class WornData(ClearanceData):
+    """ClearanceData plus the workspace's own weight array of the normal law (|grad delta|)."""
+
+    def __init__(self, nc, nfs):
+        super().__init__(nc, nfs)
+        self.W = np.ones(nc)
+
+
+class WornRevoluteClearance(RevoluteClearance):
+    """A planar revolute clearance whose bearing has worn ``depth`` (m, one value per wear node)."""
+
+    _data_class = WornData
+    planar_geometry = _kernels.G_WORN_PLANAR
+
+    def __init__(self, *args, wear: WearModel, depth=None, **kw):
+        self.wear = wear
+        d = np.zeros(wear.nodes) if depth is None else np.array(depth, float)
+        if d.shape != (wear.nodes,) or not np.all(np.isfinite(d)):
+            raise ValueError(f"wear depth must be {wear.nodes} finite values, got shape {d.shape}")
+        d.flags.writeable = False
+        self.depth = d
+        self._ctor = (args, dict(kw))
+        super().__init__(*args, **kw)
+
+    def with_depth(self, depth, continuing=False):
+        """The same joint with the bearing worn to ``depth`` (a new, immutable joint).
+        continuing: its runs continue a run's state (a block of pinclear.wearing), which may be
+        in a deep impact: the start-pose check (max_initial_penetration) is then off."""
+        args, kw = self._ctor
+        if continuing:
+            kw = {**kw, "max_initial_penetration": None}
+        return type(self)(*args, wear=self.wear, depth=depth, **kw)
+
+    def _geometry_params(self):
+        head = np.array([self.c, self.R1, self.R2, self.ca, self.L, float(self.wear.nodes)])
+        return np.concatenate([head, spline_coefficients(self.depth).ravel()])
+
+    def profile(self, theta):
+        """(w, dw/dtheta) of the worn profile at the angles theta (the kernel's spline)."""
+        g = self._geo.gpar
+        pairs = [_kernels.worn_depth(g, float(t)) for t in np.atleast_1d(theta)]
+        return np.array(pairs).T
+
+    def _compiled_kernel(self):
+        if self._geo is None or self._laws is None or self._friction is None:
+            return None
+        return _kernels.worn_clearance_force
+
+    def _kernel_args(self, ws, d):
+        lw = self._laws
+        laws = Laws(lw.code, lw.P0, lw.P1, lw.chi, d.W, lw.vmin)
+        return (self._geo, self._frames(ws, d), self._bodies(ws), laws, self._friction, d.channels)
+
+    def _normal(self, d, delta, dd, dd0):
+        # the Python twin of worn_clearance_force: the law's force times |grad delta|
+        Fn, Fel = self.law.force_and_elastic(delta, dd, dd0)
+        g = d.scratch[3, 0]
+        return Fn * g, Fel * g
+
+    def _record_laws(self, d):
+        # the elastic energy is the law's U(delta): unit weights (the force's |grad delta| is not
+        # an energy factor)
+        lw = self._laws
+        return lw.code, lw.P0, lw.P1, np.ones(self.nc)
+
+    def _slip(self, d):
+        return float(np.linalg.norm(d.vt[0])) if (d.moving and d.Fn[0] > 0.0) else 0.0
+
+    def outputs(self, mech, ws, d, t, q, v, z):
+        out = super().outputs(mech, ws, d, t, q, v, z)
+        out["slip"] = self._slip(d)
+        return out
+
+    def record(self, mech, ws, d, t, q, v, z, after_rhs):
+        pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
+        if "slip" not in out:
+            out["slip"] = self._slip(d)
+        return pot, loss, out
+
+    def record_layout(self):
+        lay = super().record_layout()
+        return None if lay is None else lay + (("slip", 1),)
+
+    def record_kernel(self, mech, ws, d, z, zdot, row):
+        if self._kernel is None:
+            return None
+        return _kernels.worn_record, (d.channels, d.M, z, zdot, self.nc, *self._record_laws(d),
+                                      np.zeros(_kernels.RECORD_SIZE), row)
+
+    def describe(self):
+        w = self.wear
+        return {**super().describe(), "wear": {"model": "archard", "k": w.k, "hardness": w.hardness,
+                                               "nodes": w.nodes, "distribution": w.distribution,
+                                               "max_depth": float(self.depth.max())}}

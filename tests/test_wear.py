@@ -1,0 +1,172 @@
+"""Archard wear of a planar revolute clearance (pinclear.contact.wear, pinclear.wearing) against
+the law integrated by hand, energy conservation of the worn geometry, the iterative scheme and the
+sidecar's errors."""
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+import pinclear
+from pinclear.contact import wear
+from pinclear.errors import ContactSetupError
+from pinclear.wearing import WearSettings, converged, wear_run
+
+JOURNAL = Path(__file__).parent / "data" / "wear_journal.yaml"
+OMEGA = 20.0                                   # journal spin, rad/s
+
+
+def _model(**kw):
+    base = dict(k=1e-4, hardness=1e8, nodes=360, distribution="hertz", R1=0.0101, R2=0.01, L=0.02,
+                estar=1.1e9, rstar=1.01)
+    return wear.WearModel(**{**base, **kw})
+
+
+def test_block_sliding_wears_k_F_s_over_H_A():
+    # a flat block of contact area A = 2 b L (uniform pressure over whole cells) sliding a distance
+    # s = v T at constant load F: Archard's h = k F s / (H A), exactly
+    wm = _model(distribution="uniform")
+    v, T, n = 0.3, 2.0, 400
+    beta = 5 * wm.spacing                                  # the contact covers 10 cells exactly:
+    b = beta * wm.R1
+    F = b * b * math.pi * wm.L * wm.estar / (4 * wm.rstar)   # the load whose Hertz half-width is b
+    assert wear.half_width(wm, F) == pytest.approx(b, rel=1e-14)
+    theta = np.full(n, 0.5 * wm.spacing + 20 * wm.spacing)   # a cell boundary: 5 cells either side
+    t = np.linspace(0.0, T, n)
+    w = wear.trapezoid_weights(t)
+    h = wear.depth_increment(wm, theta, np.full(n, F), np.full(n, v), w)
+    ref = wm.k * F * v * T / (wm.hardness * 2 * b * wm.L)
+    covered = h > 0
+    assert covered.sum() == 10 and np.flatnonzero(covered).tolist() == list(range(16, 26))
+    assert h[covered] == pytest.approx(ref, rel=1e-12)
+    assert np.all(h[~covered] == 0.0)
+
+
+def _static_start(mech):
+    law = mech.forces[-1].law
+    delta = (9.81 / law.K) ** (1.0 / law.n)               # K delta^n = m g (1 kg)
+    c = mech.forces[-1].c
+    return np.array([0.0, -(c + delta), 0.0]), np.array([0.0, 0.0, OMEGA])
+
+
+def test_journal_under_constant_load_and_spin_wears_the_hand_integrated_crescent():
+    mech = pinclear.load(JOURNAL, clearances=["A"])
+    joint = mech.forces[-1]
+    wm = joint.wear
+    q0, v0 = _static_start(mech)
+    T = 0.05
+    tr = pinclear.simulate(mech, T, integrator="DOP853", rtol=1e-10, q0=q0, v0=v0, assemble=False, dt_out=1e-4)
+    assert tr.status == "success"
+    h = wear.block_increment(wm, "A", tr)
+    # by hand: load m g at the bottom (theta = -90 deg), slip omega R_j, Hertz half-width
+    F, vs = 9.81, OMEGA * wm.R2
+    b = math.sqrt(4 * F * wm.rstar / (math.pi * wm.L * wm.estar))
+    p0 = 2 * F / (math.pi * b * wm.L)
+    centre = -0.5 * math.pi
+    ref = np.zeros(wm.nodes)
+    for i, th in enumerate(wm.angles()):
+        rel = (th - centre + math.pi) % (2 * math.pi) - math.pi
+        lo, hi = wm.R1 * (rel - 0.5 * wm.spacing), wm.R1 * (rel + 0.5 * wm.spacing)
+        lo, hi = max(lo, -b), min(hi, b)
+        if hi > lo:
+            cell = quad(lambda s: p0 * math.sqrt(max(0.0, 1 - (s / b) ** 2)), lo, hi, epsabs=0, epsrel=1e-12)[0]
+            ref[i] = wm.k * vs * T * cell / (wm.hardness * wm.R1 * wm.spacing)
+    # the steady state holds F and the slip to the integration tolerance (rtol 1e-10)
+    assert np.max(np.abs(h - ref)) <= 1e-6 * ref.max()
+    # depth at the centre: k p0 v T / H up to the cell average of the ellipse, 1 - (d/b)^2 / 24
+    hmax = wm.k * p0 * vs * T / wm.hardness
+    d = wm.R1 * wm.spacing
+    assert h.max() == pytest.approx(hmax, rel=(d / b) ** 2 / 12)
+    # width: worn nodes within the Hertz half-width (plus the cell), all those inside it worn
+    rel = np.abs((wm.angles() - centre + math.pi) % (2 * math.pi) - math.pi) * wm.R1
+    assert np.all(h[rel > b + d / 2] == 0.0)
+    assert np.all(h[rel < b - d / 2] > 0.0)
+    # the worn volume is Archard's k F s / H
+    vol = h.sum() * wm.R1 * wm.spacing * wm.L
+    assert vol == pytest.approx(wm.k * F * vs * T / wm.hardness, rel=1e-6)
+
+
+def test_worn_bearing_run_closes_the_energy_balance_and_creates_none():
+    mech = pinclear.load(JOURNAL, clearances=["A"], overrides={"A.friction_law": {"type": "modified_coulomb",
+                                                                                     "mu": 0.2}})
+    joint = mech.forces[-1]
+    th = joint.wear.angles()
+    # a pocket of 80 % of the clearance, 0.2 rad wide, at the bottom: steep flanks (w'/r ~ 1)
+    pocket = 0.8 * joint.c * np.exp(-0.5 * (((th + 0.5 * math.pi + math.pi) % (2 * math.pi) - math.pi) / 0.1) ** 2)
+    worn = mech.replace(forces=list(mech.forces[:-1]) + [joint.with_depth(pocket)])
+    tr = pinclear.simulate(worn, 0.05, integrator="DOP853", rtol=1e-10, q0=np.array([2e-5, 0.0, 0.0]),
+                           v0=np.array([0.05, -0.1, 30.0]), assemble=False, dt_out=1e-5)
+    assert tr.status == "success"
+    assert tr.outputs["A.fn"].max() > 5.0 and len(tr.stats["events"]) >= 2
+    E, D = tr.energy()["total"], tr.outputs["A.dissipated"]
+    scale = E[0] - E.min()
+    assert D[-1] > 0.1 * scale
+    # never above the start: closes to the integration tolerance
+    assert np.max(np.abs(E + D - E[0])) < 1e-6 * scale
+    assert np.all(np.diff(D) >= -1e-12 * scale)
+
+
+def test_dry_joint_is_the_new_joint_and_a_worn_profile_is_continuous():
+    mech = pinclear.load(JOURNAL, clearances=["A"])
+    joint = mech.forces[-1]
+    depth = np.zeros(joint.wear.nodes)
+    depth[90] = 1e-5
+    w = joint.with_depth(depth)
+    # the spline passes through the nodes, and is C1 across a cell boundary
+    ang = w.wear.angles()
+    assert w.profile(ang[88:93])[0] == pytest.approx(depth[88:93], abs=1e-18)
+    eps = 1e-9
+    a, b = w.profile([ang[91] - eps, ang[91] + eps])
+    assert abs(a[1] - a[0]) < 1e-6 * 1e-5 and abs(b[1] - b[0]) < 1e-3 * abs(b).max()
+
+
+def test_scheme_update_factor_converges_and_resumes(tmp_path):
+    mech = pinclear.load(JOURNAL, clearances=["A"])
+    start = _static_start(mech)
+    s = WearSettings(cycles=2000.0, period=0.01, updates=2, block_periods=1, transient_periods=0, rtol=1e-8,
+                     dt_out=1e-4)
+    res = converged(mech, "A", s, out=tmp_path, start=start)
+    assert res["converged"]
+    (u1, f1, d1), (u2, f2, d2) = res["rounds"][-2:]
+    d1, d2 = d1["A"], d2["A"]
+    assert f2 == pytest.approx(f1 / 2) and abs(d2 - d1) <= 0.05 * d2
+    # constant load: the depth grows linearly, k p0 v / H per second of service
+    wm = mech.forces[-1].wear
+    b = math.sqrt(4 * 9.81 * wm.rstar / (math.pi * wm.L * wm.estar))
+    rate = wm.k * 2 * 9.81 / (math.pi * b * wm.L) * OMEGA * wm.R2 / wm.hardness
+    assert d2 == pytest.approx(rate * s.cycles * s.period, rel=(wm.R1 * wm.spacing / b) ** 2 / 12 + 1e-4)
+    for name in ("checkpoint.npz", "history.csv", "profile.csv"):
+        assert (tmp_path / f"updates_{u2}" / name).exists()
+    # an interrupted run resumes where its checkpoint stands, to the same profile
+    s4 = WearSettings(**{**s.__dict__, "updates": 4})
+    whole = wear_run(mech, "A", s4, start=start)
+
+    def stop(done, total, depth):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        wear_run(mech, "A", s4, out=tmp_path / "r", progress=stop, start=start)
+    again = wear_run(mech, "A", s4, out=tmp_path / "r", start=start)
+    assert np.array_equal(again["depth"]["A"], whole["depth"]["A"])
+    assert again["history"]["cycles"] == whole["history"]["cycles"]
+
+
+@pytest.mark.parametrize("wear_spec, key, text", [
+    ({"model": "archard", "hardness": 1e8}, "clearances.A.wear.k", "required"),
+    ({"model": "rabinowicz", "k": 1e-4, "hardness": 1e8}, "clearances.A.wear.model", "archard"),
+    ({"k": 1e-4, "hardness": 1e8, "nodes": 3}, "clearances.A.wear.nodes", ">= 16"),
+    ({"k": 1e-4, "hardness": 1e8, "shape": 1}, "clearances.A.wear.shape", "distribution"),
+])
+def test_wear_key_errors_name_file_key_and_choices(wear_spec, key, text):
+    with pytest.raises(ContactSetupError) as exc:
+        pinclear.load(JOURNAL, clearances=["A"], overrides={"A.wear": wear_spec})
+    msg = str(exc.value)
+    assert "wear_journal.yaml" in msg and key in msg and text in msg
+
+
+def test_wear_command_refuses_a_joint_without_wear():
+    mech = pinclear.load(JOURNAL, clearances=["A"], overrides={"A.wear": None})
+    with pytest.raises(ContactSetupError, match="wear_journal.yaml.*clearances.A.wear"):
+        wear_run(mech, "A", WearSettings(cycles=10.0, period=0.01))
