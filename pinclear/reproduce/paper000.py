@@ -28,6 +28,7 @@ from ..models import model_path
 from ..sidecar import load
 from ..simulate import simulate
 from ..sweeps import make_executor, sweep
+from . import chaos
 from .verdicts import row
 
 T = mod.PERIOD
@@ -47,9 +48,9 @@ SIGNALS = ["platform.z", "S2.eccentricity[1]", "platform.x", "platform.y", "S2.e
 SETTINGS = {
     "full": {"force_periods": 54, "window_periods": 4, "mu_values": [round(0.01 * k, 2) for k in range(1, 21)],
              "clearance_values": sorted({round(5e-5 * k, 6) for k in range(1, 19)} | {4.2e-4, 6.7e-4}),
-             "transient": 20, "cycles": 100, "per_period": 200, "dt_out": 2e-3},
+             "transient": 20, "cycles": 100, "per_period": 200, "dt_out": 2e-3, "lyapunov_limit": 2},
     "quick": {"force_periods": 4, "window_periods": 2, "mu_values": [0.01, 0.05, 0.10],
-              "clearance_values": [3.0e-4, 6.7e-4], "transient": 3, "cycles": 10, "per_period": 100, "dt_out": 2e-3},
+              "clearance_values": [3.0e-4, 6.7e-4], "transient": 3, "cycles": 10, "per_period": 100, "dt_out": 2e-3, "lyapunov_limit": 1},
 }
 #: the sensitivity study at the paper's chaotic end (mu 0.01, the sidecar's 0.5 mm gap): each
 #: reconstructed quantity the clearance's motion could hinge on, changed alone. Friction ramp
@@ -92,7 +93,8 @@ GROUPS = {
               "platform joint angles",
     "chaos": "classified with the clearance's resolution: a response whose Poincaré points spread less than "
              "{frac:.0%} of the clearance is 'below resolution', never chaos; chaos needs the 0-1 test and a "
-             "positive, converged largest Lyapunov exponent (not computed in this study: 'irregular'). The "
+             "positive largest Lyapunov exponent that agrees over two tolerances and two run lengths (pinclear.reproduce.chaos, "
+             "run on each diagram's first irregular values; the notes say which; an unchecked one stays 'irregular'). The "
              "band of the mu = 0.01 row is the set of kinds over the sensitivity variants (friction ramp, "
              "impact-speed floor, gravity, masses, rtol 1e-10): the inputs the sensitivity table shows could matter",
 }
@@ -183,6 +185,8 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     try:
         sw, t_eval, t_end = response_runs(out, s, quick, ex)
         bif = bifurcation_runs(s, ex)
+        kinds = motion_kinds(bif, s)
+        lyap_notes = lyapunov_checks(kinds, s, ex)
         if bands:
             from .bands import paper000_bands
             bands_, band_table = paper000_bands(s, ex, budget, quick)
@@ -199,10 +203,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     results = response_rows(runs, s, t_eval, notes, bands_)
     results += force_rows(runs, s, notes, bands_)
     figures = [response_figure(out, runs, s, t_eval, t_end), force_figure(out, runs, s, t_eval, lam_mag)]
-    kinds = motion_kinds(bif, s)
     results += chaos_rows(bif, kinds, s, bands_)
     figures += portrait_figure(out, bif["mu"], kinds) + bifurcation_figures(out, bif)
-    notes += chaos_notes(bif, kinds, quick)
+    notes += chaos_notes(bif, kinds, quick) + lyap_notes
     notes.append("every result used K as printed in paper 000 (eq. 17, 4/(3(s1+s2)) sqrt(R1R2/(R1+R2))); the "
                  "conformal radius R1R2/(R_socket - R_ball) is reported beside it for the contact force")
     notes.append("independent check: " + "; ".join(f"{c['name']}: {100 * c['relative_difference']:.2f} %"
@@ -433,6 +436,32 @@ def motion_kinds(bif, s):
             kinds[study][r.value] = {sig: analysis.classify(r.sections[sig], **opts) for sig in SIGNALS
                                      if r.ok and sig in r.sections}
     return kinds
+
+
+def lyapunov_checks(kinds, s, ex):
+    """Each diagram's 'irregular' runs given the Lyapunov check (pinclear.reproduce.chaos; the
+    chaos window's mu values first), at most s['lyapunov_limit'] per diagram; ``kinds`` is
+    updated in place. Returns the notes."""
+    from ..simulate import RTOL_DEFAULT
+
+    path = str(model_path("four_ups_upu"))
+    common = dict(period=T, signal=SIGNALS, transient=s["transient"], per_period=s["per_period"], lyapunov=True,
+                  executor=ex)
+    load_kw = {"clearances": ["S2"], "overrides": dict(s["overrides"])}
+
+    def rerun(model, parameter, load=True):
+        return lambda vals, rtol, n: analysis.bifurcation(model, parameter, vals, cycles=n, sim_options={"rtol": rtol},
+                                                          load_options=load_kw if load else None, **common)
+
+    studies = {"mu": rerun(path, "S2.mu"), "clearance": rerun(path, "S2.clearance"),
+               "sens": rerun(sensitivity_mechanism, "variant", load=False)}
+    notes = []
+    for study, again in studies.items():
+        if study in kinds:
+            notes += [f"{study} {n}" for n in chaos.confirm_irregular(
+                kinds[study], again, RTOL_DEFAULT, s["cycles"], lambda v: T, s["lyapunov_limit"],
+                priority=(0.01, 0.02) if study == "mu" else ())]
+    return notes
 
 
 def _kind_set(kinds, values, sig):

@@ -24,6 +24,7 @@ from .. import analysis as an
 from ..analysis.classify import CLEARANCE_FRACTION, classify_state
 from ..models import model_path
 from ..sweeps import make_executor, sweep
+from . import chaos
 from .verdicts import row
 
 SLIDER = "guide"                      # slider 9's prismatic joint (urdf/nine_bar.urdf)
@@ -61,7 +62,9 @@ GROUPS = {
               "sensitivity runs (journal radius 5-20 mm x K printed / conformal, start position in the bearing)",
     "chaos": "sec. 4 (mu 0.3), classified with the clearance's resolution ({frac:.0%} of the clearance: 'below "
              "resolution' is never chaos) and the run's integration error bound; 'irregular' = 0-1 test K > 0.5 "
-             "without a confirmed Lyapunov exponent (not computed here). Bands over the reconstructed inputs wait "
+             "without a confirmed Lyapunov exponent ('chaotic' needs a positive one that agrees over two tolerances and "
+             "two run lengths: pinclear.reproduce.chaos, run on each diagram's first irregular values, the notes say "
+             "which). Bands over the reconstructed inputs wait "
              "for --bands with a full-study budget",
 }
 
@@ -77,12 +80,12 @@ def _settings(quick):
     if quick:
         return {"response t_end [s]": 2.0, "output step [s]": 1e-4, "clearances [mm]": [0.01, 0.1, 0.8],
                 "speeds [pi rad/s]": [2.0, 3.0], "cycles": 8, "transient cycles": 4, "rtol": RTOL,
-                "mu (sec. 4)": 0.3, "quick": True, "sensitivity": True, "long cycles": 100}
+                "mu (sec. 4)": 0.3, "quick": True, "sensitivity": True, "long cycles": 100, "lyapunov limit": 1}
     return {"response t_end [s]": 2.0, "output step [s]": 1e-4,
             "clearances [mm]": [float(v) for v in np.round(np.linspace(0.01, 1.0, 25), 6)],
             "speeds [pi rad/s]": [float(v) for v in np.round(np.linspace(1.0, 3.0, 21), 6)],
             "cycles": 100, "transient cycles": 20, "rtol": RTOL, "mu (sec. 4)": 0.3, "quick": False,
-            "sensitivity": True, "long cycles": 400}
+            "sensitivity": True, "long cycles": 400, "lyapunov limit": 2}
 
 
 def _say(msg):
@@ -378,12 +381,23 @@ def _joint_kinds(res, s, clearance=None):
     return out
 
 
-def _bifurcation(parameter, values, period, s, executor, overrides):
+def _bifurcation(parameter, values, period, s, executor, overrides, rtol=RTOL, cycles=None, lyapunov=False):
     return an.bifurcation(model_path("nine_bar"), parameter, values, period=period, signal=SIGNALS,
-                          cycles=s["cycles"], transient=s["transient cycles"], per_period=100, keep_portrait=True,
-                          sim_options=dict(method="lagrange", integrator="RK45", rtol=RTOL),
+                          cycles=cycles or s["cycles"], transient=s["transient cycles"], per_period=100,
+                          keep_portrait=not lyapunov, lyapunov=lyapunov,
+                          sim_options=dict(method="lagrange", integrator="RK45", rtol=rtol),
                           load_options=dict(clearances=list(JOINTS), overrides={**s.get("overrides", {}), **overrides}),
                           executor=executor)
+
+
+def _lyapunov(kinds, parameter, period, s, executor, overrides, priority):
+    """The diagram's 'irregular' runs given the Lyapunov check (pinclear.reproduce.chaos), the
+    paper's named values first; ``kinds`` is updated in place. Returns the notes."""
+    def again(vals, rtol, n):
+        return _bifurcation(parameter, vals, period, s, executor, overrides, rtol=rtol, cycles=n, lyapunov=True)
+
+    per = period if callable(period) else (lambda v: period)
+    return chaos.confirm_irregular(kinds, again, RTOL, s["cycles"], per, s["lyapunov limit"], priority=priority)
 
 
 def _chaos(s, out, executor, plt):
@@ -395,6 +409,8 @@ def _chaos(s, out, executor, plt):
     res = _bifurcation({f"{j}.clearance": 1.0 for j in JOINTS}, values, 1.0, s, executor, mu)
     res.save(out / "bifurcation_clearance.npz")
     kinds = _joint_kinds(res, s)
+    notes += [f"clearance {n}" for n in _lyapunov(kinds, {f"{j}.clearance": 1.0 for j in JOINTS}, 1.0, s, executor,
+                                                  mu, priority=(8e-4,))]
     tables["clearance"] = _table(res, kinds, 1e3, "clearance [mm]")
     rows = _clearance_rows(res, kinds)
     for c, said in PAPER_CHAOS.items():
@@ -415,6 +431,9 @@ def _chaos(s, out, executor, plt):
                          {**mu, **{f"{j}.clearance": 0.1e-3 for j in JOINTS}})
     res_w.save(out / "bifurcation_speed.npz")
     kinds_w = _joint_kinds(res_w, s, clearance=0.1e-3)
+    notes += [f"speed {n}" for n in _lyapunov(kinds_w, SPEED, crank_period, s, executor,
+                                              {**mu, **{f"{j}.clearance": 0.1e-3 for j in JOINTS}},
+                                              priority=(2 * math.pi, 3 * math.pi))]
     tables["speed"] = _table(res_w, kinds_w, 1 / math.pi, "speed [pi rad/s]")
     rows += _speed_rows(res_w, kinds_w)
     for w, said in ((2 * math.pi, "chaotic, small range of the points"), (3 * math.pi, "chaotic, wider range")):
