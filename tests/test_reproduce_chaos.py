@@ -61,3 +61,15 @@ def test_labels_as_values():
     kinds = {"baseline": {"A": irregular(0.9)}}
     chaos.confirm_irregular(kinds, fake_rerun(lambda v, r, n: 1.0, []), 1e-8, 100, lambda v: 1.0, limit=1)
     assert kinds["baseline"]["A"].kind == "chaotic"
+
+
+def test_priorities_match_rounded_keys():
+    """A study keys its values rounded (paper 002: round(3 pi, 9)); its priority 3 pi is exact and
+    must still come first (the full 002 study checked two other speeds first when it did not)."""
+    import math
+
+    kinds = {round(v, 9): {"A": irregular(K)} for v, K in ((3 * math.pi, 0.6), (2.7 * math.pi, 0.99))}
+    calls = []
+    chaos.confirm_irregular(kinds, fake_rerun(lambda v, r, n: 1.0, calls), 1e-6, 100, lambda v: 1.0, limit=1,
+                            priority=(2 * math.pi, 3 * math.pi))
+    assert list(calls[0][0]) == [round(3 * math.pi, 9)]

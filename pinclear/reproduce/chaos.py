@@ -29,6 +29,16 @@ def _key(v):
         return v
 
 
+def _same(a, b):
+    """The same parameter value: labels equal, numbers within 1e-8 relative (a study's keys are
+    rounded, e.g. 3 pi to 9 digits, while its priorities are exact)."""
+    try:
+        a, b = float(a), float(b)
+    except (TypeError, ValueError):
+        return a == b
+    return abs(a - b) <= 1e-8 * max(1.0, abs(a), abs(b))
+
+
 def _label(v):
     return f"{v:.4g}" if isinstance(v, (int, float)) else str(v)
 
@@ -40,7 +50,7 @@ def irregular_values(kinds, priority=()):
         return max((c.K or 0.0) for c in kinds[v].values() if c is not None and c.kind == "irregular")
 
     irr = [v for v, c in kinds.items() if any(x is not None and x.kind == "irregular" for x in c.values())]
-    first = [v for p in priority for v in irr if _key(v) == _key(p)]
+    first = [v for p in priority for v in irr if _same(v, p)]
     return first + sorted((v for v in irr if v not in first), key=k_of, reverse=True)
 
 
