@@ -107,7 +107,7 @@ def test_worn_bearing_run_closes_the_energy_balance_and_creates_none():
     assert np.all(np.diff(D) >= -1e-12 * scale)
 
 
-def test_dry_joint_is_the_new_joint_and_a_worn_profile_is_continuous():
+def test_worn_profile_passes_through_the_nodes_and_is_continuous():
     mech = pinclear.load(JOURNAL, clearances=["A"])
     joint = mech.forces[-1]
     depth = np.zeros(joint.wear.nodes)
