@@ -242,11 +242,20 @@ def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_sample
     note = "ambiguous (0.1 <= K <= 0.9): longer runs or a smaller tolerance may decide" if 0.1 <= K <= 0.9 else ""
     if K <= thr:
         return Classification("quasi-periodic", None, clusters, K, n, note)
+    return beyond_threshold(clusters, K, n, note, lyapunov)
+
+
+#: how an 'irregular' note starts its reason (pinclear.reproduce.chaos strips it to add evidence)
+NOT_CONFIRMED = "0-1 test only, chaos not confirmed: "
+
+
+def beyond_threshold(clusters, K, n, note, lyapunov):
+    """The class of a section whose 0-1 test K exceeds the threshold: 'chaotic' only when the
+    Lyapunov evidence confirms it, else 'irregular' with the reason in the note."""
     if lyapunov is not None and lyapunov.confirmed:
         return Classification("chaotic", None, clusters, K, n, "; ".join(x for x in (note, lyapunov.note) if x))
     why = lyapunov.note if lyapunov is not None else "no largest Lyapunov exponent computed"
-    return Classification("irregular", None, clusters, K, n,
-                          "; ".join(x for x in (note, f"0-1 test only, chaos not confirmed: {why}") if x))
+    return Classification("irregular", None, clusters, K, n, "; ".join(x for x in (note, NOT_CONFIRMED + why) if x))
 
 
 def _below(P, resolution, section):

@@ -11,8 +11,7 @@ so a study confirms at most ``limit`` values, the ones its central-claim rows re
 """
 from __future__ import annotations
 
-import dataclasses
-
+from ..analysis.classify import NOT_CONFIRMED, beyond_threshold
 from ..analysis.lyapunov import confirm_chaos
 
 #: the study's rtol times these: the exponent must not move with the tolerance
@@ -91,10 +90,6 @@ def confirm_irregular(kinds, rerun, rtol, cycles, period, limit, priority=()):
 
 
 def with_evidence(c, evidence):
-    """The 'irregular' classification ``c`` given Lyapunov ``evidence`` (classify's rule: K above
-    the threshold is 'chaotic' only when the evidence confirms it)."""
-    kind = "chaotic" if evidence.confirmed else "irregular"
-    base = c.note.split("0-1 test only")[0].rstrip("; ")
-    note = "; ".join(x for x in (base, evidence.note if evidence.confirmed else
-                                 f"0-1 test only, chaos not confirmed: {evidence.note}") if x)
-    return dataclasses.replace(c, kind=kind, note=note)
+    """The 'irregular' classification ``c`` given Lyapunov ``evidence``, by classify's own rule
+    (analysis.classify.beyond_threshold)."""
+    return beyond_threshold(c.clusters, c.K, c.n, c.note.split(NOT_CONFIRMED)[0].rstrip("; "), evidence)
