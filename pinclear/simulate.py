@@ -180,6 +180,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     J = kinematics.jacobian(mech, form.ws, q, t0, with_drives=True)
     _, indep, redundant = kinematics.rank_analysis(J, mech.row_names())
     form.use_rows(indep)
+    form.fit_start(t0, q, J, indep, rtol)
     traj = Trajectory.empty(mech, form, integrator, rtol, atol, t_eval)
     mob = kinematics.mobility(mech, q, form.ws)
     stats = traj.stats

@@ -43,6 +43,10 @@ class Formulation(abc.ABC):
          formulation that needs a full-rank Schur complement keeps only those, and may choose
          them again during the run (recorded in ``row_changes``) when the kept rows lose rank
          (contract 8).
+       - :meth:`fit_start` receives the start state, its constraint Jacobian (closures, then
+         drives), the independent rows and the run's rtol, once before the run; a formulation
+         whose accuracy depends on the start's conditioning sets its options from them there
+         (the proximal method's iteration count) or refuses the run.
     6. :meth:`describe` returns a JSON-safe mapping of the method and its options (saved with runs).
     7. Compiled evaluation. :meth:`compiled` returns the formulation's stages
        (pinclear.stepping.stage: kernels bound to the workspace's buffers), which the run calls
@@ -128,16 +132,14 @@ class Formulation(abc.ABC):
         sv = np.abs(w)[::-1]
         tol = sv[0] / RANK_COND
         rank = int(np.sum(sv > tol))
-        weight = (U[:, np.abs(w) <= tol] ** 2).sum(axis=1)
-        names = self.mech.row_names()
-        rows = [names[self.rows[i]] for i in np.argsort(-weight)[:6] if weight[i] > 0.01]
+        rows = self.row_names_along(U[:, np.abs(w) <= tol])
         cond = float(sv[0] / max(sv[-1], 1e-300))
         raise RankLossError(
             f"{self.mech.name}: constraint Jacobian lost rank at t = {t:.6g} s (rank {rank} of "
             f"{S.shape[0]} rows, condition {cond:.3g}"
             + (f"; nearly dependent rows: {', '.join(rows)}" if rows else "")
             + f"); method {self.name!r} cannot continue through a singular or redundant configuration: use "
-            "method='proximal'", t=t, rank=rank, rows=S.shape[0], cond=cond)
+            "method='manifold' (it holds nearly dependent rows) or 'proximal' (it passes singular configurations)", t=t, rank=rank, rows=S.shape[0], cond=cond)
 
     def drive_stages(self) -> tuple:
         """The drive law stages on this workspace (pinclear.drives.DriveRows.stages), built once:
@@ -166,6 +168,17 @@ class Formulation(abc.ABC):
 
     def use_rows(self, independent):
         """Rows found independent at the initial configuration (default: keep every row)."""
+
+    def fit_start(self, t, q, J, independent, rtol):
+        """Options set from the start state (contract 5); default: nothing to fit."""
+
+    def row_names_along(self, U, rows=None):
+        """Names of the rows that carry the row combinations U[:, k] (the columns of U, over
+        ``rows``, default the kept rows), largest share first: the rows a user looks at."""
+        rows = self.rows if rows is None else rows
+        weight = (np.asarray(U) ** 2).sum(axis=1)
+        names = self.mech.row_names()
+        return [names[rows[i]] for i in np.argsort(-weight)[:6] if weight[i] > 0.01]
 
     def compiled(self):
         """The formulation's compiled stages (contract 7); None: none."""

@@ -10,13 +10,27 @@ in lagrange; positions and velocities are projected after every step with the sa
 (default 1e-4; the parallelogram study in tests/test_core_fourbar.py shows 1e-6 already makes a
 singular passage depend on rounding). The solve is one compiled kernel
 (pinclear._kernels.proximal_accel), tested against the NumPy expression
-:func:`proximal_multipliers`."""
+:func:`proximal_multipliers`.
+
+The iteration count is fitted to the start (``max_iter`` 'auto', the default;
+:meth:`Proximal.fit_start`): k iterations leave the fraction (rho / (s + rho))^k of the constraint
+force along an eigen-direction s of S, so a mechanism whose independent rows are nearly dependent
+(s well below rho) had its constraint force cut by a fixed k = 30 and reported success with the
+wrong motion (three_upru_up: velocity 4.6e-4 off at rtol 1e-10; cassie.sdf: the shin triangles
+flexed). k is raised until that fraction is <= rtol on every independent direction at the start;
+a direction that would need more than MAX_ITER_AUTO iterations is not held by this method at all,
+and the run is refused, naming its rows."""
 from __future__ import annotations
 
+import math
+import warnings
+
 import numpy as np
+import pinocchio as pin
 
 from .. import kinematics
 from .._kernels import Solve, proximal_accel
+from ..errors import InputError
 from ..stepping.call import RANK
 from ..stepping.stage import T, bind
 from .base import Compiled, Formulation
@@ -26,11 +40,19 @@ from .projection import RCOND, iterations, position_passes, project_state, proje
 class Proximal(Formulation):
     fills_rows = True       # the kernel evaluates every row before the solve
     name = "proximal"
-    options = {"alpha": 5.0, "beta": 5.0, "rho": 1e-4, "max_iter": 30, "tol": 1e-12, "project": True}
+    options = {"alpha": 5.0, "beta": 5.0, "rho": 1e-4, "max_iter": "auto", "tol": 1e-12, "project": True}
+    #: fewest iterations (the count used before it was fitted: well-conditioned mechanisms keep it,
+    #: and with it their results)
+    MIN_ITER = 30
+    #: most iterations 'auto' may choose; a start needing more is refused (module doc)
+    MAX_ITER_AUTO = 2000
 
     def __init__(self, mech, **options):
         super().__init__(mech, **options)
-        self.opts["max_iter"] = iterations(self.name, self.opts["max_iter"])
+        self.auto = self.opts["max_iter"] == "auto"
+        self.opts["max_iter"] = self.MIN_ITER if self.auto else iterations(self.name, self.opts["max_iter"])
+        #: (smallest independent eigenvalue of S over rho, force fraction left by the filter) at the start
+        self.start_filter = None
         nv, m = mech.nv, mech.m
         ws = self.ws
         self.row_buffers = kinematics.row_buffers(mech, ws)
@@ -38,6 +60,44 @@ class Proximal(Formulation):
                         np.arange(m, dtype=np.int64), np.zeros((nv, nv)), np.zeros((m, nv)), np.zeros((m, m)),
                         np.zeros((m, m)), np.zeros(m), np.zeros(m), ws.a, ws.lam)
         self._solve = self._projection = None
+
+    def fit_start(self, t, q, J, independent, rtol):
+        """The iteration count from the start's conditioning (module doc): the smallest k >=
+        MIN_ITER with (rho / (s + rho))^k <= rtol for every eigenvalue s of S = J M^-1 J^T that
+        belongs to the independent rows (the rank of J: redundant directions carry no force and
+        are the filter's purpose). With max_iter given, the user's count is kept and a count too
+        small is a warning; with 'auto', a need beyond MAX_ITER_AUTO refuses the run."""
+        if self.mech.m == 0 or not independent:
+            return
+        M = pin.crba(self.mech.model, self.ws.data, np.asarray(q, float))
+        M = np.triu(M) + np.triu(M, 1).T
+        S = J @ np.linalg.solve(M, J.T)
+        rho = float(self.opts["rho"]) * float(np.mean(np.diag(S)))
+        w, U = np.linalg.eigh(S)
+        keep = slice(len(w) - len(independent), len(w))       # the rank's largest eigenvalues
+        s, U = np.maximum(w[keep], 0.0), U[:, keep]
+        per_iter = -np.log1p(s / rho)                          # log of rho / (s + rho), per direction
+        k = self.opts["max_iter"]
+        needs = np.log(rtol) / np.minimum(per_iter, -1e-300)   # iterations each direction needs
+        need = float(needs.max())
+        self.start_filter = (float(s[0] / rho), float(np.exp(k * per_iter[0])))
+        if need <= k:
+            return
+        short = needs > (self.MAX_ITER_AUTO if self.auto else k)     # the directions the message is about
+        rows = ", ".join(self.row_names_along(U[:, short], np.arange(self.mech.m)))
+        what = (f"{self.mech.name}: method 'proximal' at t = {t:.6g} s: the independent rows {rows} combine to an "
+                f"eigenvalue {s[0] / rho:.3g} x rho of J M^-1 J^T, along which {k} proximal iterations leave "
+                f"{self.start_filter[1]:.3g} of the constraint force unapplied (rtol {rtol:g} needs "
+                f"{min(need, 1e300):.3g} iterations)")
+        if not self.auto:
+            warnings.warn(what + "; raise max_iter or use method='manifold'", RuntimeWarning, stacklevel=3)
+        elif need > self.MAX_ITER_AUTO:
+            raise InputError(what + f", more than {self.MAX_ITER_AUTO}: this method does not hold these rows; use "
+                             "method='manifold'", key="method")
+        else:
+            self.opts["max_iter"] = k = max(k, math.ceil(need))
+            self.start_filter = (self.start_filter[0], float(np.exp(k * per_iter[0])))
+            self._solve = self._projection = None
 
     @property
     def supports_projection(self):
@@ -83,6 +143,12 @@ class Proximal(Formulation):
             raise np.linalg.LinAlgError(f"{self.mech.name}: the mass matrix is not positive definite at "
                                         f"t = {t:.9g} s (check the URDF inertias)")
         return ws.a.copy()
+
+    def describe(self) -> dict:
+        out = super().describe()
+        if self.start_filter is not None:
+            out["start_filter"] = {"eigenvalue_over_rho": self.start_filter[0], "force_left": self.start_filter[1]}
+        return out
 
     def project(self, t, q, v):
         if not self.supports_projection:
