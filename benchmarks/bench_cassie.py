@@ -75,7 +75,7 @@ them (pin.constraintDynamics above: 50 of 50 iterations at every state; as a run
 Pinocchio's residual 7.5). On cassie_reduced and cassie_simple, whose plantar loops are not planar (no
 redundant row), the method runs and ends where lagrange does (tests/test_cassie.py).
 
-The gearbox variant `cassie` (cassie.sdf) runs with proximal and manifold. lagrange and projection stop at
+The gearbox variant `cassie` (cassie.sdf) runs with manifold. lagrange and projection stop at
 t = 0 and name the rows: after the rank test on J (tolerance 7e-12 of its scale) drops 8 of the 32 rows, the
 right shin-spring closure (a prismatic cut joint) keeps rows x and ry whose combination is independent of the
 others by 2.2e-7 of J's scale only (smallest singular value 3.2e-7 against 1.44; the SDF's rounded poses).
@@ -83,8 +83,9 @@ The Schur complement J M^-1 J^T squares that: condition 1.2e14, above pinclear's
 inertias (diagonal of M down to 1.0e-5) add only a factor 2.5 (condition of J L^-T, M = L L^T: 1.1e7, of J:
 4.5e6). The stop is right: that weak row alone locks the right shin triangle (planar Grubler count 0).
 Dropping it (a rank test at 1e-6, tried) lets lagrange run but frees the right knee-shin joint (7e-4 rad in
-0.1 s); manifold keeps both at rest with every row to 4e-16, and proximal frees both (residual 2e-8, knee
-rotors 1.2e-2 rad off manifold's): docs/import_export.md."""
+0.1 s); manifold keeps both at rest with every row to 4e-16. proximal, which used to run and free both (residual
+2e-8, knee rotors 1.2e-2 rad off manifold's), is refused at the start: both locks have an eigenvalue of
+J M^-1 J^T ~1e-9 of its regularisation (docs/import_export.md, docs/singular_passages.md)."""
 
 
 def pinclear_solvers(mech, T, Q, V, Z, independent):
