@@ -177,3 +177,38 @@ def test_oil_in_s2_of_the_4ups_upu_delays_and_softens_the_landing():
     assert b["peak_dry_N"] < a["peak_dry_N"]
     assert 0 < b["film_J_run"] < b["dissipated_J_run"]
     assert b["audit_ok"] and a["audit_ok"]
+
+
+def test_the_film_hands_over_to_the_dry_law_without_a_force_jump():
+    """The joint's generalized force (film + dry law) on either side of the band's two ends, h_min =
+    asperity + band (film weight 1 -> fading) and h_min = asperity (film gone, dry law from zero
+    penetration), for a ball approaching with spin: the difference across each end shrinks with the
+    step (no jump)."""
+    from pinclear import kinematics
+
+    mech = pinclear.load(BALL, clearances=["S"])
+    el = mech.forces[-1]
+    ws = mech.workspace()
+    d = ws.force_data[-1]
+    v = np.array([0.0, 0.0, -1e-3, 0.0, 5.0, 0.0])
+    z = np.zeros(el.nz)
+    z[0] = 1e-3
+
+    def tau_at(h_min):
+        q = np.zeros(6)
+        q[2] = -(C - h_min)
+        kinematics.update(mech, ws, q, v)
+        tau, zdot = np.zeros(6), np.zeros(el.nz)
+        el.add_force(mech, ws, d, 0.0, q, v, z, tau, zdot)
+        return tau
+
+    walk = np.array([tau_at(h) for h in np.linspace(el.h_a - 0.5 * el.band, el.h_a + 1.5 * el.band, 41)])
+    scale = np.abs(walk).max()
+    assert scale > 0 and np.abs(walk[-1]).max() > 0.1 * scale        # the film's own force is in the walk
+    for h in (el.h_a + el.band, el.h_a):
+        # across a jump the difference stays as the step shrinks; a continuous force's shrinks with it
+        eta = 1e-6 * el.band
+        wide = np.abs(tau_at(h + 10 * eta) - tau_at(h - 10 * eta)).max()
+        near = np.abs(tau_at(h + eta) - tau_at(h - eta)).max()
+        assert near <= 0.2 * wide + 1e-12 * scale
+        assert near < 1e-4 * scale
