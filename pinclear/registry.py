@@ -195,6 +195,7 @@ CLEARANCE_TYPES = Registry("clearance type", {
     "revolute": "pinclear.contact.revolute:REVOLUTE",
     "prismatic": "pinclear.contact.prismatic:PRISMATIC",
     "lubricated_revolute": "pinclear.contact.lubricated:LUBRICATED_REVOLUTE",
+    "lubricated_spherical": "pinclear.contact.lubricated_spherical:LUBRICATED_SPHERICAL",
 }, common="pinclear.contact.spec:COMMON")
 
 #: force element types (sidecar ``forces: [{type: ...}]``)

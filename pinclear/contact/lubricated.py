@@ -67,6 +67,8 @@ _LUB = (Key("viscosity", "number", "Pa s", None, "> 0", "Pinkus & Sternlicht 196
             "film thickness at which the asperities touch (dry law from there)"),
         Key("band", "number", "m", "asperity (or 0.02 x clearance)", "> 0", "contact/lubricated.py",
             "film thickness band above the asperity height over which the film fades out"))
+#: the film keys every lubricated type takes (lubricated_spherical.py has no bearing theory)
+FILM_KEYS = tuple(k for k in _LUB if k.name != "theory")
 
 
 def film_pressure(theory, mu, R, L, c, eps, eps_dot, Om):
@@ -111,19 +113,19 @@ def smoothstep(x):
     return x * x * (3.0 - 2.0 * x)
 
 
-class LubricatedRevoluteClearance(RevoluteClearance):
-    """Planar journal bearing with an oil film (module doc); z = [onset speed | E_dissipated |
-    friction states | film dissipation]."""
+class FilmJoint:
+    """Mixin of the lubricated clearance types (this module, lubricated_spherical.py): a dry joint
+    (the next base class, its clearance reduced to c - asperity) plus an oil film whose loads a
+    subclass computes in ``_compute`` and hands to :meth:`_blend`. z = [onset speeds |
+    E_dissipated | friction states | film dissipation]; the film is evaluated in Python."""
 
-    kind = "lubricated_revolute"
-
-    def __init__(self, *args, viscosity, theory, asperity, band, c_nominal, **kw):
-        self.mu_oil, self.theory = float(viscosity), theory
+    def __init__(self, *args, viscosity, asperity, band, c_nominal, **kw):
+        self.mu_oil = float(viscosity)
         self.h_a, self.band, self.c_film = float(asperity), float(band), float(c_nominal)
         super().__init__(*args, **kw)
 
     def _freeze(self):
-        self.kind = "lubricated_revolute"
+        self.kind = type(self).kind          # the dry base may have set its own
         self.nz = self.nc + 2 + self.nfs
         self.film_state = self.nz - 1
         super()._freeze()
@@ -133,6 +135,70 @@ class LubricatedRevoluteClearance(RevoluteClearance):
 
     def record_layout(self):
         return None
+
+    def _blend(self, d, F, T, j, power, eps, torque_out):
+        """The film's loads (F on body 2, torque T on body 2 about its centre j, their power on the
+        two bodies) faded out over the band above the asperity height: s = smoothstep((h_min -
+        h_a) / band) scales loads and power alike, so s P_film <= 0 still (module doc)."""
+        s = smoothstep((self.c_film * (1.0 - eps) - self.h_a) / self.band)
+        d.film = (s * F, s * T, j, eps, s, s * torque_out)
+        d.film_loss = -s * power
+        d.loss += d.film_loss
+
+    def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
+        self._eval(ws, d, t, q, v, z)
+        nc = self.nc
+        zdot[:nc] = 0.0
+        zdot[nc] = d.loss
+        zdot[nc + 1:self.film_state] = d.dzf
+        zdot[self.film_state] = d.film_loss
+        if d.on.any():
+            add_wrenches(ws.J6, self.idx1, self.idx2, d.F2, d.p1, d.p2, tau)
+        F, T, j = d.film[:3]
+        m = np.cross(j, F) + T            # the film's wrench on body 2 about the origin
+        # the film holds no momentum: body 1 takes the opposite wrench about the same point
+        add_body_wrench(ws.J6, self.idx2, F[0], F[1], F[2], m[0], m[1], m[2], tau)
+        add_body_wrench(ws.J6, self.idx1, -F[0], -F[1], -F[2], -m[0], -m[1], -m[2], tau)
+
+    def outputs(self, mech, ws, d, t, q, v, z):
+        out = super().outputs(mech, ws, d, t, q, v, z)
+        F, _, _, eps, s, T = d.film
+        out.update(film_force=F.copy(), film_torque=T, eccentricity_ratio=eps, film_weight=s,
+                   film_dissipated=float(z[self.film_state]))
+        return out
+
+    def describe(self):
+        return {**super().describe(), "viscosity": self.mu_oil, "asperity": self.h_a, "band": self.band,
+                "film_clearance": self.c_film}
+
+
+def film_spec(sp, own=()):
+    """(the film's keyword arguments of FilmJoint, the dry joint's Spec) of a lubricated entry:
+    viscosity, asperity height and band read and checked; the dry law acts from h_min = asperity,
+    so the dry joint's clearance is c - asperity (its radii are those of that clearance). ``own``:
+    the type's further keys the dry parser does not take."""
+    c = sp.clearance()
+    mu = sp.number("viscosity")
+    h_a = sp.number("asperity", 0.02 * c, allow_zero=True)
+    if h_a >= c:
+        raise sp.error("asperity", f"must be below the clearance {c} m, got {h_a}")
+    band = sp.number("band", h_a if h_a > 0 else 0.02 * c)
+    dry = dict(sp.d, clearance=c - h_a)
+    for k in ("viscosity", "asperity", "band") + tuple(own):
+        dry.pop(k, None)
+    sp_dry = type(sp).__new__(type(sp))
+    sp_dry.__dict__.update(sp.__dict__, d=dry)
+    return dict(viscosity=mu, asperity=h_a, band=band, c_nominal=c), sp_dry
+
+
+class LubricatedRevoluteClearance(FilmJoint, RevoluteClearance):
+    """Planar journal bearing with an oil film (module doc)."""
+
+    kind = "lubricated_revolute"
+
+    def __init__(self, *args, theory, **kw):
+        self.theory = theory
+        super().__init__(*args, **kw)
 
     def _compute(self, ws, d, v, z):
         super()._compute(ws, d, v, z)
@@ -146,57 +212,20 @@ class LubricatedRevoluteClearance(RevoluteClearance):
         edot -= (edot @ axis) * axis
         F, Tj, power, eps = film_loads(self.theory, self.mu_oil, self.R2, self.L, self.c_film, e, edot, axis,
                                        float(axis @ (w2 - w1)))
-        s = smoothstep((self.c_film * (1.0 - eps) - self.h_a) / self.band)
-        d.film = (s * F, s * Tj, j, axis, eps, s)
-        d.film_loss = -s * power
-        d.loss += d.film_loss
-
-    def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
-        self._eval(ws, d, t, q, v, z)
-        nc = self.nc
-        zdot[:nc] = 0.0
-        zdot[nc] = d.loss
-        zdot[nc + 1:self.film_state] = d.dzf
-        zdot[self.film_state] = d.film_loss
-        if d.on.any():
-            add_wrenches(ws.J6, self.idx1, self.idx2, d.F2, d.p1, d.p2, tau)
-        F, Tj, j, axis, _, _ = d.film
-        m = np.cross(j, F) + Tj * axis            # the film's wrench on the journal about the origin
-        add_body_wrench(ws.J6, self.idx2, F[0], F[1], F[2], m[0], m[1], m[2], tau)
-        add_body_wrench(ws.J6, self.idx1, -F[0], -F[1], -F[2], -m[0], -m[1], -m[2], tau)
-
-    def outputs(self, mech, ws, d, t, q, v, z):
-        out = super().outputs(mech, ws, d, t, q, v, z)
-        F, Tj, _, _, eps, s = d.film
-        out.update(film_force=F.copy(), film_torque=Tj, eccentricity_ratio=eps, film_weight=s,
-                   film_dissipated=float(z[self.film_state]))
-        return out
+        self._blend(d, F, Tj * axis, j, power, eps, Tj)
 
     def describe(self):
-        return {**super().describe(), "viscosity": self.mu_oil, "theory": self.theory, "asperity": self.h_a,
-                "band": self.band, "film_clearance": self.c_film}
+        return {**super().describe(), "theory": self.theory}
 
 
 def from_spec(sp, mech, closure):
-    c = sp.clearance()
-    mu = sp.number("viscosity")
     theory = sp.choice("theory", THEORIES)
-    h_a = sp.number("asperity", 0.02 * c, allow_zero=True)
-    if h_a >= c:
-        raise sp.error("asperity", f"must be below the clearance {c} m, got {h_a}")
-    band = sp.number("band", h_a if h_a > 0 else 0.02 * c)
-    # the dry law acts from h_min = asperity: the dry geometry's clearance is c - h_a
-    dry = dict(sp.d, clearance=c - h_a)
-    for k in ("viscosity", "theory", "asperity", "band", "bearing_radius"):
-        dry.pop(k, None)
-    sp_dry = type(sp).__new__(type(sp))
-    sp_dry.__dict__.update(sp.__dict__, d=dry)
+    film, sp_dry = film_spec(sp, own=("theory", "bearing_radius"))
     joint = _dry_from_spec(sp_dry, mech, closure, spatial=False)
     # the bearing is R_j + c: the dry channel's radii are those of the clearance c - h_a
     return LubricatedRevoluteClearance(joint.name, mech.model, joint.f1, joint.f2, joint.c, joint.R2, joint.law,
                                        joint.friction, length=joint.L, stiffness_note=joint.stiffness_note,
-                                       viscosity=mu, theory=theory, asperity=h_a, band=band, c_nominal=c,
-                                       **sp.common(c))
+                                       theory=theory, **film, **sp.common(film["c_nominal"]))
 
 
 LUBRICATED_REVOLUTE = PluginType(
