@@ -128,8 +128,8 @@ def test_scheme_update_factor_converges_and_resumes(tmp_path):
                      dt_out=1e-4)
     res = converged(mech, "A", s, out=tmp_path, start=start)
     assert res["converged"]
-    (u1, f1, d1), (u2, f2, d2) = res["rounds"][-2:]
-    d1, d2 = d1["A"], d2["A"]
+    r1, r2 = res["rounds"][-2:]
+    u2, f1, f2, d1, d2 = r2["updates"], r1["factor"], r2["factor"], r1["max_depth"]["A"], r2["max_depth"]["A"]
     assert f2 == pytest.approx(f1 / 2) and abs(d2 - d1) <= 0.05 * d2
     # constant load: the depth grows linearly, k p0 v / H per second of service
     wm = mech.forces[-1].wear
