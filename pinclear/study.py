@@ -4,7 +4,7 @@ each study writes its own findings.
 
 paper002: the paper-002 nine-bar (Chen & Pan 2021; urdf/nine_bar.yaml, every dimension
 reconstructed, docs/papers.md) with both clearances A and B worn together by Archard's law over a
-service life (pinclear.wearing: the update factor chosen by the convergence test), at two nominal
+service life (pinclear.wearing's depth-limited update, its step chosen by the convergence test), at two nominal
 clearances, friction 0.3 as in the paper's sec. 4: how A and B grow, and the 0-1 test K (Gottwald &
 Melbourne) of the journals' stroboscopic eccentricities, new vs worn, at each clearance (does the
 chaos window move).
@@ -28,8 +28,12 @@ STUDIES = ("paper002",)
 
 
 def _settings(quick):
+    # the depth scheme (pinclear.wearing): the worn profile changes this linkage's motion (the deepest
+    # node's rate grows ~30 x over the first 10 um at 0.1 mm, docs/study/paper002/README.md), so the
+    # updates are limited in depth, first at 0.2 % of the clearance, the step halved per trial
     return {"clearances [mm]": [0.1, 0.8], "cycles": 1e6 if not quick else 1e5, "period [s]": 1.0,
-            "first updates": 2, "max rounds": 5, "chaos periods": 100 if not quick else 60, "transient periods": 10,
+            "scheme": "depth", "first step [fraction of c]": 2e-3, "max rounds": 4, "max updates": 4000,
+            "chaos periods": 100 if not quick else 60, "transient periods": 10,
             "rtol": 1e-6, "dt_out [s]": 1e-4, "mu": 0.3, "wear": WEAR, "quick": quick}
 
 
@@ -72,20 +76,22 @@ def paper002(out, quick=False):
         ov = {f"{j}.{k}": v for j in ("A", "B") for k, v in (("clearance", c_mm * 1e-3), ("mu", s["mu"]),
                                                               ("wear", WEAR))}
         mech = pinclear.load("nine_bar", clearances=["A", "B"], overrides=ov)
-        ws = WearSettings(cycles=s["cycles"], period=s["period [s]"], updates=s["first updates"],
-                          rtol=s["rtol"], dt_out=s["dt_out [s]"])
+        ws = WearSettings(cycles=s["cycles"], period=s["period [s]"], scheme=s["scheme"],
+                          step=s["first step [fraction of c]"], max_updates=s["max updates"], rtol=s["rtol"],
+                          dt_out=s["dt_out [s]"])
         folder = safeio.make_dirs(out / f"c{c_mm:g}mm")
         c1 = time.process_time()
         res = converged(mech, ["A", "B"], ws, max_rounds=s["max rounds"], out=folder)
         plot(res, folder)
         _tables(folder, {n: worn_joint(res["mech"], n)[1].wear for n in res["depth"]}, res["depth"], res["history"])
         c2 = time.process_time()
+        h = res["history"]
         K_new, sp_new, kind_new = chaos_K(mech, s["chaos periods"], s["transient periods"], s["period [s]"], s["rtol"])
         K_worn, sp_worn, kind_worn = chaos_K(res["mech"], s["chaos periods"], s["transient periods"], s["period [s]"],
                                              s["rtol"])
-        h = res["history"]
         rows.append({"clearance_mm": c_mm, "converged": res["converged"], "rounds": res["rounds"],
-                     "update_factor": res["settings"].factor,
+                     "step": res["settings"].step, "updates": len(h["factor"]),
+                     "update_factor": [min(h["factor"]), max(h["factor"])],
                      "A_growth_um": 1e6 * float(res["depth"]["A"].max()), "B_growth_um": 1e6 * float(res["depth"]["B"].max()),
                      "A_angle_deg": float(np.degrees(res["angles"]["A"][np.argmax(res["depth"]["A"])])),
                      "B_angle_deg": float(np.degrees(res["angles"]["B"][np.argmax(res["depth"]["B"])])),
@@ -109,16 +115,27 @@ def _report(s, rows, cpu):
              "(docs/papers.md): the numbers are this linkage's, not the paper's.", "",
              f"Wear law: Archard, k = {WEAR['k']:g}, H = {WEAR['hardness']:g} Pa (stated, not from the paper), "
              f"{WEAR['nodes']} nodes; service life {s['cycles']:g} crank turns of {s['period [s]']:g} s; friction "
-             f"{s['mu']} (sec. 4); update factor from the convergence test (halving it changes each joint's final "
-             f"depth by <= 5 %), at most {s['max rounds']} trials from {s['first updates']} updates.", "",
-             "| clearance [mm] | converged | update factor [cycles] | A growth [um] at [deg] | B growth [um] at [deg] "
-             "| K (kind) new | K (kind) worn | audit error (max, per block) | max reshape jump [J] | update / sim CPU |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             f"{s['mu']} (sec. 4). Depth-limited update (docs/wear_lubrication.md): each update's largest nodal "
+             "increment is a step x the joint's clearance; the step halved from "
+             f"{s['first step [fraction of c]']:g} until halving it changes each joint's final depth by <= 5 %, at "
+             f"most {s['max rounds']} trials of at most {s['max updates']} updates.", "",
+             "| clearance [mm] | converged | step [x c] | updates | factor [cycles] | A growth [um] at [deg] "
+             "| B growth [um] at [deg] | K (kind) new | K (kind) worn | audit error (max, per block) "
+             "| max reshape jump [J] | update / sim CPU |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['clearance_mm']:g} | {'yes' if r['converged'] else 'no'} | {r['update_factor']:.4g} | "
+        f0, f1 = r["update_factor"]
+        lines.append(f"| {r['clearance_mm']:g} | {'yes' if r['converged'] else 'no'} | {r['step']:.3g} | "
+                     f"{r['updates']} | {f0:.3g}-{f1:.3g} | "
                      f"{r['A_growth_um']:.3g} at {r['A_angle_deg']:.0f} | {r['B_growth_um']:.3g} at "
                      f"{r['B_angle_deg']:.0f} | {r['K_new']:.2f} ({r['kind_new']}) | {r['K_worn']:.2f} ({r['kind_worn']}) | {r['max_audit_error']:.2g} | "
                      f"{r['max_reshape_jump_J']:.2g} | {r['update_over_sim_cpu']:.3f} |")
+    lines += ["", "Trials of the convergence test (step, updates made, final max depth A / B):", ""]
+    for r in rows:
+        trials = "; ".join(f"step {t['step']:.3g}: {t['updates']} updates, A {1e6 * t['max_depth']['A']:.3g} um, "
+                           f"B {1e6 * t['max_depth']['B']:.3g} um" + ("" if t["complete"] else " (stopped)")
+                           for t in r["rounds"])
+        lines.append(f"- c = {r['clearance_mm']:g} mm ({r['cpu_wear_s']:.0f} CPU s): {trials}")
     lines += ["", "Findings (from the table above, this run):", ""]
     for r in rows:
         faster = "A" if r["A_growth_um"] > r["B_growth_um"] else "B"
@@ -126,8 +143,8 @@ def _report(s, rows, cpu):
         moved = (f"the same kind of motion ({r['kind_new']})" if r["kind_new"] == r["kind_worn"] else
                  f"the motion changes from {r['kind_new']} to {r['kind_worn']} (analysis.classify_state; "
                  "'irregular' is the 0-1 test without a Lyapunov check, not chaos)")
-        conv = "" if r["converged"] else (" The update factor did not converge within the trials: the growth is "
-                                          "the finest trial's, with its spread in results.json (rounds).")
+        conv = "" if r["converged"] else (" The depth step did not converge within the trials: the growth is "
+                                          "the finest trial's, the trials above show the spread.")
         lines.append(f"- c = {r['clearance_mm']:g} mm: {faster} wears {ratio:.2g} x faster; K {r['K_new']:.2f} new vs "
                      f"{r['K_worn']:.2f} worn: {moved}.{conv}")
     lines += ["", f"CPU of the whole study: {cpu:.0f} s (one core).",
