@@ -138,7 +138,8 @@ def _report(s, rows, cpu):
     lines += ["", "Trials of the convergence test (step, updates made, final max depth A / B):", ""]
     for r in rows:
         trials = "; ".join(f"step {t['step']:.3g}: {t['updates']} updates, A {1e6 * t['max_depth']['A']:.3g} um, "
-                           f"B {1e6 * t['max_depth']['B']:.3g} um" + _volumes(t) + ("" if t["complete"] else " (stopped)")
+                           f"B {1e6 * t['max_depth']['B']:.3g} um" + _volumes(t)
+                           + ("" if t["complete"] else " (stopped)")
                            for t in r["rounds"])
         lines.append(f"- c = {r['clearance_mm']:g} mm ({r['cpu_wear_s']:.0f} CPU s): {trials}")
     lines += ["", "Findings (from the table above, this run):", ""]
