@@ -10,7 +10,7 @@ from scipy.integrate import quad
 
 import pinclear
 from pinclear.contact import wear
-from pinclear.errors import ContactSetupError
+from pinclear.errors import ContactSetupError, InputError
 from pinclear.wearing import WearSettings, converged, wear_run
 
 JOURNAL = Path(__file__).parent / "data" / "wear_journal.yaml"
@@ -175,6 +175,28 @@ def test_depth_scheme_wears_the_hand_integrated_crescent_in_the_predicted_update
     h = np.diff([0.0] + res["history"]["A.max_depth"])
     assert h[:-1] == pytest.approx(res["settings"].step * c, rel=1e-9) and 0 < h[-1] <= res["settings"].step * c
     assert (tmp_path / "step_0.002" / "checkpoint.npz").exists()
+
+
+def test_depth_scheme_resumes_an_interrupted_run_to_the_same_profile(tmp_path):
+    mech = pinclear.load(JOURNAL, clearances=["A"])
+    start = _static_start(mech)
+    s = WearSettings(cycles=2000.0, period=0.01, transient_periods=0, rtol=1e-8, dt_out=1e-4, scheme="depth",
+                     step=0.004)
+    whole = wear_run(mech, "A", s, start=start)
+
+    def stop(done, total, depth):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        wear_run(mech, "A", s, out=tmp_path, progress=stop, start=start)
+    again = wear_run(mech, "A", s, out=tmp_path, start=start)
+    assert np.array_equal(again["depth"]["A"], whole["depth"]["A"]) and again["complete"]
+    assert again["history"]["cycles"] == whole["history"]["cycles"]
+    assert again["history"]["factor"] == whole["history"]["factor"]
+    # a checkpoint of other settings is refused, naming the folder
+    with pytest.raises(InputError, match="checkpoint of other settings"):
+        wear_run(mech, "A", WearSettings(**{**s.__dict__, "step": 0.002}), out=tmp_path, start=start)
 
 
 SPRING = Path(__file__).parent / "data" / "wear_spring.yaml"
