@@ -120,8 +120,9 @@ def _report(s, rows, cpu):
              "(docs/papers.md): the numbers are this linkage's, not the paper's.", "",
              f"Wear law: Archard, k = {WEAR['k']:g}, H = {WEAR['hardness']:g} Pa (stated, not from the paper), "
              f"{WEAR['nodes']} nodes; service life {s['cycles']:g} crank turns of {s['period [s]']:g} s; friction "
-             f"{s['mu']} (sec. 4). Depth-limited update (docs/wear_lubrication.md): each update's largest nodal "
-             "increment is a step x the joint's clearance; the step halved from "
+             f"{s['mu']} (sec. 4). Depth-limited update (docs/wear_lubrication.md; the wear step sized by the "
+             "largest nodal increment as in Podra & Andersson 1999, Tribol. Int. 32, 71 and Mukras et al. 2009, Wear "
+             "266, 822): each update's largest nodal increment is a step x the joint's clearance; the step halved from "
              f"{s['first step [fraction of c]']:g} until halving it changes each joint's final depth by <= 5 %, at "
              f"most {s['max rounds']} trials of at most {s['max updates']} updates.", "",
              "| clearance [mm] | converged | step [x c] | updates | factor [cycles] | A growth [um] at [deg] "
@@ -153,9 +154,20 @@ def _report(s, rows, cpu):
                                           "the finest trial's, the trials above show the spread.")
         lines.append(f"- c = {r['clearance_mm']:g} mm: {faster} wears {ratio:.2g} x faster; K {r['K_new']:.2f} new vs "
                      f"{r['K_worn']:.2f} worn: {moved}.{conv}")
-    lines += ["", f"CPU of the whole study: {cpu:.0f} s (one core).",
+    lines += ["", f"CPU of the whole study: {cpu:.0f} s (one core); per clearance: "
+              + ", ".join(f"{r['clearance_mm']:g} mm wear {r['cpu_wear_s']:.0f} s + 0-1 test {r['cpu_chaos_s']:.0f} s"
+                          for r in rows) + ".",
               "Figures: c*mm/depth_vs_angle.png (worn profiles), c*mm/growth.png (clearance growth vs cycles); "
-              "histories and profiles: c*mm/history.csv, c*mm/profile.csv.", ""]
+              "histories and profiles: c*mm/history.csv, c*mm/profile.csv (the finest trial's).", "",
+              "The worn bearings in the meshcat view (depth magnified by the printed, labelled factor):", ""]
+    wear = "{k: %g, hardness: %g, nodes: %d}" % (WEAR["k"], WEAR["hardness"], WEAR["nodes"])
+    for r in rows:
+        c = r["clearance_mm"] * 1e-3
+        lines.append(f"    pinclear view nine_bar --clearance A --clearance B --set A.clearance={c:g} "
+                     f"--set B.clearance={c:g} --set 'A.wear={wear}' --set 'B.wear={wear}' "
+                     f"--wear docs/study/paper002/c{r['clearance_mm']:g}mm "
+                     f"--html out/worn_c{r['clearance_mm']:g}mm.html")
+    lines.append("")
     return "\n".join(lines)
 
 
