@@ -32,7 +32,7 @@ def _settings(quick):
     # node's rate grows ~30 x over the first 10 um at 0.1 mm, docs/study/paper002/README.md), so the
     # updates are limited in depth, first at 0.2 % of the clearance, the step halved per trial
     return {"clearances [mm]": [0.1, 0.8], "cycles": 1e6 if not quick else 1e5, "period [s]": 1.0,
-            "scheme": "depth", "first step [fraction of c]": 2e-3, "max rounds": 4, "max updates": 4000,
+            "scheme": "depth", "first step [fraction of c]": 2e-3, "max rounds": 3, "max updates": 4000,
             "chaos periods": 100 if not quick else 60, "transient periods": 10,
             "rtol": 1e-6, "dt_out [s]": 1e-4, "mu": 0.3, "wear": WEAR, "quick": quick}
 
