@@ -343,8 +343,9 @@ def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, pro
         if not res["complete"]:
             res.update(rounds=rounds, converged=False)
             return res
-        # a halving that made no more updates (the life's end held both at the same count) tests nothing
-        if (prev is not None and n_upd > rounds[-2]["updates"]
+        # a halving that made no more updates (the life's end held both at the same count) tests
+        # nothing, unless nothing wore at all (no step to resolve)
+        if (prev is not None and (n_upd > rounds[-2]["updates"] or not any(d.values()))
                 and all(abs(d[n] - prev["depth"][n].max()) <= tol * d[n] for n in d)):
             res.update(rounds=rounds, converged=True)
             return res
