@@ -206,12 +206,18 @@ def _start(mech, s, out, wms, found, start):
                 float(hist["cycles"][-1]) if hist["cycles"] else 0.0,
                 None if np.isnan(ck["last_E"]) else float(ck["last_E"]), hist)
     depth = {n: np.array(f[1].depth) for n, f in found.items()}
+    q, v, t = _after_transient(mech, s, start)
+    return depth, q, v, t, 0, 0.0, None, {k: [] for k in _history_keys(sorted(wms))}
+
+
+def _after_transient(mech, s, start):
+    """(q, v, t) where the wear starts: ``start`` (None: simulate's ideal start) after the start-up
+    periods (landings from the sidecar's start) on the new bearing, without wear."""
     q, v, t = (None, None, 0.0) if start is None else (np.asarray(start[0], float), np.asarray(start[1], float), 0.0)
     if s.transient_periods:
-        # the start-up (landings from the sidecar's start) on the new bearing, without wear
         tr = _simulate(mech, 0.0, s.transient_periods * s.period, q, v, s)
         q, v, t = tr.q[-1], tr.v[-1], float(tr.t[-1])
-    return depth, q, v, t, 0, 0.0, None, {k: [] for k in _history_keys(sorted(wms))}
+    return q, v, t
 
 
 def _finished(s, done, cyc):
@@ -311,6 +317,35 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
                      max(d.max() for d in depth.values()))
     return {"depth": depth, "angles": {n: wm.angles() for n, wm in wms.items()}, "history": hist, "settings": s,
             "mech": worn, "complete": _finished(s, done, cyc) and cyc >= s.cycles * (1.0 - 1e-12)}
+
+
+def block_length(mech, names, s: WearSettings, tol=0.025, max_periods=32, start=None):
+    """Periods per block whose mean wear rate is a converged average (for irregular motion, where
+    one period's increment is a noisy sample): from the run's start (after s.transient_periods),
+    blocks of n = 1, 2, 4, ... consecutive periods, n doubled until the mean increment over 2n
+    periods changes every joint's largest nodal mean increment by <= tol from the first n periods'.
+    Returns (n, converged, table [(n, {name: largest nodal increment per period of the n-period
+    mean, m})]); at max_periods unconverged: (max_periods, False, table). On the new bearing only:
+    a worn one's motion may differ (docs/wear_lubrication.md)."""
+    from .contact.wear import block_increment
+
+    names = [names] if isinstance(names, str) else list(names)
+    wms = {n: worn_joint(mech, n)[1].wear for n in names}
+    q, v, t = _after_transient(mech, s, start)
+    tr = _simulate(mech, t, t + s.period, q, v, s)
+    total = {m: block_increment(wms[m], m, tr) for m in names}
+    count, table = 1, [(1, {m: float(total[m].max()) for m in names})]
+    while True:
+        # double the periods summed: count more, continuing from the last state
+        tr = _simulate(mech, float(tr.t[-1]), float(tr.t[-1]) + count * s.period, tr.q[-1], tr.v[-1], s)
+        total = {m: total[m] + block_increment(wms[m], m, tr) for m in names}
+        count *= 2
+        mean = {m: float(total[m].max()) / count for m in names}
+        table.append((count, mean))
+        if all(abs(mean[m] - table[-2][1][m]) <= tol * mean[m] for m in names):
+            return count // 2, True, table
+        if count >= max_periods:
+            return count, False, table
 
 
 def _trial(s, k):

@@ -11,7 +11,7 @@ from scipy.integrate import quad
 import pinclear
 from pinclear.contact import wear
 from pinclear.errors import ContactSetupError, InputError
-from pinclear.wearing import WearSettings, converged, wear_run
+from pinclear.wearing import WearSettings, block_length, converged, wear_run
 
 JOURNAL = Path(__file__).parent / "data" / "wear_journal.yaml"
 OMEGA = 20.0                                   # journal spin, rad/s
@@ -197,6 +197,16 @@ def test_depth_scheme_resumes_an_interrupted_run_to_the_same_profile(tmp_path):
     # a checkpoint of other settings is refused, naming the folder
     with pytest.raises(InputError, match="checkpoint of other settings"):
         wear_run(mech, "A", WearSettings(**{**s.__dict__, "step": 0.002}), out=tmp_path, start=start)
+
+
+def test_block_length_of_a_steady_journal_is_one_period():
+    # constant load and spin: every period wears the same crescent, so one period's mean is the
+    # converged rate (k p0 v T / H at the centre node, to the integration tolerance)
+    mech = pinclear.load(JOURNAL, clearances=["A"])
+    s = WearSettings(cycles=2000.0, period=0.01, transient_periods=0, rtol=1e-8, dt_out=1e-4)
+    n, ok, table = block_length(mech, "A", s, start=_static_start(mech))
+    assert (n, ok, [row[0] for row in table]) == (1, True, [1, 2])
+    assert table[1][1]["A"] == pytest.approx(table[0][1]["A"], rel=1e-6)
 
 
 SPRING = Path(__file__).parent / "data" / "wear_spring.yaml"
