@@ -135,7 +135,7 @@ def _report(s, rows, cpu):
              "turns long enough that its mean wear rate is a converged average: on the new bearing, the block "
              f"doubled from 1 turn until doubling it changes each joint's largest mean nodal rate by <= "
              f"{100 * s['block tol']:g} % (at most {s['max block periods']} turns; pinclear.wearing.block_length).", "",
-             "| clearance [mm] | converged | block [turns] | step [x c] | updates | factor [cycles] "
+             "| clearance [mm] | step converged | block [turns] | step [x c] | updates | factor [cycles] "
              "| A growth [um] at [deg] "
              "| B growth [um] at [deg] | K (kind) new | K (kind) worn | audit error (max, per block) "
              "| max reshape jump [J] | update / sim CPU |",
@@ -154,7 +154,15 @@ def _report(s, rows, cpu):
                            f"B {1e6 * t['max_depth']['B']:.3g} um" + _volumes(t)
                            + ("" if t["complete"] else " (stopped)")
                            for t in r["rounds"])
-        lines.append(f"- c = {r['clearance_mm']:g} mm ({r['cpu_wear_s']:.0f} CPU s): {trials}")
+        cpu = sum(t.get("cpu_s", 0.0) for t in r["rounds"])
+        lines.append(f"- c = {r['clearance_mm']:g} mm (the trials' blocks and updates {cpu:.0f} CPU s): {trials}")
+    lines += ["", "Block length (pinclear.wearing.block_length, new bearing: the largest mean nodal increment per "
+              "turn, A / B, over the first n turns):", ""]
+    for r in rows:
+        table = ", ".join(f"{n}: {1e12 * m['A']:.3g} / {1e12 * m['B']:.3g} pm" for n, m in r.get("block_table", []))
+        lines.append(f"- c = {r['clearance_mm']:g} mm: {table}; block {r.get('block_periods', 1)} turns"
+                     + ("" if r.get("block_converged", True) else " (the largest allowed, not converged: the "
+                        "growth still depends on the block length)"))
     lines += ["", "Findings (from the table above, this run):", ""]
     for r in rows:
         faster = "A" if r["A_growth_um"] > r["B_growth_um"] else "B"
@@ -166,7 +174,8 @@ def _report(s, rows, cpu):
                                           "the finest trial's, the trials above show the spread.")
         lines.append(f"- c = {r['clearance_mm']:g} mm: {faster} wears {ratio:.2g} x faster; K {r['K_new']:.2f} new vs "
                      f"{r['K_worn']:.2f} worn: {moved}.{conv}")
-    lines += ["", f"CPU of the whole study: {cpu:.0f} s (one core); per clearance: "
+    lines += ["", f"CPU of this run of the study: {cpu:.0f} s (one core; a run resumed from the trials' checkpoints "
+              "counts only what it computed); per clearance: "
               + ", ".join(f"{r['clearance_mm']:g} mm wear {r['cpu_wear_s']:.0f} s + 0-1 test {r['cpu_chaos_s']:.0f} s"
                           for r in rows) + ".",
               "Figures: c*mm/depth_vs_angle.png (worn profiles), c*mm/growth.png (clearance growth vs cycles); "

@@ -360,7 +360,7 @@ def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, pro
     """The convergence test of the scheme (module doc): trials with the factor halved (``factor``:
     updates doubled) or the depth step halved (``depth``) until every joint's final maximum depth
     changes by <= tol. Returns the finest run's result plus ``rounds`` (one dict a trial: updates,
-    factor or step, complete, max_depth {name: m}, worn_volume {name: m^3}) and ``converged``
+    factor or step, complete, max_depth {name: m}, worn_volume {name: m^3}, cpu_s) and ``converged``
     (False after max_rounds, or when a trial stopped at max_updates: every trial's numbers are in
     rounds)."""
     rounds, prev = [], None
@@ -374,7 +374,9 @@ def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, pro
         n_upd = len(res["history"]["cycles"])
         rounds.append({"updates": n_upd, **({"factor": si.factor} if si.scheme == "factor" else {"step": si.step}),
                        "complete": res["complete"], "max_depth": d,
-                       "worn_volume": {n: res["history"][f"{n}.worn_volume"][-1] for n in d}})
+                       "worn_volume": {n: res["history"][f"{n}.worn_volume"][-1] for n in d},
+                       # the trial's blocks and updates, resumed parts included (from its history)
+                       "cpu_s": float(sum(res["history"]["cpu_sim"]) + sum(res["history"]["cpu_update"]))})
         if not res["complete"]:
             res.update(rounds=rounds, converged=False)
             return res
