@@ -154,8 +154,8 @@ def _report(s, rows, cpu):
                            f"B {1e6 * t['max_depth']['B']:.3g} um" + _volumes(t)
                            + ("" if t["complete"] else " (stopped)")
                            for t in r["rounds"])
-        cpu = sum(t.get("cpu_s", 0.0) for t in r["rounds"])
-        lines.append(f"- c = {r['clearance_mm']:g} mm (the trials' blocks and updates {cpu:.0f} CPU s): {trials}")
+        trial_cpu = sum(t.get("cpu_s", 0.0) for t in r["rounds"])
+        lines.append(f"- c = {r['clearance_mm']:g} mm (the trials' blocks and updates {trial_cpu:.0f} CPU s): {trials}")
     lines += ["", "Block length (pinclear.wearing.block_length, new bearing: the largest mean nodal increment per "
               "turn, A / B, over the first n turns):", ""]
     for r in rows:
