@@ -329,6 +329,7 @@ def block_length(mech, names, s: WearSettings, tol=0.025, max_periods=32, start=
     a worn one's motion may differ (docs/wear_lubrication.md)."""
     from .contact.wear import block_increment
 
+    s.check()
     names = [names] if isinstance(names, str) else list(names)
     wms = {n: worn_joint(mech, n)[1].wear for n in names}
     q, v, t = _after_transient(mech, s, start)
@@ -436,6 +437,11 @@ def build_parser():
     p.add_argument("--updates", type=count(1), default=4, help="factor scheme: reshapes of the first trial "
                    "(doubled until converged; default 4)")
     p.add_argument("--block-periods", type=count(1), default=1, help="periods simulated per reshape (default 1)")
+    p.add_argument("--block-tol", type=number(), default=None, help="choose --block-periods instead: doubled from 1 "
+                   "until doubling it changes each joint's largest mean nodal wear rate by at most this fraction, on "
+                   "the new bearing (e.g. 0.025; at most --max-block-periods)")
+    p.add_argument("--max-block-periods", type=count(1), default=16, help="the longest block --block-tol may choose "
+                   "(default 16)")
     p.add_argument("--transient-periods", type=count(0), default=1, help="periods simulated first without wear "
                    "(default 1)")
     p.add_argument("--scheme", choices=SCHEMES, default="factor", help="factor: the same update factor for every "
@@ -466,6 +472,13 @@ def cli_main(argv=None) -> int:
                      block_periods=args.block_periods, transient_periods=args.transient_periods, rtol=args.rtol,
                      dt_out=args.dt_out, scheme=args.scheme, step=args.step, max_updates=args.max_updates)
     out = safeio.make_dirs(Path(args.out))
+    block = None
+    if args.block_tol is not None:
+        n, ok, table = block_length(mech, args.clearance, s, tol=args.block_tol, max_periods=args.max_block_periods)
+        s = WearSettings(**{**asdict(s), "block_periods": n})
+        block = {"block_periods": n, "converged": ok, "table": table}
+        print(f"wear: block of {n} periods" + ("" if ok else " (the longest allowed: its mean rate not converged)"),
+              flush=True)
     with safeio.folder_lock(out):
         res = converged(mech, args.clearance, s, tol=args.tol, max_rounds=args.max_rounds, out=out,
                         progress=lambda k, n, d: print(f"wear: update {k} ({n}): max depth {d:.4g} m", flush=True))
@@ -473,7 +486,7 @@ def cli_main(argv=None) -> int:
         plot(res, out)
         fac = res["history"]["factor"]
         summary = {"converged": res["converged"], "scheme": args.scheme, "rounds": res["rounds"],
-                   "update_factor": [min(fac), max(fac)], "updates": len(fac),
+                   "update_factor": [min(fac), max(fac)], "updates": len(fac), "block": block,
                    "max_depth_m": {n: float(d.max()) for n, d in res["depth"].items()},
                    "cpu_sim_s": float(sum(res["history"]["cpu_sim"])),
                    "cpu_update_s": float(sum(res["history"]["cpu_update"]))}
