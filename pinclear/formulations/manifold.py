@@ -55,7 +55,13 @@ The QRs are needed only near rank loss: where every pivot of J J^T (resp. S) sta
 the same quantities come from its Cholesky factor with diagonal pivoting (the QR's pivot order
 and |R_jj| in exact arithmetic; projection.min_norm_step_gram, chol_gate), which costs a
 fraction of the QR; below the gates, and always for the tangent of step 4, the QRs run
-(docs/singular_passages.md, step 5)."""
+(docs/singular_passages.md, step 5).
+
+Likewise the filter's complex factor of S + i mu^2 Lam (m^3 / 6 complex products) is needed only
+near flat: where S's Cholesky factor is taken and the shift is far below S's eigenvalues,
+g(S) r comes from a series of solves with that factor (series_filtered, the same g(S) r to
+rounding), which declines where it would converge slowly and the factor runs
+(benchmarks/bench_a02_scale.md: A02 N = 40, where the 80-row factor was the largest kernel)."""
 from __future__ import annotations
 
 from typing import NamedTuple
