@@ -342,30 +342,27 @@ def ltl_solve(L, parent, y):
 
 
 @njit(cache=True)
-def scaled_rows(Lm, parent, J, rows, cols, ncols, Y):
+def scaled_rows(Lm, parent, J, rows, Y):
     """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L.
     ltl_solve_t on every row at once: each row sees the same operations in the same order. One
     walk of the tree for all rows: a walk per row over its support alone took 0.94x (A02 N = 10)
-    to 1.48x (3-UPRU+UP) its time, measured 2026-11-27. Y is zero outside the rows' supports
-    (cols, ncols: pinclear.kinematics.row_support, closed under ancestors), so at dof k only the
-    rows from the first to the last whose support holds k are updated (the others would
-    subtract exact zeros): 1/3 of the products on A02 N = 40, whose rows reach one coupler
-    deeper each (43 us against 63 at 80 rows)."""
+    to 1.48x (3-UPRU+UP) its time, measured 2026-11-27. At dof k only the rows from the first to
+    the last whose Y[r, k] is non-zero are updated: the others would subtract exact zeros (no bit
+    changes). Y is zero outside the rows' supports (pinclear.kinematics.row_support), so on
+    A02 N = 40, whose rows reach one coupler deeper each, that is a third of the products (24 us
+    against 43 at 80 rows); the scan for the range reads a column's ends, nothing is allocated."""
     nv = Lm.shape[0]
     m = rows.shape[0]
-    lo = np.full(nv, m, dtype=np.int64)      # the rows at dof k: lo[k] <= r < hi[k]
-    hi = np.zeros(nv, dtype=np.int64)
     for r in range(m):
-        sr = rows[r]
         for k in range(nv):
-            Y[r, k] = J[sr, k]
-        for kk in range(ncols[sr]):
-            k = cols[sr, kk]
-            lo[k] = min(lo[k], r)
-            hi[k] = r + 1
+            Y[r, k] = J[rows[r], k]
     for k in range(nv - 1, -1, -1):
+        a, b = 0, m
+        while a < b and Y[a, k] == 0.0:
+            a += 1
+        while b > a and Y[b - 1, k] == 0.0:
+            b -= 1
         d = Lm[k, k]
-        a, b = lo[k], hi[k]
         for r in range(a, b):
             Y[r, k] /= d
         i = parent[k]
@@ -380,7 +377,7 @@ def scaled_rows(Lm, parent, J, rows, cols, ncols, Y):
 def schur_complement(Lm, parent, J, rows, cols, ncols, Y, S):
     """Y[r] = L^-T J[rows[r]] (row-wise) and S = Y Y^T = J M^-1 J^T over the selected rows, for
     M = L^T L factorised by ltl_factor (S by _gram), both over the rows' supports."""
-    scaled_rows(Lm, parent, J, rows, cols, ncols, Y)
+    scaled_rows(Lm, parent, J, rows, Y)
     _gram(Y, rows, cols, ncols, S, False)
 
 

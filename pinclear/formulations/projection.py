@@ -304,7 +304,7 @@ def project_state(P, R, W, t, tol, max_iter, rcond, k_prox, rho_rel):
     ltl_mul(Lm, W.parent, v, x)                  # x = L v
     if k_prox == 0:
         # x <- (I - Q Q^T) x - B^+ Phi_t, Q spanning range(B^T)
-        scaled_rows(Lm, W.parent, R.Jc, rows, R.cols, R.ncols, Y)
+        scaled_rows(Lm, W.parent, R.Jc, rows, Y)
         for i in range(m):
             for c in range(nv):
                 W.Qr[i, c] = Y[i, c]
