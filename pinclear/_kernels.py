@@ -349,8 +349,8 @@ def scaled_rows(Lm, parent, J, rows, Y):
     to 1.48x (3-UPRU+UP) its time, measured 2026-11-27. At dof k only the rows from the first to
     the last whose Y[r, k] is non-zero are updated: the others would subtract exact zeros (no bit
     changes). Y is zero outside the rows' supports (pinclear.kinematics.row_support), so on
-    A02 N = 40, whose rows reach one coupler deeper each, that is a third of the products (24 us
-    against 43 at 80 rows); the scan for the range reads a column's ends, nothing is allocated."""
+    A02 N = 40, whose rows reach one coupler deeper each, that is a third of the products (30 us
+    against 43-63 at 80 rows); the scan for the range reads a column's ends, nothing is allocated."""
     nv = Lm.shape[0]
     m = rows.shape[0]
     for r in range(m):
@@ -894,7 +894,7 @@ def _gram(A, rows, cols, ncols, G, indirect):
     and the others come in the dense sum's order, so either support gives the same bits. Which:
     the later row's (r) for every c, or the earlier row's (c) for every r, whichever needs fewer
     products in all (an O(m) count): supports that grow along the rows (A02's chain, each loop
-    one coupler deeper) cost half with the earlier's (80 rows: 34 us against 53). Four sums that
+    one coupler deeper) cost half with the earlier's (80 rows: 22 us against 53, 2026-11-27). Four sums that
     share the support at a time: independent chains of additions the processor overlaps (30% less
     than one at a time at 16 rows)."""
     m = rows.shape[0]
