@@ -4,9 +4,11 @@ CPU and the error of B0 (crank 0's tip) against the parallelogram branch's close
 
     python benchmarks/bench_a02_scale.py [RTOLS] [REPEAT]        (defaults: 1e-6 and 2)
 
-Prints one JSON line per run: cpu_s (the integration), cpu_total (the whole simulate()),
-evaluations, steps, samples and B0's largest error. To compare with another commit in the same
-session, run this file with PYTHONPATH pointing at that commit's tree (git archive) in turn."""
+Prints one JSON line per run: cpu_s (the integration), cpu_total (the whole simulate(): the
+integration, the outputs of its 501 samples, set-up), evaluations, steps, samples and B0's largest
+error. A 0.05 s run first loads the compiled kernels, so every timed run is warm. To compare with
+another commit in the same session, run this file with PYTHONPATH pointing at that commit's tree
+(git archive) in turn, alternating; benchmarks/bench_a02_scale.md has the commands and a result."""
 import json
 import sys
 import tempfile
@@ -43,6 +45,7 @@ def main(rtols=(1e-6,), repeat=2):
     mech = pinclear.load(folder / f"{B.a02_name(N)}.yaml")
     ref = solve_ivp(B.a02_branch_rhs(N), (0.0, T_END), [B.A02_THETA0, B.a02_initial_rate()], method="DOP853",
                     rtol=1e-13, atol=1e-13, dense_output=True)
+    pinclear.simulate(mech, 0.05, method="manifold", integrator="DOP853", rtol=rtols[0])   # warm
     for rtol in rtols:
         for _ in range(repeat):
             c0 = time.process_time()

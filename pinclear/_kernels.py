@@ -346,21 +346,29 @@ def scaled_rows(Lm, parent, J, rows, Y):
     """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L.
     ltl_solve_t on every row at once: each row sees the same operations in the same order. One
     walk of the tree for all rows: a walk per row over its support alone took 0.94x (A02 N = 10)
-    to 1.48x (3-UPRU+UP) its time, measured 2026-11-27. Y is zero outside the rows' supports
-    (pinclear.kinematics.row_support)."""
+    to 1.48x (3-UPRU+UP) its time, measured 2026-11-27. At dof k only the rows from the first to
+    the last whose Y[r, k] is non-zero are updated: the others would subtract exact zeros (no bit
+    changes). Y is zero outside the rows' supports (pinclear.kinematics.row_support), so on
+    A02 N = 40, whose rows reach one coupler deeper each, that is a third of the products (30 us
+    against 43-63 at 80 rows); the scan for the range reads a column's ends, nothing is allocated."""
     nv = Lm.shape[0]
     m = rows.shape[0]
     for r in range(m):
         for k in range(nv):
             Y[r, k] = J[rows[r], k]
     for k in range(nv - 1, -1, -1):
+        a, b = 0, m
+        while a < b and Y[a, k] == 0.0:
+            a += 1
+        while b > a and Y[b - 1, k] == 0.0:
+            b -= 1
         d = Lm[k, k]
-        for r in range(m):
+        for r in range(a, b):
             Y[r, k] /= d
         i = parent[k]
         while i >= 0:
             lki = Lm[k, i]
-            for r in range(m):
+            for r in range(a, b):
                 Y[r, i] -= lki * Y[r, k]
             i = parent[i]
 
@@ -881,41 +889,66 @@ def gram_rows(A, rows, cols, ncols, G):
 @njit(cache=True, inline="always")
 def _gram(A, rows, cols, ncols, G, indirect):
     """G = A' A'^T (both triangles) with A' = A[rows] (``indirect``) or A's first len(rows) rows,
-    A' row r zero outside cols[rows[r]][:ncols[rows[r]]] (ascending). Each G[r, c] sums over row
-    r's support in order from zero (the dense sum's order: the products skipped are exact zeros),
-    four c of a row at a time: independent chains of additions the processor overlaps (30% less
-    than one c at a time at 16 rows)."""
+    A' row r zero outside cols[rows[r]][:ncols[rows[r]]] (ascending). Each G[r, c] (c <= r) sums
+    over one of the two rows' supports in order from zero: the products skipped are exact zeros
+    and the others come in the dense sum's order, so either support gives the same bits. Which:
+    the later row's (r) for every c, or the earlier row's (c) for every r, whichever needs fewer
+    products in all (an O(m) count): supports that grow along the rows (A02's chain, each loop
+    one coupler deeper) cost half with the earlier's (80 rows: 22 us against 53, 2026-11-27). Four sums that
+    share the support at a time: independent chains of additions the processor overlaps (30% less
+    than one at a time at 16 rows)."""
     m = rows.shape[0]
+    later = earlier = 0
     for r in range(m):
-        ar = rows[r] if indirect else r
-        sr = rows[r]
-        ns = ncols[sr]
-        c = 0
-        while c + 3 <= r:
-            if indirect:
-                c0, c1, c2, c3 = rows[c], rows[c + 1], rows[c + 2], rows[c + 3]
-            else:
-                c0, c1, c2, c3 = c, c + 1, c + 2, c + 3
-            s0 = s1 = s2 = s3 = 0.0
-            for kk in range(ns):
-                k = cols[sr, kk]
-                x = A[ar, k]
-                s0 += x * A[c0, k]
-                s1 += x * A[c1, k]
-                s2 += x * A[c2, k]
-                s3 += x * A[c3, k]
-            G[r, c], G[r, c + 1], G[r, c + 2], G[r, c + 3] = s0, s1, s2, s3
-            c += 4
-        while c <= r:
-            cc = rows[c] if indirect else c
-            s0 = 0.0
-            for kk in range(ns):
-                k = cols[sr, kk]
-                s0 += A[ar, k] * A[cc, k]
-            G[r, c] = s0
-            c += 1
+        later += (r + 1) * ncols[rows[r]]
+        earlier += (m - r) * ncols[rows[r]]
+    if later <= earlier:
+        for r in range(m):
+            _gram_line(A, rows, cols, ncols, G, indirect, r, 0, r + 1, False)
+    else:
+        for c in range(m):
+            _gram_line(A, rows, cols, ncols, G, indirect, c, c, m, True)
+    for r in range(m):
         for c in range(r):
             G[c, r] = G[r, c]
+
+
+@njit(cache=True, inline="always")
+def _gram_line(A, rows, cols, ncols, G, indirect, r, lo, hi, column):
+    """G[r, c] for c in [lo, hi) over row r's support (``column``: G[c, r], the same sums)."""
+    ar = rows[r] if indirect else r
+    sr = rows[r]
+    ns = ncols[sr]
+    c = lo
+    while c + 4 <= hi:
+        if indirect:
+            c0, c1, c2, c3 = rows[c], rows[c + 1], rows[c + 2], rows[c + 3]
+        else:
+            c0, c1, c2, c3 = c, c + 1, c + 2, c + 3
+        s0 = s1 = s2 = s3 = 0.0
+        for kk in range(ns):
+            k = cols[sr, kk]
+            x = A[ar, k]
+            s0 += x * A[c0, k]
+            s1 += x * A[c1, k]
+            s2 += x * A[c2, k]
+            s3 += x * A[c3, k]
+        if column:
+            G[c, r], G[c + 1, r], G[c + 2, r], G[c + 3, r] = s0, s1, s2, s3
+        else:
+            G[r, c], G[r, c + 1], G[r, c + 2], G[r, c + 3] = s0, s1, s2, s3
+        c += 4
+    while c < hi:
+        cc = rows[c] if indirect else c
+        s0 = 0.0
+        for kk in range(ns):
+            k = cols[sr, kk]
+            s0 += A[ar, k] * A[cc, k]
+        if column:
+            G[c, r] = s0
+        else:
+            G[r, c] = s0
+        c += 1
 
 
 @njit(cache=True)

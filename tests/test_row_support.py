@@ -13,7 +13,7 @@ import pytest
 
 import pinclear
 from pinclear import formulations, kinematics
-from pinclear._kernels import constraint_rows_all, ltl_factor, schur_complement
+from pinclear._kernels import constraint_rows_all, gram_rows, ltl_factor, schur_complement
 
 
 def _dense(R, nv):
@@ -24,8 +24,9 @@ def _dense(R, nv):
 
 
 def _rows_and_schur(mech, form, R, q, v, t):
-    """Phi, J, J v, bias, gamma, Y = J L^-1 and S = Y Y^T at (t, q, v) from the buffers R, the
-    row buffers and frame Jacobians first reset to what a fresh workspace holds."""
+    """Phi, J, J v, bias, gamma, Y = J L^-1, S = Y Y^T and J J^T (every other row, last first) at
+    (t, q, v) from the buffers R, the row buffers and frame Jacobians first reset to what a fresh
+    workspace holds."""
     ws = form.ws
     ws.J[:mech.compiled.m] = 0.0
     ws.fk.Jv[:] = 0.0
@@ -38,7 +39,12 @@ def _rows_and_schur(mech, form, R, q, v, t):
     Lm, Y, S = np.zeros((mech.nv, mech.nv)), np.full((m, mech.nv), np.nan), np.zeros((m, m))
     assert ltl_factor(ws.data.M, ws.parent, Lm)
     schur_complement(Lm, ws.parent, R.Jc, rows, R.cols, R.ncols, Y, S)
-    return [a.copy() for a in (R.phi, R.Jc, R.dphi, R.bias, R.gamma, Y, S)]
+    # J J^T over every other row, last first (the Gram kernel's other loop order: the supports
+    # then shrink along the selected rows)
+    sel = rows[::-2].copy()
+    G = np.zeros((sel.size, sel.size))
+    gram_rows(R.Jc, sel, R.cols, R.ncols, G)
+    return [a.copy() for a in (R.phi, R.Jc, R.dphi, R.bias, R.gamma, Y, S, G)]
 
 
 @pytest.mark.parametrize("name", ["a02_nfourbar_10", "three_upru_up", "four_ups_upu", "nine_bar", "four_bar"])

@@ -195,6 +195,53 @@ def test_shifted_solve_scales_by_group_and_leaves_the_drive_rows_exact(mc, nd, n
         assert np.abs((w2 * k - w) / dw).max() <= 1e-9 * gain
 
 
+
+@pytest.mark.parametrize("mc,nd,ng", [(2, 0, 1), (12, 4, 3), (40, 0, 20)])
+def test_series_filter_is_the_shifted_solve_far_from_flat_and_declines_near_it(mc, nd, ng):
+    """series_filtered (S's pivoted Cholesky factor, the series of module doc) against the
+    definition g(S) r = Re[(S + i D)^-1 r] solved as the real 2m system [[S, -D], [D, S]] (x, z) =
+    (r, 0) by NumPy (LU), D = mu^2 Lam per unit group (row_shifts), zero on the nd drive rows.
+    Far from flat (S's eigenvalues 10^-1 .. 10^2, the shifts 1e-4 of a mean diagonal below 100,
+    so rho <= 1e-1 and the terms fall by rho^2 <= 1e-2): both are ~ m eps cond(S) off the exact
+    g(S) r (Higham thm. 10.4 for the Cholesky solves, cond(S) <= 1e3), asserted 10 m eps cond(S)
+    relative to |S^-1 r| (<= 9e-11 at m = 40). (The group scaling of Lam is the shifted factor's
+    test above: the series reads the same shifts, row_shifts.)
+    Near flat (one eigenvalue at 1e-7 of the largest, below the shift): the series does not
+    converge and must say so (False), so the caller takes the complex factor."""
+    from pinclear._kernels import chol_pivoted
+    from pinclear.formulations.manifold import row_shifts, series_filtered
+    rng = np.random.default_rng(7 * mc + nd)
+    m = mc + nd
+    grp = np.unique(rng.integers(0, ng, mc), return_inverse=True)[1].astype(np.int64)
+    cnt = np.bincount(grp).astype(float)
+    eps = np.finfo(float).eps
+
+    def series(S, r):
+        L, pc, dg, dsh = np.zeros((m, m)), np.zeros(m, np.int64), np.zeros(m), np.zeros(m)
+        assert chol_pivoted(S, pc, L, dg, 0.0) > 0.0
+        row_shifts(S, 1e-2, grp, cnt, np.zeros(cnt.size), dsh)
+        w = np.zeros(m)
+        ok = series_filtered(L, pc, dsh, r, w, np.zeros(m), np.zeros(m), np.zeros(m))
+        D = np.diag(dsh)
+        ref = np.linalg.solve(np.block([[S, -D], [D, S]]), np.r_[r, np.zeros(m)])[:m]
+        return ok, w, ref
+
+    for _ in range(30):
+        Qm, _r = np.linalg.qr(rng.standard_normal((m, m)))
+        S = (Qm * 10.0 ** rng.uniform(-1, 2, m)) @ Qm.T
+        S = 0.5 * (S + S.T)
+        r = rng.standard_normal(m)
+        ok, w, ref = series(S, r)
+        assert ok
+        assert np.abs(w - ref).max() <= 10 * m * eps * np.linalg.cond(S) * np.abs(np.linalg.solve(S, r)).max()
+        s = 10.0 ** rng.uniform(-1, 2, m)
+        s[0] = 1e-7 * s.max()                          # flat: below the shift mu^2 mean(diag S)
+        S = (Qm * s) @ Qm.T
+        S = 0.5 * (S + S.T)
+        if mc:
+            ok, w, ref = series(S, r)
+            assert not ok
+
 def test_project_lands_on_the_manifold(parallelogram):
     mech = parallelogram
     form = formulations.get("manifold")(mech)

@@ -55,7 +55,13 @@ The QRs are needed only near rank loss: where every pivot of J J^T (resp. S) sta
 the same quantities come from its Cholesky factor with diagonal pivoting (the QR's pivot order
 and |R_jj| in exact arithmetic; projection.min_norm_step_gram, chol_gate), which costs a
 fraction of the QR; below the gates, and always for the tangent of step 4, the QRs run
-(docs/singular_passages.md, step 5)."""
+(docs/singular_passages.md, step 5).
+
+Likewise the filter's complex factor of S + i mu^2 Lam (m^3 / 6 complex products) is needed only
+near flat: where S's Cholesky factor is taken and the shift is far below S's eigenvalues,
+g(S) r comes from a series of solves with that factor (series_filtered, the same g(S) r to
+rounding), which declines where it would converge slowly and the factor runs
+(benchmarks/bench_a02_scale.md: A02 N = 40, where the 80-row factor was the largest kernel)."""
 from __future__ import annotations
 
 from typing import NamedTuple
@@ -65,8 +71,8 @@ import numpy as np
 from .. import kinematics
 from .._jit import njit
 from .._kernels import (Solve, chol_pivoted, chol_solve_pivoted, constraint_rows_positions, constraint_rows_velocities,
-                        lagrange_accel, ltl_factor, ltl_solve, ltl_solve_t, min_norm_solve, min_norm_x, project_out,
-                        qr_pivoted, schur_complement)
+                        lagrange_accel, lower_solve, ltl_factor, ltl_solve, ltl_solve_t, min_norm_solve, min_norm_x,
+                        project_out, qr_pivoted, schur_complement)
 from ..errors import InputError
 from ..stepping.call import ERROR, OK, RANK
 from ..stepping.stage import T, bind
@@ -125,6 +131,8 @@ class ManifoldWork(NamedTuple):
     vin: np.ndarray      # (nv,)
     fin: np.ndarray      # (3, drives)
     q1: np.ndarray       # (nq,) its projected configuration
+    dsh: np.ndarray      # (m,) the filter's shift per row, mu^2 Lam_ii (row_shifts)
+    filt: np.ndarray     # (1,) 1: g(S) by the series on S's Cholesky factor (series_filtered); 0: Fr, Fi
 
 
 class Manifold(Formulation):
@@ -157,7 +165,8 @@ class Manifold(Formulation):
                                grp, gcnt, np.zeros(gcnt.size), np.zeros((m, m)), np.zeros((m, m)), np.zeros(m),
                                np.zeros(m), np.zeros((m, m)), np.zeros(m, dtype=np.int64),
                                np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(ws.q.shape[0]),
-                               np.zeros(nv), np.zeros(ws.drive_data.f.shape), np.zeros(ws.q.shape[0]))
+                               np.zeros(nv), np.zeros(ws.drive_data.f.shape), np.zeros(ws.q.shape[0]),
+                               np.zeros(m), np.zeros(1, dtype=np.int64))
         self._stages = None
 
     @property
@@ -191,7 +200,8 @@ class Manifold(Formulation):
                         float(o["rcond_v"]), chol_gate(o["tangent"]))
                 self._stages = (bind(manifold_project, args + (0,), code=True, name=f"{self.name} projection P"),
                                 bind(manifold_project, args + (1,), code=True, name=f"{self.name} projection"),
-                                bind(projected_accelerations, (self.row_buffers, W, float(o["tangent"])), code=True,
+                                bind(projected_accelerations,
+                                     (self.row_buffers, W, float(o["tangent"]), float(o["mu"])), code=True,
                                      name=f"{self.name} solve"), keep)
         return self._stages
 
@@ -318,13 +328,26 @@ def same_state(W, q):
 
 
 @njit(cache=True)
-def _bt_times(Y, w, x):
-    """x = B^T w (B = Y)."""
-    m, nv = Y.shape
+def _bt_times(Y, R, w, x):
+    """x = B^T w (B = Y, the rows' supports in R: zero outside them, the same bits as the dense
+    sum)."""
     x[:] = 0.0
-    for j in range(m):
-        for k in range(nv):
-            x[k] += Y[j, k] * w[j]
+    for j in range(Y.shape[0]):
+        wj = w[j]
+        for kk in range(R.ncols[j]):
+            k = R.cols[j, kk]
+            x[k] += Y[j, k] * wj
+
+
+@njit(cache=True, inline="always")
+def _rows_times(A, R, x, first, out):
+    """out = first + A x over the rows' supports (R), each sum in the dense order from first."""
+    for r in range(A.shape[0]):
+        s = first[r]
+        for kk in range(R.ncols[r]):
+            k = R.cols[r, kk]
+            s += A[r, k] * x[k]
+        out[r] = s
 
 
 def chol_gate(tangent):
@@ -366,18 +389,18 @@ def velocity_projection(R, W, mu, rcond, gate, exact):
     if exact:
         exact_velocity(R, W)
         return True
-    for r in range(m):                         # J v + Phi_t (the rows' rates are at v = 0)
-        s = dphi[r]
-        for c in range(nv):
-            s += Jc[r, c] * v[c]
-        pt[r] = s
+    _rows_times(Jc, R, v, dphi, pt)            # J v + Phi_t (the rows' rates are at v = 0)
     for c in range(nv):
         v1[c] = v[c]
     corr = W.xs
-    # the filter's factor (the stages' solve reads it too)
-    shifted_factor(W.S, mu, W.grp, W.gcnt, W.gsum, W.Fr, W.Fi)
-    filtered_solve_ws(W.Fr, W.Fi, pt, W.w, W.yr, W.yi)
-    _bt_times(Y, W.w, corr)                    # the normal correction B^T g(S) pt
+    # g(S) pt: by the series on S's Cholesky factor where it converges (far from flat), else by
+    # the factor of S + i mu^2 Lam; the stages' solve takes the same route (W.filt)
+    row_shifts(W.S, mu, W.grp, W.gcnt, W.gsum, W.dsh)
+    W.filt[0] = 1 if chol and series_filtered(W.Lc, W.pc, W.dsh, pt, W.w, W.yr, W.yi, W.yg) else 0
+    if not W.filt[0]:
+        shifted_factor(W.S, mu, W.grp, W.gcnt, W.gsum, W.Fr, W.Fi)
+        filtered_solve_ws(W.Fr, W.Fi, pt, W.w, W.yr, W.yi)
+    _bt_times(Y, R, W.w, corr)                 # the normal correction B^T g(S) pt
     ltl_solve(Lm, W.parent, corr)
     for c in range(nv):
         v1[c] -= corr[c]
@@ -400,15 +423,12 @@ def exact_velocity(R, W):
         rates = rates or pt[r] != 0.0
     if W.chol[0]:
         w = W.w
-        for r in range(m):                     # B x + Phi_t
-            s = pt[r]
-            for c in range(nv):
-                s += Y[r, c] * v1[c]
-            w[r] = s
+        _rows_times(Y, R, v1, pt, w)           # B x + Phi_t
         chol_solve_pivoted(W.Lc, W.pc, w, W.yg, w)
         for r in range(m):
             wr = w[r]
-            for c in range(nv):
+            for kk in range(R.ncols[r]):
+                c = R.cols[r, kk]
                 v1[c] -= Y[r, c] * wr
     else:
         project_out(W.Qr, W.hb, k, v1)
@@ -436,10 +456,10 @@ def _unit_lv(Lm, parent, v, x):
 
 
 @njit(cache=True, inline="always")
-def _qr_reaction(W, wtan, r, w, corr):
+def _qr_reaction(R, W, wtan, r, w, corr):
     """Near rank loss (B^T's pivoted QR, velocity_projection): W.a <- (I - Q Q^T) y with the
     tangent along the velocity (module doc, step 4), W.lam = g(S) gamma - S^+ B y (r = -B y,
-    w = g(S) gamma), corr = B^T w."""
+    w = g(S) gamma), corr = B^T w (R: the rows' supports)."""
     a, lam, Y, Lm, parent, Qr, hb = W.a, W.lam, W.Y, W.Lm, W.parent, W.Qr, W.hb
     m, nv = Y.shape
     k = W.kk[0]
@@ -470,11 +490,11 @@ def _qr_reaction(W, wtan, r, w, corr):
         wz /= ww
         for c in range(nv):
             a[c] += xy * xt[c] - wz * wt[c]
-    _bt_times(Y, w, corr)                      # B^T g(S) gamma, g(S) gamma from the multipliers
+    _bt_times(Y, R, w, corr)                   # B^T g(S) gamma, g(S) gamma from the multipliers
 
 
 @njit(cache=True, inline="always")
-def projected_accelerations(R, W, wtan):
+def projected_accelerations(R, W, wtan, mu):
     """Accelerations at a state on the manifold (pass at (q, v) done; L, B = Y, B^T's QR and the
     factor of S + i mu^2 I from velocity_projection at q):
         y = L^-T (tau - nle),   a = L^-1 ((I - Q Q^T) y + B^T g(S) gamma).
@@ -482,6 +502,8 @@ def projected_accelerations(R, W, wtan):
     forces' part of the constraint reaction (Q Q^T y) is a projector, exact at any distance
     from the flat configuration; only the velocity-squared part gamma is filtered, the one
     whose round-off grows like 1/s^(3/2) near it. Multipliers: lam = g(S) gamma - S^+ B y.
+    g(S) gamma by the route velocity_projection took (W.filt; mu: the filter's, for the factor
+    if the series does not converge on gamma).
     Returns 1, or -2 when the accelerations are not finite."""
     # the velocity terms at (q, v); Phi, J and the frames' placements are those the projection
     # left at this q (the same numbers: the rows at q are not evaluated twice)
@@ -496,11 +518,16 @@ def projected_accelerations(R, W, wtan):
     r = W.r
     for rr in range(m):
         s = 0.0
-        for c in range(nv):
+        for kk in range(R.ncols[rr]):
+            c = R.cols[rr, kk]
             s -= Y[rr, c] * a[c]
         r[rr] = s
-    w = W.w                                    # g(S) gamma
-    filtered_solve_ws(W.Fr, W.Fi, R.gamma, w, W.yr, W.yi)
+    w = W.w                                    # g(S) gamma, by the route the projection took
+    if not (W.filt[0] and series_filtered(W.Lc, W.pc, W.dsh, R.gamma, w, W.yr, W.yi, W.yg)):
+        if W.filt[0]:                          # the series did not converge on gamma: the factor
+            shifted_factor(W.S, mu, W.grp, W.gcnt, W.gsum, W.Fr, W.Fi)
+            W.filt[0] = 0
+        filtered_solve_ws(W.Fr, W.Fi, R.gamma, w, W.yr, W.yi)
     corr = W.xs
     if W.chol[0]:
         # far from flat (velocity_projection): S^-1 from its Cholesky factor, and
@@ -508,9 +535,9 @@ def projected_accelerations(R, W, wtan):
         chol_solve_pivoted(W.Lc, W.pc, r, W.yg, lam)
         for rr in range(m):
             lam[rr] += w[rr]
-        _bt_times(Y, lam, corr)
+        _bt_times(Y, R, lam, corr)
     else:
-        _qr_reaction(W, wtan, r, w, corr)
+        _qr_reaction(R, W, wtan, r, w, corr)
     for c in range(nv):
         a[c] += corr[c]
     ltl_solve(Lm, parent, a)
@@ -518,6 +545,96 @@ def projected_accelerations(R, W, wtan):
     for c in range(nv):
         t += a[c]
     return 1.0 if np.isfinite(t) else -2.0
+
+
+@njit(cache=True, inline="always")
+def group_shifts(S, mu, grp, gcnt, gsum):
+    """gsum[g] = mu^2 times the mean of diag(S) over unit group g's closure rows (the first
+    len(grp) rows; shifted_factor's Lam), at least 1e-30 of the mean over all of them."""
+    mc = grp.shape[0]
+    gsum[:] = 0.0
+    tr = 0.0
+    for i in range(mc):
+        gsum[grp[i]] += S[i, i]
+        tr += S[i, i]
+    floor = max(1e-30 * tr / max(mc, 1), 1e-300)     # a group whose rows are all zero here
+    for g in range(gsum.shape[0]):
+        gsum[g] = mu * mu * max(gsum[g] / gcnt[g], floor)
+
+
+@njit(cache=True)
+def row_shifts(S, mu, grp, gcnt, gsum, dsh):
+    """dsh = diag(mu^2 Lam): each closure row's group shift (group_shifts), 0 on the drive rows."""
+    group_shifts(S, mu, grp, gcnt, gsum)
+    for i in range(S.shape[0]):
+        dsh[i] = gsum[grp[i]] if i < grp.shape[0] else 0.0
+
+
+#: series_filtered gives up when a term is above this fraction of the one before (then it would
+#: need more than SERIES_TERMS terms to reach rounding) or after SERIES_TERMS terms
+SERIES_RATIO = 1e-2
+SERIES_TERMS = 8
+
+
+@njit(cache=True)
+def series_filtered(Lc, pc, dsh, r, w, t, u, y):
+    """w = g(S) r = Re[(S + i D)^-1 r], D = diag(dsh), from S's pivoted Cholesky factor (Lc, pc:
+    pinclear._kernels.chol_pivoted) instead of the complex factor of S + i D (shifted_factor);
+    t, u, y: work of len m. With (S + i D)(x + i z) = r, z = -S^-1 D x and
+        x = S^-1 r - T x = sum_k (-T)^k S^-1 r,   T = S^-1 D S^-1 D,
+    which converges where the spectral radius rho^2 of T is below 1: far from a flat
+    configuration, where D = mu^2 Lam is far below S's smallest eigenvalue (A02 N = 40:
+    rho = 2e-4 .. 1e-2 at 90 % of its states, 3 terms to rounding). Two Cholesky solves (2 m^2)
+    per term against the factor's m^3 / 6 complex products: at 80 rows 3 terms (7 solves) took
+    20-45 us against 100-130 for shifted_factor and its solve (2026-11-27). Terms are added
+    until one is below eps of w (max norms): w is then g(S) r to rounding, as the factor's (both
+    ~ eps cond(S)). False when a term is above
+    SERIES_RATIO of the one before or SERIES_TERMS pass (near flat; w is then not g(S) r and the
+    caller takes the factor)."""
+    m = r.shape[0]
+    _chol_solve_rows(Lc, pc, r, y, w)        # S^-1 r
+    prev = 0.0
+    for i in range(m):
+        t[i] = w[i]
+        prev = max(prev, abs(w[i]))
+    for _ in range(SERIES_TERMS):
+        for i in range(m):
+            u[i] = dsh[i] * t[i]
+        _chol_solve_rows(Lc, pc, u, y, u)
+        for i in range(m):
+            u[i] *= dsh[i]
+        _chol_solve_rows(Lc, pc, u, y, t)
+        tn = wn = 0.0
+        for i in range(m):
+            t[i] = -t[i]
+            w[i] += t[i]
+            tn = max(tn, abs(t[i]))
+            wn = max(wn, abs(w[i]))
+        if tn <= 1.1102230246251565e-16 * wn:
+            return True
+        if not tn <= SERIES_RATIO * prev:
+            return False
+        prev = tn
+    return False
+
+
+@njit(cache=True, inline="always")
+def _chol_solve_rows(L, piv, r, y, x):
+    """x = S^-1 r from chol_pivoted's factor, as pinclear._kernels.chol_solve_pivoted but with
+    L^-T applied row by row (y[k] -= L[i, k] y[i], contiguous and free of a chain of additions)
+    instead of down L's columns: the same products, summed in another order (rounding apart,
+    the same x); the series takes 1 + 2 per term of these solves."""
+    m = L.shape[0]
+    for i in range(m):
+        y[i] = r[piv[i]]
+    lower_solve(L, m, y)
+    for i in range(m - 1, -1, -1):
+        yi = y[i] / L[i, i]
+        y[i] = yi
+        for k in range(i):
+            y[k] -= L[i, k] * yi
+    for i in range(m):
+        x[piv[i]] = y[i]
 
 
 @njit(cache=True)
@@ -552,14 +669,7 @@ def shifted_factor(S, mu, grp, gcnt, gsum, Fr, Fi):
     m^3 / 6 complex products, against an eigensolver's ~9 m^3 and its workspace allocations
     (30 us at m = 20)."""
     m, mc = S.shape[0], grp.shape[0]
-    gsum[:] = 0.0
-    tr = 0.0
-    for i in range(mc):
-        gsum[grp[i]] += S[i, i]
-        tr += S[i, i]
-    floor = max(1e-30 * tr / max(mc, 1), 1e-300)     # a group whose rows are all zero here
-    for g in range(gsum.shape[0]):
-        gsum[g] = mu * mu * max(gsum[g] / gcnt[g], floor)
+    group_shifts(S, mu, grp, gcnt, gsum)
     # row j's L[j, k] D[k] (k < j) once, then each entry below costs one complex product per k;
     # kept in the (unused) strict upper triangle, column j: no work array to allocate. Complex
     # numbers as (real, imaginary) pairs, two rows i at a time (independent sums the processor

@@ -233,19 +233,21 @@ def min_norm_step_gram(Jc, phi, rows, cols, ncols, G, Lg, pg, dg, yg, Qr, piv, h
         for i in range(m):
             r[i] = phi[rows[i]]
         chol_solve_pivoted(Lg, pg, r, yg, r)
-        minus_jt_times(Jc, rows, r, dq)
+        minus_jt_times(Jc, rows, cols, ncols, r, dq)
         return
     min_norm_step(Jc, phi, rows, Qr, piv, hb, r, rcond, dq)
 
 
 @njit(cache=True, inline="always")
-def minus_jt_times(Jc, rows, w, dq):
-    """dq = -J[rows]^T w (each entry summed over the rows in order from zero)."""
-    for c in range(dq.shape[0]):
-        s = 0.0
-        for i in range(rows.shape[0]):
-            s -= Jc[rows[i], c] * w[i]
-        dq[c] = s
+def minus_jt_times(Jc, rows, cols, ncols, w, dq):
+    """dq = -J[rows]^T w (each entry summed over the rows in order from zero), row by row over
+    each row's support (the products skipped are exact zeros: the same bits as the dense sum)."""
+    dq[:] = 0.0
+    for i in range(rows.shape[0]):
+        ri, wi = rows[i], w[i]
+        for kk in range(ncols[ri]):
+            k = cols[ri, kk]
+            dq[k] -= Jc[ri, k] * wi
 
 
 @njit(cache=True, inline="always")
@@ -260,7 +262,7 @@ def gauss_newton_step(R, W, rcond, k_prox, rho_rel, dq):
         r[i] = phi[rows[i]]
     gram_rows(Jc, rows, R.cols, R.ncols, W.S)        # S = J J^T
     _filtered(W, k_prox, rho_rel)
-    minus_jt_times(Jc, rows, W.w, dq)
+    minus_jt_times(Jc, rows, R.cols, R.ncols, W.w, dq)
 
 
 @njit(cache=True, inline="always")
