@@ -73,13 +73,14 @@ class WearSettings:
 def worn_joint(mech, name):
     """(index in mech.forces, joint) of the worn clearance ``name``; a clear error otherwise."""
     from .contact.wear import WornRevoluteClearance
+    from .contact.wear_spherical import WornSphericalClearance
 
     names = [f.name for f in mech.clearances]
     for i, f in enumerate(mech.forces):
         if f.name == name:
-            if not isinstance(f, WornRevoluteClearance):
-                raise ContactSetupError(f"clearance {name!r} has no 'wear:' key (a planar_revolute clearance "
-                                        "with wear: {model: archard, k, hardness})", file=str(mech.path),
+            if not isinstance(f, (WornRevoluteClearance, WornSphericalClearance)):
+                raise ContactSetupError(f"clearance {name!r} has no 'wear:' key (a planar_revolute or spherical "
+                                        "clearance with wear: {model: archard, k, hardness})", file=str(mech.path),
                                         key=f"clearances.{name}.wear", choices=["wear"])
             return i, f
     raise InputError(f"no active clearance named {name!r}", key="--clearance", choices=names)
@@ -144,10 +145,13 @@ def _tables(folder, wms, depth, hist):
     rows = ["# " + ", ".join(head)] + [", ".join(f"{hist[k][i]:.9g}" for k in keys) for i in range(len(hist["cycles"]))]
     safeio.write_text(folder / "history.csv", "\n".join(rows) + "\n")
     names = sorted(wms)
-    prof = ["# angle [deg], " + ", ".join(f"{n} depth [m]" for n in names)]
-    ang = np.degrees(wms[names[0]].angles())
-    if all(wms[n].nodes == len(ang) for n in names):
-        prof += [f"{a:.6f}, " + ", ".join(f"{depth[n][k]:.9g}" for n in names) for k, a in enumerate(ang)]
+    # node coordinates: the bearing angle, or a socket's (theta, phi) (contact.wear_spherical)
+    cols = wms[names[0]].profile_columns()
+    prof = ["# " + ", ".join(cols) + ", " + ", ".join(f"{n} depth [m]" for n in names)]
+    ang = np.array(list(cols.values())).T
+    if all(wms[n].nodes == len(ang) and type(wms[n]) is type(wms[names[0]]) for n in names):
+        prof += [", ".join(f"{x:.6f}" for x in a) + ", " + ", ".join(f"{depth[n][k]:.9g}" for n in names)
+                 for k, a in enumerate(ang)]
     else:
         prof = [f"# {n}: " + " ".join(f"{x:.9g}" for x in depth[n]) for n in names]
     safeio.write_text(folder / "profile.csv", "\n".join(prof) + "\n")
@@ -158,8 +162,6 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
     of ``mech``; resumes from OUT/checkpoint.npz. start: (q0, v0) of the run (default: simulate's
     ideal start). Returns {depth: {name: (nodes,)}, angles: {name: (nodes,)}, history (lists),
     settings, mech (worn)}."""
-    from .contact.wear import block_increment
-
     s.check()
     names = [names] if isinstance(names, str) else list(names)
     found = {n: worn_joint(mech, n) for n in names}
@@ -188,7 +190,7 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
         E = tr.energy()["total"]
         jump = 0.0 if last_E is None else float(E[0] - last_E)
         bal = tr.energy_balance()
-        depth = {n: depth[n] + s.factor * block_increment(wms[n], n, tr) for n in names}
+        depth = {n: depth[n] + s.factor * wms[n].increment(n, tr) for n in names}
         worn = _with_depth(worn, idx, depth)
         c2 = time.process_time()
         # the next block starts from this one's last state: its energy there is the elastic
@@ -199,7 +201,7 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
                "audit_bound": bal.get("bound", math.nan), "jump": jump, "cpu_sim": c1 - c0, "cpu_update": c2 - c1}
         for n, wm in wms.items():
             row[f"{n}.max_depth"] = depth[n].max()
-            row[f"{n}.worn_volume"] = float(depth[n].sum()) * wm.R1 * wm.spacing * wm.L
+            row[f"{n}.worn_volume"] = wm.volume(depth[n])
         for k, val in row.items():
             hist[k].append(float(val))
         if out is not None:
@@ -244,6 +246,9 @@ def plot(res, out):
     h = res["history"]
     fig, ax = plt.subplots(figsize=(6, 3.5))
     for n, d in res["depth"].items():
+        if np.ndim(res["angles"][n]) == 2:
+            _socket_map(res, n, out)
+            continue
         ax.plot(np.degrees(res["angles"][n]), 1e6 * d, label=n)
     ax.set(xlabel="bearing angle [deg] (frame1 x towards y)", ylabel="wear depth [um]",
            title=f"worn profile after {h['cycles'][-1]:.3g} cycles")
@@ -260,6 +265,20 @@ def plot(res, out):
     ax.grid(alpha=0.3)
     fig.tight_layout()
     safeio.savefig(fig, Path(out) / "growth.png", dpi=120)
+    plt.close(fig)
+
+
+def _socket_map(res, name, out):
+    """OUT/depth_map_NAME.png: a worn socket's depth on its (theta, phi) map."""
+    import matplotlib.pyplot as plt
+
+    from .contact.wear_spherical import plot_depth_map
+
+    wm = worn_joint(res["mech"], name)[1].wear
+    fig, ax = plt.subplots(figsize=(7, 3.8))
+    plot_depth_map(ax, wm, res["depth"][name], f"{name}: worn socket after {res['history']['cycles'][-1]:.3g} cycles")
+    fig.tight_layout()
+    safeio.savefig(fig, Path(out) / f"depth_map_{name}.png", dpi=120)
     plt.close(fig)
 
 

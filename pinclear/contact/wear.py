@@ -77,6 +77,17 @@ class WearModel:
         """Node angles (rad, bearing frame)."""
         return np.arange(self.nodes) * self.spacing
 
+    def volume(self, depth) -> float:
+        """Worn volume (m^3) of the node depths."""
+        return float(np.sum(depth)) * self.R1 * self.spacing * self.L
+
+    def profile_columns(self) -> dict:
+        return {"angle [deg]": np.degrees(self.angles())}
+
+    def increment(self, name, traj):
+        """Node depth increment of one simulated block (block_increment)."""
+        return block_increment(self, name, traj)
+
 
 def parse(sp, R1, R2, L):
     """The ``wear:`` mapping of a clearance entry as a WearModel (None without it)."""
@@ -94,21 +105,24 @@ def parse(sp, R1, R2, L):
     dist = w.get("distribution", "hertz")
     if dist not in DISTRIBUTIONS:
         raise sp.error("wear.distribution", f"unknown distribution {dist!r}", DISTRIBUTIONS)
-    vals = {}
-    for key in ("k", "hardness"):
-        v = w.get(key)
-        try:
-            # YAML 1.1 reads 1.0e8 (no exponent sign) as a string
-            x = float(v) if not isinstance(v, bool) else math.nan
-        except (TypeError, ValueError):
-            x = math.nan
-        if not (math.isfinite(x) and x > 0):
-            raise sp.error(f"wear.{key}", f"required, a number > 0, got {v!r}")
-        vals[key] = x
+    k, hardness = positive(sp, w, "k"), positive(sp, w, "hardness")
     nodes = w.get("nodes", 360)
     if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 16:
         raise sp.error("wear.nodes", f"an integer >= 16, got {nodes!r}")
-    return WearModel(vals["k"], vals["hardness"], int(nodes), dist, R1, R2, L, sp.estar(), R2 * R1 / (R1 - R2))
+    return WearModel(k, hardness, int(nodes), dist, R1, R2, L, sp.estar(), R2 * R1 / (R1 - R2))
+
+
+def positive(sp, w, key):
+    """The required number > 0 ``wear.KEY`` of the mapping w (also the spherical socket's)."""
+    v = w.get(key)
+    try:
+        # YAML 1.1 reads 1.0e8 (no exponent sign) as a string
+        x = float(v) if not isinstance(v, bool) else math.nan
+    except (TypeError, ValueError):
+        x = math.nan
+    if not (math.isfinite(x) and x > 0):
+        raise sp.error(f"wear.{key}", f"required, a number > 0, got {v!r}")
+    return x
 
 
 # ------------------------------------------------------------------ the law

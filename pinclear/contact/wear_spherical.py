@@ -1,0 +1,293 @@
+"""Archard wear of a spherical clearance's socket, and the worn socket's contact geometry.
+
+Law: as the revolute bearing's (contact.wear; Archard 1953, local form of Flores 2009 and Mukras
+et al. 2010): the socket surface recedes at dh/dt = k p v_slip / H, accumulated on the nodes of a
+(theta, phi) mesh of the socket's surface: ``nodes`` rows in theta (polar angle from the mesh's
+pole, one of frame1's axes: ``pole``), 2 x nodes columns in phi, nodes at the cell centres
+theta_i = (i + 1/2) pi / rows, phi_j = 2 pi j / cols (no node at a pole).
+
+Pressure: the contact law's normal force F (output NAME.fn, damping included) spread over the
+Hertz contact circle of a ball in a conforming spherical seat, a = (3 F R* / (4 E*))^(1/3) with
+R* = R_ball R_socket / (R_socket - R_ball) (Johnson 1985, Contact Mechanics, eqs. 4.22-4.23 with
+the internal contact's relative curvature), either p(rho) = (3 F / (2 pi a^2)) sqrt(1 - rho^2/a^2)
+(``distribution: hertz``, the default, Johnson eq. 4.23) or uniform F / (pi a^2), rho the arc length
+on the socket from the contact direction. Each sample's share of each cell is its pressure integrated
+over the cell (midpoint rule on quad x quad sub-cells) and normalised so the shares sum to 1: the worn
+volume is k F s / H to round-off. R* is the new socket's (as the revolute's: a conforming pocket
+widens the true contact, which this distribution does not follow).
+
+Geometry: the worn socket's radius is R_socket + w(direction), w the tensor Catmull-Rom
+interpolant of the node depths in (theta, phi) (C1, passes through the nodes, local;
+contact._kernels.worn_sphere_depth), rows continued across each pole along the great circle. The
+(theta, phi) chart is singular at its poles: the wear must stay off the two rows next to each pole
+(then w = 0 within half a row of it and the field is continuous through the pole); an increment
+that reaches them stops the run with an error naming ``pole``. Penetration and normal against the
+worn surface in the compiled kernel (contact._kernels.worn_spherical_geometry); the force is
+-F(delta) grad delta (the energy audit closes between reshapes).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from pinclear.errors import InputError
+from pinclear.registry import Key
+
+from . import _kernels
+from .spherical import SphericalClearance
+from .wear import DISTRIBUTIONS, MODELS, WornData, WornRevoluteClearance, positive, trapezoid_weights
+
+POLES = ("x", "y", "z")
+
+#: the keys of a spherical clearance's ``wear:`` mapping (docs/wear_lubrication.md sec. 6)
+WEAR_KEYS = (
+    Key("model", "string", "-", "archard", ", ".join(MODELS), "Archard 1953", "the wear law"),
+    Key("k", "number", "-", None, "> 0", "Archard 1953: V = k F s / H", "dimensionless wear coefficient"),
+    Key("hardness", "number", "Pa", None, "> 0", "Archard 1953", "hardness H of the worn socket"),
+    Key("nodes", "integer", "-", 36, ">= 8", "contact/wear_spherical.py",
+        "mesh rows in theta (2 x nodes columns in phi; 36: 5 deg cells)"),
+    Key("distribution", "string", "-", "hertz", ", ".join(DISTRIBUTIONS), "Johnson 1985 eqs. 4.22-4.23",
+        "pressure over the Hertz contact circle: elliptic (hertz) or uniform"),
+    Key("pole", "string", "-", "z", ", ".join(POLES), "contact/wear_spherical.py",
+        "frame1 axis of the mesh's poles (keep it away from where the socket wears)"),
+)
+_NAMES = tuple(k.name for k in WEAR_KEYS)
+
+
+@dataclass(frozen=True)
+class SphericalWearModel:
+    """What the wear law needs of one socket: k, H, mesh rows, distribution, pole axis (0, 1, 2
+    of frame1), radii, E*, R* and the sub-cells per cell side of the share quadrature."""
+    k: float
+    hardness: float
+    rows: int
+    distribution: str
+    pole: int
+    R1: float
+    R2: float
+    estar: float
+    rstar: float
+    quad: int = 8
+
+    @property
+    def cols(self) -> int:
+        return 2 * self.rows
+
+    @property
+    def nodes(self) -> int:
+        return self.rows * self.cols
+
+    @property
+    def dtheta(self) -> float:
+        return math.pi / self.rows
+
+    @property
+    def dphi(self) -> float:
+        return 2.0 * math.pi / self.cols
+
+    def angles(self) -> np.ndarray:
+        """(2, nodes): theta and phi (rad) of each node, row by row."""
+        th = (np.arange(self.rows) + 0.5) * self.dtheta
+        ph = np.arange(self.cols) * self.dphi
+        T, P = np.meshgrid(th, ph, indexing="ij")
+        return np.array([T.ravel(), P.ravel()])
+
+    def cell_areas(self) -> np.ndarray:
+        """Socket area (m^2) of each node's cell [theta -+ dtheta/2] x [phi -+ dphi/2]."""
+        th = (np.arange(self.rows) + 0.5) * self.dtheta
+        band = np.cos(th - 0.5 * self.dtheta) - np.cos(th + 0.5 * self.dtheta)
+        return np.repeat(self.R1 ** 2 * band * self.dphi, self.cols)
+
+    def volume(self, depth) -> float:
+        """Worn volume (m^3) of the node depths."""
+        return float(np.dot(depth, self.cell_areas()))
+
+    def profile_columns(self) -> dict:
+        th, ph = np.degrees(self.angles())
+        return {"theta from the pole [deg]": th, "phi [deg]": ph}
+
+    def local(self, vec) -> np.ndarray:
+        """frame1 components (..., 3) in the mesh's axes (pole third)."""
+        vec = np.asarray(vec, float)
+        p = self.pole
+        return vec[..., [(p + 1) % 3, (p + 2) % 3, p]]
+
+    @cached_property
+    def _subpoints(self):
+        """Unit vectors (rows, cols, quad^2, 3) of the sub-cell midpoints and their areas (rows, quad^2)."""
+        m = self.quad
+        off = (np.arange(m) + 0.5) / m - 0.5
+        th = ((np.arange(self.rows) + 0.5)[:, None] + off[None, :]) * self.dtheta          # (rows, m)
+        ph = (np.arange(self.cols)[:, None] + off[None, :]) * self.dphi                    # (cols, m)
+        T = np.broadcast_to(th[:, None, :, None], (self.rows, self.cols, m, m))
+        P = np.broadcast_to(ph[None, :, None, :], (self.rows, self.cols, m, m))
+        u = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], axis=-1)
+        area = self.R1 ** 2 * np.sin(th) * (self.dtheta / m) * (self.dphi / m)             # (rows, m)
+        area = np.broadcast_to(area[:, :, None], (self.rows, m, m))
+        return u.reshape(self.rows, self.cols, m * m, 3), area.reshape(self.rows, m * m)
+
+    def increment(self, name, traj):
+        return block_increment(self, name, traj)
+
+
+def parse(sp, R1, R2):
+    """The ``wear:`` mapping of a spherical clearance entry as a SphericalWearModel (None without it)."""
+    w = sp.d.get("wear")
+    if w is None:
+        return None
+    if not isinstance(w, dict):
+        raise sp.error("wear", f"expected a mapping {{model: archard, k, hardness, ...}}, got {w!r}", _NAMES)
+    bad = sorted(set(w) - set(_NAMES))
+    if bad:
+        raise sp.error(f"wear.{bad[0]}", "unknown key", _NAMES)
+    for key, choices, default in (("model", MODELS, "archard"), ("distribution", DISTRIBUTIONS, "hertz"),
+                                  ("pole", POLES, "z")):
+        if w.get(key, default) not in choices:
+            raise sp.error(f"wear.{key}", f"unknown {key} {w[key]!r}", choices)
+    rows = w.get("nodes", 36)
+    if isinstance(rows, bool) or not isinstance(rows, int) or rows < 8:
+        raise sp.error("wear.nodes", f"an integer >= 8 (mesh rows in theta), got {rows!r}")
+    return SphericalWearModel(positive(sp, w, "k"), positive(sp, w, "hardness"), rows, w.get("distribution", "hertz"),
+                              POLES.index(w.get("pole", "z")), R1, R2, sp.estar(), R2 * R1 / (R1 - R2))
+
+
+# ------------------------------------------------------------------ the law
+def contact_radius(wm: SphericalWearModel, F):
+    """Hertz contact radius a (m) of the ball in its seat under the load F (N), Johnson eq. 4.22."""
+    return np.cbrt(3.0 * np.maximum(F, 0.0) * wm.rstar / (4.0 * wm.estar))
+
+
+def cell_shares(wm: SphericalWearModel, u, a):
+    """(cells, shares) of one load at the unit direction u (mesh axes) with contact radius a:
+    the pressure integrated over each cell of the rows it reaches (sub-cell midpoints), normalised to
+    sum 1; a contact smaller than the sub-cells goes whole to the cell holding u."""
+    sub, area = wm._subpoints
+    th = math.acos(min(max(u[2], -1.0), 1.0))
+    reach = a / wm.R1
+    i0 = max(int(math.floor((th - reach) / wm.dtheta)) - 1, 0)
+    i1 = min(int(math.floor((th + reach) / wm.dtheta)) + 1, wm.rows - 1)
+    cols = np.arange(wm.cols)
+    smin = min(math.sin(i0 * wm.dtheta), math.sin((i1 + 1) * wm.dtheta))
+    if smin > 0.0 and (reach + wm.dtheta) / smin < 0.5 * math.pi:
+        # away from the poles only the columns within the contact's reach in phi
+        ph = math.atan2(u[1], u[0]) / wm.dphi
+        half = (reach + wm.dtheta) / smin / wm.dphi
+        cols = np.arange(int(math.floor(ph - half)) - 1, int(math.ceil(ph + half)) + 2) % wm.cols
+    pts = sub[i0:i1 + 1][:, cols]                                           # (r, c, m^2, 3)
+    rho = 2.0 * wm.R1 * np.arcsin(np.minimum(0.5 * np.linalg.norm(pts - u, axis=-1), 1.0))   # arc length
+    x = np.clip(1.0 - (rho / a) ** 2, 0.0, None) if a > 0 else np.zeros(rho.shape)
+    p = np.sqrt(x) if wm.distribution == "hertz" else (x > 0).astype(float)
+    load = (p * area[i0:i1 + 1, None, :]).sum(axis=-1)                      # (r, c)
+    total = load.sum()
+    if total <= 0.0:
+        i = min(int(th / wm.dtheta), wm.rows - 1)
+        j = int(round((math.atan2(u[1], u[0]) % (2 * math.pi)) / wm.dphi)) % wm.cols
+        return np.array([i * wm.cols + j]), np.ones(1)
+    r, c = np.nonzero(load)
+    return (i0 + r) * wm.cols + cols[c], load[r, c] / total
+
+
+def depth_increment(wm: SphericalWearModel, u, F, slip, dt):
+    """Wear depth (m) added at each node by the samples (unit contact direction u (samples, 3) in the
+    mesh axes, normal force F, slip speed, time weight dt): each sample's worn volume k F v dt / H
+    shared over the cells by its pressure, over each cell's area."""
+    F, slip, dt = (np.atleast_1d(np.asarray(x, float)) for x in (F, slip, dt))
+    u = np.atleast_2d(np.asarray(u, float))
+    keep = np.flatnonzero((F > 0.0) & (slip > 0.0) & (dt > 0.0))
+    vol = np.zeros(wm.nodes)
+    a = contact_radius(wm, F)
+    for s in keep:
+        cells, share = cell_shares(wm, u[s], a[s])
+        vol[cells] += wm.k * F[s] * slip[s] * dt[s] / wm.hardness * share
+    return vol / wm.cell_areas()
+
+
+def block_increment(wm: SphericalWearModel, name, traj):
+    """Node depth increment (m) worn over one block (a Trajectory of the worn socket ``name``):
+    direction from NAME.eccentricity (frame1 axes), load NAME.fn, slip NAME.slip, trapezoid rule.
+    An increment reaching the two rows next to a pole stops with an error naming ``pole``."""
+    out = traj.outputs
+    e = wm.local(out[f"{name}.eccentricity"])
+    r = np.linalg.norm(e, axis=1)
+    u = e / np.where(r > 0.0, r, 1.0)[:, None]
+    h = depth_increment(wm, u, out[f"{name}.fn"], out[f"{name}.slip"], trapezoid_weights(traj.t))
+    grid = h.reshape(wm.rows, wm.cols)
+    if np.any(grid[[0, 1, -2, -1]] > 0.0):
+        raise InputError(f"the wear of {name!r} reaches its mesh pole (frame1 {POLES[wm.pole]} axis), where the "
+                         "(theta, phi) chart is singular: put the pole on another frame1 axis",
+                         key=f"clearances.{name}.wear.pole", choices=[p for p in POLES if p != POLES[wm.pole]])
+    return h
+
+
+# ------------------------------------------------------------------ the worn joint
+class WornSphericalClearance(SphericalClearance):
+    """A spherical clearance whose socket has worn ``depth`` (m, one value per mesh node, row by
+    row). The kernel plumbing (force scaled by |grad delta|, record with the slip speed) is the
+    worn revolute's, taken from contact.wear.WornRevoluteClearance."""
+
+    _data_class = WornData
+    geometry_code = _kernels.G_WORN_SPHERICAL
+    # the worn joints' shared plumbing (these methods use no zero-argument super())
+    with_depth = WornRevoluteClearance.with_depth
+    _compiled_kernel = WornRevoluteClearance._compiled_kernel
+    _kernel_args = WornRevoluteClearance._kernel_args
+    _normal = WornRevoluteClearance._normal
+    _record_laws = WornRevoluteClearance._record_laws
+    _slip = WornRevoluteClearance._slip
+    record_kernel = WornRevoluteClearance.record_kernel
+
+    def __init__(self, *args, wear: SphericalWearModel, depth=None, **kw):
+        self.wear = wear
+        d = np.zeros(wear.nodes) if depth is None else np.array(depth, float)
+        if d.shape != (wear.nodes,) or not np.all(np.isfinite(d)):
+            raise ValueError(f"wear depth must be {wear.nodes} finite values, got shape {d.shape}")
+        d.flags.writeable = False
+        self.depth = d
+        self._ctor = (args, dict(kw))
+        super().__init__(*args, **kw)
+
+    def _geometry_params(self):
+        w = self.wear
+        return np.concatenate([[self.c, self.R1, self.R2, float(w.pole), 0.0, float(w.rows), float(w.cols)],
+                               self.depth])
+
+    def profile(self, theta, phi):
+        """(w, dw/dtheta, dw/dphi) of the worn socket at the mesh angles (the kernel's interpolant)."""
+        g = self._geo.gpar
+        return np.array([_kernels.worn_sphere_depth(g, float(t), float(p))
+                         for t, p in zip(np.atleast_1d(theta), np.atleast_1d(phi))]).T
+
+    def outputs(self, mech, ws, d, t, q, v, z):
+        out = super().outputs(mech, ws, d, t, q, v, z)
+        out["slip"] = self._slip(d)
+        return out
+
+    def record(self, mech, ws, d, t, q, v, z, after_rhs):
+        pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
+        if "slip" not in out:
+            out["slip"] = self._slip(d)
+        return pot, loss, out
+
+    def record_layout(self):
+        lay = super().record_layout()
+        return None if lay is None else lay + (("slip", 1),)
+
+    def describe(self):
+        w = self.wear
+        return {**super().describe(), "wear": {"model": "archard", "k": w.k, "hardness": w.hardness,
+                                               "nodes": w.rows, "distribution": w.distribution,
+                                               "pole": POLES[w.pole], "max_depth": float(self.depth.max())}}
+
+
+def plot_depth_map(ax, wm: SphericalWearModel, depth, title=""):
+    """Depth (um) on the socket's (theta, phi) map, degrees labelled; returns the image."""
+    ext = [0.0, 360.0, 180.0, 0.0]
+    grid = 1e6 * np.asarray(depth).reshape(wm.rows, wm.cols)
+    im = ax.imshow(grid, extent=ext, aspect="auto", cmap="viridis", interpolation="nearest")
+    ax.set(xlabel="phi [deg] (about the pole)", ylabel=f"theta from the frame1 {POLES[wm.pole]} pole [deg]",
+           title=title)
+    ax.figure.colorbar(im, ax=ax, label="wear depth [um]")
+    return im
