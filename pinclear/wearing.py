@@ -244,19 +244,21 @@ def plot(res, out):
     import matplotlib.pyplot as plt
 
     h = res["history"]
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    for n, d in res["depth"].items():
+    for n in res["depth"]:
         if np.ndim(res["angles"][n]) == 2:
             _socket_map(res, n, out)
-            continue
-        ax.plot(np.degrees(res["angles"][n]), 1e6 * d, label=n)
-    ax.set(xlabel="bearing angle [deg] (frame1 x towards y)", ylabel="wear depth [um]",
-           title=f"worn profile after {h['cycles'][-1]:.3g} cycles")
-    ax.legend()
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    safeio.savefig(fig, Path(out) / "depth_vs_angle.png", dpi=120)
-    plt.close(fig)
+    bearings = {n: d for n, d in res["depth"].items() if np.ndim(res["angles"][n]) == 1}
+    if bearings:
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        for n, d in bearings.items():
+            ax.plot(np.degrees(res["angles"][n]), 1e6 * d, label=n)
+        ax.set(xlabel="bearing angle [deg] (frame1 x towards y)", ylabel="wear depth [um]",
+               title=f"worn profile after {h['cycles'][-1]:.3g} cycles")
+        ax.legend()
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        safeio.savefig(fig, Path(out) / "depth_vs_angle.png", dpi=120)
+        plt.close(fig)
     fig, ax = plt.subplots(figsize=(6, 3.5))
     for n in res["depth"]:
         ax.plot([0.0] + h["cycles"], [0.0] + [1e6 * x for x in h[f"{n}.max_depth"]], "o-", label=n)

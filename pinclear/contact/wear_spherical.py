@@ -160,48 +160,69 @@ def contact_radius(wm: SphericalWearModel, F):
     return np.cbrt(3.0 * np.maximum(F, 0.0) * wm.rstar / (4.0 * wm.estar))
 
 
-def cell_shares(wm: SphericalWearModel, u, a):
-    """(cells, shares) of one load at the unit direction u (mesh axes) with contact radius a:
-    the pressure integrated over each cell of the rows it reaches (sub-cell midpoints), normalised to
-    sum 1; a contact smaller than the sub-cells goes whole to the cell holding u."""
+def _window_loads(wm: SphericalWearModel, u, a, i0, Kr, j0, Kc):
+    """(cells, loads), both (S, Kr Kc): the pressure of each load (unit direction u (S, 3), contact
+    radius a) integrated over the Kr x Kc cells from row i0, column j0 (sub-cell midpoints)."""
     sub, area = wm._subpoints
-    th = math.acos(min(max(u[2], -1.0), 1.0))
-    reach = a / wm.R1
-    i0 = max(int(math.floor((th - reach) / wm.dtheta)) - 1, 0)
-    i1 = min(int(math.floor((th + reach) / wm.dtheta)) + 1, wm.rows - 1)
-    cols = np.arange(wm.cols)
-    smin = min(math.sin(i0 * wm.dtheta), math.sin((i1 + 1) * wm.dtheta))
-    if smin > 0.0 and (reach + wm.dtheta) / smin < 0.5 * math.pi:
-        # away from the poles only the columns within the contact's reach in phi
-        ph = math.atan2(u[1], u[0]) / wm.dphi
-        half = (reach + wm.dtheta) / smin / wm.dphi
-        cols = np.arange(int(math.floor(ph - half)) - 1, int(math.ceil(ph + half)) + 2) % wm.cols
-    pts = sub[i0:i1 + 1][:, cols]                                           # (r, c, m^2, 3)
-    rho = 2.0 * wm.R1 * np.arcsin(np.minimum(0.5 * np.linalg.norm(pts - u, axis=-1), 1.0))   # arc length
-    x = np.clip(1.0 - (rho / a) ** 2, 0.0, None) if a > 0 else np.zeros(rho.shape)
+    rows = i0[:, None] + np.arange(Kr)[None, :]                                 # (S, Kr)
+    cols = (j0[:, None] + np.arange(Kc)[None, :]) % wm.cols                     # (S, Kc)
+    pts = sub[rows[:, :, None], cols[:, None, :]]                               # (S, Kr, Kc, m^2, 3)
+    chord = np.linalg.norm(pts - u[:, None, None, None, :], axis=-1)
+    rho = 2.0 * wm.R1 * np.arcsin(np.minimum(0.5 * chord, 1.0))                # arc length on the socket
+    x = np.clip(1.0 - (rho / np.maximum(a, 1e-300)[:, None, None, None]) ** 2, 0.0, None)
     p = np.sqrt(x) if wm.distribution == "hertz" else (x > 0).astype(float)
-    load = (p * area[i0:i1 + 1, None, :]).sum(axis=-1)                      # (r, c)
-    total = load.sum()
-    if total <= 0.0:
-        i = min(int(th / wm.dtheta), wm.rows - 1)
-        j = int(round((math.atan2(u[1], u[0]) % (2 * math.pi)) / wm.dphi)) % wm.cols
-        return np.array([i * wm.cols + j]), np.ones(1)
-    r, c = np.nonzero(load)
-    return (i0 + r) * wm.cols + cols[c], load[r, c] / total
+    load = (p * area[rows][:, :, None, :]).sum(axis=-1)                         # (S, Kr, Kc)
+    cells = rows[:, :, None] * wm.cols + cols[:, None, :]
+    return cells.reshape(len(u), -1), load.reshape(len(u), -1)
 
 
-def depth_increment(wm: SphericalWearModel, u, F, slip, dt):
+def cell_shares(wm: SphericalWearModel, u, a):
+    """(cells, shares), both (S, K): each load's (unit direction u (S, 3) in the mesh axes, contact
+    radius a (S,)) pressure integrated over the cells it can reach, normalised to sum 1 per load; a
+    contact smaller than the sub-cells goes whole to the cell holding u. Only the rows within reach
+    are visited, and away from the poles only the columns within reach (a window fixed per batch)."""
+    u, a = np.atleast_2d(u), np.atleast_1d(a)
+    th = np.arccos(np.clip(u[:, 2], -1.0, 1.0))
+    ph = np.arctan2(u[:, 1], u[:, 0]) % (2.0 * math.pi)
+    reach = a / wm.R1
+    Kr = min(int(math.ceil(2.0 * reach.max() / wm.dtheta)) + 3, wm.rows)
+    i0 = np.clip(np.floor((th - reach) / wm.dtheta).astype(np.int64) - 1, 0, wm.rows - Kr)
+    smin = np.minimum(np.sin(i0 * wm.dtheta), np.sin((i0 + Kr) * wm.dtheta))
+    half = (reach + wm.dtheta) / np.maximum(smin, 1e-300) / wm.dphi          # columns either side
+    polar = half * wm.dphi >= 0.5 * math.pi
+    K = Kr * wm.cols
+    cells, load = np.zeros((len(u), K), np.int64), np.zeros((len(u), K))
+    for group in (polar, ~polar):
+        if not group.any():
+            continue
+        Kc = wm.cols if group is polar else int(math.ceil(2.0 * half[group].max())) + 4
+        j0 = np.zeros(group.sum(), np.int64) if group is polar else \
+            np.floor(ph[group] / wm.dphi - half[group]).astype(np.int64) - 1
+        c, l = _window_loads(wm, u[group], a[group], i0[group], Kr, j0, Kc)
+        cells[group, :c.shape[1]], load[group, :c.shape[1]] = c, l
+    total = load.sum(axis=1)
+    none = total <= 0.0
+    if none.any():
+        i = np.minimum((th[none] / wm.dtheta).astype(np.int64), wm.rows - 1)
+        j = np.round(ph[none] / wm.dphi).astype(np.int64) % wm.cols
+        cells[none, 0], load[none, 0], load[none, 1:] = i * wm.cols + j, 1.0, 0.0
+        total[none] = 1.0
+    return cells, load / total[:, None]
+
+
+def depth_increment(wm: SphericalWearModel, u, F, slip, dt, batch=256):
     """Wear depth (m) added at each node by the samples (unit contact direction u (samples, 3) in the
     mesh axes, normal force F, slip speed, time weight dt): each sample's worn volume k F v dt / H
-    shared over the cells by its pressure, over each cell's area."""
+    shared over the cells by its pressure, over each cell's area (in batches of ``batch`` samples)."""
     F, slip, dt = (np.atleast_1d(np.asarray(x, float)) for x in (F, slip, dt))
     u = np.atleast_2d(np.asarray(u, float))
     keep = np.flatnonzero((F > 0.0) & (slip > 0.0) & (dt > 0.0))
     vol = np.zeros(wm.nodes)
-    a = contact_radius(wm, F)
-    for s in keep:
-        cells, share = cell_shares(wm, u[s], a[s])
-        vol[cells] += wm.k * F[s] * slip[s] * dt[s] / wm.hardness * share
+    for b in range(0, len(keep), batch):
+        s = keep[b:b + batch]
+        cells, share = cell_shares(wm, u[s], contact_radius(wm, F[s]))
+        work = wm.k * F[s] * slip[s] * dt[s] / wm.hardness                       # worn volume per sample, m^3
+        vol += np.bincount(cells.ravel(), weights=(work[:, None] * share).ravel(), minlength=wm.nodes)
     return vol / wm.cell_areas()
 
 
