@@ -215,3 +215,32 @@ def test_socket_wear_key_errors_name_file_key_and_choices(wear_spec, key, text):
         pinclear.load(BALL, clearances=["S"], overrides={"S.wear": wear_spec})
     msg = str(exc.value)
     assert "wear_ball.yaml" in msg and key in msg and text in msg and "\n" not in msg
+
+
+def test_s2_of_the_4ups_upu_wears_where_its_ball_rests(tmp_path):
+    """pinclear.study_paper000's worn case on a short life (40 periods, 2 then 4 updates): the socket
+    wears on the side the new joint's ball presses (its mean eccentricity direction), the worn volume
+    is the history's, and no checkpoint lands in the report folder."""
+    from pinclear import study_paper000 as study
+    from pinclear.models import model_path
+
+    s = {**study._settings(True), "periods": 1, "window": 1, "wear cycles": 40.0, "wear max rounds": 2}
+    row = study.worn_case(s, tmp_path, work=tmp_path / "work")
+    w = row["wear"]
+    assert row["status"] == "success" and len(w["rounds"]) >= 1 and w["max_depth_um"] > 0
+    mech = pinclear.load(model_path("four_ups_upu"), clearances=["S2"], overrides={"S2.mu": study.MU})
+    tr = pinclear.simulate(mech, 2 * 2.0, dt_out=2e-3)
+    on = tr.outputs["S2.fn"] > 0
+    e = tr.outputs["S2.eccentricity"][on]
+    u = e / np.linalg.norm(e, axis=1)[:, None]
+    press = np.mean(u, axis=0)
+    press /= np.linalg.norm(press)
+    th, ph = math.radians(w["deepest_theta_deg"]), math.radians(w["deepest_phi_deg"])
+    deep = np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])   # pole z: x, y, z
+    # within the cone of the contact directions, widened by the contact circle and half a cell diagonal
+    wm = study.load(model_path("four_ups_upu"), clearances=["S2"],
+                    overrides={"S2.mu": study.MU, "S2.wear": study.WEAR_S2}).forces[-1].wear
+    spread = np.arccos(np.clip(u @ press, -1, 1)).max()
+    bound = spread + float(ws.contact_radius(wm, tr.outputs["S2.fn"].max())) / wm.R1 + 0.75 * wm.dtheta
+    assert math.acos(np.clip(deep @ press, -1, 1)) <= bound
+    assert not list(tmp_path.glob("*.npz")) and (tmp_path / "depth_map_S2.png").exists()
