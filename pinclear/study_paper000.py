@@ -49,8 +49,8 @@ WEAR_CYCLES = (1e5, 1e6)
 def _settings(quick):
     return {"periods": 3 if quick else 54, "window": 1 if quick else 4, "dt_out [s]": 2e-3, "mu": MU,
             "viscosities [Pa s]": list(VISCOSITIES), "asperity": "0.02 x clearance (10 um), band 10 um (defaults)",
-            "wear": WEAR_S2, "wear cycles": WEAR_CYCLES[0 if quick else 1], "wear first updates": 2,
-            "wear max rounds": 5, "wear tol": 0.05, "wear dt_out [s]": 1e-3, "quick": quick}
+            "wear": WEAR_S2, "wear cycles": WEAR_CYCLES[0 if quick else 1], "wear first updates": 16,
+            "wear max rounds": 4 if quick else 6, "wear tol": 0.05, "wear dt_out [s]": 1e-3, "quick": quick}
 
 
 def cases():
@@ -196,10 +196,9 @@ def _findings(rows):
 def _worn_finding(r, dry):
     """The worn case against the dry new joint: the wear run, then force band and platform deviation."""
     w = r["wear"]
-    conv = (f"converged (halving the factor changed the depth by <= 5 %: "
-            + ", ".join(f"{u} updates {1e6 * d['S2']:.3g} um" for u, _, d in w["rounds"]) + ")") if w["converged"] \
-        else ("NOT converged within the trials (" + ", ".join(f"{u} updates {1e6 * d['S2']:.3g} um"
-                                                              for u, _, d in w["rounds"]) + "): not a finding")
+    trials = ", ".join(f"{u} updates {1e6 * d['S2']:.3g} um" for u, _, d in w["rounds"])
+    conv = (f"converged (halving the factor changed the depth by <= 5 %: {trials})" if w["converged"]
+            else f"NOT converged within the trials ({trials}): not a finding")
     text = (f"- {r['case']}: the update factor {w['update_factor']:.3g} cycles per simulated cycle {conv}; "
             f"deepest {w['max_depth_um']:.3g} um at theta {w['deepest_theta_deg']:.1f} deg, phi "
             f"{w['deepest_phi_deg']:.0f} deg from the frame1 z pole (the ball's resting side, frame1 -x), worn volume "

@@ -216,7 +216,26 @@ class WornData(ClearanceData):
         self.W = np.ones(nc)
 
 
-class WornRevoluteClearance(RevoluteClearance):
+class SlipOutput:
+    """Mixin of the worn joints: the contact's slip speed (the Archard integrand's) as output NAME.slip."""
+
+    def outputs(self, mech, ws, d, t, q, v, z):
+        out = super().outputs(mech, ws, d, t, q, v, z)
+        out["slip"] = self._slip(d)
+        return out
+
+    def record(self, mech, ws, d, t, q, v, z, after_rhs):
+        pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
+        if "slip" not in out:
+            out["slip"] = self._slip(d)
+        return pot, loss, out
+
+    def record_layout(self):
+        lay = super().record_layout()
+        return None if lay is None else lay + (("slip", 1),)
+
+
+class WornRevoluteClearance(SlipOutput, RevoluteClearance):
     """A planar revolute clearance whose bearing has worn ``depth`` (m, one value per wear node)."""
 
     _data_class = WornData
@@ -275,21 +294,6 @@ class WornRevoluteClearance(RevoluteClearance):
 
     def _slip(self, d):
         return float(np.linalg.norm(d.vt[0])) if (d.moving and d.Fn[0] > 0.0) else 0.0
-
-    def outputs(self, mech, ws, d, t, q, v, z):
-        out = super().outputs(mech, ws, d, t, q, v, z)
-        out["slip"] = self._slip(d)
-        return out
-
-    def record(self, mech, ws, d, t, q, v, z, after_rhs):
-        pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
-        if "slip" not in out:
-            out["slip"] = self._slip(d)
-        return pot, loss, out
-
-    def record_layout(self):
-        lay = super().record_layout()
-        return None if lay is None else lay + (("slip", 1),)
 
     def record_kernel(self, mech, ws, d, z, zdot, row):
         if self._kernel is None:

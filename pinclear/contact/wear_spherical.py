@@ -38,7 +38,7 @@ from pinclear.registry import Key
 
 from . import _kernels
 from .spherical import SphericalClearance
-from .wear import DISTRIBUTIONS, MODELS, WornData, WornRevoluteClearance, positive, trapezoid_weights
+from .wear import DISTRIBUTIONS, MODELS, SlipOutput, WornData, WornRevoluteClearance, positive, trapezoid_weights
 
 POLES = ("x", "y", "z")
 
@@ -244,7 +244,7 @@ def block_increment(wm: SphericalWearModel, name, traj):
 
 
 # ------------------------------------------------------------------ the worn joint
-class WornSphericalClearance(SphericalClearance):
+class WornSphericalClearance(SlipOutput, SphericalClearance):
     """A spherical clearance whose socket has worn ``depth`` (m, one value per mesh node, row by
     row). The kernel plumbing (force scaled by |grad delta|, record with the slip speed) is the
     worn revolute's, taken from contact.wear.WornRevoluteClearance."""
@@ -280,21 +280,6 @@ class WornSphericalClearance(SphericalClearance):
         g = self._geo.gpar
         return np.array([_kernels.worn_sphere_depth(g, float(t), float(p))
                          for t, p in zip(np.atleast_1d(theta), np.atleast_1d(phi))]).T
-
-    def outputs(self, mech, ws, d, t, q, v, z):
-        out = super().outputs(mech, ws, d, t, q, v, z)
-        out["slip"] = self._slip(d)
-        return out
-
-    def record(self, mech, ws, d, t, q, v, z, after_rhs):
-        pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
-        if "slip" not in out:
-            out["slip"] = self._slip(d)
-        return pot, loss, out
-
-    def record_layout(self):
-        lay = super().record_layout()
-        return None if lay is None else lay + (("slip", 1),)
 
     def describe(self):
         w = self.wear
