@@ -74,7 +74,8 @@ def test_ball_under_constant_load_and_spin_wears_k_F_s_over_H_and_the_hertz_prof
     h32 = ws.depth_increment(fine, np.tile(u, (len(tr.t), 1)), tr.outputs["S.fn"], tr.outputs["S.slip"],
                              trapezoid_weights(tr.t))
     err32 = np.max(np.abs(h32[worn] - refv)) / refv.max()
-    assert err32 < 0.5 * err8 and err8 < 0.03
+    # the sub-cell midpoint rule converges (order >= 1 from 8 to 32 sub-cells a side) and at 8 is within 1 %
+    assert err32 < 0.25 * err8 and err8 < 0.01
     # several cells across; the deepest cells hold the contact point (theta 90 deg: rows 17, 18; phi 270 deg)
     assert float(ws.contact_radius(wm, W)) > 2 * wm.R1 * wm.dtheta
     assert divmod(int(np.argmax(h)), wm.cols) in ((17, 54), (18, 54))
@@ -224,7 +225,8 @@ def test_s2_of_the_4ups_upu_wears_where_its_ball_rests(tmp_path):
     from pinclear import study_paper000 as study
     from pinclear.models import model_path
 
-    s = {**study._settings(True), "periods": 1, "window": 1, "wear cycles": 40.0, "wear max rounds": 2}
+    s = {**study._settings(True), "periods": 1, "window": 1, "wear cycles": 40.0, "wear first updates": 2,
+         "wear max rounds": 2}
     row = study.worn_case(s, tmp_path, work=tmp_path / "work")
     w = row["wear"]
     assert row["status"] == "success" and len(w["rounds"]) >= 1 and w["max_depth_um"] > 0
