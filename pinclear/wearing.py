@@ -3,10 +3,25 @@
 The standard iterative scheme of the worn-joint literature (Flores 2009, Mech. Mach. Theory 44,
 1211, sec. 4; Mukras et al. 2010, Wear 268, 643, sec. 3): simulate ``block_periods`` periods of the
 mechanism with the bearing's current profile, integrate the Archard depth over the block's samples
-(pinclear.contact.wear.block_increment), scale it by the update factor (cycles per update / cycles
-per block), reshape the bearing, continue from the block's last state. The factor is not fixed by
-hand: :func:`converged` doubles the number of updates until halving the factor changes the final
-wear depth by <= ``tol`` (5 %).
+(pinclear.contact.wear.block_increment), scale it by the update factor (cycles each simulated cycle
+stands for), reshape the bearing, continue from the block's last state. Two ways to choose the
+factor (``scheme``):
+
+- ``factor``: the same factor for every update, cycles / (updates x block_periods);
+  :func:`converged` doubles the updates until halving the factor changes every worn joint's final
+  maximum depth by <= ``tol`` (5 %).
+- ``depth`` (depth-limited update): each update's factor is chosen from the block just simulated so
+  that the largest nodal depth increment of any worn joint is ``step`` x that joint's radial
+  clearance c (never below one cycle per simulated cycle; the last update takes what is left of
+  the life). The wear step is limited in depth, not in cycles, as in the FE wear literature
+  (Podra & Andersson 1999, Tribol. Int. 32, 71: the wear step sized by the largest nodal wear
+  increment; Mukras et al. 2009, Wear 266, 822: the extrapolation step adapted to the change of the
+  contact pressure): where the worn profile changes the motion (the rate grows with the depth),
+  the updates are as fine in depth at the end of the life as at its start. The scheme is explicit
+  Euler in the cycles with the depth as its step control: its error is first order in ``step``.
+  :func:`converged` halves ``step`` until halving it changes every joint's final maximum depth by
+  <= ``tol``, counting only a halving that made more updates (two trials both held at one update
+  by the life's end are not a test).
 
 Energy: each block is audited on its own (pinclear.energy.energy_balance, between reshapes); a
 reshape changes the contact's elastic energy at a fixed state by a jump that is neither work nor
@@ -31,7 +46,8 @@ from . import safeio
 from .errors import ContactSetupError, InputError
 
 #: history columns every run has; each worn joint NAME adds NAME.max_depth (m) and NAME.worn_volume (m^3)
-HISTORY = ("cycles", "audit_error", "audit_bound", "jump", "cpu_sim", "cpu_update")
+HISTORY = ("cycles", "audit_error", "audit_bound", "jump", "cpu_sim", "cpu_update", "factor")
+SCHEMES = ("factor", "depth")
 
 
 @dataclass(frozen=True)
@@ -39,7 +55,9 @@ class WearSettings:
     """cycles: service life (mechanism periods); period (s); block_periods: periods simulated per
     update; updates: number of reshapes over the life (the update factor is cycles / updates /
     block_periods); transient_periods: simulated first, without wear (start-up landings);
-    rtol, dt_out: of each block's integration (the wear quadrature uses its samples)."""
+    rtol, dt_out: of each block's integration (the wear quadrature uses its samples);
+    scheme: ``factor`` (``updates`` fixed factors) or ``depth`` (each update's largest nodal
+    increment ``step`` x the joint's clearance; at most ``max_updates`` updates)."""
     cycles: float
     period: float
     updates: int = 4
@@ -47,6 +65,9 @@ class WearSettings:
     transient_periods: int = 1
     rtol: float = 1e-6
     dt_out: float = 1e-4
+    scheme: str = "factor"
+    step: float = 0.01
+    max_updates: int = 2000
 
     def check(self):
         for key in ("cycles", "period", "rtol", "dt_out"):
@@ -57,10 +78,17 @@ class WearSettings:
             v = getattr(self, key)
             if not (isinstance(v, int) and v >= 1):
                 raise InputError(f"{key} must be an integer >= 1, got {v!r}", key=key)
+        if self.scheme not in SCHEMES:
+            raise InputError(f"scheme must be one of {', '.join(SCHEMES)}, got {self.scheme!r}", key="scheme",
+                             choices=SCHEMES)
+        if not (isinstance(self.step, (int, float)) and 0 < self.step <= 1):
+            raise InputError(f"step must be a fraction of the clearance in (0, 1], got {self.step!r}", key="step")
+        if not (isinstance(self.max_updates, int) and self.max_updates >= 1):
+            raise InputError(f"max_updates must be an integer >= 1, got {self.max_updates!r}", key="max_updates")
         if not (isinstance(self.transient_periods, int) and self.transient_periods >= 0):
             raise InputError(f"transient_periods must be an integer >= 0, got {self.transient_periods!r}",
                              key="transient_periods")
-        if self.cycles < self.updates * self.block_periods:
+        if self.scheme == "factor" and self.cycles < self.updates * self.block_periods:
             raise InputError(f"cycles ({self.cycles:g}) must be at least updates x block_periods "
                              f"({self.updates * self.block_periods}): an update factor below 1", key="cycles")
 
@@ -110,7 +138,8 @@ def _load_checkpoint(folder, s, wms):
     if not path.exists():
         return None
     with np.load(path, allow_pickle=False) as z:
-        saved = json.loads(str(z["settings"]))
+        # a checkpoint written before a setting existed ran with its default
+        saved = {**asdict(WearSettings(cycles=s.cycles, period=s.period)), **json.loads(str(z["settings"]))}
         if saved != {**asdict(s), "joints": sorted(wms)}:
             raise InputError(f"{path}: a checkpoint of other settings ({saved}); choose another --out or the same "
                              "settings", key="--out")
@@ -118,6 +147,8 @@ def _load_checkpoint(folder, s, wms):
     for name, wm in wms.items():
         if ck.get(f"depth.{name}", np.zeros(0)).shape != (wm.nodes,):
             raise InputError(f"{path}: no {wm.nodes}-node depth of {name}", key="--out")
+    if "factor" not in ck:              # written before the history had the factor: a fixed one
+        ck["factor"] = np.full(len(ck["cycles"]), s.factor)
     return ck
 
 
@@ -157,48 +188,128 @@ def _tables(folder, wms, depth, hist):
     safeio.write_text(folder / "profile.csv", "\n".join(prof) + "\n")
 
 
+def update_factor(s: WearSettings, inc, clearance, left):
+    """Cycles each simulated cycle of this block stands for: the fixed factor, or (depth scheme) the
+    one that makes the largest nodal increment of any joint ``step`` x its clearance, at least 1 and
+    at most what is ``left`` of the life (cycles) over the block's periods. inc: {name: block's
+    depth increment}; clearance: {name: c}."""
+    if s.scheme == "factor":
+        return s.factor
+    ratio = max(float(np.max(inc[n])) / clearance[n] for n in inc)
+    cap = left / s.block_periods
+    return cap if ratio <= 0.0 else min(cap, max(1.0, s.step / ratio))
+
+
+def _start(mech, s, out, wms, found, start):
+    """(depth, q, v, t, done, cycles done, last_E, history) from OUT's checkpoint or a new start (the
+    start-up periods simulated without wear)."""
+    ck = _load_checkpoint(out, s, wms) if out is not None else None
+    if ck is not None:
+        hist = {k: list(ck[k]) for k in _history_keys(sorted(wms))}
+        return ({n: ck[f"depth.{n}"] for n in wms}, ck["q"], ck["v"], float(ck["t"]), int(ck["done"]),
+                float(hist["cycles"][-1]) if hist["cycles"] else 0.0,
+                None if np.isnan(ck["last_E"]) else float(ck["last_E"]), hist)
+    depth = {n: np.array(f[1].depth) for n, f in found.items()}
+    q, v, t = _after_transient(mech, s, start)
+    return depth, q, v, t, 0, 0.0, None, {k: [] for k in _history_keys(sorted(wms))}
+
+
+def _after_transient(mech, s, start):
+    """(q, v, t) where the wear starts: ``start`` (None: simulate's ideal start) after the start-up
+    periods (landings from the sidecar's start) on the new bearing, without wear."""
+    q, v, t = (None, None, 0.0) if start is None else (np.asarray(start[0], float), np.asarray(start[1], float), 0.0)
+    if s.transient_periods:
+        tr = _simulate(mech, 0.0, s.transient_periods * s.period, q, v, s)
+        q, v, t = tr.q[-1], tr.v[-1], float(tr.t[-1])
+    return q, v, t
+
+
+def _finished(s, done, cyc):
+    if s.scheme == "factor":
+        return done >= s.updates
+    # the depth scheme's last update takes the rest of the life: round-off never leaves a sliver
+    return cyc >= s.cycles * (1.0 - 1e-12) or done >= s.max_updates
+
+
+def read_profile(path) -> dict:
+    """{name: node depths (m)} from a wear run's profile.csv (OUT/profile.csv of ``pinclear wear`` or
+    ``pinclear study``; ``path`` the file or its folder), as :func:`_tables` writes it."""
+    from .bounded import check_regular
+    from .errors import ModelFileError
+
+    path = Path(path)
+    path = path / "profile.csv" if path.is_dir() else path
+    if not path.exists():
+        raise ModelFileError(str(path), "path", "no such file (a wear run's OUT/profile.csv)")
+    check_regular(path, "path", "wear profile")
+    lines = path.read_text(encoding="utf-8").splitlines()
+    try:
+        head = lines[0].lstrip("# ").split(", ")
+        # node coordinates first: a bearing's angle, or a socket's (theta, phi) (contact.wear_spherical)
+        nc = 2 if head[:2] == ["theta from the pole [deg]", "phi [deg]"] else 1
+        if head[0] in ("angle [deg]", "theta from the pole [deg]") and len(head) > nc \
+                and all(h.endswith(" depth [m]") for h in head[nc:]):
+            table = np.loadtxt(lines[1:], delimiter=",", ndmin=2)
+            return {h[: -len(" depth [m]")]: table[:, k + nc].copy() for k, h in enumerate(head[nc:])}
+        # joints of other node counts: '# NAME: d0 d1 ...' a line
+        return {name: np.array(vals.split(), float) for name, _, vals in (ln.lstrip("# ").partition(": ")
+                                                                         for ln in lines) if vals}
+    except (IndexError, ValueError) as exc:
+        raise ModelFileError(str(path), "profile", f"not a wear profile ({exc}); expected the header "
+                             "'# angle [deg], NAME depth [m], ...'") from None
+
+
+def with_profile(mech, profile, file="profile.csv"):
+    """``mech`` with each worn clearance of ``profile`` ({name: depths}, :func:`read_profile`) worn to
+    its depths; the joints must be active with the same ``wear:`` node count as the run's."""
+    from .errors import ModelFileError
+
+    idx, depth = {}, {}
+    for name, d in profile.items():
+        i, joint = worn_joint(mech, name)
+        if d.shape != (joint.wear.nodes,) or not np.all(np.isfinite(d)):
+            raise ModelFileError(str(file), name, f"{d.size} depths for a {joint.wear.nodes}-node bearing "
+                                 "(load the mechanism with the wear run's --clearance and --set)")
+        idx[name], depth[name] = i, d
+    forces = list(mech.forces)
+    for name, i in idx.items():
+        forces[i] = forces[i].with_depth(depth[name])
+    return mech.replace(forces=forces)
+
+
 def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) -> dict:
     """The iterative scheme (module doc) on the worn clearances ``names`` (one name or several)
     of ``mech``; resumes from OUT/checkpoint.npz. start: (q0, v0) of the run (default: simulate's
     ideal start). Returns {depth: {name: (nodes,)}, angles: {name: (nodes,)}, history (lists),
-    settings, mech (worn)}."""
+    settings, mech (worn), complete (False when the depth scheme stopped at max_updates before the
+    life's end)}."""
     s.check()
     names = [names] if isinstance(names, str) else list(names)
     found = {n: worn_joint(mech, n) for n in names}
     idx, wms = {n: f[0] for n, f in found.items()}, {n: f[1].wear for n, f in found.items()}
-    T, blockT = s.period, s.block_periods * s.period
-    ck = _load_checkpoint(out, s, wms) if out is not None else None
-    if ck is None:
-        depth = {n: np.array(f[1].depth) for n, f in found.items()}
-        hist = {k: [] for k in _history_keys(sorted(wms))}
-        done, t, last_E = 0, 0.0, None
-        q, v = (None, None) if start is None else (np.asarray(start[0], float), np.asarray(start[1], float))
-        if s.transient_periods:
-            # the start-up (landings from the sidecar's start) on the new bearing, without wear
-            tr = _simulate(mech, 0.0, s.transient_periods * T, q, v, s)
-            q, v, t = tr.q[-1], tr.v[-1], float(tr.t[-1])
-    else:
-        depth = {n: ck[f"depth.{n}"] for n in names}
-        q, v, t, done = ck["q"], ck["v"], float(ck["t"]), int(ck["done"])
-        last_E = None if np.isnan(ck["last_E"]) else float(ck["last_E"])
-        hist = {k: list(ck[k]) for k in _history_keys(sorted(wms))}
+    clearance = {n: f[1].c for n, f in found.items()}
+    depth, q, v, t, done, cyc, last_E, hist = _start(mech, s, out, wms, found, start)
     worn = _with_depth(mech, idx, depth)
-    while done < s.updates:
+    while not _finished(s, done, cyc):
         c0 = time.process_time()
-        tr = _simulate(worn, t, t + blockT, q, v, s)
+        tr = _simulate(worn, t, t + s.block_periods * s.period, q, v, s)
         c1 = time.process_time()
         E = tr.energy()["total"]
         jump = 0.0 if last_E is None else float(E[0] - last_E)
         bal = tr.energy_balance()
-        depth = {n: depth[n] + s.factor * wms[n].increment(n, tr) for n in names}
+        inc = {n: wms[n].increment(n, tr) for n in names}
+        factor = update_factor(s, inc, clearance, s.cycles - cyc)
+        depth = {n: depth[n] + factor * inc[n] for n in names}
         worn = _with_depth(worn, idx, depth)
         c2 = time.process_time()
         # the next block starts from this one's last state: its energy there is the elastic
         # energy against the new profile (the reshape jump)
         q, v, t, last_E = tr.q[-1], tr.v[-1], float(tr.t[-1]), float(E[-1])
         done += 1
-        row = {"cycles": done * s.cycles / s.updates, "audit_error": bal.get("error", math.nan),
-               "audit_bound": bal.get("bound", math.nan), "jump": jump, "cpu_sim": c1 - c0, "cpu_update": c2 - c1}
+        # the factor scheme's cycles as a product (bit-identical to its earlier releases)
+        cyc = done * s.cycles / s.updates if s.scheme == "factor" else cyc + factor * s.block_periods
+        row = {"cycles": cyc, "audit_error": bal.get("error", math.nan), "audit_bound": bal.get("bound", math.nan),
+               "jump": jump, "cpu_sim": c1 - c0, "cpu_update": c2 - c1, "factor": factor}
         for n, wm in wms.items():
             row[f"{n}.max_depth"] = depth[n].max()
             row[f"{n}.worn_volume"] = wm.volume(depth[n])
@@ -207,31 +318,79 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
         if out is not None:
             _save(out, s, wms, depth, (q, v, t, last_E), done, hist)
         if progress:
-            progress(done, s.updates, max(d.max() for d in depth.values()))
+            progress(done, f"of {s.updates}" if s.scheme == "factor" else f"{cyc:.4g}/{s.cycles:.4g} cycles",
+                     max(d.max() for d in depth.values()))
     return {"depth": depth, "angles": {n: wm.angles() for n, wm in wms.items()}, "history": hist, "settings": s,
-            "mech": worn}
+            "mech": worn, "complete": _finished(s, done, cyc) and cyc >= s.cycles * (1.0 - 1e-12)}
+
+
+def block_length(mech, names, s: WearSettings, tol=0.025, max_periods=32, start=None):
+    """Periods per block whose mean wear rate is a converged average (for irregular motion, where
+    one period's increment is a noisy sample): from the run's start (after s.transient_periods),
+    blocks of n = 1, 2, 4, ... consecutive periods, n doubled until the mean increment over 2n
+    periods changes every joint's largest nodal mean increment by <= tol from the first n periods'.
+    Returns (n, converged, table [(n, {name: largest nodal increment per period of the n-period
+    mean, m})]); at max_periods unconverged: (max_periods, False, table). On the new bearing only:
+    a worn one's motion may differ (docs/wear_lubrication.md)."""
+    s.check()
+    names = [names] if isinstance(names, str) else list(names)
+    wms = {n: worn_joint(mech, n)[1].wear for n in names}
+    q, v, t = _after_transient(mech, s, start)
+    tr = _simulate(mech, t, t + s.period, q, v, s)
+    total = {m: wms[m].increment(m, tr) for m in names}
+    count, table = 1, [(1, {m: float(total[m].max()) for m in names})]
+    while True:
+        # double the periods summed: count more, continuing from the last state
+        tr = _simulate(mech, float(tr.t[-1]), float(tr.t[-1]) + count * s.period, tr.q[-1], tr.v[-1], s)
+        total = {m: total[m] + wms[m].increment(m, tr) for m in names}
+        count *= 2
+        mean = {m: float(total[m].max()) / count for m in names}
+        table.append((count, mean))
+        if all(abs(mean[m] - table[-2][1][m]) <= tol * mean[m] for m in names):
+            return count // 2, True, table
+        if count >= max_periods:
+            return count, False, table
+
+
+def _trial(s, k):
+    """The settings of trial k (0 first) of the convergence test: the updates doubled (factor
+    scheme) or the depth step halved (depth scheme) k times."""
+    if s.scheme == "factor":
+        return WearSettings(**{**asdict(s), "updates": s.updates * 2 ** k})
+    return WearSettings(**{**asdict(s), "step": s.step / 2 ** k})
 
 
 def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, progress=None, start=None) -> dict:
-    """Double ``s.updates`` (halve the update factor) until every joint's final maximum depth
-    changes by <= tol; returns the finer run's result plus ``rounds`` [(updates, factor,
-    {name: max depth})] and
-    ``converged`` (False after max_rounds: the last two runs' change is then reported)."""
+    """The convergence test of the scheme (module doc): trials with the factor halved (``factor``:
+    updates doubled) or the depth step halved (``depth``) until every joint's final maximum depth
+    changes by <= tol. Returns the finest run's result plus ``rounds`` (one dict a trial: updates,
+    factor or step, complete, max_depth {name: m}, worn_volume {name: m^3}, cpu_s) and ``converged``
+    (False after max_rounds, or when a trial stopped at max_updates: every trial's numbers are in
+    rounds)."""
     rounds, prev = [], None
-    u = s.updates
-    for _ in range(max_rounds):
-        si = WearSettings(**{**asdict(s), "updates": u})
-        if si.cycles < si.updates * si.block_periods:
+    for k in range(max_rounds):
+        si = _trial(s, k)
+        if si.scheme == "factor" and si.cycles < si.updates * si.block_periods:
             break
-        res = wear_run(mech, name, si, None if out is None else safeio.make_dirs(Path(out) / f"updates_{u}"), progress,
-                       start)
+        sub = f"updates_{si.updates}" if si.scheme == "factor" else f"step_{si.step:.6g}"
+        res = wear_run(mech, name, si, None if out is None else safeio.make_dirs(Path(out) / sub), progress, start)
         d = {n: float(x.max()) for n, x in res["depth"].items()}
-        rounds.append((u, si.factor, d))
-        if prev is not None and all(abs(d[n] - prev["depth"][n].max()) <= tol * d[n] for n in d):
+        n_upd = len(res["history"]["cycles"])
+        rounds.append({"updates": n_upd, **({"factor": si.factor} if si.scheme == "factor" else {"step": si.step}),
+                       "complete": res["complete"], "max_depth": d,
+                       "worn_volume": {n: res["history"][f"{n}.worn_volume"][-1] for n in d},
+                       # the trial's blocks and updates, resumed parts included (from its history)
+                       "cpu_s": float(sum(res["history"]["cpu_sim"]) + sum(res["history"]["cpu_update"]))})
+        if not res["complete"]:
+            res.update(rounds=rounds, converged=False)
+            return res
+        # a halving that made no more updates (the life's end held both at the same count) tests
+        # nothing, unless nothing wore at all (no step to resolve)
+        if (prev is not None and (n_upd > rounds[-2]["updates"] or not any(d.values()))
+                and all(abs(d[n] - prev["depth"][n].max()) <= tol * d[n] for n in d)):
             res.update(rounds=rounds, converged=True)
             return res
         prev = res
-        u *= 2
     prev.update(rounds=rounds, converged=False)
     return prev
 
@@ -297,11 +456,23 @@ def build_parser():
     _add_model_args(p)
     p.add_argument("--cycles", type=number(), required=True, help="service life in mechanism periods (e.g. 1e6)")
     p.add_argument("--period", type=number(unit="s"), required=True, help="the mechanism's period [s]")
-    p.add_argument("--updates", type=count(1), default=4, help="reshapes of the first trial (doubled until "
-                   "converged; default 4)")
+    p.add_argument("--updates", type=count(1), default=4, help="factor scheme: reshapes of the first trial "
+                   "(doubled until converged; default 4)")
     p.add_argument("--block-periods", type=count(1), default=1, help="periods simulated per reshape (default 1)")
+    p.add_argument("--block-tol", type=number(), default=None, help="choose --block-periods instead: doubled from 1 "
+                   "until doubling it changes each joint's largest mean nodal wear rate by at most this fraction, on "
+                   "the new bearing (e.g. 0.025; at most --max-block-periods)")
+    p.add_argument("--max-block-periods", type=count(1), default=16, help="the longest block --block-tol may choose "
+                   "(default 16)")
     p.add_argument("--transient-periods", type=count(0), default=1, help="periods simulated first without wear "
                    "(default 1)")
+    p.add_argument("--scheme", choices=SCHEMES, default="factor", help="factor: the same update factor for every "
+                   "update (the updates doubled until converged); depth: each update's largest nodal increment "
+                   "--step x the clearance (the step halved until converged); default factor")
+    p.add_argument("--step", type=number(), default=0.01, help="depth scheme: largest nodal depth increment per "
+                   "update as a fraction of the joint's radial clearance (first trial; default 0.01)")
+    p.add_argument("--max-updates", type=count(1), default=2000, help="depth scheme: most updates of one trial "
+                   "(default 2000; a trial that needs more stops there and is reported)")
     p.add_argument("--tol", type=number(), default=0.05, help="convergence: halving the update factor changes the "
                    "final depth by at most this (default 0.05)")
     p.add_argument("--max-rounds", type=count(1), default=5, help="most trials of the update factor (default 5)")
@@ -321,14 +492,23 @@ def cli_main(argv=None) -> int:
     mech = _load(args)
     s = WearSettings(cycles=float(args.cycles), period=float(args.period), updates=args.updates,
                      block_periods=args.block_periods, transient_periods=args.transient_periods, rtol=args.rtol,
-                     dt_out=args.dt_out)
+                     dt_out=args.dt_out, scheme=args.scheme, step=args.step, max_updates=args.max_updates)
     out = safeio.make_dirs(Path(args.out))
+    block = None
+    if args.block_tol is not None:
+        n, ok, table = block_length(mech, args.clearance, s, tol=args.block_tol, max_periods=args.max_block_periods)
+        s = WearSettings(**{**asdict(s), "block_periods": n})
+        block = {"block_periods": n, "converged": ok, "table": table}
+        print(f"wear: block of {n} periods" + ("" if ok else " (the longest allowed: its mean rate not converged)"),
+              flush=True)
     with safeio.folder_lock(out):
         res = converged(mech, args.clearance, s, tol=args.tol, max_rounds=args.max_rounds, out=out,
-                        progress=lambda k, n, d: print(f"wear: update {k}/{n}: max depth {d:.4g} m", flush=True))
+                        progress=lambda k, n, d: print(f"wear: update {k} ({n}): max depth {d:.4g} m", flush=True))
         _tables(out, {n: worn_joint(res["mech"], n)[1].wear for n in res["depth"]}, res["depth"], res["history"])
         plot(res, out)
-        summary = {"converged": res["converged"], "rounds": res["rounds"], "update_factor": res["settings"].factor,
+        fac = res["history"]["factor"]
+        summary = {"converged": res["converged"], "scheme": args.scheme, "rounds": res["rounds"],
+                   "update_factor": [min(fac), max(fac)], "updates": len(fac), "block": block,
                    "max_depth_m": {n: float(d.max()) for n, d in res["depth"].items()},
                    "cpu_sim_s": float(sum(res["history"]["cpu_sim"])),
                    "cpu_update_s": float(sum(res["history"]["cpu_update"]))}

@@ -10,8 +10,8 @@ from scipy.integrate import quad
 
 import pinclear
 from pinclear.contact import wear
-from pinclear.errors import ContactSetupError
-from pinclear.wearing import WearSettings, converged, wear_run
+from pinclear.errors import ContactSetupError, InputError
+from pinclear.wearing import WearSettings, block_length, converged, wear_run
 
 JOURNAL = Path(__file__).parent / "data" / "wear_journal.yaml"
 OMEGA = 20.0                                   # journal spin, rad/s
@@ -128,8 +128,8 @@ def test_scheme_update_factor_converges_and_resumes(tmp_path):
                      dt_out=1e-4)
     res = converged(mech, "A", s, out=tmp_path, start=start)
     assert res["converged"]
-    (u1, f1, d1), (u2, f2, d2) = res["rounds"][-2:]
-    d1, d2 = d1["A"], d2["A"]
+    r1, r2 = res["rounds"][-2:]
+    u2, f1, f2, d1, d2 = r2["updates"], r1["factor"], r2["factor"], r1["max_depth"]["A"], r2["max_depth"]["A"]
     assert f2 == pytest.approx(f1 / 2) and abs(d2 - d1) <= 0.05 * d2
     # constant load: the depth grows linearly, k p0 v / H per second of service
     wm = mech.forces[-1].wear
@@ -151,6 +151,140 @@ def test_scheme_update_factor_converges_and_resumes(tmp_path):
     again = wear_run(mech, "A", s4, out=tmp_path / "r", start=start)
     assert np.array_equal(again["depth"]["A"], whole["depth"]["A"])
     assert again["history"]["cycles"] == whole["history"]["cycles"]
+
+
+def test_depth_scheme_wears_the_hand_integrated_crescent_in_the_predicted_updates(tmp_path):
+    # constant load and spin: every block wears the same crescent, so the depth-limited update makes
+    # ceil(total / (step c)) updates and the life's depth is the rate times the life, whatever the step
+    mech = pinclear.load(JOURNAL, clearances=["A"])
+    start = _static_start(mech)
+    wm, c = mech.forces[-1].wear, mech.forces[-1].c
+    s = WearSettings(cycles=2000.0, period=0.01, transient_periods=0, rtol=1e-8, dt_out=1e-4, scheme="depth",
+                     step=0.004)
+    res = converged(mech, "A", s, out=tmp_path, start=start)
+    b = math.sqrt(4 * 9.81 * wm.rstar / (math.pi * wm.L * wm.estar))
+    rate = wm.k * 2 * 9.81 / (math.pi * b * wm.L) * OMEGA * wm.R2 / wm.hardness      # k p0 v / H, m/s
+    total = rate * s.cycles * s.period
+    cell = (wm.R1 * wm.spacing / b) ** 2 / 12                   # the centre cell's average of the ellipse
+    assert res["converged"] and len(res["rounds"]) == 2
+    for r in res["rounds"]:
+        assert r["complete"]
+        assert r["updates"] == math.ceil(total * (1 - cell / 2) / (r["step"] * c))
+        assert r["max_depth"]["A"] == pytest.approx(total, rel=cell + 1e-4)
+    # every update but the last wears exactly step x c at the deepest node
+    h = np.diff([0.0] + res["history"]["A.max_depth"])
+    assert h[:-1] == pytest.approx(res["settings"].step * c, rel=1e-9) and 0 < h[-1] <= res["settings"].step * c
+    assert (tmp_path / "step_0.002" / "checkpoint.npz").exists()
+
+
+def test_depth_scheme_resumes_an_interrupted_run_to_the_same_profile(tmp_path):
+    mech = pinclear.load(JOURNAL, clearances=["A"])
+    start = _static_start(mech)
+    s = WearSettings(cycles=2000.0, period=0.01, transient_periods=0, rtol=1e-8, dt_out=1e-4, scheme="depth",
+                     step=0.004)
+    whole = wear_run(mech, "A", s, start=start)
+
+    def stop(done, total, depth):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        wear_run(mech, "A", s, out=tmp_path, progress=stop, start=start)
+    again = wear_run(mech, "A", s, out=tmp_path, start=start)
+    assert np.array_equal(again["depth"]["A"], whole["depth"]["A"]) and again["complete"]
+    assert again["history"]["cycles"] == whole["history"]["cycles"]
+    assert again["history"]["factor"] == whole["history"]["factor"]
+    # a checkpoint of other settings is refused, naming the folder
+    with pytest.raises(InputError, match="checkpoint of other settings"):
+        wear_run(mech, "A", WearSettings(**{**s.__dict__, "step": 0.002}), out=tmp_path, start=start)
+
+
+def test_block_length_of_a_steady_journal_is_one_period():
+    # constant load and spin: every period wears the same crescent, so one period's mean is the
+    # converged rate (k p0 v T / H at the centre node, to the integration tolerance)
+    mech = pinclear.load(JOURNAL, clearances=["A"])
+    s = WearSettings(cycles=2000.0, period=0.01, transient_periods=0, rtol=1e-8, dt_out=1e-4)
+    n, ok, table = block_length(mech, "A", s, start=_static_start(mech))
+    assert (n, ok, [row[0] for row in table]) == (1, True, [1, 2])
+    assert table[1][1]["A"] == pytest.approx(table[0][1]["A"], rel=1e-6)
+
+
+SPRING = Path(__file__).parent / "data" / "wear_spring.yaml"
+
+
+def _spring_feedback(mech):
+    """The spring-loaded journal's load F(h) and the centre node's Archard rate dh/dt(h), by hand:
+    K delta^n = k_s (Y0 - c - h - delta) (the spring holds the journal against the pocket's floor,
+    h deeper), Hertz half-width b(F), the ellipse's average over the centre node's cell."""
+    from scipy.optimize import brentq
+
+    joint, spring = (next(f for f in mech.forces if f.name == n) for n in ("A", "press"))
+    law, wm = joint.law, joint.wear
+    ks, Y0 = spring.k, -spring.reference
+    a = 0.5 * wm.R1 * wm.spacing
+
+    def load(h):
+        return brentq(lambda F: ks * (Y0 - joint.c - h - (F / law.K) ** (1 / law.n)) - F, 0.0, ks * Y0, xtol=1e-15,
+                      rtol=1e-15)
+
+    def rate(h):
+        F = load(h)
+        b = math.sqrt(4 * F * wm.rstar / (math.pi * wm.L * wm.estar))
+        x = min(a / b, 1.0)
+        cell = 2 * F / (math.pi * b * wm.L) * b * (x * math.sqrt(1 - x * x) + math.asin(x))   # int p ds over the cell
+        return wm.k * OMEGA * wm.R2 * cell / (wm.hardness * wm.R1 * wm.spacing)
+    return load, rate
+
+
+def _spring_run(step, tol, max_rounds):
+    from scipy.integrate import solve_ivp
+
+    mech = pinclear.load(SPRING, clearances=["A"])
+    joint = next(f for f in mech.forces if f.name == "A")
+    load, rate = _spring_feedback(mech)
+    delta0 = (load(0.0) / joint.law.K) ** (1 / joint.law.n)
+    start = np.array([0.0, -(joint.c + delta0), 0.0]), np.array([0.0, 0.0, OMEGA])
+    s = WearSettings(cycles=3600.0, period=0.01, transient_periods=0, rtol=1e-8, dt_out=1e-4, scheme="depth",
+                     step=step)
+    res = converged(mech, "A", s, tol=tol, max_rounds=max_rounds, start=start)
+    exact = solve_ivp(lambda t, h: [rate(h[0])], (0.0, s.cycles * s.period), [0.0], rtol=1e-10, atol=1e-16).y[0, -1]
+    return res, exact, load
+
+
+def test_depth_scheme_follows_a_known_geometric_feedback():
+    # the spring presses the journal less as it sinks into its wear: the load falls ~20 % over the
+    # life and the wear rate with it. The scheme is explicit Euler in the cycles with a depth step:
+    # it overestimates (the rate falls within each update) and its error is first order in the step,
+    # so the finer trial's error is about the two trials' difference (an a-posteriori bound, x2)
+    res, exact, load = _spring_run(0.004, 0.05, 3)
+    assert load(exact) < 0.85 * load(0.0)                      # the feedback is there
+    assert res["converged"] and len(res["rounds"]) == 2
+    (coarse, fine) = (r["max_depth"]["A"] for r in res["rounds"])
+    assert coarse > fine > exact
+    assert fine - exact <= 2 * (coarse - fine)
+    assert res["depth"]["A"].argmax() == 270                    # the pocket at the bottom (-90 deg)
+
+
+def test_depth_scheme_reports_a_trial_sequence_that_did_not_converge():
+    # the same feedback with a tolerance tighter than the coarse steps' error: the test must fail,
+    # say so, and keep every trial's numbers (the finest trial's result returned)
+    res, exact, _ = _spring_run(0.01, 1e-3, 2)
+    assert not res["converged"]
+    (c1, c2) = res["rounds"]
+    assert c2["step"] == c1["step"] / 2 and c2["updates"] > c1["updates"]
+    d1, d2 = c1["max_depth"]["A"], c2["max_depth"]["A"]
+    assert d1 > d2 > exact and abs(d1 - d2) > 1e-3 * d2
+    assert res["depth"]["A"].max() == d2 and res["settings"].step == c2["step"]
+
+
+def test_depth_scheme_stops_at_max_updates_and_says_so(tmp_path):
+    mech = pinclear.load(JOURNAL, clearances=["A"])
+    s = WearSettings(cycles=2000.0, period=0.01, transient_periods=0, rtol=1e-8, dt_out=1e-4, scheme="depth",
+                     step=1e-4, max_updates=3)
+    res = converged(mech, "A", s, out=tmp_path, start=_static_start(mech))
+    assert not res["converged"] and not res["complete"]
+    (r,) = res["rounds"]
+    assert r["updates"] == 3 and not r["complete"] and res["history"]["cycles"][-1] < s.cycles
 
 
 @pytest.mark.parametrize("wear_spec, key, text", [

@@ -39,7 +39,7 @@ def _assembled(mech, q=None):
 def build_scene(mech, traj=None, *, q=None, fps: float = 30.0, slowdown: float | None = None,
                 max_frames: int = 1500, ecc_scale: float | None = None, force_scale: float | None = None,
                 play: bool = True, loop: bool = False, use_urdf_visuals: bool = True,
-                trust: bool | None = None) -> MechanismScene:
+                trust: bool | None = None, wear_scale: float | None = None) -> MechanismScene:
     """Scene of ``mech`` (at q, or assembled from q0), animated with ``traj`` if given.
 
     slowdown: playback seconds per simulated second; None = real time, or slowed by a round
@@ -48,10 +48,12 @@ def build_scene(mech, traj=None, *, q=None, fps: float = 30.0, slowdown: float |
     most 8 % of the mechanism); force_scale: metres of arrow per newton (None = longest force
     arrow a quarter of the mechanism).  Both are stated in the page's legend.
     trust: URDF meshes may come from anywhere (default: only from the mechanism's folders,
-    pinclear's models and example-robot-data; see :class:`MechanismScene`)."""
+    pinclear's models and example-robot-data; see :class:`MechanismScene`).
+    wear_scale: magnification of a worn bearing's depth (None = a 1-2-5 factor drawing the deepest
+    wear a quarter of its bearing's radius; stated in the legend)."""
     q0 = traj.q[0] if (traj is not None and q is None) else _assembled(mech, q)
     scene = MechanismScene(mech, q0, ecc_scale=ecc_scale, force_scale=force_scale,
-                           use_urdf_visuals=use_urdf_visuals, trust=trust)
+                           use_urdf_visuals=use_urdf_visuals, trust=trust, wear_scale=wear_scale)
     if traj is not None:
         animate(scene, traj, fps=fps, slowdown=slowdown, max_frames=max_frames, play=play, loop=loop)
     return scene

@@ -148,6 +148,12 @@ def build_view_parser():
                          "Python functions outside pinclear and URDF meshes outside its folders; never a "
                          "run's recorded file or arguments, which are not opened or applied as code "
                          "(docs/security.md)")
+    ap.add_argument("--wear", default=None, metavar="OUT",
+                    help="draw the worn bearings of a wear run (OUT/profile.csv of `pinclear wear` or `pinclear "
+                         "study`); load the mechanism with that run's --clearance and --set")
+    ap.add_argument("--wear-scale", type=number(), default=None,
+                    help="magnification of the worn depth (default: a 1-2-5 factor drawing the deepest wear a "
+                         "quarter of its bearing's radius; printed)")
     _scene_args(ap)
     return ap
 
@@ -174,9 +180,15 @@ def view_main(argv: list[str]) -> int:
             mech = pinclear.load(a.file, options=parse_assignments(a.option, "--option") or None,
                                  overrides=parse_assignments(a.set, "--set") or None,
                                  clearances=a.clearance or None, trust=trust)
+        if a.wear is not None:
+            from pinclear.wearing import read_profile, with_profile
+
+            mech = with_profile(mech, read_profile(a.wear), a.wear)
+            if traj is not None:
+                traj.mech = mech
         scene = build_scene(mech, traj, fps=a.fps, slowdown=a.slowdown, max_frames=a.max_frames,
                             ecc_scale=a.ecc_scale, force_scale=a.force_scale,
-                            use_urdf_visuals=not a.no_urdf_visuals, trust=trust)
+                            use_urdf_visuals=not a.no_urdf_visuals, trust=trust, wear_scale=a.wear_scale)
     except PinclearError as exc:
         print(f"pinclear: error: {exc}", file=sys.stderr)
         return 2
@@ -214,6 +226,9 @@ def _report(scene):
         fs = info.get("force_scale")
         line += (f"; clearances {', '.join(el.name for el in scene.clearances)}: eccentricity x{info['ecc_scale']:g}"
                  + (f", forces {1.0 / fs:.4g} N per m of arrow" if fs else ""))
+    if info.get("worn"):
+        line += "; worn bearings " + ", ".join(f"{n} ({1e6 * d:.3g} um deep)" for n, d in info["worn"].items()) + \
+            f": depth x{info['wear_scale']:g}"
     if "animation" in info:
         an = info["animation"]
         line += (f"; {an['frames']} frames for t = {an['t0']:.4g}..{an['t1']:.4g} s "

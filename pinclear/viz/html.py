@@ -95,6 +95,8 @@ def legend(info: dict) -> str:
         fs = info.get("force_scale") or 0.0
         if fs > 0:
             parts.append(f"forces {1.0 / fs:.4g} N per m of arrow (normal blue, friction orange)")
+    if info.get("worn"):
+        parts.append(f"worn bearing depth &times;{info['wear_scale']:g} (dark red; new bearing grey)")
     if info.get("animation"):
         a = info["animation"]
         parts.append(f"playback {a['slowdown']:g}&times; slower than real time"

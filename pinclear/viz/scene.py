@@ -22,6 +22,10 @@ origin and turns "against gravity" to screen-up)::
     overlays/platform/trace | prescribed
                                     platform path over the run and the prescribed path (world)
     overlays/world_frame            world axes
+    bodies/<body>/worn_<name>/profile | new
+                                    a worn revolute bearing (pinclear.contact.wear): its profile
+                                    R_b + wear_scale x depth at the wear nodes, and the new circle
+                                    R_b, closed loops in the bearing frame (fixed in its body)
 
 Scale factors of the overlays are *stated*: they are stored in ``scene.info`` and shown in
 the HTML legend and printed by the CLI.
@@ -50,6 +54,8 @@ NORMAL_COLOR = 0x0028FF  # blue: normal force
 FRICTION_COLOR = 0xFF6A00  # orange: friction force
 TRACE_COLOR = 0x00A0A0   # teal: platform trace
 PRESCRIBED_COLOR = 0xE00000  # red: prescribed path
+WORN_COLOR = 0x8B0000    # dark red: a worn bearing's profile (depth magnified, stated)
+NEW_BEARING_COLOR = 0x606060  # grey: the same bearing new
 
 
 # --------------------------------------------------------------------------- recorder
@@ -165,9 +171,41 @@ def _arrow_object(color: int, radius: float):
     return _OnTopMesh(geom, _OnTopMaterial(color=color))
 
 
-def _polyline(points: np.ndarray, color: int):
+def _polyline(points: np.ndarray, color: int, on_top: bool = False):
     pts = np.ascontiguousarray(points.T, dtype=np.float32)
-    return mg.Line(mg.PointsGeometry(pts), mg.LineBasicMaterial(color=color, linewidth=2))
+    material = (_OnTopLineMaterial if on_top else mg.LineBasicMaterial)(color=color, linewidth=2)
+    return mg.Line(mg.PointsGeometry(pts), material)
+
+
+class _OnTopLineMaterial(mg.LineBasicMaterial):
+    """A line drawn over the bodies (a bearing's profile lies inside its link's geometry)."""
+
+    def lower(self, object_data):
+        d = super().lower(object_data)
+        d.update(depthTest=False, depthWrite=False)
+        return d
+
+
+def worn_bearings(clearances) -> list:
+    """The worn revolute clearances (pinclear.contact.wear.WornRevoluteClearance) among
+    ``clearances`` whose bearing has worn (some depth > 0)."""
+    return [el for el in clearances
+            if getattr(el, "wear", None) is not None and np.max(getattr(el, "depth", 0.0)) > 0.0]
+
+
+def default_wear_scale(worn) -> float:
+    """A 1-2-5 magnification drawing the deepest wear a quarter of its bearing's radius."""
+    return min(round_125(0.25 * el.R1 / float(np.max(el.depth))) for el in worn)
+
+
+def worn_profile_points(el, scale: float, depth=None) -> np.ndarray:
+    """(N + 1, 3) closed loop of a worn bearing in its own frame (frame1; the wear angle from x
+    towards y, pinclear.contact.wear): radius R_b + scale x depth at each wear node's angle
+    (``depth`` None: the joint's own)."""
+    th = el.wear.angles()
+    r = el.R1 + scale * np.asarray(el.depth if depth is None else depth, float)
+    pts = np.stack([r * np.cos(th), r * np.sin(th), np.zeros_like(th)], axis=1)
+    return np.vstack([pts, pts[:1]])
 
 
 # --------------------------------------------------------------------------- scene
@@ -189,7 +227,8 @@ class MechanismScene:
     """
 
     def __init__(self, mech, q=None, *, ecc_scale: float | None = None, force_scale: float | None = None,
-                 show_closure_frames: bool = True, use_urdf_visuals: bool = True, trust: bool | None = None):
+                 show_closure_frames: bool = True, use_urdf_visuals: bool = True, trust: bool | None = None,
+                 wear_scale: float | None = None):
         self.mech = mech
         self.trust = viewer_trust(mech, trust)
         self.live = None           # meshcat.Visualizer of a running viewer (see pinclear.viz.show)
@@ -215,6 +254,7 @@ class MechanismScene:
         if show_closure_frames:
             self._build_closure_frames()
         self._build_clearance_overlays()
+        self._build_worn_bearings(wear_scale)
         self._background()
         self._camera()
         self.set_configuration(self.q)
@@ -259,6 +299,22 @@ class MechanismScene:
                 # shaft spans y in [0, 1] so the parent's y-scale is the arrow length
                 base[part]["shaft"].set_transform(pin.SE3(np.eye(3), np.array([0, 0.5, 0])).homogeneous)
                 base[part].set_transform(arrow_matrix(np.zeros(3), np.zeros(3)))
+
+    def _build_worn_bearings(self, wear_scale):
+        """Each worn bearing's profile (depth x wear_scale, stated in scene.info) and its new
+        circle, fixed in the bearing's body at the bearing frame."""
+        worn = worn_bearings(self.clearances)
+        if not worn:
+            return
+        scale = float(wear_scale) if wear_scale is not None else default_wear_scale(worn)
+        self.info["wear_scale"] = scale
+        self.info["worn"] = {el.name: float(np.max(el.depth)) for el in worn}
+        for el in worn:
+            f = self.model.frames[clearance_frames(el)[0]]
+            node = self.root[self.body_paths[f.parentJoint]][f"worn_{el.name}"]
+            node.set_transform(f.placement.homogeneous)
+            node["profile"].set_object(_polyline(worn_profile_points(el, scale), WORN_COLOR, on_top=True))
+            node["new"].set_object(_polyline(worn_profile_points(el, 0.0), NEW_BEARING_COLOR, on_top=True))
 
     def _background(self):
         # plain light background: bodies' saturated colours stand out (and tests can count them)
