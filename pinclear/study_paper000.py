@@ -201,7 +201,7 @@ def _findings(rows):
 def _worn_finding(r, dry):
     """The worn case against the dry new joint: the wear run, then force band and platform deviation."""
     w = r["wear"]
-    trials = ", ".join(f"{u} updates {1e6 * d['S2']:.3g} um" for u, _, d in w["rounds"])
+    trials = ", ".join(f"{t['updates']} updates {1e6 * t['max_depth']['S2']:.3g} um" for t in w["rounds"])
     conv = (f"converged (halving the factor changed the depth by <= 5 %: {trials})" if w["converged"]
             else f"NOT converged within the trials ({trials}): not a finding")
     text = (f"- {r['case']}: the update factor {w['update_factor']:.3g} cycles per simulated cycle {conv}; "

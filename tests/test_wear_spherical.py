@@ -194,7 +194,7 @@ def test_scheme_on_a_socket_converges_writes_its_files_and_refuses_wear_at_the_p
     wm = mech.forces[-1].wear
     vol = res["history"]["S.worn_volume"][-1]
     assert vol == pytest.approx(wm.k * W * OMEGA * mech.forces[-1].R2 * s.cycles * s.period / wm.hardness, rel=1e-6)
-    u = res["rounds"][-1][0]
+    u = res["rounds"][-1]["updates"]
     for name in ("checkpoint.npz", "history.csv", "profile.csv"):
         assert (tmp_path / f"updates_{u}" / name).exists()
     head = (tmp_path / f"updates_{u}" / "profile.csv").read_text().splitlines()[0]
