@@ -100,13 +100,12 @@ class WearSettings:
 
 def worn_joint(mech, name):
     """(index in mech.forces, joint) of the worn clearance ``name``; a clear error otherwise."""
-    from .contact.wear import WornRevoluteClearance
-    from .contact.wear_spherical import WornSphericalClearance
+    from .contact.wear import WornJoint
 
     names = [f.name for f in mech.clearances]
     for i, f in enumerate(mech.forces):
         if f.name == name:
-            if not isinstance(f, (WornRevoluteClearance, WornSphericalClearance)):
+            if not isinstance(f, WornJoint):
                 raise ContactSetupError(f"clearance {name!r} has no 'wear:' key (a planar_revolute or spherical "
                                         "clearance with wear: {model: archard, k, hardness})", file=str(mech.path),
                                         key=f"clearances.{name}.wear", choices=["wear"])

@@ -216,8 +216,20 @@ class WornData(ClearanceData):
         self.W = np.ones(nc)
 
 
-class SlipOutput:
-    """Mixin of the worn joints: the contact's slip speed (the Archard integrand's) as output NAME.slip."""
+class WornJoint:
+    """Mixin of the worn joints (revolute bearing, spherical socket): the worn ``depth`` (m, one value
+    per wear node of the ``wear`` model) and the contact's slip speed (the Archard integrand's) as
+    output NAME.slip."""
+
+    def __init__(self, *args, wear, depth=None, **kw):
+        self.wear = wear
+        d = np.zeros(wear.nodes) if depth is None else np.array(depth, float)
+        if d.shape != (wear.nodes,) or not np.all(np.isfinite(d)):
+            raise ValueError(f"wear depth must be {wear.nodes} finite values, got shape {d.shape}")
+        d.flags.writeable = False
+        self.depth = d
+        self._ctor = (args, dict(kw))
+        super().__init__(*args, **kw)
 
     def outputs(self, mech, ws, d, t, q, v, z):
         out = super().outputs(mech, ws, d, t, q, v, z)
@@ -235,21 +247,11 @@ class SlipOutput:
         return None if lay is None else lay + (("slip", 1),)
 
 
-class WornRevoluteClearance(SlipOutput, RevoluteClearance):
+class WornRevoluteClearance(WornJoint, RevoluteClearance):
     """A planar revolute clearance whose bearing has worn ``depth`` (m, one value per wear node)."""
 
     _data_class = WornData
     planar_geometry = _kernels.G_WORN_PLANAR
-
-    def __init__(self, *args, wear: WearModel, depth=None, **kw):
-        self.wear = wear
-        d = np.zeros(wear.nodes) if depth is None else np.array(depth, float)
-        if d.shape != (wear.nodes,) or not np.all(np.isfinite(d)):
-            raise ValueError(f"wear depth must be {wear.nodes} finite values, got shape {d.shape}")
-        d.flags.writeable = False
-        self.depth = d
-        self._ctor = (args, dict(kw))
-        super().__init__(*args, **kw)
 
     def with_depth(self, depth, continuing=False):
         """The same joint with the bearing worn to ``depth`` (a new, immutable joint).

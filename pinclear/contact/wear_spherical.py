@@ -38,7 +38,8 @@ from pinclear.registry import Key
 
 from . import _kernels
 from .spherical import SphericalClearance
-from .wear import DISTRIBUTIONS, MODELS, SlipOutput, WornData, WornRevoluteClearance, positive, trapezoid_weights
+from .wear import (DISTRIBUTIONS, MODELS, WornData, WornJoint, WornRevoluteClearance, positive,
+                   trapezoid_weights)
 
 POLES = ("x", "y", "z")
 
@@ -244,7 +245,7 @@ def block_increment(wm: SphericalWearModel, name, traj):
 
 
 # ------------------------------------------------------------------ the worn joint
-class WornSphericalClearance(SlipOutput, SphericalClearance):
+class WornSphericalClearance(WornJoint, SphericalClearance):
     """A spherical clearance whose socket has worn ``depth`` (m, one value per mesh node, row by
     row). The kernel plumbing (force scaled by |grad delta|, record with the slip speed) is the
     worn revolute's, taken from contact.wear.WornRevoluteClearance."""
@@ -259,16 +260,6 @@ class WornSphericalClearance(SlipOutput, SphericalClearance):
     _record_laws = WornRevoluteClearance._record_laws
     _slip = WornRevoluteClearance._slip
     record_kernel = WornRevoluteClearance.record_kernel
-
-    def __init__(self, *args, wear: SphericalWearModel, depth=None, **kw):
-        self.wear = wear
-        d = np.zeros(wear.nodes) if depth is None else np.array(depth, float)
-        if d.shape != (wear.nodes,) or not np.all(np.isfinite(d)):
-            raise ValueError(f"wear depth must be {wear.nodes} finite values, got shape {d.shape}")
-        d.flags.writeable = False
-        self.depth = d
-        self._ctor = (args, dict(kw))
-        super().__init__(*args, **kw)
 
     def _geometry_params(self):
         w = self.wear
