@@ -100,14 +100,14 @@ class WearSettings:
 
 def worn_joint(mech, name):
     """(index in mech.forces, joint) of the worn clearance ``name``; a clear error otherwise."""
-    from .contact.wear import WornRevoluteClearance
+    from .contact.wear import WornJoint
 
     names = [f.name for f in mech.clearances]
     for i, f in enumerate(mech.forces):
         if f.name == name:
-            if not isinstance(f, WornRevoluteClearance):
-                raise ContactSetupError(f"clearance {name!r} has no 'wear:' key (a planar_revolute clearance "
-                                        "with wear: {model: archard, k, hardness})", file=str(mech.path),
+            if not isinstance(f, WornJoint):
+                raise ContactSetupError(f"clearance {name!r} has no 'wear:' key (a planar_revolute or spherical "
+                                        "clearance with wear: {model: archard, k, hardness})", file=str(mech.path),
                                         key=f"clearances.{name}.wear", choices=["wear"])
             return i, f
     raise InputError(f"no active clearance named {name!r}", key="--clearance", choices=names)
@@ -175,10 +175,13 @@ def _tables(folder, wms, depth, hist):
     rows = ["# " + ", ".join(head)] + [", ".join(f"{hist[k][i]:.9g}" for k in keys) for i in range(len(hist["cycles"]))]
     safeio.write_text(folder / "history.csv", "\n".join(rows) + "\n")
     names = sorted(wms)
-    prof = ["# angle [deg], " + ", ".join(f"{n} depth [m]" for n in names)]
-    ang = np.degrees(wms[names[0]].angles())
-    if all(wms[n].nodes == len(ang) for n in names):
-        prof += [f"{a:.6f}, " + ", ".join(f"{depth[n][k]:.9g}" for n in names) for k, a in enumerate(ang)]
+    # node coordinates: the bearing angle, or a socket's (theta, phi) (contact.wear_spherical)
+    cols = wms[names[0]].profile_columns()
+    prof = ["# " + ", ".join(cols) + ", " + ", ".join(f"{n} depth [m]" for n in names)]
+    ang = np.array(list(cols.values())).T
+    if all(wms[n].nodes == len(ang) and type(wms[n]) is type(wms[names[0]]) for n in names):
+        prof += [", ".join(f"{x:.6f}" for x in a) + ", " + ", ".join(f"{depth[n][k]:.9g}" for n in names)
+                 for k, a in enumerate(ang)]
     else:
         prof = [f"# {n}: " + " ".join(f"{x:.9g}" for x in depth[n]) for n in names]
     safeio.write_text(folder / "profile.csv", "\n".join(prof) + "\n")
@@ -241,9 +244,12 @@ def read_profile(path) -> dict:
     lines = path.read_text(encoding="utf-8").splitlines()
     try:
         head = lines[0].lstrip("# ").split(", ")
-        if head[0] == "angle [deg]" and all(h.endswith(" depth [m]") for h in head[1:]) and len(head) > 1:
+        # node coordinates first: a bearing's angle, or a socket's (theta, phi) (contact.wear_spherical)
+        nc = 2 if head[:2] == ["theta from the pole [deg]", "phi [deg]"] else 1
+        if head[0] in ("angle [deg]", "theta from the pole [deg]") and len(head) > nc \
+                and all(h.endswith(" depth [m]") for h in head[nc:]):
             table = np.loadtxt(lines[1:], delimiter=",", ndmin=2)
-            return {h[: -len(" depth [m]")]: table[:, k + 1].copy() for k, h in enumerate(head[1:])}
+            return {h[: -len(" depth [m]")]: table[:, k + nc].copy() for k, h in enumerate(head[nc:])}
         # joints of other node counts: '# NAME: d0 d1 ...' a line
         return {name: np.array(vals.split(), float) for name, _, vals in (ln.lstrip("# ").partition(": ")
                                                                          for ln in lines) if vals}
@@ -276,8 +282,6 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
     ideal start). Returns {depth: {name: (nodes,)}, angles: {name: (nodes,)}, history (lists),
     settings, mech (worn), complete (False when the depth scheme stopped at max_updates before the
     life's end)}."""
-    from .contact.wear import block_increment
-
     s.check()
     names = [names] if isinstance(names, str) else list(names)
     found = {n: worn_joint(mech, n) for n in names}
@@ -292,7 +296,7 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
         E = tr.energy()["total"]
         jump = 0.0 if last_E is None else float(E[0] - last_E)
         bal = tr.energy_balance()
-        inc = {n: block_increment(wms[n], n, tr) for n in names}
+        inc = {n: wms[n].increment(n, tr) for n in names}
         factor = update_factor(s, inc, clearance, s.cycles - cyc)
         depth = {n: depth[n] + factor * inc[n] for n in names}
         worn = _with_depth(worn, idx, depth)
@@ -307,7 +311,7 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
                "jump": jump, "cpu_sim": c1 - c0, "cpu_update": c2 - c1, "factor": factor}
         for n, wm in wms.items():
             row[f"{n}.max_depth"] = depth[n].max()
-            row[f"{n}.worn_volume"] = float(depth[n].sum()) * wm.R1 * wm.spacing * wm.L
+            row[f"{n}.worn_volume"] = wm.volume(depth[n])
         for k, val in row.items():
             hist[k].append(float(val))
         if out is not None:
@@ -327,19 +331,17 @@ def block_length(mech, names, s: WearSettings, tol=0.025, max_periods=32, start=
     Returns (n, converged, table [(n, {name: largest nodal increment per period of the n-period
     mean, m})]); at max_periods unconverged: (max_periods, False, table). On the new bearing only:
     a worn one's motion may differ (docs/wear_lubrication.md)."""
-    from .contact.wear import block_increment
-
     s.check()
     names = [names] if isinstance(names, str) else list(names)
     wms = {n: worn_joint(mech, n)[1].wear for n in names}
     q, v, t = _after_transient(mech, s, start)
     tr = _simulate(mech, t, t + s.period, q, v, s)
-    total = {m: block_increment(wms[m], m, tr) for m in names}
+    total = {m: wms[m].increment(m, tr) for m in names}
     count, table = 1, [(1, {m: float(total[m].max()) for m in names})]
     while True:
         # double the periods summed: count more, continuing from the last state
         tr = _simulate(mech, float(tr.t[-1]), float(tr.t[-1]) + count * s.period, tr.q[-1], tr.v[-1], s)
-        total = {m: total[m] + block_increment(wms[m], m, tr) for m in names}
+        total = {m: total[m] + wms[m].increment(m, tr) for m in names}
         count *= 2
         mean = {m: float(total[m].max()) / count for m in names}
         table.append((count, mean))
@@ -400,16 +402,21 @@ def plot(res, out):
     import matplotlib.pyplot as plt
 
     h = res["history"]
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    for n, d in res["depth"].items():
-        ax.plot(np.degrees(res["angles"][n]), 1e6 * d, label=n)
-    ax.set(xlabel="bearing angle [deg] (frame1 x towards y)", ylabel="wear depth [um]",
-           title=f"worn profile after {h['cycles'][-1]:.3g} cycles")
-    ax.legend()
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    safeio.savefig(fig, Path(out) / "depth_vs_angle.png", dpi=120)
-    plt.close(fig)
+    for n in res["depth"]:
+        if np.ndim(res["angles"][n]) == 2:
+            _socket_map(res, n, out)
+    bearings = {n: d for n, d in res["depth"].items() if np.ndim(res["angles"][n]) == 1}
+    if bearings:
+        fig, ax = plt.subplots(figsize=(6, 3.5))
+        for n, d in bearings.items():
+            ax.plot(np.degrees(res["angles"][n]), 1e6 * d, label=n)
+        ax.set(xlabel="bearing angle [deg] (frame1 x towards y)", ylabel="wear depth [um]",
+               title=f"worn profile after {h['cycles'][-1]:.3g} cycles")
+        ax.legend()
+        ax.grid(alpha=0.3)
+        fig.tight_layout()
+        safeio.savefig(fig, Path(out) / "depth_vs_angle.png", dpi=120)
+        plt.close(fig)
     fig, ax = plt.subplots(figsize=(6, 3.5))
     for n in res["depth"]:
         ax.plot([0.0] + h["cycles"], [0.0] + [1e6 * x for x in h[f"{n}.max_depth"]], "o-", label=n)
@@ -418,6 +425,20 @@ def plot(res, out):
     ax.grid(alpha=0.3)
     fig.tight_layout()
     safeio.savefig(fig, Path(out) / "growth.png", dpi=120)
+    plt.close(fig)
+
+
+def _socket_map(res, name, out):
+    """OUT/depth_map_NAME.png: a worn socket's depth on its (theta, phi) map."""
+    import matplotlib.pyplot as plt
+
+    from .contact.wear_spherical import plot_depth_map
+
+    wm = worn_joint(res["mech"], name)[1].wear
+    fig, ax = plt.subplots(figsize=(7, 3.8))
+    plot_depth_map(ax, wm, res["depth"][name], f"{name}: worn socket after {res['history']['cycles'][-1]:.3g} cycles")
+    fig.tight_layout()
+    safeio.savefig(fig, Path(out) / f"depth_map_{name}.png", dpi=120)
     plt.close(fig)
 
 

@@ -56,6 +56,12 @@ def from_spec(sp, mech, closure):
     R1 = R2 + c
     K, note = stiffness(sp, R2, R1)
     law = sp.normal_law(K=K)
+    if sp.d.get("wear") is not None:
+        from . import wear_spherical
+
+        return wear_spherical.WornSphericalClearance(
+            sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(), stiffness_note=note,
+            wear=wear_spherical.parse(sp, R1, R2), **sp.common(c))
     return SphericalClearance(sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(),
                               stiffness_note=note, **sp.common(c))
 
@@ -75,6 +81,9 @@ SPHERICAL = PluginType(
     doc="A ball (frame2 of the replaced closure) in a socket (frame1): one contact channel, penetration "
         "|e| - c (paper 000 sec. 1).", source="paper 000 eqs. 3-16",
     keys=(_RADIUS, Key("socket_radius", "number", "m", "radius + clearance", "radius + clearance", "paper 000 eq. 6",
-                       "socket radius R_socket (a check: it must equal radius + clearance)")),
+                       "socket radius R_socket (a check: it must equal radius + clearance)"),
+          Key("wear", "mapping", "-", None, "{model: archard, k, hardness, nodes, distribution, pole}",
+              "Archard 1953; contact/wear_spherical.py", "Archard wear of the socket on a (theta, phi) mesh, "
+              "reshaping its contact geometry (pinclear wear)")),
     plot=ClearancePlot(across_axis=False, travel=False, boundary="circle", body="ball"))
 KEYS = key_names(SPHERICAL.keys)

@@ -77,6 +77,17 @@ class WearModel:
         """Node angles (rad, bearing frame)."""
         return np.arange(self.nodes) * self.spacing
 
+    def volume(self, depth) -> float:
+        """Worn volume (m^3) of the node depths."""
+        return float(np.sum(depth)) * self.R1 * self.spacing * self.L
+
+    def profile_columns(self) -> dict:
+        return {"angle [deg]": np.degrees(self.angles())}
+
+    def increment(self, name, traj):
+        """Node depth increment of one simulated block (block_increment)."""
+        return block_increment(self, name, traj)
+
 
 def parse(sp, R1, R2, L):
     """The ``wear:`` mapping of a clearance entry as a WearModel (None without it)."""
@@ -94,21 +105,24 @@ def parse(sp, R1, R2, L):
     dist = w.get("distribution", "hertz")
     if dist not in DISTRIBUTIONS:
         raise sp.error("wear.distribution", f"unknown distribution {dist!r}", DISTRIBUTIONS)
-    vals = {}
-    for key in ("k", "hardness"):
-        v = w.get(key)
-        try:
-            # YAML 1.1 reads 1.0e8 (no exponent sign) as a string
-            x = float(v) if not isinstance(v, bool) else math.nan
-        except (TypeError, ValueError):
-            x = math.nan
-        if not (math.isfinite(x) and x > 0):
-            raise sp.error(f"wear.{key}", f"required, a number > 0, got {v!r}")
-        vals[key] = x
+    k, hardness = positive(sp, w, "k"), positive(sp, w, "hardness")
     nodes = w.get("nodes", 360)
     if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 16:
         raise sp.error("wear.nodes", f"an integer >= 16, got {nodes!r}")
-    return WearModel(vals["k"], vals["hardness"], int(nodes), dist, R1, R2, L, sp.estar(), R2 * R1 / (R1 - R2))
+    return WearModel(k, hardness, int(nodes), dist, R1, R2, L, sp.estar(), R2 * R1 / (R1 - R2))
+
+
+def positive(sp, w, key):
+    """The required number > 0 ``wear.KEY`` of the mapping w (also the spherical socket's)."""
+    v = w.get(key)
+    try:
+        # YAML 1.1 reads 1.0e8 (no exponent sign) as a string
+        x = float(v) if not isinstance(v, bool) else math.nan
+    except (TypeError, ValueError):
+        x = math.nan
+    if not (math.isfinite(x) and x > 0):
+        raise sp.error(f"wear.{key}", f"required, a number > 0, got {v!r}")
+    return x
 
 
 # ------------------------------------------------------------------ the law
@@ -202,13 +216,12 @@ class WornData(ClearanceData):
         self.W = np.ones(nc)
 
 
-class WornRevoluteClearance(RevoluteClearance):
-    """A planar revolute clearance whose bearing has worn ``depth`` (m, one value per wear node)."""
+class WornJoint:
+    """Mixin of the worn joints (revolute bearing, spherical socket): the worn ``depth`` (m, one value
+    per wear node of the ``wear`` model) and the contact's slip speed (the Archard integrand's) as
+    output NAME.slip."""
 
-    _data_class = WornData
-    planar_geometry = _kernels.G_WORN_PLANAR
-
-    def __init__(self, *args, wear: WearModel, depth=None, **kw):
+    def __init__(self, *args, wear, depth=None, **kw):
         self.wear = wear
         d = np.zeros(wear.nodes) if depth is None else np.array(depth, float)
         if d.shape != (wear.nodes,) or not np.all(np.isfinite(d)):
@@ -217,6 +230,28 @@ class WornRevoluteClearance(RevoluteClearance):
         self.depth = d
         self._ctor = (args, dict(kw))
         super().__init__(*args, **kw)
+
+    def outputs(self, mech, ws, d, t, q, v, z):
+        out = super().outputs(mech, ws, d, t, q, v, z)
+        out["slip"] = self._slip(d)
+        return out
+
+    def record(self, mech, ws, d, t, q, v, z, after_rhs):
+        pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
+        if "slip" not in out:
+            out["slip"] = self._slip(d)
+        return pot, loss, out
+
+    def record_layout(self):
+        lay = super().record_layout()
+        return None if lay is None else lay + (("slip", 1),)
+
+
+class WornRevoluteClearance(WornJoint, RevoluteClearance):
+    """A planar revolute clearance whose bearing has worn ``depth`` (m, one value per wear node)."""
+
+    _data_class = WornData
+    planar_geometry = _kernels.G_WORN_PLANAR
 
     def with_depth(self, depth, continuing=False):
         """The same joint with the bearing worn to ``depth`` (a new, immutable joint).
@@ -261,21 +296,6 @@ class WornRevoluteClearance(RevoluteClearance):
 
     def _slip(self, d):
         return float(np.linalg.norm(d.vt[0])) if (d.moving and d.Fn[0] > 0.0) else 0.0
-
-    def outputs(self, mech, ws, d, t, q, v, z):
-        out = super().outputs(mech, ws, d, t, q, v, z)
-        out["slip"] = self._slip(d)
-        return out
-
-    def record(self, mech, ws, d, t, q, v, z, after_rhs):
-        pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
-        if "slip" not in out:
-            out["slip"] = self._slip(d)
-        return pot, loss, out
-
-    def record_layout(self):
-        lay = super().record_layout()
-        return None if lay is None else lay + (("slip", 1),)
 
     def record_kernel(self, mech, ws, d, z, zdot, row):
         if self._kernel is None:
