@@ -176,3 +176,14 @@ def run_cli(argv, capsys):
     code = cli.main(argv)
     out = capsys.readouterr()
     return code, out.out, out.err
+
+
+def assert_audit_closes(tr, joint, rel=1e-6):
+    """A dissipative contact run's energy audit: the joint's dissipated energy D is a real share
+    (> 10 % of the energy moved), E + D stays at its start value to ``rel`` of the energy moved (the
+    integration tolerance's order: the run's rtol is far below it), and D never decreases."""
+    E, D = tr.energy()["total"], tr.outputs[f"{joint}.dissipated"]
+    scale = E[0] - E.min()
+    assert D[-1] > 0.1 * scale
+    assert np.max(np.abs(E + D - E[0])) < rel * scale
+    assert np.all(np.diff(D) >= -1e-12 * scale)

@@ -91,14 +91,9 @@ class WearModel:
 
 def parse(sp, R1, R2, L):
     """The ``wear:`` mapping of a clearance entry as a WearModel (None without it)."""
-    w = sp.d.get("wear")
+    w = wear_mapping(sp, _WEAR_NAMES)
     if w is None:
         return None
-    if not isinstance(w, dict):
-        raise sp.error("wear", f"expected a mapping {{model: archard, k, hardness, ...}}, got {w!r}", _WEAR_NAMES)
-    bad = sorted(set(w) - set(_WEAR_NAMES))
-    if bad:
-        raise sp.error(f"wear.{bad[0]}", "unknown key", _WEAR_NAMES)
     model = w.get("model", "archard")
     if model not in MODELS:
         raise sp.error("wear.model", f"unknown wear model {model!r}", MODELS)
@@ -110,6 +105,20 @@ def parse(sp, R1, R2, L):
     if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 16:
         raise sp.error("wear.nodes", f"an integer >= 16, got {nodes!r}")
     return WearModel(k, hardness, int(nodes), dist, R1, R2, L, sp.estar(), R2 * R1 / (R1 - R2))
+
+
+def wear_mapping(sp, names):
+    """The entry's ``wear:`` mapping with only the keys ``names`` (None without it), or the one-line
+    error naming the key and the choices (both worn joint types' parsers)."""
+    w = sp.d.get("wear")
+    if w is None:
+        return None
+    if not isinstance(w, dict):
+        raise sp.error("wear", f"expected a mapping {{model: archard, k, hardness, ...}}, got {w!r}", names)
+    bad = sorted(set(w) - set(names))
+    if bad:
+        raise sp.error(f"wear.{bad[0]}", "unknown key", names)
+    return w
 
 
 def positive(sp, w, key):

@@ -38,8 +38,8 @@ from pinclear.registry import Key
 
 from . import _kernels
 from .spherical import SphericalClearance
-from .wear import (DISTRIBUTIONS, MODELS, WornData, WornJoint, WornRevoluteClearance, positive,
-                   trapezoid_weights)
+from .wear import (DISTRIBUTIONS, MODELS, WornData, WornJoint, WornRevoluteClearance, positive, trapezoid_weights,
+                   wear_mapping)
 
 POLES = ("x", "y", "z")
 
@@ -136,14 +136,9 @@ class SphericalWearModel:
 
 def parse(sp, R1, R2):
     """The ``wear:`` mapping of a spherical clearance entry as a SphericalWearModel (None without it)."""
-    w = sp.d.get("wear")
+    w = wear_mapping(sp, _NAMES)
     if w is None:
         return None
-    if not isinstance(w, dict):
-        raise sp.error("wear", f"expected a mapping {{model: archard, k, hardness, ...}}, got {w!r}", _NAMES)
-    bad = sorted(set(w) - set(_NAMES))
-    if bad:
-        raise sp.error(f"wear.{bad[0]}", "unknown key", _NAMES)
     for key, choices, default in (("model", MODELS, "archard"), ("distribution", DISTRIBUTIONS, "hertz"),
                                   ("pole", POLES, "z")):
         if w.get(key, default) not in choices:
