@@ -80,14 +80,18 @@ def ring(a, b):
     return I0, I1
 
 
+# the series' exponents and coefficients, built once (couette runs at every film evaluation)
+_TWO_K = 2.0 * np.arange(16)
+_INV_2K1, _INV_2K3 = 1.0 / (_TWO_K + 1.0), 1.0 / (_TWO_K + 3.0)
+
+
 def couette(eps):
     """(alpha, beta): int (1 - (n . w_hat)^2) / (1 - eps cos theta) dOmega for w across and along e."""
     if eps < 0.1:
         # I0 = 2 sum eps^2k / (2k + 1), I2 = 2 sum eps^2k / (2k + 3) (no cancellation near eps = 0)
-        k = np.arange(16)
-        e2k = eps ** (2 * k)
-        I0 = 2.0 * float(e2k @ (1.0 / (2 * k + 1)))
-        I2 = 2.0 * float(e2k @ (1.0 / (2 * k + 3)))
+        e2k = eps ** _TWO_K
+        I0 = 2.0 * float(e2k @ _INV_2K1)
+        I2 = 2.0 * float(e2k @ _INV_2K3)
     else:
         I0 = 2.0 * math.atanh(eps) / eps
         I2 = (I0 - 2.0) / (eps * eps)

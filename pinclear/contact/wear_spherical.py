@@ -174,7 +174,8 @@ def _window_loads(wm: SphericalWearModel, u, a, i0, Kr, j0, Kc):
 
 
 def cell_shares(wm: SphericalWearModel, u, a):
-    """(cells, shares), both (S, K): each load's (unit direction u (S, 3) in the mesh axes, contact
+    """The NumPy reference of the compiled _share_volumes (tests compare the two; the runs call the
+    kernel). (cells, shares), both (S, K): each load's (unit direction u (S, 3) in the mesh axes, contact
     radius a (S,)) pressure integrated over the cells it can reach, normalised to sum 1 per load; a
     contact smaller than the sub-cells goes whole to the cell holding u. Only the rows within reach
     are visited, and away from the poles only the columns within reach (a window fixed per batch)."""
