@@ -82,3 +82,14 @@ def test_short_bearing_power_is_never_positive_at_random_states():
         edot = np.append(rng.normal(0, 0.05, 2), 0.0)
         _, _, power, _ = film_loads("short", MU, R, L, C, e, edot, axis, rng.normal(0, 200))
         assert power <= 0.0
+
+
+def test_bearing_radius_is_checked_against_the_nominal_clearance():
+    """bearing_radius = radius + clearance (1e-4 m) is accepted, though the dry channel's own
+    clearance is c - asperity; any other value stops the load, naming the key."""
+    mech = pinclear.load(JOURNAL, clearances=["A"], overrides={"A.bearing_radius": R + C})
+    assert mech.clearances[0].c_film == pytest.approx(C, rel=1e-15)
+    with pytest.raises(pinclear.errors.ContactSetupError, match=r"A.bearing_radius.*differs from clearance 0.0001 m"):
+        pinclear.load(JOURNAL, clearances=["A"], overrides={"A.bearing_radius": R + 2 * C})
+    with pytest.raises(pinclear.errors.ContactSetupError, match=r"must exceed the journal radius 0.01 m"):
+        pinclear.load(JOURNAL, clearances=["A"], overrides={"A.bearing_radius": 0.5 * R})

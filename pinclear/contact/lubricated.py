@@ -50,7 +50,7 @@ import numpy as np
 from pinclear.forces import add_body_wrench, add_wrenches, body_twist
 from pinclear.registry import Key, PluginType, key_names
 
-from .revolute import _PLANAR, _PLOT, RevoluteClearance
+from .revolute import _PLANAR, _PLOT, RevoluteClearance, check_bearing_radius
 from .revolute import from_spec as _dry_from_spec
 
 THEORIES = ("short", "long")
@@ -222,6 +222,8 @@ def from_spec(sp, mech, closure):
     theory = sp.choice("theory", THEORIES)
     film, sp_dry = film_spec(sp, own=("theory", "bearing_radius"))
     joint = _dry_from_spec(sp_dry, mech, closure, spatial=False)
+    # the dry channel's clearance is c - asperity, so bearing_radius is checked against the nominal c
+    check_bearing_radius(sp, joint.R2, film["c_nominal"])
     # the bearing is R_j + c: the dry channel's radii are those of the clearance c - h_a
     return LubricatedRevoluteClearance(joint.name, mech.model, joint.f1, joint.f2, joint.c, joint.R2, joint.law,
                                        joint.friction, length=joint.L, stiffness_note=joint.stiffness_note,

@@ -73,15 +73,20 @@ class RevoluteClearance(ClearanceJoint):
                 "length": self.L, "normal_law": repr(self.law), "stiffness": self.stiffness_note}
 
 
-def from_spec(sp, mech, closure, spatial):
-    c = sp.clearance()
-    R2 = sp.number("radius", _PLANAR[0].default)
+def check_bearing_radius(sp, R2, c):
+    """An entry's optional bearing_radius must be the journal radius plus the (nominal) clearance."""
     if "bearing_radius" in sp.d:
         R1 = sp.number("bearing_radius")
         if R1 <= R2:
             raise sp.error("bearing_radius", f"bearing radius {R1} m must exceed the journal radius {R2} m")
         if abs((R1 - R2) - c) > 1e-12 * max(R1, 1.0):
             raise sp.error("bearing_radius", f"bearing_radius - radius = {R1 - R2} m differs from clearance {c} m")
+
+
+def from_spec(sp, mech, closure, spatial):
+    c = sp.clearance()
+    R2 = sp.number("radius", _PLANAR[0].default)
+    check_bearing_radius(sp, R2, c)
     R1 = R2 + c
     L = sp.number("length", 2.0 * R2)
     K, note = stiffness(sp, R2, R1)
