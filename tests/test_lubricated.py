@@ -84,6 +84,35 @@ def test_short_bearing_power_is_never_positive_at_random_states():
         assert power <= 0.0
 
 
+
+def test_long_bearing_power_is_never_positive_at_random_states():
+    # Reynolds' equation (h^3 P')' = -6 mu R^2 c (Om eps sin phi - 2 eps_dot cos phi) by parts over
+    # each interval where P > 0 (P+ = 0 at its ends): int P+ (bracket) = int_{P>0} h^3 P'^2 / (6 mu R^2 c)
+    # >= 0, so P_film <= 0 also where squeeze and wedge mix (module doc). The quadrature's error
+    # is O(dphi^2) ~ 4e-5 of the integral (P+ has a kink at the cavitation ends): 1e-3 of the
+    # dissipation's scale is the slack; a sign error anywhere gives +O(1) of it.
+    from pinclear.contact.lubricated import NPHI, film_pressure
+    rng = np.random.default_rng(2)
+    axis = np.array([0.0, 0.0, 1.0])
+    phi = np.arange(NPHI) * (2 * math.pi / NPHI)
+    worst = -np.inf
+    for _ in range(300):
+        eps = rng.uniform(0.01, 0.95)
+        a = rng.uniform(0, 2 * math.pi)
+        e = eps * C * np.array([math.cos(a), math.sin(a), 0.0])
+        edot = np.append(rng.normal(0, 0.05, 2), 0.0)
+        w = rng.normal(0, 200)
+        _, _, power, _ = film_loads("long", MU, R, L, C, e, edot, axis, w)
+        eh, th = e / np.linalg.norm(e), np.cross(axis, e / np.linalg.norm(e))
+        eps_dot, gdot = (eh @ edot) / C, (th @ edot) / np.linalg.norm(e)
+        Om = w - 2 * gdot
+        P = np.maximum(film_pressure("long", MU, R, L, C, eps, eps_dot, Om), 0.0)
+        bracket = Om * eps * np.sin(phi) - 2 * eps_dot * np.cos(phi)
+        scale = R * C / 2 * (2 * math.pi / NPHI) * np.sum(P * np.abs(bracket)) \
+            + 2 * math.pi * MU * R ** 3 * L * w * w / (C * math.sqrt(1 - eps * eps))
+        worst = max(worst, power / scale)
+    assert worst <= 1e-3, worst
+
 def test_bearing_radius_is_checked_against_the_nominal_clearance():
     """bearing_radius = radius + clearance (1e-4 m) is accepted, though the dry channel's own
     clearance is c - asperity; any other value stops the load, naming the key."""

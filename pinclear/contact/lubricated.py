@@ -30,10 +30,13 @@ the journal's moment (the film holds no momentum). The power of these loads on t
 
     P_film = -(R c / 2) int P+ (Om eps sin phi - 2 eps_dot cos phi) dphi - 2 pi mu R^3 L w^2 / (c sqrt(1 - eps^2))
 
-<= 0 for the short bearing at every state (P+ > 0 only where the bracket is): the film only
-dissipates; its dissipation is a state of the joint (output ``film_dissipated``) and part of the
-energy audit's E_diss. For the long bearing P+ > 0 is not tied to the bracket's sign when squeeze
-and wedge mix; tests/test_lubricated.py measures its dissipation in a dynamic run.
+<= 0 at every state: for the short bearing P+ > 0 only where the bracket is; for the long bearing,
+where P+ > 0 is not tied to the bracket's sign when squeeze and wedge mix, Reynolds' equation
+(h^3 P')' = -6 mu R^2 c (bracket) integrated by parts over each interval where P > 0 (P+ vanishes
+at its ends) gives int P+ (bracket) = int_{P>0} h^3 P'^2 / (6 mu R^2 c) >= 0. The film only
+dissipates (tests/test_lubricated.py checks both at random states, the long one to the quadrature's
+error); its dissipation is a state of the joint (output ``film_dissipated``) and part of the energy
+audit's E_diss.
 
 Dry contact and blend: the asperities touch when the film's minimum h_min = c - |e| falls to
 ``asperity`` (h_a): the dry law acts on the penetration |e| - (c - h_a) (the joint's dry clearance
