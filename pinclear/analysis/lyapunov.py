@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, PinclearError
 
 
 @dataclass
@@ -31,6 +31,28 @@ class LyapunovResult:
         return {"exponent": self.exponent, "renormalisations": self.renormalisations,
                 "final_spread": float(np.ptp(self.running[len(self.running) // 2:])) if len(self.running) else None}
 
+    def at(self, t_end, renorm):
+        """The exponent a run of the same loop ending at ``t_end`` would report: the running
+        estimate at the renormalisation within 1e-9 renorm of ``t_end`` (NaN if the run did not
+        get there). The loop advances in the same renorm chunks from t0 whatever its end, so the
+        chunks up to t_end are the shorter run's; only the shorter run's last chunk may be
+        clipped to t_end - t, which differs from renorm by the rounding of the summed times
+        (none when renorm is a binary fraction of t_end, e.g. T/4 with T = 2 s), a difference
+        of that rounding in one chunk's length (tests/test_lyapunov.py bounds it)."""
+        if not len(self.t):
+            return float("nan")
+        k = int(np.argmin(np.abs(self.t - t_end)))
+        return float(self.running[k]) if abs(self.t[k] - t_end) <= 1e-9 * renorm else float("nan")
+
+
+class LyapunovFailed(InputError):
+    """The Benettin loop stopped (``cause``: a failed run, a separation that collapsed);
+    ``partial`` holds the estimate up to the last renormalisation reached (nothing computed is lost)."""
+
+    def __init__(self, cause, partial):
+        super().__init__(str(cause))
+        self.cause, self.partial = cause, partial
+
 
 def benettin(advance, separation, renormalise, ref, comp, t0, t_end, renorm, d0, transient):
     """The Benettin loop. advance(state, t, dt) -> state at t + dt; separation(ref, comp) -> d;
@@ -41,21 +63,31 @@ def benettin(advance, separation, renormalise, ref, comp, t0, t_end, renorm, d0,
     n = int(math.ceil((t_end - t0) / renorm - 1e-9))
     acc, elapsed, ts, run = 0.0, 0.0, [], []
     t = t0
+
+    def partial():
+        return LyapunovResult(acc / elapsed if elapsed else float("nan"), np.array(ts), np.array(run), len(ts))
+
     for _ in range(n):
         dt = min(renorm, t_end - t)
-        ref, comp = advance(ref, t, dt), advance(comp, t, dt)
+        try:
+            ref, comp = advance(ref, t, dt), advance(comp, t, dt)
+        except PinclearError as exc:
+            raise LyapunovFailed(exc, partial()) from exc
         t += dt
         d = separation(ref, comp)
         if not (d > 0 and math.isfinite(d)):
-            raise InputError(f"lyapunov: separation {d!r} at t = {t:.6g} s (d0 too small for the integration "
-                             "tolerance, or a failed run)")
+            raise LyapunovFailed(InputError(f"lyapunov: separation {d!r} at t = {t:.6g} s (d0 too small for the "
+                                            "integration tolerance, or a failed run)"), partial())
         if t > t0 + transient + 1e-12 * renorm:
             acc += math.log(d / d0)
             elapsed += dt
             ts.append(t)
             run.append(acc / elapsed)
-        comp = renormalise(ref, comp, d0 / d, t)
-    return LyapunovResult(acc / elapsed if elapsed else float("nan"), np.array(ts), np.array(run), len(ts))
+        try:
+            comp = renormalise(ref, comp, d0 / d, t)
+        except PinclearError as exc:
+            raise LyapunovFailed(exc, partial()) from exc
+    return partial()
 
 
 def largest_lyapunov(fun, y0, t_end, renorm=0.5, d0=1e-8, transient=0.0, t0=0.0, direction=None, rtol=1e-10,

@@ -450,8 +450,9 @@ def lyapunov_checks(kinds, s, ex):
     load_kw = {"clearances": ["S2"], "overrides": dict(s["overrides"])}
 
     def rerun(model, parameter, load=True):
-        return lambda vals, rtol, n: analysis.bifurcation(model, parameter, vals, cycles=n, sim_options={"rtol": rtol},
-                                                          load_options=load_kw if load else None, **common)
+        return lambda vals, rtol, lengths: analysis.bifurcation(model, parameter, vals, cycles=max(lengths),
+                                                                lyapunov_at=lengths, sim_options={"rtol": rtol},
+                                                                load_options=load_kw if load else None, **common)
 
     studies = {"mu": rerun(path, "S2.mu"), "clearance": rerun(path, "S2.clearance"),
                "sens": rerun(sensitivity_mechanism, "variant", load=False)}
