@@ -289,35 +289,35 @@ def _sections(job, traj, mech):
     return sections, portraits
 
 
-def _lyapunov(job, mech, t_end):
+def _lyapunov(job, mech, t_end, ends=()):
     """The largest Lyapunov exponent over [0, t_end], the companion renormalised four times per
     period, the transient left out (analysis.lyapunov.mechanism_lyapunov)."""
     from .lyapunov import mechanism_lyapunov
 
     sim = {k: v for k, v in job["sim_kw"].items() if k not in ("max_cpu",)}
     return mechanism_lyapunov(mech, t_end, renorm=job["period"] / 4, transient=job["transient"] * job["period"],
-                              **sim)
+                              ends=ends, **sim)
 
 
 def _lyapunov_only(job, mech, t_end, t_start):
     """A run of ``lyapunov_at``: only the exponents, no samples. One Benettin loop over the
     longest span gives every shorter span's exponent as its running estimate there
-    (LyapunovResult.at: the same renormalisation chunks from t = 0), so the recorded-cycle counts
+    (analysis.lyapunov.benettin's ends, bit for bit), so the recorded-cycle counts
     share one loop instead of one ordinary run and one loop each. stats['lyapunov_at'] = {n:
     exponent over transient + n periods}, stats['lyapunov'] the longest's; a loop that stops
     keeps the exponents of the spans it finished ('failed', with the reason)."""
     from .lyapunov import LyapunovFailed
 
     T, status, message, stats = job["period"], "success", "", {}
+    # each span's end computed as its own run computes it (section_times' last time)
+    ends = {n: float(section_times(T, job["transient"] + n, job["phase"], job["t0"], job["per_period"])[-1])
+            for n in job["lyapunov_at"]}
     try:
-        res = _lyapunov(job, mech, t_end)
+        res = _lyapunov(job, mech, t_end, ends=tuple(ends.values()))
     except LyapunovFailed as exc:
         res, status, message = exc.partial, "failed", f"{type(exc.cause).__name__}: {exc.cause}"
         stats["lyapunov_error"] = message
-    # each shorter span's end, computed as its own run would (section_times' last time)
-    ends = {n: float(section_times(T, job["transient"] + n, job["phase"], job["t0"], job["per_period"])[-1])
-            for n in job["lyapunov_at"]}
-    stats["lyapunov_at"] = {n: res.at(e, T / 4) for n, e in ends.items()}
+    stats["lyapunov_at"] = {n: res.ends.get(e, float("nan")) for n, e in ends.items()}
     if status == "success":
         stats["lyapunov"] = res.exponent
     stats.update(wall_s=time.perf_counter() - t_start, pid=os.getpid())
