@@ -8,8 +8,9 @@ cost and the cost per period), alternating the trees, and the study's compositio
 settings: paper000.SETTINGS, paper002._settings) multiplies it out.
 
     python benchmarks/bench_reproduce.py measure --base /tmp/base85904b6 [--repeat 2] > kinds.json
-    python benchmarks/bench_reproduce.py estimate kinds.json        # the table of the .md
-    python benchmarks/bench_reproduce.py compare A/report.json B/report.json   # results identical?
+    python benchmarks/bench_reproduce.py parts --paper 000 > parts000.json   # (and 002) the analysis + load
+    python benchmarks/bench_reproduce.py estimate kinds.json --parts parts000.json parts002.json   # the .md's tables
+    python benchmarks/bench_reproduce.py compare A B   # two report folders: results identical?
 
 ``measure`` runs each kind in a fresh process per tree (PYTHONPATH = that tree; this file only
 uses APIs both trees have, and runs a Lyapunov check the way each tree's study does). The
@@ -122,6 +123,67 @@ def lyapunov_exponents(paper, value, transient, lengths, rtol):
     return {"exponents": got, "cpu_s": time.process_time() - c0}
 
 
+def parts(paper, cycles, repeat):
+    """In one process (the branch), the parts of an ordinary bifurcation run that the savings
+    touch, old way and new way alternately on the same trajectory: the analysis (before: each
+    signal resolved by poincare() and again for its portrait, each frame pass on its own; after:
+    sweep._sections) and the variant's load (before: the YAML parsed and example-robot-data's
+    file list read on every load; after: cached). The integration between them is common code,
+    timed once (trajectory cpu_s). Returns medians and minima in CPU seconds."""
+    import statistics
+    import warnings
+
+    from pinclear import models, sidecar
+    from pinclear.analysis import poincare, series, sweep
+    from pinclear.simulate import simulate
+
+    warnings.simplefilter("ignore")
+    path, par, value, T, common = _setup(paper)
+    sim = {"rtol": 1e-8} if paper == "000" else {"rtol": 1e-6, "method": "lagrange", "integrator": "RK45"}
+    overrides = sweep._parameter_overrides(path, par, common["load_options"])
+    load_kw = common["load_options"]
+    tr_n = 2
+    mech = sweep._load_variant(path, overrides, value, load_kw)
+    t_eval = sweep.section_times(T, tr_n + cycles, 0.0, 0.0, common["per_period"])
+    c0 = time.process_time()
+    traj = simulate(mech, float(t_eval[-1]), t_eval=t_eval, **sim)
+    integ = time.process_time() - c0
+    job = dict(signals=common["signal"], period=T, phase=0.0, transient=tr_n, t0=0.0, keep_portrait=True)
+
+    def old_analysis():
+        for sig in job["signals"]:
+            poincare(traj, T, sig, skip_transient=tr_n, mech=mech)
+            series(traj, sig, mech)
+
+    def new_analysis():
+        sweep._sections(job, traj, mech)
+
+    def old_load():
+        sidecar._PARSED.clear()
+        models.example_robot_data_dir.cache_clear()
+        sweep._load_variant(path, overrides, value, load_kw)
+
+    def new_load():
+        sweep._load_variant(path, overrides, value, load_kw)
+
+    got = {k: [] for k in ("analysis before", "analysis after", "load before", "load after")}
+    for _ in range(repeat):
+        for key, f in (("analysis before", old_analysis), ("analysis after", new_analysis),
+                       ("load before", old_load), ("load after", new_load)):
+            c0 = time.process_time()
+            f()
+            got[key].append(time.process_time() - c0)
+    per = tr_n + cycles
+    out = {"paper": paper, "periods": per, "samples": len(traj.t), "integration_s": integ,
+           "integration_per_period": integ / per}
+    for k, v in got.items():
+        out[k] = {"median": statistics.median(v), "min": min(v)}
+    for k in ("analysis", "load"):
+        out[f"{k} after/before (medians)"] = out[f"{k} after"]["median"] / out[f"{k} before"]["median"]
+        out[f"{k} after/before (minima)"] = out[f"{k} after"]["min"] / out[f"{k} before"]["min"]
+    return out
+
+
 def _child(tree, name, periods):
     env = dict(os.environ, PYTHONPATH=tree)
     out = subprocess.run([sys.executable, __file__, "_kind", name, str(periods)], env=env, cwd=tree,
@@ -168,77 +230,126 @@ def lyap_cost(kind_fit, tr, lengths, after):
     return sum(oa + ob * (tr + n) + la + lb * (tr + n) for n in lengths)
 
 
-def composition(paper, limit_values=None):
-    """[(row label, runs, periods per run, kind or 'lyap:<kinds>')] of the full study."""
+def composition(paper, limit_values=None, quick=False):
+    """[(row label, runs before, runs after, periods per run, kind)] of the study, read off its
+    settings; kind 'lyap:<ordinary kind>|<loop kind>' is a Lyapunov check (periods: (transient,
+    lengths)); 'same:<kind>' a run whose code the savings leave alone (costed alike both times).
+    limit_values: the number of values given the Lyapunov check (default: every diagram's limit;
+    a quick study has none, its 10 cycles leave its non-periodic runs 'unresolved')."""
     if paper == "000":
         from pinclear.reproduce import paper000 as P
 
-        s = P._settings(False, None)
+        s = P._settings(quick, None)
         per = s["transient"] + s["cycles"]
-        nl = limit_values if limit_values is not None else 3 * s["lyapunov_limit"]
+        nl = limit_values if limit_values is not None else (0 if quick else 3 * s["lyapunov_limit"])
         lengths = [max(1, round(f * s["cycles"])) for f in (0.25, 0.5)]
-        return s, [("bifurcation mu", len(s["mu_values"]), per, "000 ordinary"),
-                   ("bifurcation clearance", len(s["clearance_values"]), per, "000 ordinary"),
-                   ("sensitivity variants", len(P.SENS_VARIANTS), per, "000 ordinary"),
-                   ("sensitivity rtol 1e-10", 1, per, "000 ordinary rtol/100"),
-                   ("Lyapunov checks at rtol", nl, (s["transient"], lengths), "lyap:000 ordinary|000 lyapunov loop"),
-                   ("Lyapunov checks at rtol/10", nl, (s["transient"], lengths),
-                    "lyap:000 ordinary rtol/10|000 lyapunov loop rtol/10")]
+        n_mu, n_c = len(s["mu_values"]), len(s["clearance_values"])
+        # paper000.study_point: the clearance study's run at the sidecar's 0.5 mm is the mu study's 0.1
+        dup_c = sum(1 for c in s["clearance_values"] if c == 5e-4) if 0.1 in s["mu_values"] else 0
+        return [("response runs (mu x K form)", 6, 6, s["force_periods"], "same:000 ordinary"),
+                ("bifurcation mu", n_mu, n_mu, per, "000 ordinary"),
+                ("bifurcation clearance", n_c, n_c - dup_c, per, "000 ordinary"),
+                ("sensitivity variants (baseline = mu 0.01 run)", len(P.SENS_VARIANTS),
+                 len(P.SENS_VARIANTS) - (P.SENS_MU in s["mu_values"]), per, "000 ordinary"),
+                ("sensitivity rtol 1e-10", 1, 1, per, "000 ordinary rtol/100"),
+                ("Lyapunov checks at rtol", nl, nl, (s["transient"], lengths), "lyap:000 ordinary|000 lyapunov loop"),
+                ("Lyapunov checks at rtol/10", nl, nl, (s["transient"], lengths),
+                 "lyap:000 ordinary rtol/10|000 lyapunov loop rtol/10")]
     from pinclear.reproduce import paper002 as P
 
-    s = P._settings(False)
+    s = P._settings(quick)
     per = s["transient cycles"] + s["cycles"]
-    nl = limit_values if limit_values is not None else 2 * s["lyapunov limit"]
+    nl = limit_values if limit_values is not None else (0 if quick else 2 * s["lyapunov limit"])
     lengths = [max(1, round(f * s["cycles"])) for f in (0.25, 0.5)]
     n_c = len({round(v * 1e-3, 9) for v in s["clearances [mm]"]} | set(P.PAPER_CHAOS))
     n_w = len({float(v) * math.pi for v in s["speeds [pi rad/s]"]} | {2 * math.pi, 3 * math.pi})
     # the speed study's periods are 2 pi / w: in units of the clearance study's 1 s period
     w_period = sum(2 / v for v in s["speeds [pi rad/s]"]) / len(s["speeds [pi rad/s]"])
-    return s, [("bifurcation clearance", n_c, per, "002 ordinary"),
-               ("bifurcation speed (mean period %.3g s)" % w_period, n_w, per * w_period, "002 ordinary"),
-               ("long run 0.01 mm", 1, max(20, s["transient cycles"]) + s["long cycles"], "002 ordinary"),
-               ("Lyapunov checks at rtol", nl, (s["transient cycles"], lengths),
-                "lyap:002 ordinary|002 lyapunov loop"),
-               ("Lyapunov checks at rtol/10", nl, (s["transient cycles"], lengths),
-                "lyap:002 ordinary rtol/10|002 lyapunov loop rtol/10")]
+    return [("bifurcation clearance", n_c, n_c, per, "002 ordinary"),
+            ("bifurcation speed (mean period %.3g s)" % w_period, n_w, n_w, per * w_period, "002 ordinary"),
+            ("long run 0.01 mm", 1, 1, max(20, s["transient cycles"]) + s["long cycles"], "002 ordinary"),
+            ("Lyapunov checks at rtol", nl, nl, (s["transient cycles"], lengths), "lyap:002 ordinary|002 lyapunov loop"),
+            ("Lyapunov checks at rtol/10", nl, nl, (s["transient cycles"], lengths),
+             "lyap:002 ordinary rtol/10|002 lyapunov loop rtol/10")]
 
 
-def estimate(fits, paper, limit_values=None):
-    """Rows (label, runs, periods, before per run, after per run, before total, after total)."""
-    _, comp = composition(paper, limit_values)
+def estimate(fits, paper, limit_values=None, quick=False):
+    """Rows (label, runs before, runs after, periods, before per run, after per run, before
+    total, after total)."""
     rows = []
-    for label, count, per, kind in comp:
+    for label, nb, na, per, kind in composition(paper, limit_values, quick):
         if kind.startswith("lyap:"):
             o, l = kind[5:].split("|")
             tr, lengths = per
-            b = lyap_cost((fits[o]["before"], fits[l]["before"]), tr, lengths, after=False)
-            a = lyap_cost((fits[o]["after"], fits[l]["after"]), tr, lengths, after=True)
+            # the loop is the same code on both trees: its cost from both trees' runs together
+            loop = fit(fits[l]["points"])
+            b = lyap_cost((fits[o]["before"], loop), tr, lengths, after=False)
+            a = lyap_cost((fits[o]["after"], loop), tr, lengths, after=True)
             per_text = f"{tr}+{'/'.join(map(str, lengths))}"
+        elif kind.startswith("same:"):
+            fa, fb = fits[kind[5:]]["before"]
+            b = a = fa + fb * per
+            per_text = f"{per:.4g}"
         else:
             (ba, bb), (aa, ab) = fits[kind]["before"], fits[kind]["after"]
             b, a = ba + bb * per, aa + ab * per
             per_text = f"{per:.4g}"
-        rows.append((label, count, per_text, b, a, count * b, count * a))
+        rows.append((label, nb, na, per_text, b, a, nb * b, na * a))
     return rows
 
 
-def print_estimate(data, limits=None):
-    fits = {k: {t: fit(v[t]) for t in ("before", "after")} for k, v in data["kinds"].items()}
+def difference_fits(data, part_files):
+    """{kind: {before, after, points}} where an ordinary run's cost is the integration (the same
+    code on both trees) plus the analysis and the load, whose old-way and new-way costs ``parts``
+    measured in one process (far less noise than two trees' whole runs): the before line is
+    fitted through the base tree's runs and the branch's runs with the measured savings added
+    back, the after line is that line minus the savings. The Lyapunov loop is the same code on
+    both trees: one line through both trees' runs."""
+    parts_ = {}
+    for f in part_files:
+        p = json.load(open(f))
+        parts_[p["paper"]] = ((p["analysis before"]["median"] - p["analysis after"]["median"]) / p["periods"],
+                              p["load before"]["median"] - p["load after"]["median"])
+    fits = {}
+    for k, v in data["kinds"].items():
+        paper, what = KINDS[k]["paper"], KINDS[k]["what"]
+        if what == "ordinary" and paper in parts_:
+            da, dl = parts_[paper]
+            a, b = fit(v["before"] + [(n, c + da * n + dl) for n, c in v["after"]])
+            fits[k] = {"before": (a, b), "after": (a - dl, b - da)}
+        elif what == "loop":
+            line = fit(v["before"] + v["after"])
+            fits[k] = {"before": line, "after": line}
+        else:
+            fits[k] = {"before": fit(v["before"]), "after": fit(v["after"])}
+        fits[k]["points"] = v["before"] + v["after"]
+    return fits, parts_
+
+
+def print_estimate(data, limits=None, part_files=()):
+    if part_files:
+        fits, parts_ = difference_fits(data, part_files)
+        for paper, (da, dl) in parts_.items():
+            print(f"{paper}: the savings measured in one process: analysis {da:.4f} s per period, load {dl:.3f} s per run")
+    else:
+        fits = {k: {"before": fit(v["before"]), "after": fit(v["after"]), "points": v["before"] + v["after"]}
+                for k, v in data["kinds"].items()}
     print("| kind | before: fixed s + s/period | after | after/before per period |")
     print("|---|---|---|---|")
     for k, f in fits.items():
         (ba, bb), (aa, ab) = f["before"], f["after"]
         print(f"| {k} | {ba:.2f} + {bb:.3f} | {aa:.2f} + {ab:.3f} | {ab / bb:.2f} |")
     for paper in ("000", "002"):
-        for nl in ([None] + list(limits or [])):
-            rows = estimate(fits, paper, nl)
-            tb, ta = sum(r[5] for r in rows), sum(r[6] for r in rows)
-            print(f"\nfull {paper}" + ("" if nl is None else f", {nl} Lyapunov-checked values") +
-                  f": before {tb:.0f} s, after {ta:.0f} s CPU (after/before {ta / tb:.2f}; response runs not included)")
-            print("| runs | count | periods | CPU per run before [s] | after [s] | total before [s] | after [s] |")
-            print("|---|---|---|---|---|---|---|")
+        for quick, nl in [(True, None), (False, None)] + [(False, n) for n in (limits or [])]:
+            rows = estimate(fits, paper, nl, quick)
+            tb, ta = sum(r[6] for r in rows), sum(r[7] for r in rows)
+            what = f"{'quick' if quick else 'full'} {paper}" + ("" if nl is None else f", {nl} Lyapunov-checked values")
+            print(f"\n{what}: before {tb:.0f} s, after {ta:.0f} s CPU of its runs (after/before {ta / tb:.2f})")
+            print("| runs | count before | after | periods | CPU per run before [s] | after [s] | total before [s] "
+                  "| after [s] |")
+            print("|---|---|---|---|---|---|---|---|")
             for r in rows:
-                print(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]:.1f} | {r[4]:.1f} | {r[5]:.0f} | {r[6]:.0f} |")
+                print(f"| {r[0]} | {r[1]} | {r[2]} | {r[3]} | {r[4]:.1f} | {r[5]:.1f} | {r[6]:.0f} | {r[7]:.0f} |")
 
 
 # ----------------------------------------------------------------------------- results identical?
@@ -277,7 +388,32 @@ def differences(a, b, path=""):
     return [] if same else [(path, a, b)]
 
 
+def compare_arrays(da, db):
+    """Names of the arrays of the two report folders' .npz files (the diagrams' Poincaré samples
+    and portraits) that are not equal bit for bit, or that one folder lacks."""
+    import glob
+
+    import numpy as np
+
+    bad = []
+    for fa in sorted(glob.glob(os.path.join(da, "*.npz"))):
+        fb = os.path.join(db, os.path.basename(fa))
+        if not os.path.exists(fb):
+            bad.append(f"{os.path.basename(fa)} missing")
+            continue
+        a, b = np.load(fa), np.load(fb)
+        names = sorted(set(a.files) | set(b.files))
+        bad += [f"{os.path.basename(fa)}:{k}" for k in names if k != "meta" and (
+            k not in a.files or k not in b.files or not np.array_equal(a[k], b[k]))]
+        print(f"{os.path.basename(fa)}: {len(names) - 1} arrays compared")
+    return bad
+
+
 def compare(fa, fb):
+    if os.path.isdir(fa):
+        bad = compare_arrays(fa, fb)
+        print(f"{len(bad)} array(s) not bit-for-bit equal" + (": " + ", ".join(bad[:20]) if bad else ""))
+        return len(bad) + compare(os.path.join(fa, "report.json"), os.path.join(fb, "report.json"))
     a, b = json.load(open(fa)), json.load(open(fb))
     diff = differences(a, b)
     for p, x, y in diff:
@@ -299,8 +435,9 @@ def main(argv=None):
     m.add_argument("--lengths", default="4,8", help="periods per run (transient 2 included)")
     m.add_argument("--repeat", type=int, default=1)
     e = sub.add_parser("estimate")
-    e.add_argument("kinds_json")
+    e.add_argument("kinds_json", nargs="+", help="outputs of `measure` (their runs pooled)")
     e.add_argument("--limits", default="", help="also estimate with these numbers of Lyapunov-checked values")
+    e.add_argument("--parts", nargs="*", default=[], help="JSON files of `parts` (000, 002): the difference model")
     c = sub.add_parser("compare")
     c.add_argument("a")
     c.add_argument("b")
@@ -312,6 +449,10 @@ def main(argv=None):
     q.add_argument("--transient", type=int, default=2)
     q.add_argument("--lengths", default="2,4")
     q.add_argument("--rtol", type=float, default=1e-8)
+    pa = sub.add_parser("parts", help="the analysis and load of one run, old way and new way, in one process")
+    pa.add_argument("--paper", default="000")
+    pa.add_argument("--cycles", type=int, default=8)
+    pa.add_argument("--repeat", type=int, default=5)
     k = sub.add_parser("_kind")
     k.add_argument("name")
     k.add_argument("periods", type=int)
@@ -321,6 +462,8 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.cmd == "_kind":
         print(json.dumps(run_kind(args.name, args.periods)))
+    elif args.cmd == "parts":
+        print(json.dumps(parts(args.paper, args.cycles, args.repeat), indent=1))
     elif args.cmd == "_lyap":
         print(json.dumps(lyapunov_exponents(args.paper, args.value, args.transient, json.loads(args.lengths),
                                             args.rtol)))
@@ -341,7 +484,13 @@ def main(argv=None):
                       args.repeat)
         print(json.dumps({"base": args.base, "branch": args.branch, "kinds": got}, indent=1))
     elif args.cmd == "estimate":
-        print_estimate(json.load(open(args.kinds_json)), [int(x) for x in args.limits.split(",") if x])
+        data = {"kinds": {}}
+        for f in args.kinds_json:
+            for k, v in json.load(open(f))["kinds"].items():
+                got = data["kinds"].setdefault(k, {"before": [], "after": []})
+                got["before"] += v["before"]
+                got["after"] += v["after"]
+        print_estimate(data, [int(x) for x in args.limits.split(",") if x], args.parts)
     else:
         return 1 if compare(args.a, args.b) else 0
     return 0

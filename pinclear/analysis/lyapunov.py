@@ -26,13 +26,11 @@ class LyapunovResult:
     t: np.ndarray                   # renormalisation times after the transient
     running: np.ndarray             # the estimate up to each of those times (its convergence)
     renormalisations: int
+    ends: dict = field(default_factory=dict)     # {end time: exponent} of benettin(ends=...)'s shorter runs
 
     def as_dict(self):
         return {"exponent": self.exponent, "renormalisations": self.renormalisations,
                 "final_spread": float(np.ptp(self.running[len(self.running) // 2:])) if len(self.running) else None}
-
-    #: {end time: exponent} of the shorter runs asked for with benettin(ends=...)
-    ends: dict = field(default_factory=dict)
 
 
 class LyapunovFailed(InputError):
