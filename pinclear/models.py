@@ -5,6 +5,7 @@ pyproject.toml), so a non-editable ``pip install .`` finds the models by name fr
 """
 from __future__ import annotations
 
+import functools
 import importlib.util
 from pathlib import Path
 
@@ -66,9 +67,11 @@ def model_path(name) -> Path:
                          choices=available())
 
 
+@functools.lru_cache(maxsize=1)
 def example_robot_data_dir() -> Path | None:
     """The folder holding example-robot-data's robots (``.../share/example-robot-data/robots``),
-    found through the installed distribution's file list (it ships no importable module)."""
+    found through the installed distribution's file list (it ships no importable module). Looked
+    up once per process: the file list costs ~0.1 s and every load() asks (sidecar.allowed_roots)."""
     import importlib.metadata
 
     try:

@@ -89,12 +89,24 @@ def read_yaml(path, what="sidecar"):
 
     file = str(Path(path))
     text = read_text_bounded(path, MAX_SIDECAR_BYTES, "path", what)
-    try:
-        return yaml_value(text)
-    except _YAMLRefused as exc:
-        raise ModelFileError(file, exc.key, exc.message) from None
-    except yaml.YAMLError as exc:
-        raise ModelFileError(file, "yaml", f"not valid YAML: {' '.join(str(exc).split())}") from None
+    if text not in _PARSED:
+        try:
+            doc = yaml_value(text)
+        except _YAMLRefused as exc:
+            raise ModelFileError(file, exc.key, exc.message) from None
+        except yaml.YAMLError as exc:
+            raise ModelFileError(file, "yaml", f"not valid YAML: {' '.join(str(exc).split())}") from None
+        if len(_PARSED) >= _PARSED_MAX:
+            _PARSED.pop(next(iter(_PARSED)))
+        _PARSED[text] = doc
+    return copy.deepcopy(_PARSED[text])
+
+
+#: parsed YAML by file text: the file is read (and checked) on every call, but the same text is
+#: parsed once per process (a study loads one sidecar per run, several times: 0.1 s of PyYAML
+#: each); callers get their own deep copy
+_PARSED: dict = {}
+_PARSED_MAX = 64
 
 #: the top-level keys of a sidecar, each parsed by one section parser below (the key reference's
 #: first table; the sections' own keys are declared next to what they build)

@@ -441,3 +441,20 @@ def test_settled_period_and_joint_classification():
     assert classify_state([still, still]).kind == "period-1"
     with pytest.raises(InputError):
         an.classify(seq, sim_rtol=1e-6)
+
+
+def test_one_lyapunov_run_gives_every_recorded_length_exactly():
+    """bifurcation(lyapunov_at=...): one loop, no ordinary run, and each length's exponent is the
+    one a separate lyapunov=True run of that length reports, bit for bit (the double well's
+    period 2 pi / 1.2 s does not sum exactly, so a shorter run's clipped chunk is a branch)."""
+    Tw = 2 * np.pi / DW_W
+    kw = dict(period=Tw, signal="slide", transient=2, per_period=4, executor="serial",
+              sim_options=dict(integrator="DOP853", rtol=1e-8), lyapunov=True)
+    par = "forces[push].law.terms[0].amp"
+    one = an.bifurcation(DW, par, [1.4], cycles=5, lyapunov_at=[3, 5], **kw).runs[0]
+    assert one.ok and not one.sections and "steps" not in one.stats        # no ordinary run
+    for n in (3, 5):
+        alone = an.bifurcation(DW, par, [1.4], cycles=n, **kw).runs[0]
+        assert one.stats["lyapunov_at"][n] == alone.stats["lyapunov"]
+    with pytest.raises(InputError, match="lyapunov_at"):
+        an.bifurcation(DW, par, [1.4], cycles=5, lyapunov_at=[3, 6], **kw)

@@ -39,3 +39,39 @@ def test_inverted_pendulum_diverges_at_its_linearised_rate():
     I_pivot = body.inertia[2, 2] + body.mass * (c[0] ** 2 + c[1] ** 2)
     lam = np.sqrt(body.mass * 9.81 * np.hypot(c[0], c[1]) / I_pivot)
     assert res.exponent == pytest.approx(lam, rel=5e-3)
+
+
+def _lorenz(t, y):
+    return np.array([10.0 * (y[1] - y[0]), y[0] * (28.0 - y[2]) - y[1], y[0] * y[1] - 8.0 / 3.0 * y[2]])
+
+
+@pytest.mark.parametrize("renorm", [0.5, 0.3, 0.7])
+def test_a_longer_loop_gives_the_shorter_runs_exponents_bit_for_bit(renorm):
+    """benettin(ends=...): one loop gives the exponent a shorter run reports, exactly. 0.5 sums
+    to 3.0 exactly; 0.3 and 0.7 do not (6 x 0.3 summed falls short of 1.8 by an ulp, so the
+    shorter run clips its last chunk and the longer loop runs that chunk as a branch). An
+    off-by-one chunk or a mismatched transient moves a Lorenz exponent by ~1e-2, far above 0."""
+    kw = dict(renorm=renorm, transient=renorm, rtol=1e-8, atol=1e-10)
+    short, mid, t_long = 6 * renorm, 11 * renorm, 18 * renorm
+    alone = {t: largest_lyapunov(_lorenz, [1.0, 1.0, 20.0], t, **kw).exponent for t in (short, mid, t_long)}
+    both = largest_lyapunov(_lorenz, [1.0, 1.0, 20.0], t_long, ends=(short, mid, t_long), **kw)
+    assert both.ends == alone
+    # asking for ends does not change the longer loop's own estimate or its convergence record
+    plain = largest_lyapunov(_lorenz, [1.0, 1.0, 20.0], t_long, **kw)
+    assert both.exponent == plain.exponent and np.array_equal(both.running, plain.running)
+
+
+def test_a_loop_that_stops_keeps_the_exponents_of_the_ends_it_passed():
+    from pinclear.analysis.lyapunov import LyapunovFailed, benettin
+    from pinclear.errors import IntegrationError
+
+    def advance(y, t, dt):
+        if t >= 2.0:
+            raise IntegrationError("step size underflow")
+        return y * np.exp(0.4 * dt)              # separation grows at exactly 0.4/s
+
+    with pytest.raises(LyapunovFailed) as exc:
+        benettin(advance, lambda a, b: float(np.linalg.norm(b - a)), lambda a, b, f, t: a + f * (b - a),
+                 np.ones(2), np.ones(2) * (1 + 1e-8), 0.0, 4.0, 0.5, float(np.sqrt(2)) * 1e-8, 0.5, ends=(1.5, 3.0))
+    assert exc.value.partial.ends[1.5] == pytest.approx(0.4, rel=1e-6) and 3.0 not in exc.value.partial.ends
+    assert isinstance(exc.value.cause, IntegrationError)

@@ -13,11 +13,12 @@ def irregular(K):
 
 
 def fake_rerun(exponent, calls):
-    """A rerun whose exponent is exponent(value, rtol, cycles); records what it was asked."""
-    def rerun(values, rtol, cycles):
-        calls.append((tuple(values), rtol, cycles))
-        return SimpleNamespace(runs=[SimpleNamespace(value=v, ok=True, stats={"lyapunov": exponent(v, rtol, cycles)})
-                                     for v in values])
+    """A rerun whose exponent over n recorded cycles is exponent(value, rtol, n) (one run per
+    tolerance gives every length: stats['lyapunov_at']); records what it was asked."""
+    def rerun(values, rtol, lengths):
+        calls.append((tuple(values), rtol, tuple(lengths)))
+        return SimpleNamespace(runs=[SimpleNamespace(value=v, ok=True, stats={"lyapunov_at": {
+            n: exponent(v, rtol, n) for n in lengths}}) for v in values])
     return rerun
 
 
@@ -33,8 +34,8 @@ def test_confirmed_unconfirmed_and_regular_runs():
     assert kinds[0.1]["A"].kind == "chaotic" and kinds[0.1]["B"].kind == "period-1"
     assert kinds[0.2]["A"].kind == "irregular" and "does not converge" in kinds[0.2]["A"].note
     assert kinds[0.3]["A"].kind == "period-2"
-    # two tolerances x two lengths, each call over the irregular values only
-    assert sorted((r, n) for _, r, n in calls) == sorted((1e-8 * f, n) for f in chaos.RTOL_FACTORS for n in (25, 50))
+    # one run per tolerance, each giving both lengths, over the irregular values only
+    assert sorted((r, n) for _, r, n in calls) == sorted((1e-8 * f, (25, 50)) for f in chaos.RTOL_FACTORS)
     assert all(set(v) == {0.1, 0.2} for v, _, _ in calls)
     assert len(notes) == 2 and "chaotic" in notes[0] and "not confirmed" in notes[1]
 
@@ -73,3 +74,15 @@ def test_priorities_match_rounded_keys():
     chaos.confirm_irregular(kinds, fake_rerun(lambda v, r, n: 1.0, calls), 1e-6, 100, lambda v: 1.0, limit=1,
                             priority=(2 * math.pi, 3 * math.pi))
     assert list(calls[0][0]) == [round(3 * math.pi, 9)]
+
+
+def test_a_length_the_run_did_not_reach_is_a_failed_estimate():
+    """A loop that stopped between the two lengths keeps the shorter one's exponent; the missing
+    one makes the check fail (never confirmed), as a separate failed run did."""
+    kinds = {0.5: {"A": irregular(0.99)}}
+
+    def rerun(values, rtol, lengths):
+        return SimpleNamespace(runs=[SimpleNamespace(value=v, ok=False, stats={"lyapunov_at": {
+            lengths[0]: 1.0, lengths[1]: float("nan")}}) for v in values])
+    notes = chaos.confirm_irregular(kinds, rerun, 1e-8, 100, lambda v: 1.0, limit=1)
+    assert kinds[0.5]["A"].kind == "irregular" and "failed" in kinds[0.5]["A"].note and "not confirmed" in notes[0]

@@ -13,11 +13,11 @@ renormalisation, and carries the force elements' internal states of the referenc
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, PinclearError
 
 
 @dataclass
@@ -26,41 +26,98 @@ class LyapunovResult:
     t: np.ndarray                   # renormalisation times after the transient
     running: np.ndarray             # the estimate up to each of those times (its convergence)
     renormalisations: int
+    ends: dict = field(default_factory=dict)     # {end time: exponent} of benettin(ends=...)'s shorter runs
 
     def as_dict(self):
         return {"exponent": self.exponent, "renormalisations": self.renormalisations,
                 "final_spread": float(np.ptp(self.running[len(self.running) // 2:])) if len(self.running) else None}
 
 
-def benettin(advance, separation, renormalise, ref, comp, t0, t_end, renorm, d0, transient):
+class LyapunovFailed(InputError):
+    """The Benettin loop stopped (``cause``: a failed run, a separation that collapsed);
+    ``partial`` holds the estimate up to the last renormalisation reached (nothing computed is lost)."""
+
+    def __init__(self, cause, partial):
+        super().__init__(str(cause))
+        self.cause, self.partial = cause, partial
+
+
+def benettin(advance, separation, renormalise, ref, comp, t0, t_end, renorm, d0, transient, ends=()):
     """The Benettin loop. advance(state, t, dt) -> state at t + dt; separation(ref, comp) -> d;
-    renormalise(ref, comp, factor, t) -> the companion at ``factor`` times its separation."""
+    renormalise(ref, comp, factor, t) -> the companion at ``factor`` times its separation.
+
+    ends: earlier end times whose exponents the same loop also gives (result.ends), each the
+    exponent a loop ending there reports, bit for bit: the loop advances in the same renorm
+    chunks from t0 whatever its end, so a shorter loop's chunks are this one's except its last,
+    which it clips to end - t; when that clip differs from this chunk (the rounding of the summed
+    times), the clipped chunk is run as a branch (one chunk more)."""
     if not (renorm > 0 and d0 > 0 and t_end > t0 + transient):
         raise InputError(f"lyapunov: need renorm > 0, d0 > 0 and t_end > t0 + transient, got renorm = {renorm}, "
                          f"d0 = {d0}, t_end = {t_end}, transient = {transient}")
-    n = int(math.ceil((t_end - t0) / renorm - 1e-9))
-    acc, elapsed, ts, run = 0.0, 0.0, [], []
+    n = _chunks(t0, t_end, renorm)
+    last = {}                                  # chunk index -> the ends whose last chunk it is
+    for e in ends:
+        if not (t0 + transient < e <= t_end):
+            raise InputError(f"lyapunov: an end time must lie after the transient and by t_end, got {e}")
+        last.setdefault(_chunks(t0, e, renorm) - 1, []).append(e)
+    acc, elapsed, ts, run, got = 0.0, 0.0, [], [], {}
     t = t0
-    for _ in range(n):
+
+    def partial():
+        return LyapunovResult(acc / elapsed if elapsed else float("nan"), np.array(ts), np.array(run), len(ts),
+                              dict(got))
+
+    def branch(de):
+        """The exponent of a loop whose last chunk is [t, t + de] (NaN where that loop fails)."""
+        try:
+            d = separation(advance(ref, t, de), advance(comp, t, de))
+        except PinclearError:
+            return float("nan")
+        if not (d > 0 and math.isfinite(d)):
+            return float("nan")
+        a, el = acc, elapsed
+        if t + de > t0 + transient + 1e-12 * renorm:
+            a += math.log(d / d0)
+            el += de
+        return a / el if el else float("nan")
+
+    for i in range(n):
         dt = min(renorm, t_end - t)
-        ref, comp = advance(ref, t, dt), advance(comp, t, dt)
+        for e in last.get(i, ()):
+            if min(renorm, e - t) != dt:       # the shorter loop's last chunk is clipped
+                got[e] = branch(min(renorm, e - t))
+        try:
+            ref, comp = advance(ref, t, dt), advance(comp, t, dt)
+        except PinclearError as exc:
+            raise LyapunovFailed(exc, partial()) from exc
         t += dt
         d = separation(ref, comp)
         if not (d > 0 and math.isfinite(d)):
-            raise InputError(f"lyapunov: separation {d!r} at t = {t:.6g} s (d0 too small for the integration "
-                             "tolerance, or a failed run)")
+            raise LyapunovFailed(InputError(f"lyapunov: separation {d!r} at t = {t:.6g} s (d0 too small for the "
+                                            "integration tolerance, or a failed run)"), partial())
         if t > t0 + transient + 1e-12 * renorm:
             acc += math.log(d / d0)
             elapsed += dt
             ts.append(t)
             run.append(acc / elapsed)
-        comp = renormalise(ref, comp, d0 / d, t)
-    return LyapunovResult(acc / elapsed if elapsed else float("nan"), np.array(ts), np.array(run), len(ts))
+        for e in last.get(i, ()):
+            got.setdefault(e, acc / elapsed if elapsed else float("nan"))
+        try:
+            comp = renormalise(ref, comp, d0 / d, t)
+        except PinclearError as exc:
+            raise LyapunovFailed(exc, partial()) from exc
+    return partial()
+
+
+def _chunks(t0, t_end, renorm):
+    """The number of renormalisation chunks of a loop from t0 to t_end."""
+    return int(math.ceil((t_end - t0) / renorm - 1e-9))
 
 
 def largest_lyapunov(fun, y0, t_end, renorm=0.5, d0=1e-8, transient=0.0, t0=0.0, direction=None, rtol=1e-10,
-                     atol=1e-12, method="DOP853") -> LyapunovResult:
-    """Largest Lyapunov exponent of dy/dt = fun(t, y) along the trajectory from y0."""
+                     atol=1e-12, method="DOP853", ends=()) -> LyapunovResult:
+    """Largest Lyapunov exponent of dy/dt = fun(t, y) along the trajectory from y0 (``ends``:
+    also the exponents of runs ending at those earlier times, see :func:`benettin`)."""
     from scipy.integrate import solve_ivp
 
     y0 = np.asarray(y0, float)
@@ -74,15 +131,16 @@ def largest_lyapunov(fun, y0, t_end, renorm=0.5, d0=1e-8, transient=0.0, t0=0.0,
         return sol.y[:, -1]
 
     return benettin(advance, lambda a, b: float(np.linalg.norm(b - a)),
-                    lambda a, b, f, t: a + f * (b - a), y0, y0 + d0 * u, t0, t_end, renorm, d0, transient)
+                    lambda a, b, f, t: a + f * (b - a), y0, y0 + d0 * u, t0, t_end, renorm, d0, transient, ends)
 
 
-def mechanism_lyapunov(mech, t_end, renorm=0.05, d0=1e-7, transient=0.0, q0=None, v0=None, seed=0,
+def mechanism_lyapunov(mech, t_end, renorm=0.05, d0=1e-7, transient=0.0, q0=None, v0=None, seed=0, ends=(),
                        **sim_options) -> LyapunovResult:
     """Largest Lyapunov exponent of a mechanism's motion (state: q on its manifold, v), with
     pinclear's simulator (``sim_options``: method, integrator, rtol...). The companion starts in
     a random tangent direction (``seed``) and, like every renormalised companion, is assembled
-    onto the closures and given a consistent velocity, so only admissible motions are compared."""
+    onto the closures and given a consistent velocity, so only admissible motions are compared.
+    ``ends``: also the exponents of runs ending at those earlier times (result.ends)."""
     import pinocchio as pin
 
     from ..kinematics import assemble, consistent_velocity
@@ -120,7 +178,7 @@ def mechanism_lyapunov(mech, t_end, renorm=0.05, d0=1e-7, transient=0.0, q0=None
     u = rng.standard_normal(2 * model.nv)
     u *= d0 / np.linalg.norm(u)
     comp = place(ref, u[:model.nv], u[model.nv:], 0.0)
-    return benettin(advance, separation, renormalise, ref, comp, 0.0, t_end, renorm, d0, transient)
+    return benettin(advance, separation, renormalise, ref, comp, 0.0, t_end, renorm, d0, transient, ends)
 
 
 @dataclass

@@ -70,21 +70,22 @@ class PoincareSection:
         return len(self.t)
 
 
-def poincare(traj, period, signal, phase=0.0, skip_transient=0, t0=0.0, mech=None, match_tol=1e-9):
+def poincare(traj, period, signal, phase=0.0, skip_transient=0, t0=0.0, mech=None, match_tol=1e-9, resolved=None):
     """Poincaré (stroboscopic) map of ``signal``: samples at t = t0 + k*period + phase for every
     k >= skip_transient (a number of periods) whose time lies within the run.
 
     Output samples within ``match_tol * period`` of a section time are used as they are;
     others are interpolated (cubic Hermite with the exact rate, and the second derivative
     where the signal has one) and flagged. Simulate with ``t_eval=section_times(...)`` to
-    avoid interpolation altogether.
+    avoid interpolation altogether. ``resolved``: the Series of ``signal`` on ``traj`` when the
+    caller has it already (signals.series; a bifurcation run reuses it for its phase portrait).
     """
     period = float(period)
     if not period > 0 or not math.isfinite(period):
         raise InputError(f"period must be a positive number of seconds, got {period!r}")
     if skip_transient < 0:
         raise InputError(f"skip_transient is a number of periods >= 0, got {skip_transient!r}")
-    s = series(traj, signal, mech)
+    s = series(traj, signal, mech) if resolved is None else resolved
     t = s.t
     empty = PoincareSection(np.zeros(0, int), np.zeros(0), np.zeros(0), np.zeros(0), period, phase, s.label,
                             np.zeros(0, bool), s.exact_rate)

@@ -61,20 +61,37 @@ def _spline_rate(t, x):
     return CubicSpline(t, x)(t, 1)
 
 
-def _frame_series(model, fid, traj):
+def _remembered(memo, key, compute):
+    """compute() once per key of ``memo`` (a dict kept for one trajectory: the signals of one
+    run, e.g. platform.x, .y and .z, share one pass over its samples); no memo: compute()."""
+    if memo is None:
+        return compute()
+    if key not in memo:
+        memo[key] = compute()
+    return memo[key]
+
+
+def _frame_series(model, fid, traj, memo=None):
     """World position, LWA linear velocity and classical acceleration of a frame origin."""
-    acc = traj.a if traj.a.shape == traj.v.shape and np.all(np.isfinite(traj.a)) else None
-    fm = frame_motion(model, [fid], traj.q, traj.v, acc)
-    return fm.p[:, 0], fm.v[:, 0], fm.a[:, 0]
+    def compute():
+        acc = traj.a if traj.a.shape == traj.v.shape and np.all(np.isfinite(traj.a)) else None
+        fm = frame_motion(model, [fid], traj.q, traj.v, acc)
+        return fm.p[:, 0], fm.v[:, 0], fm.a[:, 0]
+
+    return _remembered(memo, ("frame", int(fid)), compute)
 
 
-def relative_rate(model, f1, f2, traj):
+def relative_rate(model, f1, f2, traj, memo=None):
     """d/dt of e = R1^T (p2 - p1) (the eccentricity in body 1's frame):
-    R1^T (v2 - v1 - w1 x (p2 - p1)), with origin velocities and w1 in world axes."""
-    fm = frame_motion(model, [f1, f2], traj.q, traj.v)
-    d = fm.p[:, 1] - fm.p[:, 0]
-    rel = fm.v[:, 1] - fm.v[:, 0] - np.cross(fm.w[:, 0], d)
-    return np.einsum("nji,nj->ni", fm.R[:, 0], rel)
+    R1^T (v2 - v1 - w1 x (p2 - p1)), with origin velocities and w1 in world axes. ``memo``: a
+    dict kept for this trajectory (the three components of one eccentricity share the pass)."""
+    def compute():
+        fm = frame_motion(model, [f1, f2], traj.q, traj.v)
+        d = fm.p[:, 1] - fm.p[:, 0]
+        rel = fm.v[:, 1] - fm.v[:, 0] - np.cross(fm.w[:, 0], d)
+        return np.einsum("nji,nj->ni", fm.R[:, 0], rel)
+
+    return _remembered(memo, ("relative", int(f1), int(f2)), compute)
 
 
 def _signal_choices(traj, mech):
@@ -90,8 +107,10 @@ def _signal_choices(traj, mech):
     return ch
 
 
-def series(traj, signal, mech=None) -> Series:
-    """Resolve ``signal`` (see the module docstring) on the samples of ``traj``."""
+def series(traj, signal, mech=None, memo=None) -> Series:
+    """Resolve ``signal`` (see the module docstring) on the samples of ``traj``. ``memo``: a dict
+    the caller keeps for this one trajectory, so that several signals of it share the frame
+    kinematics (the same numbers as without it: each pass is computed once and reused)."""
     mech = mech if mech is not None else getattr(traj, "mech", None)
     t = np.asarray(traj.t, float)
     if callable(signal):
@@ -104,7 +123,7 @@ def series(traj, signal, mech=None) -> Series:
     if isinstance(signal, (tuple, list)):
         if len(signal) != 2:
             raise InputError(f"a signal pair is (x_spec, xdot_spec), got {signal!r}")
-        sx, sv = series(traj, signal[0], mech), series(traj, signal[1], mech)
+        sx, sv = series(traj, signal[0], mech, memo), series(traj, signal[1], mech, memo)
         return Series(t, sx.x, sv.x, sv.xdot, f"{sx.label} / {sv.label}", exact_rate=True)
     if not isinstance(signal, str):
         raise InputError(f"signal must be a name, a (x, xdot) pair of names or a callable, got {signal!r}")
@@ -143,7 +162,7 @@ def series(traj, signal, mech=None) -> Series:
             elem = next((f for f in mech.forces if f.name == elem_name), None)
         if what == "eccentricity" and elem is not None and elem.is_clearance \
                 and arr.ndim == 2 and arr.shape[1] == 3:
-            rate = relative_rate(model, elem.f1, elem.f2, traj)[:, idx]
+            rate = relative_rate(model, elem.f1, elem.f2, traj, memo)[:, idx]
             return Series(t, x, rate, None, signal, unit=unit)
         return Series(t, x, _spline_rate(t, x), None, signal, exact_rate=False, unit=unit)
     # ---- constraint multiplier (drive force, closure row)
@@ -159,7 +178,7 @@ def series(traj, signal, mech=None) -> Series:
         elif model.existFrame(fname):
             fid = model.getFrameId(fname)
         if fid is not None:
-            P, V, A = _frame_series(model, fid, traj)
+            P, V, A = _frame_series(model, fid, traj, memo)
             c = _AXES[comp]
             return Series(t, P[:, c], V[:, c], A[:, c], signal, unit="m")
     if mech is None:

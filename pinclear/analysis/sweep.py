@@ -251,27 +251,17 @@ def _run_one(job):
             mech = _load_variant(job["path"], job["overrides"], value, job["load_kw"])
         T, cyc = job["period"], job["transient"] + job["cycles"]
         t_eval = section_times(T, cyc, job["phase"], job["t0"], job["per_period"])
+        if job["lyapunov_at"]:
+            return _lyapunov_only(job, mech, float(t_eval[-1]), t_start)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)     # a failed run is reported, not warned
             traj = simulate(mech, float(t_eval[-1]), t_eval=t_eval, t0=job["t0"], **job["sim_kw"])
-        sections, portraits = {}, {}
-        for sig in job["signals"] if len(traj.t) else ():
-            key = signal_key(sig)
-            sections[key] = poincare(traj, T, sig, phase=job["phase"], skip_transient=job["transient"],
-                                     t0=job["t0"], mech=mech)
-            if job["keep_portrait"]:
-                s = series(traj, sig, mech)
-                keep = s.t >= job["t0"] + job["phase"] + job["transient"] * T - 1e-9 * T
-                portraits[key] = (s.t[keep], s.x[keep], s.xdot[keep])
+        sections, portraits = _sections(job, traj, mech)
         stats = {k: traj.stats.get(k) for k in ("cpu_s", "rhs_evals", "steps") if k in traj.stats}
         if job["lyapunov"] and traj.status == "success":
             # the same run's time span, the companion renormalised four times per period
-            from .lyapunov import mechanism_lyapunov
-
-            sim = {k: v for k, v in job["sim_kw"].items() if k not in ("max_cpu",)}
             try:
-                stats["lyapunov"] = mechanism_lyapunov(mech, float(t_eval[-1]), renorm=T / 4, transient=job["transient"] * T,
-                                                       **sim).exponent
+                stats["lyapunov"] = _lyapunov(job, mech, float(t_eval[-1])).exponent
             except Exception as exc:              # reported with the run, the sections are kept
                 stats["lyapunov_error"] = f"{type(exc).__name__}: {exc}"
         stats["events"] = len(traj.stats.get("events", []))
@@ -284,10 +274,60 @@ def _run_one(job):
                               stats={"wall_s": time.perf_counter() - t_start, "pid": os.getpid()})
 
 
+def _sections(job, traj, mech):
+    """({signal key: PoincareSection}, {signal key: portrait}) of one run: each signal resolved
+    once (signals.series) for both, the signals sharing their frame kinematics (one memo)."""
+    sections, portraits, memo = {}, {}, {}
+    for sig in job["signals"] if len(traj.t) else ():
+        key = signal_key(sig)
+        s = series(traj, sig, mech, memo)
+        sections[key] = poincare(traj, job["period"], sig, phase=job["phase"], skip_transient=job["transient"],
+                                 t0=job["t0"], mech=mech, resolved=s)
+        if job["keep_portrait"]:
+            keep = s.t >= job["t0"] + job["phase"] + job["transient"] * job["period"] - 1e-9 * job["period"]
+            portraits[key] = (s.t[keep], s.x[keep], s.xdot[keep])
+    return sections, portraits
+
+
+def _lyapunov(job, mech, t_end, ends=()):
+    """The largest Lyapunov exponent over [0, t_end], the companion renormalised four times per
+    period, the transient left out (analysis.lyapunov.mechanism_lyapunov)."""
+    from .lyapunov import mechanism_lyapunov
+
+    sim = {k: v for k, v in job["sim_kw"].items() if k not in ("max_cpu",)}
+    return mechanism_lyapunov(mech, t_end, renorm=job["period"] / 4, transient=job["transient"] * job["period"],
+                              ends=ends, **sim)
+
+
+def _lyapunov_only(job, mech, t_end, t_start):
+    """A run of ``lyapunov_at``: only the exponents, no samples. One Benettin loop over the
+    longest span gives every shorter span's exponent as its running estimate there
+    (analysis.lyapunov.benettin's ends, bit for bit), so the recorded-cycle counts
+    share one loop instead of one ordinary run and one loop each. stats['lyapunov_at'] = {n:
+    exponent over transient + n periods}, stats['lyapunov'] the longest's; a loop that stops
+    keeps the exponents of the spans it finished ('failed', with the reason)."""
+    from .lyapunov import LyapunovFailed
+
+    T, status, message, stats = job["period"], "success", "", {}
+    # each span's end computed as its own run computes it (section_times' last time)
+    ends = {n: float(section_times(T, job["transient"] + n, job["phase"], job["t0"], job["per_period"])[-1])
+            for n in job["lyapunov_at"]}
+    try:
+        res = _lyapunov(job, mech, t_end, ends=tuple(ends.values()))
+    except LyapunovFailed as exc:
+        res, status, message = exc.partial, "failed", f"{type(exc.cause).__name__}: {exc.cause}"
+        stats["lyapunov_error"] = message
+    stats["lyapunov_at"] = {n: res.ends.get(e, float("nan")) for n, e in ends.items()}
+    if status == "success":
+        stats["lyapunov"] = res.exponent
+    stats.update(wall_s=time.perf_counter() - t_start, pid=os.getpid())
+    return BifurcationRun(job["index"], job["value"], status, message, stats=stats)
+
+
 def bifurcation(model, parameter, values, period, signal, cycles=100, transient=20, phase=0.0, t0=0.0,
                 per_period=8, keep_portrait=False, sim_options=None, load_options=None,
                 executor=None, max_workers=None, progress=None, classify_options=None,
-                lyapunov=False) -> BifurcationResult:
+                lyapunov=False, lyapunov_at=None) -> BifurcationResult:
     """Poincaré samples of ``signal`` for each parameter value (a bifurcation diagram).
 
     signal: one signal (see the module docstring) or a list of them, all sampled from the same
@@ -320,6 +360,11 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
         span (analysis.mechanism_lyapunov, companion renormalised 4 times per period, the
         transient left out; it costs about two more runs): ``run.stats["lyapunov"]`` (1/s),
         drawn by plot_bifurcation beside the samples.
+    lyapunov_at: recorded-cycle counts (each <= cycles): the runs then estimate only the
+        exponents, without the ordinary run and its samples: one loop over transient + cycles
+        periods gives ``run.stats["lyapunov_at"][n]``, the exponent a run of transient + n
+        periods reports (the same renormalisations; pinclear.reproduce.chaos checks convergence
+        with it).
     Every value yields a BifurcationRun: a run that stops early is 'failed' with its message and
     partial samples, one that cannot start (bad value, assembly error) is 'error'.
     """
@@ -344,6 +389,10 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
         raise InputError(f"signals recorded twice: {keys}")
     if int(transient) < 0 or int(cycles) < 1:
         raise InputError(f"need transient >= 0 and cycles >= 1, got {transient}, {cycles}")
+    lyapunov_at = sorted({int(n) for n in lyapunov_at}) if lyapunov_at else []
+    if lyapunov_at and not (lyapunov and 1 <= lyapunov_at[0] and lyapunov_at[-1] <= int(cycles)):
+        raise InputError(f"lyapunov_at needs lyapunov=True and recorded-cycle counts in 1..{int(cycles)}, got "
+                         f"{lyapunov_at}")
     periods, bad_period = [], {}
     for i, v in enumerate(values):
         try:
@@ -359,7 +408,8 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
         periods.append(T)
     base = dict(factory=None, path=None, patches=None, overrides=None, load_kw=load_kw, phase=float(phase),
                 t0=float(t0), transient=int(transient), cycles=int(cycles), per_period=int(per_period),
-                signals=signals, sim_kw=sim_kw, keep_portrait=bool(keep_portrait), lyapunov=bool(lyapunov))
+                signals=signals, sim_kw=sim_kw, keep_portrait=bool(keep_portrait), lyapunov=bool(lyapunov),
+                lyapunov_at=lyapunov_at)
     if callable(model):
         base["factory"] = model
     else:

@@ -3,11 +3,13 @@
 The 0-1 test (classify) flags any motion whose Poincaré points wander; a paper's "chaotic" needs
 more. Each study hands the values it classified 'irregular' to :func:`confirm_irregular`, which
 runs them again with the largest Lyapunov exponent estimated (analysis.bifurcation(...,
-lyapunov=True): the companion renormalised four times per period, the transient left out) at two
-integration tolerances and two run lengths, and asks analysis.lyapunov.confirm_chaos whether the
-exponents are positive and agree. Confirmed runs become 'chaotic', the rest stay 'irregular' with
-the exponents in their note. The runs cost about three ordinary runs per (tolerance, length) pair,
-so a study confirms at most ``limit`` values, the ones its central-claim rows read first.
+lyapunov=True, lyapunov_at=lengths): the companion renormalised four times per period, the
+transient left out) at two integration tolerances and two run lengths, and asks
+analysis.lyapunov.confirm_chaos whether the exponents are positive and agree. Confirmed runs
+become 'chaotic', the rest stay 'irregular' with the exponents in their note. One loop per
+tolerance gives both lengths (the shorter one's exponent is the running estimate at its end), at
+about two ordinary runs of the longer length, so a study confirms at most ``limit`` values, the
+ones its central-claim rows read first.
 """
 from __future__ import annotations
 
@@ -57,8 +59,9 @@ def confirm_irregular(kinds, rerun, rtol, cycles, period, limit, priority=()):
     """Reclassify, in place, the irregular runs of one diagram with Lyapunov evidence.
 
     kinds: {value: {signal: Classification}} (the study's own classification); rerun(values,
-    rtol, cycles) -> BifurcationResult of those values run again with lyapunov=True at that
-    tolerance and number of recorded cycles (the study's own transient); rtol: the study's;
+    rtol, lengths) -> BifurcationResult of those values run again with lyapunov=True,
+    lyapunov_at=lengths at that tolerance (cycles = max(lengths), the study's own transient),
+    whose runs carry stats['lyapunov_at'] = {n: exponent}; rtol: the study's;
     cycles: its recorded cycles; period(value) -> s. Returns notes (one per value looked at,
     and one naming the values left unconfirmed for the limit)."""
     todo = irregular_values(kinds, priority)
@@ -69,13 +72,16 @@ def confirm_irregular(kinds, rerun, rtol, cycles, period, limit, priority=()):
     todo = todo[:limit]
     if not todo:
         return notes
-    exps = {}                                  # (value, rtol, t_end) -> exponent (1/s)
+    exps = {}                                  # (value, rtol, recorded cycles) -> exponent (1/s)
     lengths = [max(1, round(f * cycles)) for f in LENGTH_FRACTIONS]
     for fac in RTOL_FACTORS:
-        for n in lengths:
-            res = rerun(todo, rtol * fac, n)
-            for r in res.runs:
-                lam = r.stats.get("lyapunov") if r.ok else None
+        # one run per tolerance serves every length: the shorter lengths' exponents are the
+        # running estimate at their end (analysis.lyapunov.LyapunovResult.at)
+        res = rerun(todo, rtol * fac, lengths)
+        for r in res.runs:
+            at = r.stats.get("lyapunov_at") or {}
+            for n in lengths:
+                lam = at.get(n)
                 exps[(_key(r.value), rtol * fac, n)] = float("nan") if lam is None else float(lam)
     for v in todo:
         ev = confirm_chaos(lambda r, n: exps.get((_key(v), r, int(n)), float("nan")),

@@ -16,7 +16,9 @@ worker processes (``workers``) or a Dask cluster (``scheduler``).
 """
 from __future__ import annotations
 
+import dataclasses
 import os
+from types import SimpleNamespace
 
 import numpy as np
 import pinocchio as pin
@@ -408,14 +410,57 @@ def bifurcation_runs(s, ex):
     path = model_path("four_ups_upu")
     common = dict(period=T, signal=SIGNALS, cycles=s["cycles"], transient=s["transient"], per_period=s["per_period"],
                   keep_portrait=True, load_options={"clearances": ["S2"], "overrides": dict(s["overrides"])}, executor=ex)
-    out = {"mu": analysis.bifurcation(str(path), "S2.mu", s["mu_values"], **common),
-           "clearance": analysis.bifurcation(str(path), "S2.clearance", s["clearance_values"], **common)}
+    out = {"mu": analysis.bifurcation(str(path), "S2.mu", s["mu_values"], **common)}
+    known = {study_point("mu", r.value, s): r for r in out["mu"].runs}
+    out["clearance"] = reusing(known, "clearance", s["clearance_values"], s,
+                               lambda vals: analysis.bifurcation(str(path), "S2.clearance", vals, **common))
     if s["sensitivity"]:
         sens = dict(common, load_options=None)
-        out["sens"] = analysis.bifurcation(sensitivity_mechanism, "variant", list(SENS_VARIANTS), **sens)
+        out["sens"] = reusing(known, "sens", list(SENS_VARIANTS), s,
+                              lambda vals: analysis.bifurcation(sensitivity_mechanism, "variant", vals, **sens))
         out["sens_rtol"] = analysis.bifurcation(sensitivity_mechanism, "variant", list(SENS_VARIANTS)[:1],
                                                 sim_options={"rtol": SENS_RTOL}, **sens)
     return out
+
+
+def study_point(study, value, s):
+    """The mechanism a study's run loads, as a key equal for two runs exactly when they load the
+    same S2-clearance model with the same inputs: (other overrides, mu, clearance) with every
+    value the study does not set taken from the sidecar (an override equal to the file's value
+    loads the same model), or (study, value) for a sensitivity variant that changes anything. The
+    sensitivity baseline is the mu study's mu = SENS_MU run; the clearance study's run at the
+    sidecar's clearance is the mu study's at the sidecar's mu (full study: 0.5 mm, mu 0.1)."""
+    from ..sidecar import read_yaml
+
+    if study == "sens" and SENS_VARIANTS.get(value) != {}:
+        return (study, value)
+    s2 = next(c for c in read_yaml(model_path("four_ups_upu"))["clearances"] if c.get("name") == "S2")
+    ov = dict(s["overrides"]) if study != "sens" else {}
+    mu, c = ov.pop("S2.mu", s2["mu"]), ov.pop("S2.clearance", s2["clearance"])
+    if study == "mu":
+        mu = value
+    elif study == "clearance":
+        c = value
+    else:
+        mu = SENS_MU
+    return (tuple(sorted((k, repr(v)) for k, v in ov.items())), float(mu), float(c))
+
+
+def reusing(known, study, values, s, run):
+    """The BifurcationResult of ``study`` over ``values`` with every run whose study_point is in
+    ``known`` ({point: BifurcationRun} of a diagram with the same period, signals, cycles and
+    integration options) taken from there instead of being run again; ``run(values)`` runs the
+    rest. ``known`` gains the new runs."""
+    points = [study_point(study, v, s) for v in values]
+    todo = [v for v, p in zip(values, points) if p not in known]
+    res = run(todo) if todo else None
+    for v, r in zip(todo, res.runs if res is not None else ()):
+        known.setdefault(study_point(study, v, s), r)
+    runs = [dataclasses.replace(known[p], index=i, value=v) for i, (v, p) in enumerate(zip(values, points))]
+    numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+    return analysis.BifurcationResult({"clearance": "S2.clearance", "sens": "variant"}.get(study, "S2.mu"),
+                                      np.asarray(values, dtype=float if numeric else object), runs, list(SIGNALS),
+                                      np.full(len(values), T))
 
 
 def motion_kinds(bif, s):
@@ -450,18 +495,34 @@ def lyapunov_checks(kinds, s, ex):
     load_kw = {"clearances": ["S2"], "overrides": dict(s["overrides"])}
 
     def rerun(model, parameter, load=True):
-        return lambda vals, rtol, n: analysis.bifurcation(model, parameter, vals, cycles=n, sim_options={"rtol": rtol},
-                                                          load_options=load_kw if load else None, **common)
+        return lambda vals, rtol, lengths: analysis.bifurcation(model, parameter, vals, cycles=max(lengths),
+                                                                lyapunov_at=lengths, sim_options={"rtol": rtol},
+                                                                load_options=load_kw if load else None, **common)
 
     studies = {"mu": rerun(path, "S2.mu"), "clearance": rerun(path, "S2.clearance"),
                "sens": rerun(sensitivity_mechanism, "variant", load=False)}
-    notes = []
+    notes, known = [], {}
     for study, again in studies.items():
         if study in kinds:
             notes += [f"{study} {n}" for n in chaos.confirm_irregular(
-                kinds[study], again, RTOL_DEFAULT, s["cycles"], lambda v: T, s["lyapunov_limit"],
-                priority=(0.01, 0.02) if study == "mu" else ())]
+                kinds[study], checks_reusing(known, study, s, again), RTOL_DEFAULT, s["cycles"], lambda v: T,
+                s["lyapunov_limit"], priority=(0.01, 0.02) if study == "mu" else ())]
     return notes
+
+
+def checks_reusing(known, study, s, again):
+    """``again`` (a Lyapunov rerun: values, rtol, lengths -> BifurcationResult) with the values
+    whose model (study_point) another diagram checked at the same tolerance and lengths taken
+    from ``known`` instead of being run again (the sensitivity baseline is the mu study's 0.01)."""
+    def rerun(values, rtol, lengths):
+        keys = [(study_point(study, v, s), rtol, tuple(lengths)) for v in values]
+        todo = [v for v, k in zip(values, keys) if k not in known]
+        if todo:
+            for v, r in zip(todo, again(todo, rtol, lengths).runs):
+                known[(study_point(study, v, s), rtol, tuple(lengths))] = r
+        return SimpleNamespace(runs=[dataclasses.replace(known[k], index=i, value=v)
+                                     for i, (v, k) in enumerate(zip(values, keys))])
+    return rerun
 
 
 def _kind_set(kinds, values, sig):

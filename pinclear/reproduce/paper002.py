@@ -381,10 +381,10 @@ def _joint_kinds(res, s, clearance=None):
     return out
 
 
-def _bifurcation(parameter, values, period, s, executor, overrides, rtol=RTOL, cycles=None, lyapunov=False):
+def _bifurcation(parameter, values, period, s, executor, overrides, rtol=RTOL, cycles=None, lyapunov_at=None):
     return an.bifurcation(model_path("nine_bar"), parameter, values, period=period, signal=SIGNALS,
                           cycles=cycles or s["cycles"], transient=s["transient cycles"], per_period=100,
-                          keep_portrait=not lyapunov, lyapunov=lyapunov,
+                          keep_portrait=not lyapunov_at, lyapunov=bool(lyapunov_at), lyapunov_at=lyapunov_at,
                           sim_options=dict(method="lagrange", integrator="RK45", rtol=rtol),
                           load_options=dict(clearances=list(JOINTS), overrides={**s.get("overrides", {}), **overrides}),
                           executor=executor)
@@ -393,8 +393,9 @@ def _bifurcation(parameter, values, period, s, executor, overrides, rtol=RTOL, c
 def _lyapunov(kinds, parameter, period, s, executor, overrides, priority):
     """The diagram's 'irregular' runs given the Lyapunov check (pinclear.reproduce.chaos), the
     paper's named values first; ``kinds`` is updated in place. Returns the notes."""
-    def again(vals, rtol, n):
-        return _bifurcation(parameter, vals, period, s, executor, overrides, rtol=rtol, cycles=n, lyapunov=True)
+    def again(vals, rtol, lengths):
+        return _bifurcation(parameter, vals, period, s, executor, overrides, rtol=rtol, cycles=max(lengths),
+                            lyapunov_at=lengths)
 
     per = period if callable(period) else (lambda v: period)
     return chaos.confirm_irregular(kinds, again, RTOL, s["cycles"], per, s["lyapunov limit"], priority=priority)
