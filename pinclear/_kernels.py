@@ -294,8 +294,13 @@ def ltl_factor(M, parent, L):
     From WIDE dofs a dof whose ancestors are the dofs just below it (a chain numbered down to its
     root, as A02's couplers) updates each ancestor's row along contiguous memory
     (_ltl_chain_update, the same bits)."""
+    return _ltl_factor(M, parent, L, M.shape[0] >= WIDE)
+
+
+@njit(cache=True)
+def _ltl_factor(M, parent, L, wide):
+    """ltl_factor; ``wide``: chains along contiguous rows."""
     n = M.shape[0]
-    wide = n >= WIDE
     for k in range(n):
         L[k, k] = M[k, k]
         i = parent[k]
@@ -1209,10 +1214,23 @@ def mirrored_lower_solve(L, y):
     order, k ascending), column by column: after y[k] is final, y[k+1:] -= L[k+1:, k] y[k] with
     that column read from the upper triangle (row k, contiguous; _chol_pivoted_wide's mirror)."""
     m = y.shape[0]
-    for k in range(m):
+    k = 0
+    while k + 4 <= m:      # four columns per pass: y[k..k+3] first, then the rest in one _axpy4
+        y0 = y[k] / L[k, k]
+        y[k + 1] -= L[k, k + 1] * y0
+        y1 = y[k + 1] / L[k + 1, k + 1]
+        y[k + 2] = (y[k + 2] - L[k, k + 2] * y0) - L[k + 1, k + 2] * y1
+        y2 = y[k + 2] / L[k + 2, k + 2]
+        y[k + 3] = ((y[k + 3] - L[k, k + 3] * y0) - L[k + 1, k + 3] * y1) - L[k + 2, k + 3] * y2
+        y3 = y[k + 3] / L[k + 3, k + 3]
+        y[k], y[k + 1], y[k + 2], y[k + 3] = y0, y1, y2, y3
+        _axpy4(y[k + 4:], L[k, k + 4:], L[k + 1, k + 4:], L[k + 2, k + 4:], L[k + 3, k + 4:], y0, y1, y2, y3)
+        k += 4
+    while k < m:
         yk = y[k] / L[k, k]
         y[k] = yk
         _axpy(y[k + 1:], L[k, k + 1:], yk)
+        k += 1
 
 
 @njit(cache=True, inline="always")
