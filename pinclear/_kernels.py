@@ -1129,29 +1129,44 @@ def chol_pivoted(G, piv, L, d, gate):
     return _chol_pivoted_rows(G, piv, L, d, gate)
 
 
+@njit(cache=True, inline="always")
+def _pivots_start(G, piv, d):
+    """piv = 0, 1, ..., d = diag(G); returns G's size."""
+    for i in range(G.shape[0]):
+        piv[i] = i
+        d[i] = G[i, i]
+    return G.shape[0]
+
+
+@njit(cache=True, inline="always")
+def _next_pivot(piv, d, j, gate, first):
+    """Pivot step j of chol_pivoted: the largest remaining d[i] (i >= j, the first of equal
+    ones) moved to position j of piv and d. Returns (where it came from, or -1 when it is not
+    above ``gate`` times the first pivot; the first pivot, set at j = 0)."""
+    p = j
+    for i in range(j + 1, d.shape[0]):
+        if d[i] > d[p]:
+            p = i
+    if p != j:
+        piv[j], piv[p] = piv[p], piv[j]
+        d[j], d[p] = d[p], d[j]
+    if j == 0:
+        first = d[0]
+    return (p if d[j] > gate * first else -1), first
+
+
 @njit(cache=True)
 def _chol_pivoted_rows(G, piv, L, d, gate):
     """chol_pivoted below WIDE rows: L[i, j] as a sum along rows i and j of L."""
-    m = G.shape[0]
-    for i in range(m):
-        piv[i] = i
-        d[i] = G[i, i]
+    m = _pivots_start(G, piv, d)
     first, low = 0.0, np.inf
     for j in range(m):
-        p = j
-        for i in range(j + 1, m):
-            if d[i] > d[p]:
-                p = i
-        if p != j:
-            piv[j], piv[p] = piv[p], piv[j]
-            d[j], d[p] = d[p], d[j]
-            for k in range(j):
-                L[j, k], L[p, k] = L[p, k], L[j, k]
-        dj = d[j]
-        if j == 0:
-            first = dj
-        if not dj > gate * first:
+        p, first = _next_pivot(piv, d, j, gate, first)
+        if p < 0:
             return 0.0
+        for k in range(j if p != j else 0):     # rows j and p of L
+            L[j, k], L[p, k] = L[p, k], L[j, k]
+        dj = d[j]
         low = min(low, dj)
         ljj = np.sqrt(dj)
         L[j, j] = ljj
@@ -1250,33 +1265,19 @@ def _chol_pivoted_wide(G, piv, L, d, gate):
     a time (contiguous: vector instructions, 0.65x the row-wise sums' time at 80 rows). A pivot
     swap exchanges columns j and p of U's first j rows. The lower triangle is copied from U at
     the end. w: row j's sums (not L's own row, so the compiler needs no aliasing test)."""
-    m = G.shape[0]
+    m = _pivots_start(G, piv, d)
     w = np.empty(m)
-    for i in range(m):
-        piv[i] = i
-        d[i] = G[i, i]
     first, low = 0.0, np.inf
     for j in range(m):
-        p = j
-        for i in range(j + 1, m):
-            if d[i] > d[p]:
-                p = i
-        if p != j:
-            piv[j], piv[p] = piv[p], piv[j]
-            d[j], d[p] = d[p], d[j]
-            for k in range(j):
-                L[k, j], L[k, p] = L[k, p], L[k, j]
-        dj = d[j]
-        if j == 0:
-            first = dj
-        if not dj > gate * first:
+        p, first = _next_pivot(piv, d, j, gate, first)
+        if p < 0:
             return 0.0
-        low = min(low, dj)
-        ljj = np.sqrt(dj)
-        L[j, j] = ljj
-        pj = piv[j]
-        for i in range(j + 1, m):
-            w[i] = G[piv[i], pj]
+        for k in range(j if p != j else 0):     # columns j and p of U's first j rows
+            L[k, j], L[k, p] = L[k, p], L[k, j]
+        low = min(low, d[j])
+        ljj = L[j, j] = np.sqrt(d[j])
+        for i in range(j + 1, m):               # G's column piv[j] in pivot order
+            w[i] = G[piv[i], piv[j]]
         wj = w[j + 1:]
         k = 0
         while k + 4 <= j:
