@@ -313,15 +313,16 @@ def _ltl_factor(M, parent, L, wide):
         d = np.sqrt(L[k, k])
         L[k, k] = d
         i = parent[k]
-        root = k                 # the chain below k is k - 1, k - 2, ..., root while contiguous
         while i >= 0:
             L[k, i] /= d
-            if root == i + 1:
-                root = i
             i = parent[i]
-        if wide and root < k and parent[root] < 0:
-            _ltl_chain_update(L, k, root)
-            continue
+        if wide:
+            root = k             # k's ancestors are k - 1, ..., root while they are contiguous
+            while root > 0 and parent[root] == root - 1:
+                root -= 1
+            if root < k and parent[root] < 0:
+                _ltl_chain_update(L, k, root)
+                continue
         i = parent[k]
         while i >= 0:
             j = i
@@ -1155,7 +1156,7 @@ def _next_pivot(piv, d, j, gate, first):
     return (p if d[j] > gate * first else -1), first
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _chol_pivoted_rows(G, piv, L, d, gate):
     """chol_pivoted below WIDE rows: L[i, j] as a sum along rows i and j of L."""
     m = _pivots_start(G, piv, d)
