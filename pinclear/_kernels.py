@@ -290,7 +290,16 @@ def ltl_factor(M, parent, L):
     """Featherstone's LTL factorisation M = L^T L of a joint-space inertia matrix, with no fill-in
     outside the tree's ancestor pattern (RBDA, sec. 6.5). ``parent`` is Pinocchio's
     data.parents_fromRow (parent dof, -1 at a root); M's upper triangle is read (crba fills it).
-    L[k, i] is non-zero only for i an ancestor dof of k. Returns False if M is not PD."""
+    L[k, i] is non-zero only for i an ancestor dof of k. Returns False if M is not PD.
+    From WIDE dofs a dof whose ancestors are the dofs just below it (a chain numbered down to its
+    root, as A02's couplers) updates each ancestor's row along contiguous memory
+    (_ltl_chain_update, the same bits)."""
+    return _ltl_factor(M, parent, L, M.shape[0] >= WIDE)
+
+
+@njit(cache=True)
+def _ltl_factor(M, parent, L, wide):
+    """ltl_factor; ``wide``: chains along contiguous rows."""
     n = M.shape[0]
     for k in range(n):
         L[k, k] = M[k, k]
@@ -307,6 +316,13 @@ def ltl_factor(M, parent, L):
         while i >= 0:
             L[k, i] /= d
             i = parent[i]
+        if wide:
+            root = k             # k's ancestors are k - 1, ..., root while they are contiguous
+            while root > 0 and parent[root] == root - 1:
+                root -= 1
+            if root < k and parent[root] < 0:
+                _ltl_chain_update(L, k, root)
+                continue
         i = parent[k]
         while i >= 0:
             j = i
@@ -315,6 +331,15 @@ def ltl_factor(M, parent, L):
                 j = parent[j]
             i = parent[i]
     return True
+
+
+@njit(cache=True, inline="always")
+def _ltl_chain_update(L, k, root):
+    """ltl_factor's update from dof k when its ancestors are k - 1, ..., root: for each ancestor
+    i, L[i, j] -= L[k, i] L[k, j] for j = i, ..., root, each entry once, as the walk does (the
+    same operations: the same bits), along row i (_axpy)."""
+    for i in range(k - 1, root - 1, -1):
+        _axpy(L[i, root:i + 1], L[k, root:i + 1], L[k, i])
 
 
 @njit(cache=True)
@@ -351,6 +376,15 @@ def scaled_rows(Lm, parent, J, rows, Y):
     changes). Y is zero outside the rows' supports (pinclear.kinematics.row_support), so on
     A02 N = 40, whose rows reach one coupler deeper each, that is a third of the products (30 us
     against 43-63 at 80 rows); the scan for the range reads a column's ends, nothing is allocated."""
+    if rows.shape[0] >= WIDE:
+        _transposed_back(_scaled_rows_wide(Lm, parent, J, rows), Y)
+        return
+    _scaled_rows_narrow(Lm, parent, J, rows, Y)
+
+
+@njit(cache=True)
+def _scaled_rows_narrow(Lm, parent, J, rows, Y):
+    """scaled_rows below WIDE rows, on Y itself."""
     nv = Lm.shape[0]
     m = rows.shape[0]
     for r in range(m):
@@ -374,9 +408,51 @@ def scaled_rows(Lm, parent, J, rows, Y):
 
 
 @njit(cache=True)
+def _scaled_rows_wide(Lm, parent, J, rows):
+    """scaled_rows from WIDE rows, the same bits: the same operations on Y^T (allocated, (nv, m)),
+    where a dof's updates run along contiguous rows (vector instructions). Returns Y^T."""
+    nv, m = Lm.shape[0], rows.shape[0]
+    Yt = np.empty((nv, m))
+    for r in range(m):
+        jr = rows[r]
+        for k in range(nv):
+            Yt[k, r] = J[jr, k]
+    for k in range(nv - 1, -1, -1):
+        yk = Yt[k]
+        a, b = 0, m
+        while a < b and yk[a] == 0.0:
+            a += 1
+        while b > a and yk[b - 1] == 0.0:
+            b -= 1
+        seg = yk[a:b]
+        d = Lm[k, k]
+        for r in range(b - a):
+            seg[r] /= d
+        i = parent[k]
+        while i >= 0:
+            _axpy(Yt[i, a:b], seg, Lm[k, i])
+            i = parent[i]
+    return Yt
+
+
+@njit(cache=True)
+def _transposed_back(Yt, Y):
+    """Y = Yt^T."""
+    for r in range(Y.shape[0]):
+        for k in range(Y.shape[1]):
+            Y[r, k] = Yt[k, r]
+
+
+@njit(cache=True)
 def schur_complement(Lm, parent, J, rows, cols, ncols, Y, S):
     """Y[r] = L^-T J[rows[r]] (row-wise) and S = Y Y^T = J M^-1 J^T over the selected rows, for
-    M = L^T L factorised by ltl_factor (S by _gram), both over the rows' supports."""
+    M = L^T L factorised by ltl_factor (S by _gram), both over the rows' supports. From WIDE
+    rows both along Y^T (_scaled_rows_wide, _gram_wide), the same bits."""
+    if rows.shape[0] >= WIDE:
+        Yt = _scaled_rows_wide(Lm, parent, J, rows)
+        _transposed_back(Yt, Y)
+        _gram_wide(Yt, rows, cols, ncols, S)
+        return
     scaled_rows(Lm, parent, J, rows, Y)
     _gram(Y, rows, cols, ncols, S, False)
 
@@ -883,7 +959,90 @@ def min_norm_solve(A, piv, beta, k, r, x, lam):
 @njit(cache=True)
 def gram_rows(A, rows, cols, ncols, G):
     """G = A[rows] A[rows]^T (both triangles), as schur_complement's S."""
-    _gram(A, rows, cols, ncols, G, True)
+    m = rows.shape[0]
+    if m < WIDE:
+        _gram(A, rows, cols, ncols, G, True)
+        return
+    At = np.empty((A.shape[1], m))
+    for c in range(m):
+        rc = rows[c]
+        for k in range(A.shape[1]):
+            At[k, c] = A[rc, k]
+    _gram_wide(At, rows, cols, ncols, G)
+
+
+@njit(cache=True)
+def _gram_wide(At, rows, cols, ncols, G):
+    """_gram from WIDE rows on At = A'^T, the same bits: G[r, c] for the c of one line summed
+    together along At's rows (acc[c] += A'[r, k] A'[c, k] over the line's support, k ascending,
+    from zero: _gram_line's sums, as vector instructions)."""
+    m = rows.shape[0]
+    later = earlier = 0
+    for r in range(m):
+        later += (r + 1) * ncols[rows[r]]
+        earlier += (m - r) * ncols[rows[r]]
+    acc = np.empty(m)
+    for r in range(m):
+        lo, hi = (0, r + 1) if later <= earlier else (r, m)
+        seg = acc[lo:hi]
+        seg[:] = 0.0
+        sr = rows[r]
+        ns = ncols[sr]
+        kk = 0
+        while kk + 4 <= ns:                # four support entries per pass, added in order
+            k0, k1, k2, k3 = cols[sr, kk], cols[sr, kk + 1], cols[sr, kk + 2], cols[sr, kk + 3]
+            _axpy_plus4(seg, At[k0, lo:hi], At[k1, lo:hi], At[k2, lo:hi], At[k3, lo:hi],
+                        At[k0, r], At[k1, r], At[k2, r], At[k3, r])
+            kk += 4
+        while kk < ns:
+            k = cols[sr, kk]
+            _axpy_plus(seg, At[k, lo:hi], At[k, r])
+            kk += 1
+        if later <= earlier:           # G[r, :r + 1], mirrored below
+            for c in range(r + 1):
+                G[r, c] = seg[c]
+        else:                          # G[r:, r] kept in G[r, r:], mirrored below
+            for c in range(m - r):
+                G[r, r + c] = seg[c]
+    if later <= earlier:
+        for r in range(m):
+            for c in range(r):
+                G[c, r] = G[r, c]
+    else:
+        for r in range(m):
+            for c in range(r):
+                G[r, c] = G[c, r]
+
+
+@njit(cache=True, inline="always")
+def _axpy_plus4(y, a, b, c, e, ca, cb, cc, ce):
+    """y <- (((y + a ca) + b cb) + c cc) + e ce: four _axpy_plus in that order, one pass."""
+    for i in range(y.shape[0]):
+        y[i] = (((y[i] + a[i] * ca) + b[i] * cb) + c[i] * cc) + e[i] * ce
+
+
+@njit(cache=True, inline="always")
+def _axpy_plus(y, x, a):
+    """y += x a (views from index 0, as _axpy)."""
+    for i in range(y.shape[0]):
+        y[i] += x[i] * a
+
+
+@njit(cache=True, inline="always")
+def support_runs_add(x, a, cols_r, n, w):
+    """x[k] += a[k] w for k in one row's support cols_r[:n] (ascending): the same operation on
+    each x[k] as a loop over the support, done run by run of consecutive columns as _axpy_plus
+    (vector instructions; A02's rows are two runs, a chain prefix and a crank). x[k] - a[k] w
+    is this with -w (IEEE subtraction is the addition of the negation: the same bits)."""
+    kk = 0
+    while kk < n:
+        lo = cols_r[kk]
+        e = kk + 1
+        while e < n and cols_r[e] == cols_r[e - 1] + 1:
+            e += 1
+        hi = cols_r[e - 1] + 1
+        _axpy_plus(x[lo:hi], a[lo:hi], w)
+        kk = e
 
 
 @njit(cache=True, inline="always")
@@ -951,32 +1110,64 @@ def _gram_line(A, rows, cols, ncols, G, indirect, r, lo, hi, column):
         c += 1
 
 
+#: rows from which the dense kernels below (chol_pivoted, its solve, _gram, scaled_rows) run their
+#: loops along contiguous memory, which the compiler turns into vector instructions (A02 N = 40's
+#: 80 rows, benchmarks/bench_a02_scale.md). Each entry sees the same operations in the same order
+#: on both sides of it: the same bits; below it the loops stay as they were, which is faster on a
+#: few rows (no transposed copies, no allocation)
+WIDE = 32
+
+
 @njit(cache=True)
 def chol_pivoted(G, piv, L, d, gate):
     """P^T G P = L L^T with diagonal pivoting (L lower in L, piv the order, d work), stopping
     at the first pivot below ``gate`` times the first: returns the ratio of the smallest pivot to
     the first (pivots of G, the squares of qr_pivoted's |R_jj|), or 0.0 when it stopped (the
-    caller then takes the QR). G is read, not written."""
-    m = G.shape[0]
-    for i in range(m):
+    caller then takes the QR). G is read, not written. From WIDE rows L's strict upper triangle
+    holds L^T as well (_chol_pivoted_wide; chol_solve_pivoted reads it); below, it is not written."""
+    if G.shape[0] >= WIDE:
+        return _chol_pivoted_wide(G, piv, L, d, gate)
+    return _chol_pivoted_rows(G, piv, L, d, gate)
+
+
+@njit(cache=True, inline="always")
+def _pivots_start(G, piv, d):
+    """piv = 0, 1, ..., d = diag(G); returns G's size."""
+    for i in range(G.shape[0]):
         piv[i] = i
         d[i] = G[i, i]
+    return G.shape[0]
+
+
+@njit(cache=True, inline="always")
+def _next_pivot(piv, d, j, gate, first):
+    """Pivot step j of chol_pivoted: the largest remaining d[i] (i >= j, the first of equal
+    ones) moved to position j of piv and d. Returns (where it came from, or -1 when it is not
+    above ``gate`` times the first pivot; the first pivot, set at j = 0)."""
+    p = j
+    for i in range(j + 1, d.shape[0]):
+        if d[i] > d[p]:
+            p = i
+    if p != j:
+        piv[j], piv[p] = piv[p], piv[j]
+        d[j], d[p] = d[p], d[j]
+    if j == 0:
+        first = d[0]
+    return (p if d[j] > gate * first else -1), first
+
+
+@njit(cache=True, inline="always")
+def _chol_pivoted_rows(G, piv, L, d, gate):
+    """chol_pivoted below WIDE rows: L[i, j] as a sum along rows i and j of L."""
+    m = _pivots_start(G, piv, d)
     first, low = 0.0, np.inf
     for j in range(m):
-        p = j
-        for i in range(j + 1, m):
-            if d[i] > d[p]:
-                p = i
-        if p != j:
-            piv[j], piv[p] = piv[p], piv[j]
-            d[j], d[p] = d[p], d[j]
-            for k in range(j):
-                L[j, k], L[p, k] = L[p, k], L[j, k]
-        dj = d[j]
-        if j == 0:
-            first = dj
-        if not dj > gate * first:
+        p, first = _next_pivot(piv, d, j, gate, first)
+        if p < 0:
             return 0.0
+        for k in range(j if p != j else 0):     # rows j and p of L
+            L[j, k], L[p, k] = L[p, k], L[j, k]
+        dj = d[j]
         low = min(low, dj)
         ljj = np.sqrt(dj)
         L[j, j] = ljj
@@ -1013,14 +1204,106 @@ def chol_pivoted(G, piv, L, d, gate):
 
 @njit(cache=True)
 def chol_solve_pivoted(L, piv, r, y, x):
-    """x = G^-1 r from chol_pivoted's factor (y: work of len m; x may be r)."""
+    """x = G^-1 r from chol_pivoted's factor (y: work of len m; x may be r). From WIDE rows
+    both solves read L^T from the factor's upper triangle (contiguous rows), in the same order:
+    the same bits."""
     m = L.shape[0]
     for i in range(m):
         y[i] = r[piv[i]]
-    lower_solve(L, m, y)
-    lower_t_solve(L, m, y)
+    if m >= WIDE:
+        mirrored_lower_solve(L, y)
+        for i in range(m - 1, -1, -1):     # lower_t_solve with L[k, i] read as L[i, k]
+            s = y[i]
+            for k in range(i + 1, m):
+                s -= L[i, k] * y[k]
+            y[i] = s / L[i, i]
+    else:
+        lower_solve(L, m, y)
+        lower_t_solve(L, m, y)
     for i in range(m):
         x[piv[i]] = y[i]
+
+
+@njit(cache=True, inline="always")
+def mirrored_lower_solve(L, y):
+    """y <- L^-1 y as lower_solve (the same products subtracted from each y[i] in the same
+    order, k ascending), column by column: after y[k] is final, y[k+1:] -= L[k+1:, k] y[k] with
+    that column read from the upper triangle (row k, contiguous; _chol_pivoted_wide's mirror)."""
+    m = y.shape[0]
+    k = 0
+    while k + 4 <= m:      # four columns per pass: y[k..k+3] first, then the rest in one _axpy4
+        y0 = y[k] / L[k, k]
+        y[k + 1] -= L[k, k + 1] * y0
+        y1 = y[k + 1] / L[k + 1, k + 1]
+        y[k + 2] = (y[k + 2] - L[k, k + 2] * y0) - L[k + 1, k + 2] * y1
+        y2 = y[k + 2] / L[k + 2, k + 2]
+        y[k + 3] = ((y[k + 3] - L[k, k + 3] * y0) - L[k + 1, k + 3] * y1) - L[k + 2, k + 3] * y2
+        y3 = y[k + 3] / L[k + 3, k + 3]
+        y[k], y[k + 1], y[k + 2], y[k + 3] = y0, y1, y2, y3
+        _axpy4(y[k + 4:], L[k, k + 4:], L[k + 1, k + 4:], L[k + 2, k + 4:], L[k + 3, k + 4:], y0, y1, y2, y3)
+        k += 4
+    while k < m:
+        yk = y[k] / L[k, k]
+        y[k] = yk
+        _axpy(y[k + 1:], L[k, k + 1:], yk)
+        k += 1
+
+
+@njit(cache=True, inline="always")
+def _axpy(y, x, a):
+    """y -= x a (views from index 0: the loop the compiler vectorizes; a range starting
+    elsewhere keeps numba's negative-index test, which it does not)."""
+    for i in range(y.shape[0]):
+        y[i] -= x[i] * a
+
+
+@njit(cache=True)
+def _chol_pivoted_wide(G, piv, L, d, gate):
+    """chol_pivoted from WIDE rows, the same bits: column j of L in pivot order is built in
+    row j of the upper triangle (U = L^T, U[k, i] = L[i, k]) as
+        U[j, i] = (G[piv[i], piv[j]] - sum_k U[k, i] U[k, j]) / U[j, j],   k = 0, 1, ..., j - 1
+    in that order, as chol_pivoted sums L[i, k] L[j, k], but as axpys along U's rows, four k at
+    a time (contiguous: vector instructions, 0.77-0.90x the row-wise sums' time at 80 rows). A pivot
+    swap exchanges columns j and p of U's first j rows. The lower triangle is copied from U at
+    the end. w: row j's sums (not L's own row, so the compiler needs no aliasing test)."""
+    m = _pivots_start(G, piv, d)
+    w = np.empty(m)
+    first, low = 0.0, np.inf
+    for j in range(m):
+        p, first = _next_pivot(piv, d, j, gate, first)
+        if p < 0:
+            return 0.0
+        for k in range(j if p != j else 0):     # columns j and p of U's first j rows
+            L[k, j], L[k, p] = L[k, p], L[k, j]
+        low = min(low, d[j])
+        ljj = L[j, j] = np.sqrt(d[j])
+        for i in range(j + 1, m):               # G's column piv[j] in pivot order
+            w[i] = G[piv[i], piv[j]]
+        wj = w[j + 1:]
+        k = 0
+        while k + 4 <= j:
+            _axpy4(wj, L[k, j + 1:], L[k + 1, j + 1:], L[k + 2, j + 1:], L[k + 3, j + 1:],
+                   L[k, j], L[k + 1, j], L[k + 2, j], L[k + 3, j])
+            k += 4
+        while k < j:
+            _axpy(wj, L[k, j + 1:], L[k, j])
+            k += 1
+        uj, dv = L[j, j + 1:], d[j + 1:]
+        for i in range(m - j - 1):
+            s = wj[i] / ljj
+            uj[i] = s
+            dv[i] -= s * s
+    for j in range(m):
+        for i in range(j + 1, m):
+            L[i, j] = L[j, i]
+    return low / first
+
+
+@njit(cache=True, inline="always")
+def _axpy4(y, a, b, c, e, ca, cb, cc, ce):
+    """y <- (((y - a ca) - b cb) - c cc) - e ce: four axpys in that order, one pass."""
+    for i in range(y.shape[0]):
+        y[i] = (((y[i] - a[i] * ca) - b[i] * cb) - c[i] * cc) - e[i] * ce
 
 
 @njit(cache=True, inline="always")

@@ -70,9 +70,10 @@ import numpy as np
 
 from .. import kinematics
 from .._jit import njit
-from .._kernels import (Solve, chol_pivoted, chol_solve_pivoted, constraint_rows_positions, constraint_rows_velocities,
-                        lagrange_accel, lower_solve, ltl_factor, ltl_solve, ltl_solve_t, min_norm_solve, min_norm_x,
-                        project_out, qr_pivoted, schur_complement)
+from .._kernels import (WIDE, Solve, _axpy4, chol_pivoted, chol_solve_pivoted, constraint_rows_positions,
+                        constraint_rows_velocities, lagrange_accel, lower_solve, ltl_factor, ltl_solve, ltl_solve_t,
+                        min_norm_solve, min_norm_x, mirrored_lower_solve, project_out, qr_pivoted, schur_complement,
+                        support_runs_add)
 from ..errors import InputError
 from ..stepping.call import ERROR, OK, RANK
 from ..stepping.stage import T, bind
@@ -330,8 +331,12 @@ def same_state(W, q):
 @njit(cache=True)
 def _bt_times(Y, R, w, x):
     """x = B^T w (B = Y, the rows' supports in R: zero outside them, the same bits as the dense
-    sum)."""
+    sum). From WIDE rows along the supports' runs of columns (support_runs_add, the same bits)."""
     x[:] = 0.0
+    if Y.shape[0] >= WIDE:
+        for j in range(Y.shape[0]):
+            support_runs_add(x, Y[j], R.cols[j], R.ncols[j], w[j])
+        return
     for j in range(Y.shape[0]):
         wj = w[j]
         for kk in range(R.ncols[j]):
@@ -627,12 +632,28 @@ def _chol_solve_rows(L, piv, r, y, x):
     m = L.shape[0]
     for i in range(m):
         y[i] = r[piv[i]]
-    lower_solve(L, m, y)
-    for i in range(m - 1, -1, -1):
+    i = m - 1
+    if m >= WIDE:
+        mirrored_lower_solve(L, y)       # the same bits along the factor's mirror (chol_pivoted)
+        while i >= 3:                    # four rows per pass, the same order (i descending)
+            y0 = y[i] / L[i, i]
+            y[i - 1] -= L[i, i - 1] * y0
+            y1 = y[i - 1] / L[i - 1, i - 1]
+            y[i - 2] = (y[i - 2] - L[i, i - 2] * y0) - L[i - 1, i - 2] * y1
+            y2 = y[i - 2] / L[i - 2, i - 2]
+            y[i - 3] = ((y[i - 3] - L[i, i - 3] * y0) - L[i - 1, i - 3] * y1) - L[i - 2, i - 3] * y2
+            y3 = y[i - 3] / L[i - 3, i - 3]
+            y[i], y[i - 1], y[i - 2], y[i - 3] = y0, y1, y2, y3
+            _axpy4(y[:i - 3], L[i, :i - 3], L[i - 1, :i - 3], L[i - 2, :i - 3], L[i - 3, :i - 3], y0, y1, y2, y3)
+            i -= 4
+    else:
+        lower_solve(L, m, y)
+    while i >= 0:
         yi = y[i] / L[i, i]
         y[i] = yi
         for k in range(i):
             y[k] -= L[i, k] * yi
+        i -= 1
     for i in range(m):
         x[piv[i]] = y[i]
 

@@ -25,9 +25,9 @@ import pinocchio as pin
 
 from .. import native
 from .._jit import njit
-from .._kernels import (chol_pivoted, chol_solve_pivoted, constraint_rows_all, gram_rows, joint_placements_jacobians,
-                        ltl_factor, ltl_solve, min_norm_x, project_out, proximal_filter, qr_pivoted, relative_rho,
-                        scaled_rows, schur_complement)
+from .._kernels import (WIDE, chol_pivoted, chol_solve_pivoted, constraint_rows_all, gram_rows,
+                        joint_placements_jacobians, ltl_factor, ltl_solve, min_norm_x, project_out, proximal_filter,
+                        qr_pivoted, relative_rho, scaled_rows, schur_complement, support_runs_add)
 from ..errors import InputError
 from ..stepping.call import ERROR, NONFINITE, OK, RANK, call_passes, call_stage
 from ..stepping.stage import T, bind, python_stage
@@ -241,8 +241,14 @@ def min_norm_step_gram(Jc, phi, rows, cols, ncols, G, Lg, pg, dg, yg, Qr, piv, h
 @njit(cache=True, inline="always")
 def minus_jt_times(Jc, rows, cols, ncols, w, dq):
     """dq = -J[rows]^T w (each entry summed over the rows in order from zero), row by row over
-    each row's support (the products skipped are exact zeros: the same bits as the dense sum)."""
+    each row's support (the products skipped are exact zeros: the same bits as the dense sum);
+    from WIDE rows along the supports' runs of columns (support_runs_add, the same bits)."""
     dq[:] = 0.0
+    if rows.shape[0] >= WIDE:
+        for i in range(rows.shape[0]):
+            ri = rows[i]
+            support_runs_add(dq, Jc[ri], cols[ri], ncols[ri], -w[i])
+        return
     for i in range(rows.shape[0]):
         ri, wi = rows[i], w[i]
         for kk in range(ncols[ri]):
