@@ -174,9 +174,12 @@ def mechanism_lyapunov(mech, t_end, renorm=0.05, d0=1e-7, transient=0.0, q0=None
     def separation(a, b):
         return float(np.sqrt(np.sum(pin.difference(model, a[0], b[0]) ** 2) + np.sum((b[1] - a[1]) ** 2)))
 
+    # one workspace for every renormalisation's assembly (each evaluates at its own q and t)
+    ws = mech.workspace() if keep_alive else None
+
     def place(ref, dq, dv, t):
-        q = assemble(mech, pin.integrate(model, ref[0], dq), t=t)
-        return q, consistent_velocity(mech, q, ref[1] + dv, t=t), ref[2].copy()
+        q = assemble(mech, pin.integrate(model, ref[0], dq), t=t, ws=ws)
+        return q, consistent_velocity(mech, q, ref[1] + dv, t=t, ws=ws), ref[2].copy()
 
     def renormalise(a, b, f, t):
         return place(a, f * pin.difference(model, a[0], b[0]), f * (b[1] - a[1]), t)
