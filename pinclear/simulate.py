@@ -265,8 +265,10 @@ def _record(traj, res):
 
 #: formulations whose evaluation depends on the state and the kept constraint rows alone (no warm
 #: start carried between evaluations, no option fitted to the start state): :class:`Restarts`
-#: keeps their workspace and compiled evaluation from one run to the next
-#: (tests/test_lyapunov.py compares its runs with simulate()'s bit for bit)
+#: keeps their workspace and compiled evaluation from one run to the next (tests/test_lyapunov.py
+#: compares its runs with simulate()'s bit for bit). Not the manifold method: its projection
+#: warm-starts from the last evaluation's (the ManifoldWork cache); not proximal: fit_start sets
+#: its iteration count from each start
 KEEPS_ALIVE = frozenset({"lagrange"})
 
 

@@ -109,3 +109,44 @@ def test_kept_alive_chunks_give_the_per_chunk_simulate_exponents_bit_for_bit(sce
     # the per-chunk path builds an evaluation for every chunk of both trajectories (and the
     # start's run); the kept one builds it once beside that start run
     assert n_old == 2 * 4 * periods + 1 and n_new == 2
+
+
+@pytest.mark.parametrize("method", ["lagrange", "manifold"])
+def test_restarts_runs_equal_resumed_simulate_runs_when_the_rows_change(method):
+    """pinclear.simulate.Restarts against simulate(..., resume=Checkpoint(h_next=None)) on
+    Bricard's linkage, whose independent constraint rows by the rank analysis differ between its
+    start (4 of 5) and t = 0.02 s (all 5; lagrange's solve then finds the rank loss the overclosed
+    linkage has, and both paths fail with the same message): the kept pieces are renewed when a
+    start's rows are not theirs and kept when they are, and every run keeps the same samples bit
+    for bit. manifold (not in KEEPS_ALIVE: it warm-starts its projection) runs through simulate() itself."""
+    import warnings
+
+    from pinclear.simulate import KEEPS_ALIVE, Restarts
+    from pinclear.trajectory import Checkpoint
+
+    mech = pinclear.load("a04_bricard")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        ref = pinclear.simulate(mech, 0.05, rtol=1e-8, t_eval=np.linspace(0.0, 0.05, 11))
+    starts = [0, 4, 6, 0]                    # t = 0 (4 rows), 0.02 and 0.03 s (5 rows), 0 again
+    r = Restarts(mech, method=method, rtol=1e-8)
+    rows, renewed, status = [], [], []
+    for k in starts:
+        t, q, v, z = float(ref.t[k]), ref.q[k], ref.v[k], ref.z[k]
+        ck = Checkpoint(t0=t, q=q, v=v, z=z, t=t, q_now=q, v_now=v, z_now=z, h_next=None)
+        old = pinclear.simulate(mech, t + 0.01, t0=t, t_eval=[t, t + 0.01], resume=ck, method=method, rtol=1e-8)
+        before = r.pieces["form"] if r.keep else None
+        new = r.run(t, q, v, z, t + 0.01)
+        assert new.status == old.status and new.message == old.message
+        status.append(new.status)
+        assert np.array_equal(new.t, old.t)
+        for a in ("q", "v", "z"):
+            assert np.array_equal(getattr(new, a), getattr(old, a))
+        if r.keep:
+            rows.append(len(r.pieces["rows"]))
+            renewed.append(r.pieces["form"] is not before)
+    if method in KEEPS_ALIVE:
+        assert rows == [4, 5, 5, 4] and renewed == [False, True, False, True]
+        assert status == ["success", "failed", "failed", "success"]
+    else:
+        assert not r.keep and status == ["success"] * 4
