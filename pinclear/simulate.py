@@ -266,9 +266,9 @@ def _record(traj, res):
 #: formulations whose evaluation depends on the state and the kept constraint rows alone (no warm
 #: start carried between evaluations, no option fitted to the start state): :class:`Restarts`
 #: keeps their workspace and compiled evaluation from one run to the next (tests/test_lyapunov.py
-#: compares its runs with simulate()'s bit for bit). Not the manifold method: its projection
-#: warm-starts from the last evaluation's (the ManifoldWork cache); not proximal: fit_start sets
-#: its iteration count from each start
+#: compares its runs with simulate()'s bit for bit). Not proximal (fit_start raises its iteration
+#: count from each start, and a kept form keeps the raised count) nor, until a test compares them,
+#: the manifold method (its projection reuses the last evaluation's factors: ManifoldWork)
 KEEPS_ALIVE = frozenset({"lagrange"})
 
 

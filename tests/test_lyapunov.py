@@ -118,7 +118,7 @@ def test_restarts_runs_equal_resumed_simulate_runs_when_the_rows_change(method):
     start (4 of 5) and t = 0.02 s (all 5; lagrange's solve then finds the rank loss the overclosed
     linkage has, and both paths fail with the same message): the kept pieces are renewed when a
     start's rows are not theirs and kept when they are, and every run keeps the same samples bit
-    for bit. manifold (not in KEEPS_ALIVE: it warm-starts its projection) runs through simulate() itself."""
+    for bit. manifold (not in KEEPS_ALIVE) runs through simulate() itself."""
     import warnings
 
     from pinclear.simulate import KEEPS_ALIVE, Restarts
