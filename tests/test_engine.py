@@ -155,6 +155,28 @@ def test_progress_reports_every_accepted_step_in_order():
     assert len(ts) == tr.stats["steps"] and np.all(np.diff(ts) > 0) and ts[-1] == 2.0
 
 
+@pytest.mark.parametrize("name, clearances, t_end, rtol", [("four_bar", [], 5.0, 1e-10),
+                                                     ("slider_crank_clearance", ["P"], 0.2, 1e-6)])
+def test_longer_chunks_take_the_same_steps(monkeypatch, name, clearances, t_end, rtol):
+    """Without a progress callback the compiled chunks grow (run.next_chunk); with one they stay
+    at CHUNK steps. The steps, evaluations, events and every sample must be the same bits: the
+    step state lives in the compiled Steps, which a chunk boundary does not touch."""
+    from pinclear.stepping import run as R
+    calls = []
+    advance = R.C.advance
+    monkeypatch.setattr(R.C, "advance", lambda *a: calls.append(a[-1]) or advance(*a))
+    mech = pinclear.load(name, clearances=clearances)
+    grown = pinclear.simulate(mech, t_end, rtol=rtol)
+    n_grown, sizes = len(calls), set(calls)
+    calls.clear()
+    fixed = pinclear.simulate(mech, t_end, rtol=rtol, progress=lambda t: False)
+    assert set(calls) == {CHUNK} and max(sizes) > CHUNK and n_grown < len(calls)
+    assert grown.stats["steps"] == fixed.stats["steps"] > 2 * CHUNK
+    assert grown.stats["rhs_evals"] == fixed.stats["rhs_evals"] and grown.stats["events"] == fixed.stats["events"]
+    for a, b in ((grown.t, fixed.t), (grown.q, fixed.q), (grown.v, fixed.v)):
+        assert np.array_equal(a, b)
+
+
 def test_a_progress_stop_request_interrupts_the_run():
     mech = pinclear.load("four_bar")
     tr = _quiet(pinclear.simulate, mech, 50.0, rtol=1e-9, progress=lambda t: t > 1.0)

@@ -1,10 +1,13 @@
 """The compiled passes pinclear._passes (pinclear/_cxx/passes.cpp, built by setup.py at install
 time) against Pinocchio's Python bindings.
 
-Both sides run the same library functions (libpinocchio_default) in the same order on a Data of
-the same Model at the same (q, v), so every output must be bit-identical: a wrong model/data
-address, a q/v length mix-up (nq != nv for spherical and free joints), another crba convention or
-a flags bit read the wrong way shows as an exact mismatch."""
+The bindings run the library functions (libpinocchio_default) one after the other; the
+extension runs their joint steps fused into one forward sweep, each expression computed once
+(passes.cpp). The same operations on the same numbers: every output must be bit-identical, over
+joint kinds (revolute about an axis and an unaligned one, prismatic, free-flyer and spherical
+with nq != nv, a mimic joint) and with armature. A wrong model/data address, a q/v length
+mix-up, another crba convention, a flags bit read the wrong way, or a fused step that differs
+from the library's by one operation shows as an exact mismatch."""
 from __future__ import annotations
 
 import ctypes
@@ -36,11 +39,19 @@ def passes():
 
 def _model(name):
     # pinclear's mechanisms all have nq == nv; Pinocchio's sample humanoid has a free-flyer
-    # (quaternion: nq = nv + 1), so a q read with nv entries or a v with nq would differ
-    return pin.buildSampleModelHumanoid() if name == "humanoid" else pinclear.load(name).model
+    # (quaternion: nq = nv + 1), so a q read with nv entries or a v with nq would differ; with
+    # armature, which crba adds to M's diagonal. four_ups_upu: unaligned revolute and prismatic
+    # joints; mimic: the sample manipulator's joint 4 mimics joint 2 (crba's mimic step)
+    if name == "humanoid":
+        model = pin.buildSampleModelHumanoid()
+        model.armature[:] = np.linspace(0.1, 1.0, model.nv)
+        return model
+    if name == "mimic":
+        return pin.transformJointIntoMimic(pin.buildSampleModelManipulator(), 2, 4, 1.5, 0.3)
+    return pinclear.load(name).model
 
 
-@pytest.mark.parametrize("name", ["four_bar", "humanoid"])
+@pytest.mark.parametrize("name", ["four_bar", "humanoid", "four_ups_upu", "nine_bar", "mimic"])
 @pytest.mark.parametrize("flags", [FRAMES | MASS, FRAMES, MASS, 0, POSITIONS, POSITIONS | MASS, POSITIONS | FRAMES,
                                    MASS_ONLY])
 def test_passes_equal_python_bindings(passes, name, flags):
@@ -53,7 +64,7 @@ def test_passes_equal_python_bindings(passes, name, flags):
     mass = flags & (MASS | MASS_ONLY)
     rng = np.random.default_rng(7)
     sentinel_M = np.full((model.nv, model.nv), 0.25)
-    for _ in range(3):
+    for _ in range(10):
         q = np.ascontiguousarray(pin.integrate(model, pin.neutral(model), rng.standard_normal(model.nv)))
         v = np.ascontiguousarray(rng.standard_normal(model.nv))
         # a pass that is skipped must leave its outputs as they were. The C++ crba writes only
@@ -66,6 +77,8 @@ def test_passes_equal_python_bindings(passes, name, flags):
         assert np.array_equal(out.nle, ref.nle)
         assert np.array_equal(out.J, ref.J)
         assert np.array_equal(out.dJ, ref.dJ)
+        if not flags & (POSITIONS | MASS_ONLY):
+            assert np.array_equal(np.array([m.vector for m in out.v]), np.array([m.vector for m in ref.v]))
         assert np.array_equal(np.array([m.homogeneous for m in out.oMi]),
                               np.array([m.homogeneous for m in ref.oMi]))
         if mass:

@@ -30,6 +30,11 @@ from .state import (ATOL, BAD, CHART, CODE_BAD, DIRS, EVENT_K, H_ABS, H_FIXED, H
 #: accepted steps per compiled call; between calls Python looks at progress, checkpoints and
 #: the CPU budget (a chunk of a clearance run takes well under a millisecond)
 CHUNK = 128
+#: without a progress callback a chunk doubles, up to CHUNK_MAX steps, while one takes less than
+#: CHUNK_CPU seconds: each return to Python costs ~0.1 ms (1-2 % of a clearance run's integration
+#: at 128 steps a chunk, benchmarks/bench_reproduce_runs.md); the budget, checkpoints and an
+#: interrupt still come every CHUNK_CPU or so. The steps do not depend on the chunks.
+CHUNK_MAX, CHUNK_CPU = 4096, 0.05
 #: the stall test's window of accepted steps (pinclear.simulate documents the test)
 STALL_STEPS = 1000
 NONFINITE_MESSAGE = ("non-finite accelerations (check parameters, stiffness, and that the mass matrix is "
@@ -176,11 +181,12 @@ class Run:
                 st.i[OUT_I] += 1
         self.collect()
         self.mark_good()
-        self.last_ckpt = run_clock()
+        self.last_ckpt = clock = run_clock()
         code = C.QUIET if st.r[T] < st.r[T_BOUND] else C.FINISHED
+        chunk = CHUNK
         while code != C.FINISHED:
             n_acc, steps = st.i[N_ACC], st.i[STEPS]
-            code = C.advance(self.system, self.tab, st, CHUNK)
+            code = C.advance(self.system, self.tab, st, chunk)
             self.stats["steps"] += int(st.i[STEPS] - steps)
             self.collect()
             times = st.ring[np.arange(n_acc, st.i[N_ACC]) % STALL_STEPS].tolist()
@@ -191,6 +197,7 @@ class Run:
                 # there lost the event and drifted)
                 code = self.handle_event()
             self.bookkeeping(times + ([float(st.r[T])] if code == C.STALLED else []))
+            chunk, clock = self.next_chunk(chunk, clock)
             if code == C.ASK_ROWS:
                 st.i[NO_RESELECT] = not self.form.reselect_rows(float(st.r[T_BAD]))
             elif code == C.RECHART:
@@ -199,6 +206,15 @@ class Run:
                 self.start(st.r[T], self.pack(q, v, z), st.r[H_ABS])
             elif code not in (C.QUIET, C.FINISHED):
                 self.fail(code)
+
+    def next_chunk(self, chunk, clock):
+        """(most steps of the next chunk, the clock now) after a chunk that started at ``clock``:
+        doubled up to CHUNK_MAX while a chunk takes under CHUNK_CPU, CHUNK with a progress
+        callback (which may ask the run to stop: it hears the answer after each chunk)."""
+        now = run_clock()
+        if self.progress is None and now - clock < CHUNK_CPU:
+            chunk = min(2 * chunk, CHUNK_MAX)
+        return chunk, now
 
     def integrate(self, t, x, hint, samples, first, reference=False, resumed_state=None) -> RunResult:
         """The whole run from (t, x) (``execute``'s arguments) as one RunResult: its status and
