@@ -66,6 +66,28 @@ def _check_inputs(t_end, t0, rtol, atol, integ, h, max_step, first_step, t_eval,
             bad("t_eval", f"t_eval has {len(te)} samples (at most {MAX_SAMPLES})")
 
 
+def _check_options(loop, outputs):
+    if loop not in ("auto", "python"):
+        raise InputError(f"loop must be 'auto' or 'python', got {loop!r}", key="loop", choices=("auto", "python"))
+    if outputs not in ("compiled", "python"):
+        raise InputError(f"outputs must be 'compiled' or 'python', got {outputs!r}", key="outputs",
+                         choices=("compiled", "python"))
+
+
+def _check_stall(min_mean_step):
+    if min_mean_step is not None and not (np.isfinite(min_mean_step) and min_mean_step >= 0):
+        raise InputError(f"min_mean_step must be a number of seconds >= 0 (0: no stall test), got {min_mean_step!r}",
+                         key="min_mean_step")
+
+
+def _check_pair(form, integ, method, integrator):
+    """A formulation that projects needs an integrator whose state may be corrected."""
+    if form.supports_projection and not integ.corrects_state:
+        fit = ", ".join(n for n, m in stepping.INTEGRATORS.items() if m.corrects_state)
+        raise InputError(f"method {method!r} corrects the state after each step, which {integrator}'s internal "
+                         f"history cannot absorb: use one of {fit}", key="integrator")
+
+
 def output_times(t0, t_end, dt_out=None):
     """Default output grid: every dt_out (default 500 intervals), ending exactly at t_end."""
     dt = dt_out or (t_end - t0) / 500
@@ -146,21 +168,12 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         start = "ideal" if q0 is None and v0 is None else "state"
     if start not in kinematics.STARTS:
         raise InputError(f"unknown start {start!r}", key="start", choices=kinematics.STARTS)
-    if loop not in ("auto", "python"):
-        raise InputError(f"loop must be 'auto' or 'python', got {loop!r}", key="loop", choices=("auto", "python"))
-    if outputs not in ("compiled", "python"):
-        raise InputError(f"outputs must be 'compiled' or 'python', got {outputs!r}", key="outputs",
-                         choices=("compiled", "python"))
+    _check_options(loop, outputs)
     atol = rtol * 1e-2 if atol is None and rtol is not None else atol
     _check_inputs(t_end, t0, rtol, atol, integ, h, max_step, first_step, t_eval, dt_out)
-    if min_mean_step is not None and not (np.isfinite(min_mean_step) and min_mean_step >= 0):
-        raise InputError(f"min_mean_step must be a number of seconds >= 0 (0: no stall test), got {min_mean_step!r}",
-                         key="min_mean_step")
+    _check_stall(min_mean_step)
     form = formulations.get(method)(mech, **method_options)
-    if form.supports_projection and not integ.corrects_state:
-        fit = ", ".join(n for n, m in stepping.INTEGRATORS.items() if m.corrects_state)
-        raise InputError(f"method {method!r} corrects the state after each step, which {integrator}'s internal "
-                         f"history cannot absorb: use one of {fit}", key="integrator")
+    _check_pair(form, integ, method, integrator)
     compile0, cpu0 = compile_cpu(), run_clock()
     if resume is not None:
         if not isinstance(resume, Checkpoint):
@@ -218,13 +231,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
                             resume.samples, False, reference=outputs == "python", resumed_state=resumed_state)
     else:
         res = run.integrate(t0, run.pack(q, v, z), first_step, [], True, reference=outputs == "python")
-    traj.status, traj.failure = res.status, res.failure
-    traj.message = res.failure.detail if res.failure else "reached t_end"
-    if res.outputs is None:
-        traj.fill_states(res.samples)
-        traj.message += " (outputs not evaluated)"
-    else:
-        traj.write_outputs(res.samples, res.outputs)
+    _record(traj, res)
     if traj.status == "success" and integ.adaptive:
         validate.check_residual(traj, mech, rtol, atol)
     elif traj.status == "success" and fixed_step_tol is not None and resume is None:
@@ -243,6 +250,124 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
         warnings.warn(f"pinclear.simulate: {traj.message} ({len(traj.t)} of {len(t_eval)} samples kept)",
                       RuntimeWarning, stacklevel=2)
     return traj
+
+
+def _record(traj, res):
+    """A Run's result (pinclear.stepping.run.RunResult) written into its Trajectory."""
+    traj.status, traj.failure = res.status, res.failure
+    traj.message = res.failure.detail if res.failure else "reached t_end"
+    if res.outputs is None:
+        traj.fill_states(res.samples)
+        traj.message += " (outputs not evaluated)"
+    else:
+        traj.write_outputs(res.samples, res.outputs)
+
+
+#: formulations whose evaluation depends on the state and the kept constraint rows alone (no warm
+#: start carried between evaluations, no option fitted to the start state): :class:`Restarts`
+#: keeps their workspace and compiled evaluation from one run to the next (tests/test_lyapunov.py
+#: compares its runs with simulate()'s bit for bit). Not proximal (fit_start raises its iteration
+#: count from each start, and a kept form keeps the raised count) nor, until a test compares them,
+#: the manifold method (its projection reuses the last evaluation's factors: ManifoldWork)
+KEEPS_ALIVE = frozenset({"lagrange"})
+
+
+class Restarts:
+    """Many short runs of one mechanism, each restarted from a given state: ``run(t, q, v, z,
+    t_end)`` returns the Trajectory sampled at [t, t_end] that ``simulate(mech, t_end, t0=t,
+    t_eval=[t, t_end], resume=Checkpoint(t0=t, q=q, v=v, z=z, t=t, q_now=q, v_now=v, z_now=z,
+    h_next=None), **options)`` returns, bit for bit (the same first-step choice, steps and
+    samples), without that call's set-up on every run (the Benettin loop's renormalisation
+    chunks, pinclear.analysis.lyapunov). For a method in KEEPS_ALIVE the options are checked
+    once and the formulation, its compiled evaluation and the output pass are built once and
+    kept while each start's independent constraint rows (found again at every start, as
+    simulate() does) are those they were built for; any other method runs each start through
+    simulate(). The states are the caller's own run's, so they are not checked as a checkpoint
+    file's are (no identity digest); the statistics are each run's own."""
+
+    #: the options of simulate() a Restarts run takes (the rest are the method's options)
+    OPTIONS = ("method", "integrator", "rtol", "atol", "max_step", "h", "loop", "outputs", "min_mean_step", "max_cpu")
+
+    @classmethod
+    def unserved(cls, options) -> list:
+        """The simulate() options among ``options`` that a Restarts run does not take (a
+        progress callback, checkpoints, strict...): such runs go through simulate()."""
+        import inspect
+
+        named = inspect.signature(simulate).parameters
+        return sorted(k for k in options if k in named and k not in cls.OPTIONS)
+
+    def __init__(self, mech, method="lagrange", integrator="RK45", rtol=RTOL_DEFAULT, atol=None, max_step=np.inf,
+                 h=None, loop="auto", outputs="compiled", min_mean_step=None, max_cpu=None, **method_options):
+        if self.unserved(method_options):
+            raise InputError(f"Restarts: {', '.join(self.unserved(method_options))} not taken (simulate()'s only)",
+                             choices=self.OPTIONS)
+        self.mech, self.method_options = mech, method_options
+        self.options = dict(method=method, integrator=integrator, rtol=rtol, atol=atol, max_step=max_step, h=h,
+                            loop=loop, outputs=outputs, min_mean_step=min_mean_step, max_cpu=max_cpu)
+        self.keep = method in KEEPS_ALIVE
+        if self.keep:                # simulate()'s checks of what does not change from run to run
+            self.integ = stepping.get(integrator)
+            _check_options(loop, outputs)
+            _check_stall(min_mean_step)
+            self.atol = rtol * 1e-2 if atol is None and rtol is not None else atol
+            self.pieces = self._fresh()
+
+    def _fresh(self):
+        """New kept pieces: {"rows": the independent rows they serve (None: not chosen yet),
+        "form", "rhs": the Evaluation, "record": the output pass (both made by the first run)}."""
+        o = self.options
+        form = formulations.get(o["method"])(self.mech, **self.method_options)
+        _check_pair(form, self.integ, o["method"], o["integrator"])
+        return {"rows": None, "form": form, "rhs": None, "record": None}
+
+    def _start(self, t, q):
+        """The kept pieces, the formulation set for a run from (t, q) as simulate() sets a new
+        one: its independent rows at q, then its fit; new pieces when the rows are not theirs."""
+        mech = self.mech
+        for _ in range(2):
+            p = self.pieces
+            J = kinematics.jacobian(mech, p["form"].ws, q, t, with_drives=True)
+            _, indep, _ = kinematics.rank_analysis(J, mech.row_names())
+            key = tuple(int(r) for r in indep)
+            if p["rows"] in (None, key):
+                break
+            self.pieces = self._fresh()
+        p["rows"] = key
+        form = p["form"]
+        form.use_rows(indep)
+        form.fit_start(t, q, J, indep, self.options["rtol"])
+        form.row_changes.clear()      # this run's (stats)
+        form.errors.clear()
+        return p
+
+    def run(self, t, q, v, z, t_end) -> Trajectory:
+        """The run from (t, q, v, z) to t_end, sampled at t and t_end (see the class doc)."""
+        o, mech = self.options, self.mech
+        if not self.keep:
+            ck = Checkpoint(t0=t, q=q, v=v, z=z, t=t, q_now=q, v_now=v, z_now=z, h_next=None)
+            return simulate(mech, t_end, t0=t, t_eval=[t, t_end], resume=ck, **o, **self.method_options)
+        integ, rtol, atol = self.integ, o["rtol"], self.atol
+        t_eval = np.array([t, t_end], float)
+        _check_inputs(t_end, t, rtol, atol, integ, o["h"], o["max_step"], None, t_eval, None)
+        cpu0 = run_clock()
+        p = self._start(t, q)
+        form, rhs = p["form"], p["rhs"]
+        traj = Trajectory.empty(mech, form, o["integrator"], rtol, atol, t_eval)
+        mms = o["min_mean_step"]
+        h_stall = min(STALL_FRACTION * (t_end - t), STALL_MAX) if mms is None else float(mms)
+        if rhs is not None:
+            rhs.system.count[0] = 0                      # this run's evaluations (stats)
+        run = Run(form, integ, t_end=t_end, t_eval=t_eval, rtol=rtol, atol=atol, h=o["h"], max_step=o["max_step"],
+                  h_stall=h_stall if integ.adaptive else 0.0, loop=o["loop"], stats=traj.stats, identity=None,
+                  max_cpu=o["max_cpu"], t0=t, initial=(q, v, z), cpu0=cpu0, rhs=rhs)
+        run.record = p["record"]
+        res = run.integrate(t, run.pack(q, v, z), None, [], False, reference=o["outputs"] == "python")
+        p["rhs"], p["record"] = run.rhs, run.record
+        _record(traj, res)
+        if traj.status == "success" and integ.adaptive:
+            validate.check_residual(traj, mech, rtol, atol)
+        return traj
 
 
 def _check_fixed_step(traj, mech, t_end, kw, h, tol):

@@ -75,3 +75,78 @@ def test_a_loop_that_stops_keeps_the_exponents_of_the_ends_it_passed():
                  np.ones(2), np.ones(2) * (1 + 1e-8), 0.0, 4.0, 0.5, float(np.sqrt(2)) * 1e-8, 0.5, ends=(1.5, 3.0))
     assert exc.value.partial.ends[1.5] == pytest.approx(0.4, rel=1e-6) and 3.0 not in exc.value.partial.ends
     assert isinstance(exc.value.cause, IntegrationError)
+
+
+@pytest.mark.parametrize("scene", ["four_ups_upu", "slider_crank_clearance"])
+def test_kept_alive_chunks_give_the_per_chunk_simulate_exponents_bit_for_bit(scene, monkeypatch):
+    """mechanism_lyapunov's chunks as pinclear.simulate.Restarts runs (formulation and compiled
+    evaluation kept) against one simulate(..., resume=Checkpoint) call per chunk: the same first
+    steps, steps and end states, so every running estimate is equal bit for bit. 4UPS-UPU + S2
+    (paper 000: a spherical clearance with 3 internal states, redundant closure rows dropped,
+    mu 0.01, impacts) over 2 periods of 2 s; Flores' slider-crank with its pin clearance P (a
+    drive with its work meter state) over 3 crank turns. A wrong first step, a stale row choice
+    or a leftover internal state moves the exponents at the first chunk."""
+    import pinclear.stepping.run as R
+
+    if scene == "four_ups_upu":
+        mech = pinclear.load(scene, clearances=["S2"], overrides={"S2.mu": 0.01})
+        T, periods, rtol = 2.0, 2, 1e-6
+    else:
+        mech = pinclear.load(scene, clearances=["P"])
+        T, periods, rtol = 2 * np.pi / 523.5987755982989, 3, 1e-7
+    assert mech.nz > 0 and mech.m > 0 and mech.clearances
+    kw = dict(renorm=T / 4, transient=T, rtol=rtol)
+    built = []
+    make = R.Evaluation
+    monkeypatch.setattr(R, "Evaluation", lambda *a, **k: built.append(1) or make(*a, **k))
+    old = mechanism_lyapunov(mech, periods * T, keep_alive=False, **kw)
+    n_old = len(built)
+    new = mechanism_lyapunov(mech, periods * T, **kw)
+    n_new = len(built) - n_old
+    assert old.renormalisations == new.renormalisations == 4 * (periods - 1)
+    assert np.array_equal(old.t, new.t) and np.array_equal(old.running, new.running)
+    assert old.exponent == new.exponent and np.isfinite(new.exponent)
+    # the per-chunk path builds an evaluation for every chunk of both trajectories (and the
+    # start's run); the kept one builds it once beside that start run
+    assert n_old == 2 * 4 * periods + 1 and n_new == 2
+
+
+@pytest.mark.parametrize("method", ["lagrange", "manifold"])
+def test_restarts_runs_equal_resumed_simulate_runs_when_the_rows_change(method):
+    """pinclear.simulate.Restarts against simulate(..., resume=Checkpoint(h_next=None)) on
+    Bricard's linkage, whose independent constraint rows by the rank analysis differ between its
+    start (4 of 5) and t = 0.02 s (all 5; lagrange's solve then finds the rank loss the overclosed
+    linkage has, and both paths fail with the same message): the kept pieces are renewed when a
+    start's rows are not theirs and kept when they are, and every run keeps the same samples bit
+    for bit. manifold (not in KEEPS_ALIVE) runs through simulate() itself."""
+    import warnings
+
+    from pinclear.simulate import KEEPS_ALIVE, Restarts
+    from pinclear.trajectory import Checkpoint
+
+    mech = pinclear.load("a04_bricard")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        ref = pinclear.simulate(mech, 0.05, rtol=1e-8, t_eval=np.linspace(0.0, 0.05, 11))
+    starts = [0, 4, 6, 0]                    # t = 0 (4 rows), 0.02 and 0.03 s (5 rows), 0 again
+    r = Restarts(mech, method=method, rtol=1e-8)
+    rows, renewed, status = [], [], []
+    for k in starts:
+        t, q, v, z = float(ref.t[k]), ref.q[k], ref.v[k], ref.z[k]
+        ck = Checkpoint(t0=t, q=q, v=v, z=z, t=t, q_now=q, v_now=v, z_now=z, h_next=None)
+        old = pinclear.simulate(mech, t + 0.01, t0=t, t_eval=[t, t + 0.01], resume=ck, method=method, rtol=1e-8)
+        before = r.pieces["form"] if r.keep else None
+        new = r.run(t, q, v, z, t + 0.01)
+        assert new.status == old.status and new.message == old.message
+        status.append(new.status)
+        assert np.array_equal(new.t, old.t)
+        for a in ("q", "v", "z"):
+            assert np.array_equal(getattr(new, a), getattr(old, a))
+        if r.keep:
+            rows.append(len(r.pieces["rows"]))
+            renewed.append(r.pieces["form"] is not before)
+    if method in KEEPS_ALIVE:
+        assert rows == [4, 5, 5, 4] and renewed == [False, True, False, True]
+        assert status == ["success", "failed", "failed", "success"]
+    else:
+        assert not r.keep and status == ["success"] * 4

@@ -135,16 +135,21 @@ def largest_lyapunov(fun, y0, t_end, renorm=0.5, d0=1e-8, transient=0.0, t0=0.0,
 
 
 def mechanism_lyapunov(mech, t_end, renorm=0.05, d0=1e-7, transient=0.0, q0=None, v0=None, seed=0, ends=(),
-                       **sim_options) -> LyapunovResult:
+                       keep_alive=True, **sim_options) -> LyapunovResult:
     """Largest Lyapunov exponent of a mechanism's motion (state: q on its manifold, v), with
     pinclear's simulator (``sim_options``: method, integrator, rtol...). The companion starts in
     a random tangent direction (``seed``) and, like every renormalised companion, is assembled
     onto the closures and given a consistent velocity, so only admissible motions are compared.
-    ``ends``: also the exponents of runs ending at those earlier times (result.ends)."""
+    ``ends``: also the exponents of runs ending at those earlier times (result.ends).
+
+    Each chunk of each trajectory is the run ``simulate(mech, t + dt, t0=t, t_eval=[t, t + dt],
+    resume=Checkpoint(...at (t, q, v, z), h_next=None))`` gives; ``keep_alive`` (the default)
+    runs the chunks as pinclear.simulate.Restarts runs, which keep the set-up between chunks and
+    give the same end states bit for bit; False calls simulate() per chunk (the reference)."""
     import pinocchio as pin
 
     from ..kinematics import assemble, consistent_velocity
-    from ..simulate import simulate
+    from ..simulate import Restarts, simulate
     from ..trajectory import Checkpoint
 
     model = mech.model
@@ -153,10 +158,15 @@ def mechanism_lyapunov(mech, t_end, renorm=0.05, d0=1e-7, transient=0.0, q0=None
         if k in sim:
             raise InputError(f"mechanism_lyapunov: sim_options may not set {k!r}")
 
+    restarts = Restarts(mech, **sim) if keep_alive and not Restarts.unserved(sim) else None
+
     def advance(state, t, dt):
         q, v, z = state
-        ck = Checkpoint(t0=t, q=q, v=v, z=z, t=t, q_now=q, v_now=v, z_now=z, h_next=None)
-        tr = simulate(mech, t + dt, t0=t, t_eval=[t, t + dt], resume=ck, **sim)
+        if restarts is not None:
+            tr = restarts.run(t, q, v, z, t + dt)
+        else:
+            ck = Checkpoint(t0=t, q=q, v=v, z=z, t=t, q_now=q, v_now=v, z_now=z, h_next=None)
+            tr = simulate(mech, t + dt, t0=t, t_eval=[t, t + dt], resume=ck, **sim)
         if tr.status != "success":
             raise InputError(f"lyapunov: the run from t = {t:.6g} s failed: {tr.message}")
         return tr.q[-1].copy(), tr.v[-1].copy(), tr.z[-1].copy()
@@ -164,9 +174,12 @@ def mechanism_lyapunov(mech, t_end, renorm=0.05, d0=1e-7, transient=0.0, q0=None
     def separation(a, b):
         return float(np.sqrt(np.sum(pin.difference(model, a[0], b[0]) ** 2) + np.sum((b[1] - a[1]) ** 2)))
 
+    # one workspace for every renormalisation's assembly (each evaluates at its own q and t)
+    ws = mech.workspace() if keep_alive else None
+
     def place(ref, dq, dv, t):
-        q = assemble(mech, pin.integrate(model, ref[0], dq), t=t)
-        return q, consistent_velocity(mech, q, ref[1] + dv, t=t), ref[2].copy()
+        q = assemble(mech, pin.integrate(model, ref[0], dq), t=t, ws=ws)
+        return q, consistent_velocity(mech, q, ref[1] + dv, t=t, ws=ws), ref[2].copy()
 
     def renormalise(a, b, f, t):
         return place(a, f * pin.difference(model, a[0], b[0]), f * (b[1] - a[1]), t)

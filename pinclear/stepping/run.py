@@ -110,17 +110,18 @@ class Run:
     """An integration of ``form``'s mechanism with ``method`` (pinclear.stepping.base.Method)."""
 
     def __init__(self, form, method, *, t_end, t_eval, rtol, atol, h, max_step, h_stall, loop, stats, identity,
-                 t0, initial, cpu0, progress=None, checkpoint=None, checkpoint_every=None, max_cpu=None):
+                 t0, initial, cpu0, progress=None, checkpoint=None, checkpoint_every=None, max_cpu=None, rhs=None):
         """``t0``, ``initial`` = (q, v, z): the run's start (a resumed run's original one, which its
         checkpoints keep); ``cpu0``: run_clock() when the caller started the run (set-up counts in
         cpu_s_total, not cpu_s); ``stats``: the statistics so far (a resumed run's: its cpu_s and
-        rhs_evals continue)."""
+        rhs_evals continue); ``rhs``: an Evaluation of ``form`` kept from an earlier run
+        (pinclear.simulate.Restarts), else one is built."""
         self.form, self.mech, self.method = form, form.mech, method
         self.stats, self.identity = stats, identity
         self.t0, self.initial = t0, initial
         self.cpu0, self.cpu_prior, self.evals0 = cpu0, stats["cpu_s"], stats["rhs_evals"]
         self.progress, self.checkpoint, self.checkpoint_every, self.max_cpu = progress, checkpoint, checkpoint_every, max_cpu
-        self.rhs = Evaluation(form, loop)
+        self.rhs = Evaluation(form, loop) if rhs is None else rhs
         self.errors, self.anchor, self.built, self.system = self.rhs.errors, self.rhs.anchor, self.rhs.built, self.rhs.system
         self.pack, self.split = self.rhs.pack, self.rhs.split
         mech, n = self.mech, len(form.ws.x)
