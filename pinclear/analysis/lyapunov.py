@@ -67,6 +67,13 @@ def benettin(advance, separation, renormalise, ref, comp, t0, t_end, renorm, d0,
         return LyapunovResult(acc / elapsed if elapsed else float("nan"), np.array(ts), np.array(run), len(ts),
                               dict(got))
 
+    def counted(a, el, t_after, d, dt):
+        """(sum, time, whether counted) after a chunk of dt ending at t_after with separation d:
+        chunks ending within the transient are not counted."""
+        if t_after > t0 + transient + 1e-12 * renorm:
+            return a + math.log(d / d0), el + dt, True
+        return a, el, False
+
     def branch(de):
         """The exponent of a loop whose last chunk is [t, t + de] (NaN where that loop fails)."""
         try:
@@ -75,10 +82,7 @@ def benettin(advance, separation, renormalise, ref, comp, t0, t_end, renorm, d0,
             return float("nan")
         if not (d > 0 and math.isfinite(d)):
             return float("nan")
-        a, el = acc, elapsed
-        if t + de > t0 + transient + 1e-12 * renorm:
-            a += math.log(d / d0)
-            el += de
+        a, el, _ = counted(acc, elapsed, t + de, d, de)
         return a / el if el else float("nan")
 
     for i in range(n):
@@ -95,9 +99,8 @@ def benettin(advance, separation, renormalise, ref, comp, t0, t_end, renorm, d0,
         if not (d > 0 and math.isfinite(d)):
             raise LyapunovFailed(InputError(f"lyapunov: separation {d!r} at t = {t:.6g} s (d0 too small for the "
                                             "integration tolerance, or a failed run)"), partial())
-        if t > t0 + transient + 1e-12 * renorm:
-            acc += math.log(d / d0)
-            elapsed += dt
+        acc, elapsed, after = counted(acc, elapsed, t, d, dt)
+        if after:
             ts.append(t)
             run.append(acc / elapsed)
         for e in last.get(i, ()):
