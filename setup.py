@@ -1,11 +1,11 @@
 """Package list and the optional C++ extension (everything else is in pyproject.toml).
 
 The repository's urdf/ folder becomes the data package ``pinclear.urdf``, which a static find
-cannot express. ``pinclear._passes`` (pinclear/_cxx/passes.cpp) is compiled against the headers
+cannot express. ``pinclear.model._passes`` (pinclear/model/_cxx/passes.cpp) is compiled against the headers
 and libraries of the ``pin`` wheel in the build environment ([build-system] requires the same
 ``pin`` spec as the runtime, plus cmeel-eigen for the Eigen headers no runtime wheel ships). The
 extension is optional: without a compiler, headers or libraries the install goes on without it
-and pinclear.native falls back to Pinocchio's Python bindings.
+and pinclear.model.native falls back to Pinocchio's Python bindings.
 """
 import os
 import sys
@@ -23,7 +23,7 @@ def _warn(msg: str) -> None:
     # one line on stderr: pip shows it with -v (it hides a successful build's output otherwise);
     # at run time pinclear.native.reason says the extension is missing
     print(f"WARNING: pinclear: {msg}; installing without the compiled passes "
-          "(pinclear.native falls back to Pinocchio's Python bindings)", file=sys.stderr)
+          "(pinclear.model.native falls back to Pinocchio's Python bindings)", file=sys.stderr)
 
 
 def _find_in_cmeel_prefixes(relative: str) -> Path | None:
@@ -58,8 +58,8 @@ def _passes_extension() -> list[Extension]:
             _warn(f"lib{name}.so not found in {lib}")
             return []
     return [Extension(
-        "pinclear._passes",
-        sources=["pinclear/_cxx/passes.cpp"],
+        "pinclear.model._passes",
+        sources=["pinclear/model/_cxx/passes.cpp"],
         # setuptools skips an extension whose build/ (or, editable, in-place) output is newer
         # than its sources and depends; pinocchio's version header makes a reinstall from the
         # same tree against another pin (whose headers are installed later) compile again
@@ -83,8 +83,8 @@ def _passes_extension() -> list[Extension]:
         # build environment's: pinclear.native imports pinocchio first, which loads
         # libpinocchio_default/libboost_python by SONAME, and this RUNPATH to
         # site-packages/cmeel.prefix/lib (a non-editable install puts the module in
-        # site-packages/pinclear/) is the fallback when the module is imported on its own.
-        extra_link_args=["-Wl,-rpath,$ORIGIN/../" + CMEEL_PREFIX + "/lib", "-s"],
+        # site-packages/pinclear/model/) is the fallback when the module is imported on its own.
+        extra_link_args=["-Wl,-rpath,$ORIGIN/../../" + CMEEL_PREFIX + "/lib", "-s"],
         language="c++",
         # a failed compile or link is a warning, not a failed install
         optional=True,
@@ -111,6 +111,6 @@ class _OptionalBuildExt(build_ext):
 setup(packages=find_packages(include=["pinclear", "pinclear.*"]) + ["pinclear.urdf"],
       package_dir={"pinclear.urdf": "urdf"},
       # passes.cpp is the extension's source (it goes into the sdist), not package data
-      exclude_package_data={"pinclear": ["_cxx/*"]},
+      exclude_package_data={"pinclear.model": ["_cxx/*"]},
       ext_modules=_passes_extension(),
       cmdclass={"build_ext": _OptionalBuildExt})

@@ -32,12 +32,13 @@ import numpy as np
 import pinocchio as pin
 
 import pinclear
-from pinclear import formulations, kinematics
-from pinclear.bench import _best_mean
-from pinclear.errors import PinclearError
-from pinclear.formulations.pinocchio_cd import rigid_constraints
-from pinclear.simulate import simulate
-from pinclear.stepping.build import Evaluation
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
+from pinclear.studies.bench.rhs import _best_mean
+from pinclear.core.errors import PinclearError
+from pinclear.dynamics.formulations.pinocchio_cd import rigid_constraints
+from pinclear.dynamics.simulate import simulate
+from pinclear.dynamics.stepping.build import Evaluation
 
 
 def states(mech, n, t_end=0.3):

@@ -22,9 +22,10 @@ import warnings
 import numpy as np
 
 import pinclear
-from pinclear import formulations, kinematics
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
 from pinclear.mechanisms import clearance_scenes as scenes
-from pinclear.stepping.build import Evaluation
+from pinclear.dynamics.stepping.build import Evaluation
 
 #: simulated window per scene for the integrator comparison (s)
 WINDOW = {"four_ups_upu_S2": 1.0, "nine_bar_A": 0.5, "nine_bar_B": 0.5, "nine_bar_AB": 0.5,

@@ -9,7 +9,7 @@ with each joint type (spherical, planar and spatial revolute, prismatic with bot
 models), and LuGre variants (sidecar overrides). Each scene runs RK45 at rtol 1e-6; the cost of
 an evaluation is the integration's CPU over its evaluations, (cpu_s - setup_cpu_s) / rhs_evals
 (integrator, events and output sampling included), best of ``--repeat`` runs. The floor is
-pinclear.bench.pinocchio_floor at the run's own samples (computeAllTerms +
+pinclear.studies.bench.rhs.pinocchio_floor at the run's own samples (computeAllTerms +
 updateFramePlacements per state). ``loop`` shows whether any stage of the run went through
 Python (the target, every scene <= 3x the floor, needs none).
 """
@@ -26,8 +26,8 @@ from pathlib import Path
 import yaml
 
 import pinclear
-from pinclear.bench import pinocchio_floor
-from pinclear.models import model_path
+from pinclear.studies.bench.rhs import pinocchio_floor
+from pinclear.core.models import model_path
 
 LUGRE = {"type": "lugre", "mu_s": 0.3, "mu_c": 0.2, "vs": 1e-3, "s0": 1e4, "s1": 10.0}
 

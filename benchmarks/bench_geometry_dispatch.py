@@ -5,18 +5,18 @@
 contact._kernels.channel_geometry picks a clearance type's geometry with `if code == ...`
 (inlined into the clearance force kernel). The table-driven alternative binds each type's
 geometry kernel as a stage and calls it through its address, as the engine calls every stage
-(pinclear.stepping.call.call_stage). Printed: ns per geometry call each way on the spherical and
+(pinclear.core.call.call_stage). Printed: ns per geometry call each way on the spherical and
 revolute geometries, their ratio, and one whole evaluation of a one-clearance scene for scale
 (docs/design.md, "Registries")."""
 import time, warnings, numpy as np
 import pinclear
-from pinclear._jit import njit
-from pinclear.contact import _kernels as K
-from pinclear.stepping.call import call_stage
-from pinclear.stepping.stage import bind
-from pinclear.stepping.build import Evaluation
-from pinclear.stepping.system import evaluate
-from pinclear import formulations
+from pinclear.core.jit import njit
+from pinclear.contact import channels
+from pinclear.core.call import call_stage
+from pinclear.core.stage import bind
+from pinclear.dynamics.stepping.build import Evaluation
+from pinclear.dynamics.stepping.system import evaluate
+from pinclear.dynamics import formulations
 warnings.simplefilter("ignore")
 
 @njit(cache=False)
@@ -24,18 +24,18 @@ def by_switch(k, code, gpar, M1, M2, scratch, delta, n, p1, p2):
     s = 0.0
     for i in range(k):
         M2[0, 3] = 1e-4 * (i % 7)
-        K.channel_geometry(code, gpar, M1, M2, scratch, delta, n, p1, p2)
+        channels.channel_geometry(code, gpar, M1, M2, scratch, delta, n, p1, p2)
         s += delta[0]
     return s
 
 @njit(cache=False)
 def spherical_geometry(gpar, M1, M2, scratch, delta, n, p1, p2):
-    K.channel_geometry(K.G_SPHERICAL, gpar, M1, M2, scratch, delta, n, p1, p2)
+    channels.channel_geometry(channels.G_SPHERICAL, gpar, M1, M2, scratch, delta, n, p1, p2)
     return np.inf
 
 @njit(cache=False)
 def revolute_geometry(gpar, M1, M2, scratch, delta, n, p1, p2):
-    K.channel_geometry(K.G_REVOLUTE, gpar, M1, M2, scratch, delta, n, p1, p2)
+    channels.channel_geometry(channels.G_REVOLUTE, gpar, M1, M2, scratch, delta, n, p1, p2)
     return np.inf
 
 @njit(cache=False)
@@ -57,7 +57,7 @@ k = 200000
 by_switch(10, 0, *args); by_table(10, table, 0, M2, delta)
 res = {}
 for rep in range(5):               # best of 5
-    for name, code, row in (("spherical", K.G_SPHERICAL, 0), ("revolute", K.G_REVOLUTE, 1)):
+    for name, code, row in (("spherical", channels.G_SPHERICAL, 0), ("revolute", channels.G_REVOLUTE, 1)):
         c0 = time.perf_counter(); a = by_switch(k, code, *args); t1 = time.perf_counter() - c0
         c0 = time.perf_counter(); b = by_table(k, table, row, M2, delta); t2 = time.perf_counter() - c0
         assert a == b

@@ -9,18 +9,18 @@ by a warm-up run first, set-up excluded), ratios are against a baseline run in t
 1. odes: the IVP Test Set's VDPOL (eps = 1e-6, t = 2) and ROBER (t = 1e11; t = 40 for the
    explicit methods, which a stiff problem holds to steps of its stability bound), compiled
    right-hand sides, every integrator through the same step logic (SciPy's Radau and LSODA step
-   through pinclear.stepping.external's callbacks). Error against the Test Set's reference
+   through pinclear.dynamics.stepping.external's callbacks). Error against the Test Set's reference
    (ROBER at 40: against Radau at rtol 1e-12).
 2. choice: why ROS34PW2: evaluations to the same problems with ROS3PW (a 3-stage W-method of
    order 2 only), RODASP (order 4, needs the exact Jacobian: one every step) and ROS34PW2 with a
    Jacobian every step (what reuse saves).
-3. scenes: the bundled clearance scenes (pinclear.bench.scenes()), rtol 1e-6, --t-end s: CPU,
+3. scenes: the bundled clearance scenes (pinclear.studies.bench.rhs.scenes()), rtol 1e-6, --t-end s: CPU,
    evaluations, steps, Jacobians, energy audit; CPU ratio to RK45.
 4. floor: us per evaluation inside those runs over the Pinocchio floor
-   (pinclear.bench.pinocchio_floor at the run's samples), method lagrange: target <= 3.
+   (pinclear.studies.bench.rhs.pinocchio_floor at the run's samples), method lagrange: target <= 3.
 5. friction: stiff contact: three scenes with regularised Coulomb friction (v_eps = 1e-6 m/s:
    a sticking contact's friction is a damper of mu F_n / v_eps), rtol 1e-4 and 1e-6, 0.1 s.
-6. policy: the Jacobian and error-estimate choices of pinclear.stepping.rosenbrock on the
+6. policy: the Jacobian and error-estimate choices of pinclear.dynamics.stepping.rosenbrock on the
    clearance scenes over 0.05 s: the default, a Jacobian every step, a looser and a tighter
    secant test, no dense-output test (events located on an unchecked interpolant).
 """
@@ -38,14 +38,14 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 import pinclear
-from pinclear.bench import pinocchio_floor, scenes
-from pinclear.models import model_path
-from pinclear.stepping import INTEGRATORS, chunk as C, rosenbrock as R
-from pinclear.stepping.base import MethodState
-from pinclear.stepping.checks import reset_monitor
-from pinclear.stepping.run import STALL_STEPS
-from pinclear.stepping.state import ATOL, H_STALL, MAX_STEP, NJAC, RTOL, STEPS, T, T_BOUND, new_steps
-from pinclear.stepping.system import ode_system
+from pinclear.studies.bench.rhs import pinocchio_floor, scenes
+from pinclear.core.models import model_path
+from pinclear.dynamics.stepping import INTEGRATORS, chunk as C, rosenbrock as R
+from pinclear.dynamics.stepping.base import MethodState
+from pinclear.dynamics.stepping.checks import reset_monitor
+from pinclear.dynamics.stepping.run import STALL_STEPS
+from pinclear.dynamics.stepping.state import ATOL, H_STALL, MAX_STEP, NJAC, RTOL, STEPS, T, T_BOUND, new_steps
+from pinclear.dynamics.stepping.system import ode_system
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from stiff_odes import ROBER_REF, VDPOL_REF, rober, vdpol  # noqa: E402  (the tests' problems)

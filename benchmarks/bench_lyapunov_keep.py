@@ -1,5 +1,5 @@
 """The Lyapunov loop of a paper-000 or -002 check, its chunks run as simulate() calls
-(mechanism_lyapunov(keep_alive=False), the reference) and as pinclear.simulate.Restarts runs
+(mechanism_lyapunov(keep_alive=False), the reference) and as pinclear.dynamics.simulate.Restarts runs
 (the default), alternating in one process: CPU of each, CPU outside the compiled chunks, and
 whether the exponents agree bit for bit (benchmarks/bench_reproduce.md, last section).
 
@@ -14,9 +14,9 @@ warnings.simplefilter("ignore")
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import numpy as np
 from bench_reproduce import _setup
-from pinclear.sidecar import load
+from pinclear.io.sidecar import load
 from pinclear.analysis.lyapunov import mechanism_lyapunov
-import pinclear.stepping.chunk as C
+import pinclear.dynamics.stepping.chunk as C
 paper = sys.argv[1]; n = float(sys.argv[2]); rep = int(sys.argv[3])
 path, par, value, T, common = _setup(paper)
 ov = dict(common["load_options"]["overrides"])

@@ -4,19 +4,19 @@ against lagrange's and against the Pinocchio floor, measured in the same process
     python benchmarks/bench_methods.py [--scenes four_bar nine_bar+A] [--methods lagrange proximal]
                                        [--t-end 0.5] [--repeat 5] [--budget 2] [--json out.json]
 
-Every scene of ``pinclear.bench.scenes()`` (each sidecar with ideal joints and once per clearance
+Every scene of ``pinclear.studies.bench.rhs.scenes()`` (each sidecar with ideal joints and once per clearance
 joint it declares) is run with RK45, rtol 1e-6, for ``t_end`` simulated seconds. An evaluation's
 cost is the integration's CPU over its evaluations, ``(cpu_s - setup_cpu_s) / rhs_evals``: what
 one evaluation costs in a run, step logic, events and output samples included, set-up not. Each
 figure is the best of up to ``repeat`` runs (fewer once they spent ``budget`` CPU seconds): a
 short run's milliseconds are at the mercy of the machine's other work, the minimum is the run's
-own cost. The floor is ``pinclear.bench.pinocchio_floor`` (computeAllTerms + frame placements)
+own cost. The floor is ``pinclear.studies.bench.rhs.pinocchio_floor`` (computeAllTerms + frame placements)
 over the run's own samples, in this process.
 
 A run's cost per evaluation also carries the projections of the methods that project (after
 every step and on every output sample: 101 here, as many as the evaluations of a smooth ideal
 scene's 0.5 s). The column "rhs us" separates the right-hand side itself: the run's compiled
-evaluation (pinclear.stepping.system.evaluate on the run's System) timed alone in a compiled
+evaluation (pinclear.dynamics.stepping.system.evaluate on the run's System) timed alone in a compiled
 loop over the run's samples, and "rhs / lagrange" its ratio to lagrange's at the same states.
 Samples of a projecting method lie on the constraint manifold; the stage states an integrator
 evaluates do not, and the manifold formulation's Gauss-Newton iterations grow with their
@@ -38,12 +38,14 @@ import numpy as np
 import time
 from unittest import mock
 
-from pinclear import formulations, kinematics, load
-from pinclear.bench import pinocchio_floor, scenes
-from pinclear.simulate import simulate
-from pinclear._jit import njit
-from pinclear.stepping.build import Evaluation
-from pinclear.stepping.system import evaluate
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
+from pinclear import load
+from pinclear.studies.bench.rhs import pinocchio_floor, scenes
+from pinclear.dynamics.simulate import simulate
+from pinclear.core.jit import njit
+from pinclear.dynamics.stepping.build import Evaluation
+from pinclear.dynamics.stepping.system import evaluate
 
 METHODS = ("lagrange", "projection", "proximal", "manifold")
 

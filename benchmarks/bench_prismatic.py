@@ -18,10 +18,10 @@ import time
 import numpy as np
 
 import pinclear
-from pinclear import kinematics
-from pinclear._jit import njit
-from pinclear.contact import _kernels as K
-from pinclear.forces import Bodies, Frames
+from pinclear.model import kinematics
+from pinclear.core.jit import njit
+from pinclear.contact import prismatic
+from pinclear.model.forces import Bodies, Frames
 
 
 @njit(cache=False)
@@ -29,7 +29,7 @@ def _loop_energy(reps, geo, fr, bodies, modes, found, fric, ch, Hj, J, V, Z, tau
     s = 0
     for _ in range(reps):
         for i in range(V.shape[0]):
-            s += K.prismatic_energy_force(geo, Frames(Hj[i], fr.jidx, fr.jMf, fr.slot, fr.M),
+            s += prismatic.prismatic_energy_force(geo, Frames(Hj[i], fr.jidx, fr.jMf, fr.slot, fr.M),
                                           Bodies(J[i], bodies.idx1, bodies.idx2), modes, found, fric, ch, V[i], Z[i],
                                           tau, zdot)
     return s
@@ -40,7 +40,7 @@ def _loop_paper003(reps, geo, fr, bodies, modes, rows, laws, fric, ch, Hj, J, V,
     s = 0
     for _ in range(reps):
         for i in range(V.shape[0]):
-            s += K.prismatic_force(geo, Frames(Hj[i], fr.jidx, fr.jMf, fr.slot, fr.M),
+            s += prismatic.prismatic_force(geo, Frames(Hj[i], fr.jidx, fr.jMf, fr.slot, fr.M),
                                    Bodies(J[i], bodies.idx1, bodies.idx2), modes, rows, laws, fric, ch, V[i], Z[i], tau,
                                    zdot)
     return s

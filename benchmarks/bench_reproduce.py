@@ -48,16 +48,16 @@ KINDS = {
 def _setup(paper):
     """(model path, parameter, value, period, common bifurcation options) of a representative run:
     000 at mu 0.01 (the chaotic end), 002 at the 0.8 mm clearance (the paper's chaotic value)."""
-    from pinclear.models import model_path
+    from pinclear.core.models import model_path
 
     if paper == "000":
-        from pinclear.reproduce import paper000 as P
+        from pinclear.studies.reproduce import paper000 as P
 
         s = P._settings(False, None)
         return (str(model_path("four_ups_upu")), "S2.mu", 0.01, P.T,
                 dict(signal=P.SIGNALS, per_period=s["per_period"], keep_portrait=True,
                      load_options={"clearances": ["S2"], "overrides": {}}))
-    from pinclear.reproduce import paper002 as P
+    from pinclear.studies.reproduce import paper002 as P
 
     return (str(model_path("nine_bar")), {f"{j}.clearance": 1.0 for j in P.JOINTS}, 8e-4, 1.0,
             dict(signal=P.SIGNALS, per_period=100, keep_portrait=True,
@@ -86,7 +86,7 @@ def run_kind(name, periods, transient=2):
         ok = r.runs[0].ok
     else:
         from pinclear.analysis.lyapunov import mechanism_lyapunov
-        from pinclear.sidecar import load
+        from pinclear.io.sidecar import load
 
         ov = dict(common["load_options"]["overrides"])
         for key in (par if isinstance(par, dict) else {par: 1.0}):
@@ -133,9 +133,10 @@ def parts(paper, cycles, repeat):
     import statistics
     import warnings
 
-    from pinclear import models, sidecar
-    from pinclear.analysis import poincare, series, sweep
-    from pinclear.simulate import simulate
+    from pinclear.core import models
+    from pinclear.io import sidecar
+    from pinclear.analysis import poincare, series, diagrams as sweep
+    from pinclear.dynamics.simulate import simulate
 
     warnings.simplefilter("ignore")
     path, par, value, T, common = _setup(paper)
@@ -237,7 +238,7 @@ def composition(paper, limit_values=None, quick=False):
     limit_values: the number of values given the Lyapunov check (default: every diagram's limit;
     a quick study has none, its 10 cycles leave its non-periodic runs 'unresolved')."""
     if paper == "000":
-        from pinclear.reproduce import paper000 as P
+        from pinclear.studies.reproduce import paper000 as P
 
         s = P._settings(quick, None)
         per = s["transient"] + s["cycles"]
@@ -255,7 +256,7 @@ def composition(paper, limit_values=None, quick=False):
                 ("Lyapunov checks at rtol", nl, nl, (s["transient"], lengths), "lyap:000 ordinary|000 lyapunov loop"),
                 ("Lyapunov checks at rtol/10", nl, nl, (s["transient"], lengths),
                  "lyap:000 ordinary rtol/10|000 lyapunov loop rtol/10")]
-    from pinclear.reproduce import paper002 as P
+    from pinclear.studies.reproduce import paper002 as P
 
     s = P._settings(quick)
     per = s["transient cycles"] + s["cycles"]

@@ -36,8 +36,8 @@ HERE = Path(__file__).resolve().parents[1]
 
 def _case_000(cycles, transient):
     from pinclear import analysis
-    from pinclear.models import model_path
-    from pinclear.reproduce import paper000 as P
+    from pinclear.core.models import model_path
+    from pinclear.studies.reproduce import paper000 as P
     s = P._settings(False, None)
     return analysis.bifurcation(
         str(model_path("four_ups_upu")), "S2.mu", [0.05], period=P.T, signal=P.SIGNALS, cycles=cycles,
@@ -47,8 +47,8 @@ def _case_000(cycles, transient):
 
 def _case_002(cycles, transient):
     from pinclear import analysis
-    from pinclear.models import model_path
-    from pinclear.reproduce import paper002 as P
+    from pinclear.core.models import model_path
+    from pinclear.studies.reproduce import paper002 as P
     s = P._settings(False)
     mu = {f"{j}.mu": s["mu (sec. 4)"] for j in P.JOINTS}
     return analysis.bifurcation(
@@ -65,7 +65,7 @@ def worker(case, out):
     """One warm run of ``case`` in this process's pinclear; its samples to ``out`` (npz), its
     figures as a JSON line."""
     warnings.simplefilter("ignore")
-    from pinclear.stepping import run as R
+    from pinclear.dynamics.stepping import run as R
     kept = []
     integrate = R.Run.integrate
 

@@ -19,9 +19,10 @@ import time
 import numpy as np
 import pinocchio as pin
 
-from pinclear import kinematics, screw
+from pinclear.model import kinematics
+from pinclear.dynamics import screw
 from pinclear.mechanisms import four_ups_upr as m
-from pinclear.models import model_path
+from pinclear.core.models import model_path
 
 
 def _lagrange_eval(mech, ws, t, q):

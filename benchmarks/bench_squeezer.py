@@ -11,7 +11,7 @@ default target 1e-8 lies above that floor.
 
 Ladders: rtol 1e-4 ... 1e-12 (atol = rtol / 100) for the adaptive integrators; for a fixed-step
 integrator (RK4) the step h = 1e-4 s (rtol / 1e-4)^(1/4), whose global error O(h^4) falls by the
-same factor per rung. Integrators: every entry of ``pinclear.stepping.INTEGRATORS`` at run
+same factor per rung. Integrators: every entry of ``pinclear.dynamics.stepping.INTEGRATORS`` at run
 time (nothing is hard-coded); methods lagrange and projection.
 A (method, integrator) pair the engine refuses (an InputError) is recorded as skipped with the
 reason. A ladder stops once one of its points costs more than ``--point-budget`` CPU s (tighter
@@ -47,8 +47,8 @@ from pathlib import Path
 import numpy as np
 
 import pinclear
-from pinclear.errors import InputError
-from pinclear.stepping import INTEGRATORS
+from pinclear.core.errors import InputError
+from pinclear.dynamics.stepping import INTEGRATORS
 from pinclear.mechanisms import squeezer as S
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -251,9 +251,9 @@ def main(argv=None):
     methods = args.methods.split(",")
     integrators = args.integrators.split(",") if args.integrators else list(INTEGRATORS)
     for m in methods:
-        pinclear.formulations.get(m)
+        pinclear.dynamics.formulations.get(m)
     for i in integrators:
-        pinclear.stepping.get(i)
+        pinclear.dynamics.stepping.get(i)
     t0, w0 = time.process_time(), time.perf_counter()
     configs = measure(methods, integrators, args.repeat, args.point_budget,
                       progress=lambda s: print(s, file=sys.stderr, flush=True))

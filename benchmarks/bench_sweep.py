@@ -14,7 +14,7 @@ import numpy as np
 from distributed import Client, LocalCluster
 
 import pinclear
-from pinclear.trajectory import Trajectory
+from pinclear.dynamics.trajectory import Trajectory
 
 QUICK = "--quick" in sys.argv
 VARY = {"S.mu": [0.0, 0.1, 0.2, 0.3], "S.clearance": [1e-4, 2e-4]}

@@ -2,7 +2,7 @@
 
     PYTHONPATH=$PWD python benchmarks/bench_wear.py [socket]
 
-Runs the iterative scheme (pinclear.wearing.wear_run) on the nine-bar with clearance A worn, one
+Runs the iterative scheme (pinclear.analysis.wear_life.wear_run) on the nine-bar with clearance A worn, one
 crank period per block (``socket``: the 4UPS-UPU with its spherical S2 worn on 72 x 144 nodes, one
 2 s period per block at the paper-000 study's output step of 1e-3 s), and prints per block the CPU of the block's simulation (its samples'
 outputs included) and of the update (energy audit, Archard quadrature over the samples, reshape:
@@ -13,7 +13,7 @@ import sys
 import numpy as np
 
 import pinclear
-from pinclear.wearing import WearSettings, wear_run
+from pinclear.analysis.wear_life import WearSettings, wear_run
 
 if sys.argv[1:] == ["socket"]:
     mech = pinclear.load("four_ups_upu", clearances=["S2"], overrides={

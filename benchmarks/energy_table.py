@@ -7,7 +7,7 @@ One run per scene with its ideal joints, then one per clearance listed under ``c
 its sidecar (activated alone, as ``pinclear simulate --clearance NAME``), from the sidecar's own
 initial state, method lagrange, RK45. A run stopped by the CPU budget is audited over the
 samples it kept (status ``failed``). Columns: the run's status and steps, the balance error
-relative to the energy scale, the bound derived from rtol and the steps (pinclear.energy), ok,
+relative to the energy scale, the bound derived from rtol and the steps (pinclear.dynamics.energy), ok,
 the scale (J) and where the error is largest.
 """
 from __future__ import annotations
@@ -16,8 +16,8 @@ import argparse
 import warnings
 
 import pinclear
-from pinclear.models import models_dir
-from pinclear.sidecar import read_yaml
+from pinclear.core.models import models_dir
+from pinclear.io.sidecar import read_yaml
 
 
 def runs(names):

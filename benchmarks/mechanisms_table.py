@@ -21,8 +21,8 @@ def main():
     rows = []
     for name, t_end, opts in RUNS:
         mech = pinclear.load(ROOT / "urdf" / f"{name}.yaml", options=opts or None)
-        q = pinclear.kinematics.assemble(mech)
-        mob = pinclear.kinematics.mobility(mech, q)
+        q = pinclear.model.kinematics.assemble(mech)
+        mob = pinclear.model.kinematics.mobility(mech, q)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             tr = pinclear.simulate(mech, t_end, rtol=1e-8)

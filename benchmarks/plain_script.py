@@ -23,7 +23,7 @@ import pinocchio as pin
 from scipy.integrate import solve_ivp
 
 from pinclear.mechanisms import squeezer as S
-from pinclear.models import model_path
+from pinclear.core.models import model_path
 
 ALPHA = BETA = 5.0          # Baumgarte gains [1/s]
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED

@@ -24,9 +24,9 @@ import numpy as np  # noqa: E402
 import pinocchio as pin  # noqa: E402
 
 import pinclear  # noqa: E402
-from pinclear import screw  # noqa: E402
+from pinclear.dynamics import screw  # noqa: E402
 from pinclear.mechanisms import four_ups_upr as mod  # noqa: E402
-from pinclear.models import model_path  # noqa: E402
+from pinclear.core.models import model_path  # noqa: E402
 
 
 def main(argv=None) -> int:

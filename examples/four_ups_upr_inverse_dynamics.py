@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import argparse
 
-from pinclear.reproduce import reproduce
-from pinclear.reproduce.report import markdown
+from pinclear.studies.reproduce import reproduce
+from pinclear.studies.reproduce.report import markdown
 
 
 def main(argv=None) -> int:

@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from pinclear.mechanisms import clearance_scenes as scenes  # noqa: E402
-from pinclear.sidecar import parse_assignments  # noqa: E402
+from pinclear.io.sidecar import parse_assignments  # noqa: E402
 
 SLIDER_JOINT = "guide"          # slider 9 in its fixed guide (urdf/nine_bar.urdf)
 

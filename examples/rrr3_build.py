@@ -1,4 +1,4 @@
-"""Build the planar 3-RRR parallel manipulator of docs/tutorial.md with pinclear.builder and write
+"""Build the planar 3-RRR parallel manipulator of docs/tutorial.md with pinclear.io.builder and write
 urdf/rrr3.urdf + urdf/rrr3.yaml (the bundled copies are this script's output).
 
     python examples/rrr3_build.py [--out DIR] [--quick]
@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from pinclear.builder import Builder, plate, rod, sines
+from pinclear.io.builder import Builder, plate, rod, sines
 
 RB, RP, L1, L2 = 0.30, 0.08, 0.20, 0.20          # base and platform radii, link lengths [m]
 M_LINK, M_PLATFORM = 0.3, 1.0                     # [kg]
@@ -52,7 +52,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", default="urdf", help="folder for rrr3.urdf and rrr3.yaml (default: urdf)")
     ap.add_argument("--quick", action="store_true", help="the same (the build is quick)")
     a = ap.parse_args(argv)
-    from pinclear import kinematics
+    from pinclear.model import kinematics
 
     mech = build().write(a.out, head="# Written by examples/rrr3_build.py (pinclear.builder); edit that script.\n")
     mob = kinematics.mobility(mech, kinematics.assemble(mech))

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 import pinclear
-from pinclear.models import model_path
+from pinclear.core.models import model_path
 from pinclear.viz.plots import save_all
 
 

@@ -20,9 +20,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from pinclear.kinematics import frame_motion  # noqa: E402
+from pinclear.model.kinematics import frame_motion  # noqa: E402
 from pinclear.mechanisms import clearance_scenes as scenes  # noqa: E402
-from pinclear.sidecar import parse_assignments  # noqa: E402
+from pinclear.io.sidecar import parse_assignments  # noqa: E402
 from pinclear.contact.prismatic import MODE_NAMES  # noqa: E402
 
 

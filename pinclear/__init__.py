@@ -1,5 +1,4 @@
 """pinclear: dynamics of parallel mechanisms with joint clearance, on Pinocchio."""
-__version__ = "0.1.0"
 
 
 def _launched_as_cli() -> bool:
@@ -8,13 +7,13 @@ def _launched_as_cli() -> bool:
     import sys
 
     argv = list(getattr(sys, "orig_argv", []))
-    return len(argv) > 1 and (os.path.basename(argv[1]) == "pinclear" or argv[1:3] == ["-m", "pinclear.cli"])
+    return len(argv) > 1 and (os.path.basename(argv[1]) == "pinclear" or argv[1:3] in (["-m", "pinclear.cli"], ["-m", "pinclear.cli.commands"]))
 
 
 def _quiet_interrupt_while_the_cli_imports():
     """Launched as the command line (``pinclear ...`` or ``python -m pinclear.cli``), a SIGINT
     while the imports below run (about a second) ends the command with one line and exit 130
-    instead of a KeyboardInterrupt traceback; pinclear.cli.main takes over from there. A library
+    instead of a KeyboardInterrupt traceback; pinclear.cli.commands takes over from there. A library
     import changes no signal handler."""
     import signal
     import sys
@@ -31,11 +30,11 @@ def _quiet_interrupt_while_the_cli_imports():
 
 _quiet_interrupt_while_the_cli_imports()
 
-from . import errors  # noqa: E402
+from pinclear.core import errors  # noqa: E402
 
 try:
-    # the kernel cache folder is checked here, before any kernel loads (pinclear._jit)
-    from . import _jit as _jit  # noqa: E402
+    # the kernel cache folder is checked here, before any kernel loads (pinclear.core.jit)
+    from pinclear.core import jit as _jit  # noqa: E402
 except errors.PinclearError as _exc:      # the command line: one line, exit 2 (a library import raises)
     if not _launched_as_cli():
         raise
@@ -44,15 +43,36 @@ except errors.PinclearError as _exc:      # the command line: one line, exit 2 (
     print(f"pinclear: error: {_exc}", file=_sys.stderr)
     raise SystemExit(2) from None
 
-from . import kinematics  # noqa: E402
-from .errors import (AssemblyError, ContactSetupError, InputError, IntegrationError,  # noqa: E402
-                     ModelFileError, PinclearError, RankLossError)
-from .mechanism import Mechanism, Workspace  # noqa: E402
-from .sidecar import load  # noqa: E402
-from .simulate import simulate  # noqa: E402
-from .sweeps import sweep  # noqa: E402
-from .trajectory import Trajectory  # noqa: E402
+from pinclear.model import kinematics  # noqa: E402
+from pinclear.core.errors import (AssemblyError, ContactSetupError, InputError, IntegrationError,
+                                  ModelFileError, PinclearError, RankLossError)
+from pinclear.model.mechanism import Mechanism, Workspace  # noqa: E402
+from pinclear.io.sidecar import load  # noqa: E402
+from pinclear.dynamics.simulate import simulate  # noqa: E402
+from pinclear.analysis.sweeps import sweep  # noqa: E402
+from pinclear.dynamics.trajectory import Trajectory  # noqa: E402
+
+from pinclear.core import aliases as _aliases  # noqa: E402
+from pinclear.core.version import __version__  # noqa: E402
+
+# The old module names keep working (pinclear.core.aliases). pinclear.simulate is both the face's
+# function and an old module name: registered here, ``import pinclear.simulate`` finds the module
+# without the import system setting it as this package's attribute over the function.
+_aliases.install()
+_sys_modules = __import__("sys").modules
+_sys_modules.setdefault("pinclear.simulate", _sys_modules["pinclear.dynamics.simulate"])
+
+
+def __getattr__(name):
+    """``pinclear.sidecar`` and the other old submodule names, imported when first asked for."""
+    full = f"{__name__}.{name}"
+    if full in _aliases.MOVED or full in _aliases.SPLIT:
+        import importlib
+
+        return importlib.import_module(full)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
 
 __all__ = ["load", "simulate", "sweep", "Trajectory", "Mechanism", "Workspace", "kinematics", "errors",
            "PinclearError", "ModelFileError", "AssemblyError", "RankLossError", "IntegrationError",
-           "ContactSetupError", "InputError"]
+           "ContactSetupError", "InputError", "__version__"]

@@ -4,7 +4,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pinclear._jit import njit
+from pinclear.core.jit import njit
 
 
 class Pair(NamedTuple):

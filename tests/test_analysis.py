@@ -14,7 +14,8 @@ import pytest
 
 import pinclear
 from pinclear import analysis as an
-from pinclear.errors import InputError, ModelFileError
+from pinclear.cli.analyse import cli_main as analyse_main
+from pinclear.core.errors import InputError, ModelFileError
 
 DATA = Path(__file__).parent / "data"
 OSC = DATA / "analysis_oscillator.yaml"
@@ -296,7 +297,7 @@ def test_double_well_period_one_and_chaos():
 def test_cli_bifurcation_and_poincare(tmp_path, traj, capsys):
     import json
 
-    rc = an.cli_main(["bifurcation", str(OSC), "--param", "forces[push].law.terms[0].omega", "--param",
+    rc = analyse_main(["bifurcation", str(OSC), "--param", "forces[push].law.terms[0].omega", "--param",
                       "forces[push].law.terms[0].amp*0.5", "--values", "3,6", "--period-from-speed",
                       "--signal", "slide", "--cycles", "2", "--transient", "12", "--integrator", "DOP853",
                       "--rtol", "1e-10", "--workers", "2", "--out", str(tmp_path / "bif")])
@@ -311,13 +312,13 @@ def test_cli_bifurcation_and_poincare(tmp_path, traj, capsys):
 
     traj.save(tmp_path / "trajectory.npz")
     capsys.readouterr()
-    rc = an.cli_main(["poincare", str(tmp_path / "trajectory.npz"), "--file", str(OSC), "--period", repr(T),
+    rc = analyse_main(["poincare", str(tmp_path / "trajectory.npz"), "--file", str(OSC), "--period", repr(T),
                       "--signal", "slide", "--skip", str(TRANSIENT), "--out", str(tmp_path / "pc")])
     rep = json.loads(capsys.readouterr().out)
     assert rc == 0 and rep["slide"]["kind"] == "period-1" and rep["slide"]["interpolated"] == 0
     assert (tmp_path / "pc" / "poincare_slide.png").exists() and (tmp_path / "pc" / "phase_slide.png").exists()
     with pytest.raises(InputError):
-        an.cli_main(["bifurcation", str(OSC), "--param", "forces[push].law.terms[0].omega*x", "--values", "1",
+        analyse_main(["bifurcation", str(OSC), "--param", "forces[push].law.terms[0].omega*x", "--values", "1",
                      "--period", "1", "--signal", "slide", "--out", str(tmp_path / "bad")])
 
 

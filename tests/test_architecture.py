@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import pinclear
-from pinclear import kinematics
-from pinclear.drives import DriveRows
+from pinclear.model import kinematics
+from pinclear.model.drives import DriveRows
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -29,8 +29,8 @@ def limb_law(t, scale=1.0):
 
 def _shared_law_mech(path):
     """The four-bar with two (dummy) drives on one shared python law, trusted (test module)."""
-    from pinclear.drives import Drive
-    from pinclear.timelaws import build_law
+    from pinclear.model.drives import Drive
+    from pinclear.model.timelaws import build_law
 
     mech = pinclear.load(path)
     spec = {"type": "python", "function": "test_architecture:limb_law"}
@@ -128,8 +128,8 @@ def test_trajectory_load_then_summary(tmp_path):
 
 
 def test_models_load_by_name_from_another_directory(tmp_path):
-    """The bundled models are found through pinclear.models, not the working directory."""
-    code = ("import pinclear, pinclear.models as m; names = m.available(); "
+    """The bundled models are found through pinclear.core.models, not the working directory."""
+    code = ("import pinclear, pinclear.core.models as m; names = m.available(); "
             "[pinclear.load(n) for n in names]; print(len(names))")
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr
@@ -146,7 +146,7 @@ def test_models_found_in_a_non_editable_install_layout(tmp_path):
     site = tmp_path / "site"
     shutil.copytree(ROOT / "pinclear", site / "pinclear", ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copytree(ROOT / "urdf", site / "pinclear" / "urdf")
-    code = ("import pinclear, pinclear.models as m; assert m.models_dir().parent == "
+    code = ("import pinclear, pinclear.core.models as m; assert m.models_dir().parent == "
             "__import__('pathlib').Path(pinclear.__file__).parent, m.models_dir(); "
             "print(len(m.available())); pinclear.load('four_ups_upu', clearances=['S2'])")
     env = {**__import__("os").environ, "PYTHONPATH": str(site)}
@@ -167,7 +167,7 @@ def test_numba_cache_is_outside_the_package(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True,
                          timeout=600)
     assert out.returncode == 0, out.stderr
-    from pinclear._jit import KERNEL_OPTIONS, KERNELS_DIGEST
+    from pinclear.core.jit import KERNEL_OPTIONS, KERNELS_DIGEST
 
     # named by the digest of every compiled source (a change in any file a kernel inlines
     # must not load stale code: numba's index watches a function's own file only)
@@ -187,7 +187,7 @@ def test_one_parameter_language_reaches_any_sidecar_value(tmp_path, capsys):
     assert mech.path == str(osc) and mech.load_args["overrides"] == {"forces[spring].k": 7.5}
     with pytest.raises(pinclear.ModelFileError, match=r"forces\[sprung\].*valid: push, spring"):
         pinclear.load(osc, overrides={"forces[sprung].k": 1.0})
-    from pinclear import cli
+    from pinclear.cli import commands as cli
 
     assert cli.main(["info", str(osc), "--set", "forces[spring].k=2.5", "--json"]) == 0
     assert '"k": 2.5' in capsys.readouterr().out
@@ -197,7 +197,7 @@ def test_a_folder_named_after_a_mechanism_does_not_hide_it(tmp_path, monkeypatch
     """`pinclear simulate squeezer --out squeezer` then `pinclear warmup` from the same folder: the
     bare name still means the bundled mechanism, not the output folder of that name (it did, and
     the loader refused it as 'a folder'); an existing file of that name is still taken as given."""
-    from pinclear.models import model_path, models_dir
+    from pinclear.core.models import model_path, models_dir
 
     monkeypatch.chdir(tmp_path)
     (tmp_path / "four_bar").mkdir()

@@ -17,7 +17,9 @@ from scipy.integrate import quad, solve_ivp
 from scipy.optimize import brentq
 
 import pinclear
-from pinclear import atlas, cli, kinematics
+from pinclear.studies.bench import atlas
+from pinclear.cli import commands as cli
+from pinclear.model import kinematics
 from pinclear.mechanisms import benchmarks as B
 
 from conftest import URDF_DIR
@@ -54,7 +56,7 @@ def _flat_time_by_quadrature(mech):
 
 def test_flat_time_quadrature_agrees_with_the_branch_ode():
     """The two independent singular times: quadrature of the energy integral and the event of the
-    1-dof branch ODE (pinclear.atlas.parallelogram_flat_times) agree to 1e-9 s."""
+    1-dof branch ODE (pinclear.studies.bench.atlas.parallelogram_flat_times) agree to 1e-9 s."""
     mech = pinclear.load(URDF_DIR / "parallelogram.yaml")
     tq = _flat_time_by_quadrature(mech)
     te = atlas.parallelogram_flat_times(mech, 1.0)

@@ -10,9 +10,10 @@ import re
 
 import pytest
 
-from pinclear import bench, formulations, stepping as integrators
-from pinclear.cli import main
-from pinclear.errors import InputError
+from pinclear.studies.bench import rhs as bench
+from pinclear.dynamics import formulations, stepping as integrators
+from pinclear.cli.commands import main
+from pinclear.core.errors import InputError
 
 SCENES = ["four_bar", "a02_nfourbar_1"]
 # pinocchio's rigid constraints cannot express a planar_point closure: both scenes refuse it

@@ -25,7 +25,7 @@ from scipy.interpolate import CubicHermiteSpline
 from scipy.optimize import brentq
 
 import pinclear
-from pinclear import kinematics
+from pinclear.model import kinematics
 from pinclear.mechanisms import benchmarks as B
 
 from conftest import a02_branch, a02_cranks, energy_drift, energy_drift_samples, flat_passages
@@ -85,7 +85,7 @@ def test_a02_proximal_keeps_energy_closure_and_branch(a02_runs, n, drift_tol, aw
     drift 4.4e-6, 1e-4 4.7e-7, 1e-6 3.2e-8).
 
     Rounding spread (2026-11-25): q0 moved by k 4e-16, k = 0..7, with the proximal iterations
-    by triangular substitutions and by the explicit inverse (pinclear._kernels.proximal_inverse),
+    by triangular substitutions and by the explicit inverse (pinclear.core.regularised.proximal_inverse),
     16 runs per N. N = 2: drift 4.1e-7..7.5e-7, 4.1e-7..4.9e-7 away from flat (|sin th| > 0.3),
     error 1.5e-5..2.3e-5. N = 1: away from flat 1.7e-9..8.0e-9 in every run, but in 5 of the 16
     runs (2 with substitutions, 3 with the inverse) a step that lands near a flat configuration

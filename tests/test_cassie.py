@@ -10,19 +10,19 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import kinematics
-from pinclear.errors import InputError
-from pinclear.joint_spring import JointSpring
+from pinclear.model import kinematics
+from pinclear.core.errors import InputError
+from pinclear.model.joint_spring import JointSpring
 from pinclear.mechanisms import cassie
-from pinclear.models import example_robot_data_dir, models_dir
-from pinclear.simulate import simulate
+from pinclear.core.models import example_robot_data_dir, models_dir
+from pinclear.dynamics.simulate import simulate
 
 pytestmark = pytest.mark.skipif(example_robot_data_dir() is None, reason="example-robot-data is not installed")
 
 
 @pytest.mark.parametrize("variant", cassie.VARIANTS)
 def test_variant_imports_to_the_bundled_files_and_its_loops_close(variant, tmp_path):
-    from pinclear.importers import import_file
+    from pinclear.io.importers import import_file
 
     rep = import_file(cassie.sdf_path(variant), tmp_path, fix="pelvis", name=variant)
     for ext in ("urdf", "yaml"):
@@ -86,7 +86,7 @@ def test_legs_sit_at_the_sdf_poses_at_the_reference(variant):
 
 def test_passive_swing_without_dampers_conserves_energy():
     """Springs kept, dampers removed (c = 0): a conservative system; the energy balance of a
-    lagrange run stays within its error bound (pinclear.energy), with no dissipated work."""
+    lagrange run stays within its error bound (pinclear.dynamics.energy), with no dissipated work."""
     mech = pinclear.load("cassie_v2")
     springs = [JointSpring(f.name, f.idx_q, f.idx_v, f.k, 0.0, f.reference) for f in mech.forces]
     mech = mech.replace(forces=springs)
@@ -98,7 +98,7 @@ def test_passive_swing_without_dampers_conserves_energy():
     assert eb["terms"]["work_applied"] == 0.0
     assert eb["terms"]["kinetic"] > 0.1                      # the legs did swing
     # (a run whose closure residual passes the bound its tolerances allow ends as failed:
-    # pinclear.validate.check_residual, so "success" covers the loops)
+    # pinclear.dynamics.validate.check_residual, so "success" covers the loops)
 
 
 def _hip_drives(variant):
@@ -205,7 +205,7 @@ def test_proximal_refuses_the_gearbox_variant_naming_both_shin_triangles():
 def test_view_reads_the_package_meshes():
     """The visuals' package://example-robot-data/... meshes resolve to example-robot-data's STL
     files (the meshcat view, pinclear.viz.geometry), one per link of cassie_v2."""
-    from pinclear.sidecar import allowed_roots
+    from pinclear.io.sidecar import allowed_roots
     from pinclear.viz.geometry import confined_visual_model
 
     mech = pinclear.load("cassie_v2")

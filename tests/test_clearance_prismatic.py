@@ -6,9 +6,9 @@ from scipy.optimize import linprog
 
 import pinclear
 from conftest import clearance_states
-from pinclear import kinematics
+from pinclear.model import kinematics
 from pinclear.contact.prismatic import MODE_NAMES, classify
-from pinclear.models import model_path
+from pinclear.core.models import model_path
 
 SLIDER = model_path("clr_slider")
 A_, B_, L_, C_ = 0.05, 0.05, 0.1, 1e-4          # section, length and clearance of clr_slider.yaml
@@ -202,7 +202,7 @@ def test_compiled_slider_equals_the_python_path(scene, name, friction, model):
 
 
 def test_model_key_is_validated_with_file_key_and_choices():
-    from pinclear.errors import ContactSetupError
+    from pinclear.core.errors import ContactSetupError
     with pytest.raises(ContactSetupError) as e:
         pinclear.load(SLIDER, clearances=["P"], overrides={"P.model": "paper_003"})
     msg = str(e.value)

@@ -7,8 +7,8 @@ import pytest
 import pinclear
 from conftest import clearance_states
 from pinclear.contact import restitution_1dof
-from pinclear.errors import ContactSetupError
-from pinclear.models import model_path
+from pinclear.core.errors import ContactSetupError
+from pinclear.core.models import model_path
 
 PLANAR, HINGE = model_path("clr_planar_pendulum"), model_path("clr_hinge")
 
@@ -191,7 +191,7 @@ def test_journal_force_equals_plain_numpy_evaluation(scene, name):
     ws = mech.workspace()
     touching = 0
     for q, v, z in clearance_states(mech, el, 40, seed=7, spread=3e-3):
-        pinclear.kinematics.update(mech, ws, q, v)
+        pinclear.model.kinematics.update(mech, ws, q, v)
         tau, zdot = np.zeros(mech.nv), np.zeros(el.nz)
         el.add_force(mech, ws, ws.force_data[i], 0.0, q, v, z, tau, zdot)
         ref_tau, ref_loss, on = _reference_journal(mech, el, q, v, z, mu, v_eps)

@@ -6,10 +6,10 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import kinematics
+from pinclear.model import kinematics
 from pinclear.contact import restitution_1dof
-from pinclear.errors import ContactSetupError
-from pinclear.models import model_path
+from pinclear.core.errors import ContactSetupError
+from pinclear.core.models import model_path
 
 BALL, PEND = model_path("clr_ball"), model_path("clr_pendulum")
 

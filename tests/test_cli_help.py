@@ -11,13 +11,13 @@ from pathlib import Path
 import pytest
 
 import pinclear
-from pinclear import cli
-from pinclear.analysis import cli as analysis_cli
-from pinclear.formulations import METHODS
-from pinclear.stepping import INTEGRATORS
-from pinclear.reproduce import build_parser as reproduce_parser
-from pinclear.screw import cli as screw_cli
-from pinclear.viz import cli as viz_cli
+from pinclear.cli import commands as cli
+from pinclear.cli import analyse as analysis_cli
+from pinclear.dynamics.formulations import METHODS
+from pinclear.dynamics.stepping import INTEGRATORS
+from pinclear.cli.reproduce import build_parser as reproduce_parser
+from pinclear.cli import inverse_dynamics as screw_cli
+from pinclear.cli import view as viz_cli
 
 ROOT = Path(__file__).resolve().parents[1]
 COMMANDS = ["simulate", "sweep", "info", "bench", "warmup", "view", "plot", "inverse-dynamics", "analyse",
@@ -42,12 +42,10 @@ def _parsers():
     out += [("analyse", an)] + [(f"analyse {n}", p) for n, p in an_sub.choices.items()]
     out += [("view", viz_cli.build_view_parser()), ("plot", viz_cli.build_plot_parser()),
             ("inverse-dynamics", screw_cli.build_parser()), ("reproduce", reproduce_parser())]
-    from pinclear import export_mjcf, importers
+    from pinclear.cli import export, importing, study, wear
 
-    out += [("import", importers.build_parser()), ("export", export_mjcf.build_parser())]
-    from pinclear import study, wearing
-
-    out += [("wear", wearing.build_parser()), ("study", study.build_parser())]
+    out += [("import", importing.build_parser()), ("export", export.build_parser())]
+    out += [("wear", wear.build_parser()), ("study", study.build_parser())]
     return out
 
 
@@ -74,7 +72,7 @@ def test_version_and_bare_invocation_from_the_entry_point():
     r = subprocess.run([sys.executable, "-m", "pinclear.cli", "--version"], capture_output=True, text=True,
                        timeout=300, cwd=ROOT)
     assert r.returncode == 0 and r.stdout.startswith(f"pinclear {pinclear.__version__}"), r
-    assert "C++ extension pinclear._passes: " in r.stdout and "kernel cache: " in r.stdout
+    assert "C++ extension pinclear.model._passes: " in r.stdout and "kernel cache: " in r.stdout
     r = subprocess.run([sys.executable, "-m", "pinclear.cli"], capture_output=True, text=True, timeout=300, cwd=ROOT)
     assert r.returncode == 2
     assert all(c in r.stdout for c in COMMANDS), r.stdout
@@ -144,13 +142,13 @@ def test_version_says_whether_the_extension_is_in_use_from_any_folder(tmp_path):
     extension and why it is not in use, run from any folder."""
     import os
 
-    from pinclear import native
+    from pinclear.model import native
 
     env = {**os.environ, "PYTHONPATH": str(Path(pinclear.__file__).resolve().parents[1])}
     r = subprocess.run([sys.executable, "-m", "pinclear.cli", "--version"], capture_output=True, text=True,
                        timeout=300, cwd=tmp_path, env=env)
     assert r.returncode == 0
-    assert ("C++ extension pinclear._passes: in use" in r.stdout) == native.available(), r.stdout
+    assert ("C++ extension pinclear.model._passes: in use" in r.stdout) == native.available(), r.stdout
     r = subprocess.run([sys.executable, "-m", "pinclear.cli", "--version"], capture_output=True, text=True,
                        timeout=300, cwd=tmp_path, env={**env, "PINCLEAR_NATIVE": "0"})
     assert "not in use: turned off by PINCLEAR_NATIVE=0" in r.stdout, r.stdout

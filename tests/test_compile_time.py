@@ -1,5 +1,5 @@
 """Kernel compilation is not run time: a run's cpu_s, its CPU budget and its summary count the
-integration, not the once-per-machine compile (pinclear._jit.compile_cpu, stats['compile_s'])."""
+integration, not the once-per-machine compile (pinclear.core.jit.compile_cpu, stats['compile_s'])."""
 from __future__ import annotations
 
 import json
@@ -36,3 +36,19 @@ def test_first_run_on_a_fresh_cache_costs_what_the_second_costs(tmp_path):
     assert cold["compile_s"] > 1.0 and warm["compile_s"] < cold["compile_s"] / 3, (cold, warm)
     assert "compiling pinclear's kernels" in err_cold and "compiling" not in err_warm
     assert 0.5 < cold["cpu_s"] / warm["cpu_s"] < 2.0, (cold, warm)
+
+
+def test_the_kernel_cache_is_keyed_on_every_compiled_module_of_every_layer():
+    """The cache folder's digest covers each module that compiles code, wherever it sits: a kernel
+    that inlines a helper from another subpackage must be compiled again when that helper changes
+    (a digest over pinclear/core only would keep stale machine code after an edit elsewhere)."""
+    import pinclear
+    from pinclear.core import jit
+
+    pkg = Path(pinclear.__file__).resolve().parent
+    files = {f.relative_to(pkg).as_posix() for f in jit.kernel_files()}
+    compiled = {p.relative_to(pkg).as_posix() for p in pkg.rglob("*.py") if b"@njit" in p.read_bytes()}
+    assert compiled and compiled <= files
+    for layer in ("core", "model", "contact", "dynamics", "mechanisms"):
+        assert any(f.startswith(layer + "/") for f in files), layer
+    assert "contact/channels.py" in files and "dynamics/stepping/chunk.py" in files

@@ -8,8 +8,9 @@ import pytest
 
 import pinclear
 from conftest import clearance_states
-from pinclear import formulations, kinematics
-from pinclear.formulations.proximal import proximal_multipliers
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
+from pinclear.dynamics.formulations.proximal import proximal_multipliers
 
 
 def _random_consistent_state(mech, seed):
@@ -69,8 +70,8 @@ def test_proximal_filter_is_k_proximal_iterations():
 def test_compiled_time_laws_equal_their_python_eval():
     """Constant, sines and polynomial laws filled by one compiled call equal each law's own
     ``eval`` (the formulas written in Python) bit for bit, at random times."""
-    from pinclear import timelaws as T
-    from pinclear.drives import Drive, DriveRows
+    from pinclear.model import timelaws as T
+    from pinclear.model.drives import Drive, DriveRows
 
     laws = [T.Constant(0.3), T.Sines(0.1, [{"amp": 0.2, "omega": 3.0, "phase": 0.4},
                                            {"amp": -1.1, "omega": 7.0, "kind": "cos"}]),
@@ -110,7 +111,7 @@ def test_ik_drive_laws_written_in_place_have_consistent_derivatives(name):
 
 
 def test_brent_search_compiled_and_python_take_the_same_points():
-    """The singular-passage search (pinclear._kernels.brent_start/brent_next, reverse
+    """The singular-passage search (pinclear.core.dense.brent_start/brent_next, reverse
     communication) is driven from compiled code in the compiled loop and from Python in the
     Python loop: on random smooth functions both drivers return the same point after the same
     evaluations, and the point is the minimiser: SciPy's bounded Brent's where it found the same
@@ -120,7 +121,7 @@ def test_brent_search_compiled_and_python_take_the_same_points():
     from numba import njit
     from scipy.optimize import minimize_scalar
 
-    from pinclear.stepping.roots import BRENT_STATE, brent_next, brent_start
+    from pinclear.dynamics.stepping.roots import BRENT_STATE, brent_next, brent_start
 
     @njit
     def wavy(x, p):
@@ -211,13 +212,15 @@ def test_fused_clearance_events_and_records_equal_the_python_path(scene, name):
 # ------------------------------------------------------------------ bound kernels
 @pytest.mark.parametrize("name,clearance", [("four_ups_upu", "S2"), ("nine_bar", "A"), ("parallelogram", None)])
 def test_bound_kernels_equal_the_direct_calls(name, clearance):
-    """pinclear.stepping.stage.bind passes a kernel's buffers (NamedTuples of them: Rows, Solve)
+    """pinclear.core.stage.bind passes a kernel's buffers (NamedTuples of them: Rows, Solve)
     as addresses rebuilt into views inside compiled code. The formulation's solve stage and a
     direct call of its kernel on the same buffers run the same arithmetic on the same memory, so
     every output buffer must be bitwise equal, at random states and times; a wrong address,
     shape or layout (Pinocchio's M and J are column-major) would give different numbers or
     garbage."""
-    from pinclear._kernels import Solve, lagrange_accel, proximal_accel
+    from pinclear.dynamics.formulations.base import Solve
+    from pinclear.dynamics.formulations.lagrange import lagrange_accel
+    from pinclear.dynamics.formulations.proximal import proximal_accel
 
     mech = pinclear.load(name, clearances=[clearance] if clearance else None)
     nv, m = mech.nv, mech.m
@@ -249,11 +252,11 @@ def test_bound_kernels_equal_the_direct_calls(name, clearance):
 @pytest.mark.parametrize("scene, name", [("four_ups_upu", "S2"), ("clr_hinge", "R"), ("clr_slider", "P")])
 def test_clearance_force_stages_equal_the_direct_calls(scene, name):
     """Inside a run a clearance joint's force is its force_kernel bound as a stage to the
-    workspace's own tau and zdot (pinclear.stepping.stage); add_force calls the same kernel
+    workspace's own tau and zdot (pinclear.core.stage); add_force calls the same kernel
     directly on the caller's buffers. Both must leave bitwise equal forces, state rates and
     channel quantities (spherical, revolute and prismatic kernels): a wrong address, shape or
     layout in the stage would give other numbers or garbage."""
-    from pinclear.stepping.stage import bind
+    from pinclear.core.stage import bind
 
     mech, el, sl, ws, d = _clearance_scene(scene, name)
     i = list(mech.forces).index(el)
@@ -279,11 +282,11 @@ def test_clearance_force_stages_equal_the_direct_calls(scene, name):
                                   "clr_slider", "a04_bricard"])
 def test_joint_jacobians_from_the_placements_equal_pinocchios(name):
     """The projections' iterates take the WORLD joint Jacobian of a 1-dof tree from the compiled
-    placements (pinclear._kernels.joint_placements_jacobians) instead of Pinocchio's
+    placements (pinclear.model.frames.joint_placements_jacobians) instead of Pinocchio's
     computeJointJacobians: both, at random configurations (revolute and prismatic joints,
     serial and branched trees), agree to rounding (a column is a unit axis and a point's cross
     product with it, so 1e-12 of the placements' scale)."""
-    from pinclear._kernels import joint_placements_jacobians
+    from pinclear.model.frames import joint_placements_jacobians
 
     mech = pinclear.load(name)
     model, data = mech.model, mech.model.createData()

@@ -9,7 +9,7 @@ import math
 import pytest
 from scipy.integrate import quad
 
-from pinclear.contact import bench
+from pinclear.studies.bench import restitution as bench
 
 
 def test_hertz_closed_form_against_quadrature_of_the_energy_equation():
@@ -50,7 +50,7 @@ def test_prismatic_edge_and_corner_equal_the_winkler_integrals():
 
 
 def test_cli_rejects_a_bad_speed_before_any_run(capsys):
-    from pinclear.cli import main
+    from pinclear.cli.commands import main
 
     assert main(["bench", "contact-laws", "--v", "0"]) != 0
     assert "--v 0.0: impact speed must be > 0" in capsys.readouterr().err

@@ -8,7 +8,7 @@ from scipy.integrate import quad, solve_ivp
 
 from pinclear.contact import laws
 from pinclear.contact.laws import make_friction_law, make_normal_law, restitution_1dof
-from pinclear.errors import ContactSetupError
+from pinclear.core.errors import ContactSetupError
 
 CE = (0.3, 0.6, 0.9)
 

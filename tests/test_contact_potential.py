@@ -15,8 +15,8 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 import pinclear
-from pinclear import kinematics
-from pinclear.contact import _kernels
+from pinclear.model import kinematics
+from pinclear.contact import prismatic_geometry
 from pinclear.contact.laws import HYSTERESIS, make_normal_law
 
 C = 1e-4                                # clearance of every clr_* scene, m
@@ -154,7 +154,7 @@ def test_foundation_face_integrals_against_a_fine_grid():
     for _ in range(6):
         c0, gx, gy = rng.normal() * 1e-6, rng.normal() * 1e-4, rng.normal() * 1e-4
         d = np.array([c0 + gx * (hx if j & 2 else -hx) + gy * (hy if j & 1 else -hy) for j in range(4)])
-        U = _kernels.foundation_face(d, hx, hy, kf, poly, F)
+        U = prismatic_geometry.foundation_face(d, hx, hy, kf, poly, F)
         D = np.maximum(c0 + gx * X + gy * Y, 0.0)
         ref_U = kf / 2 * (D ** 2).sum() * dA
         ref_F = [kf * (D * (1 + (1 if j & 2 else -1) * X / hx) * (1 + (1 if j & 1 else -1) * Y / hy) / 4).sum() * dA
@@ -170,7 +170,7 @@ def test_foundation_limits_face_edge_corner():
     at a fixed tilt grows as delta^2, a corner as delta^3 (area ~ delta^2 times mean pressure)."""
     poly, F = np.zeros((7, 4)), np.zeros(4)
     hx, hy, kf = 0.025, 0.05, 4e12
-    face = lambda d: (_kernels.foundation_face(np.asarray(d, float), hx, hy, kf, poly, F), F.sum())[1]
+    face = lambda d: (prismatic_geometry.foundation_face(np.asarray(d, float), hx, hy, kf, poly, F), F.sum())[1]
     assert face([1e-6] * 4) == pytest.approx(kf * 4 * hx * hy * 1e-6, rel=1e-14)
     # fixed tilt, the plane moved by s: an edge (xi = +hx) in contact, the opposite one 1e-5 m
     # clear: strip width ~ s, pressure ~ s; a corner (xi = +hx, eta = +hy): triangle legs ~ s

@@ -16,8 +16,8 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import kinematics
-from pinclear.closures import Closure
+from pinclear.model import kinematics
+from pinclear.model.closures import Closure
 
 from conftest import DATA
 
@@ -84,7 +84,7 @@ def test_row_counts_and_names(tree):
 
 # ---------------------------------------------------------------------------- residuals
 def _independent_phi(model, c, oMf):
-    """Closure residual from its definition (pinclear.closures docstring table)."""
+    """Closure residual from its definition (pinclear.model.closures docstring table)."""
     M1, M2 = oMf[c.f1], oMf[c.f2]
     p1, p2, R1, R2 = M1.translation, M2.translation, M1.rotation, M2.rotation
     x1, y1, z1 = R1.T

@@ -14,9 +14,10 @@ import pytest
 from scipy.integrate import trapezoid
 
 import pinclear
-from pinclear import formulations, kinematics
-from pinclear.forces import JointForce, SpringDamper
-from pinclear.timelaws import Constant
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
+from pinclear.model.forces import JointForce, SpringDamper
+from pinclear.model.timelaws import Constant
 
 from conftest import DATA, URDF_DIR
 

@@ -17,10 +17,10 @@ import pytest
 from scipy.interpolate import CubicSpline
 
 import pinclear
-from pinclear import kinematics
-from pinclear.drives import Drive
+from pinclear.model import kinematics
+from pinclear.model.drives import Drive
 from pinclear.mechanisms import four_bar as fb
-from pinclear.timelaws import Constant, Polynomial
+from pinclear.model.timelaws import Constant, Polynomial
 
 from conftest import parallelogram_branch
 

@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 import pinclear
-from pinclear import cli, kinematics
-from pinclear.timelaws import Callable, Constant, Polynomial, Sines, Spline, build_law
+from pinclear.cli import commands as cli
+from pinclear.model import kinematics
+from pinclear.model.timelaws import Callable, Constant, Polynomial, Sines, Spline, build_law
 
 from conftest import DATA, ROOT, URDF_DIR
 
@@ -106,7 +107,7 @@ def test_python_law_plain_callable():
 
 
 def test_python_law_with_index_evaluates_once_per_time():
-    from pinclear.drives import Drive, DriveRows
+    from pinclear.model.drives import Drive, DriveRows
 
     spec = {"type": "python", "function": "test_core_input:shared_ik", "args": {"scale": 2.0}}
     laws = [build_law(dict(spec, index=k), "f.yaml", f"drives[{k}].law", trust=True) for k in range(3)]
@@ -121,7 +122,7 @@ def test_python_law_with_index_evaluates_once_per_time():
         for k, val in enumerate(vals):
             assert val == pytest.approx((y[k], yd[k], ydd[k]), abs=1e-14)
     # once per evaluation for the three drives sharing it (no value kept by time: a run's
-    # compiled stages write the same buffer, pinclear.drives)
+    # compiled stages write the same buffer, pinclear.model.drives)
     assert CALLS == [0.1, 0.35, 0.35, 1.2]
     for law in laws:
         _fd_check(law, [0.3, 1.1])
@@ -131,7 +132,7 @@ def test_python_law_through_drives_in_a_simulation(double_pendulum_urdf, sim):
     """Both joints of the double pendulum driven by components of ONE vector law: the law is
     evaluated once per evaluation (two separate laws would cost two calls each), and the motion
     follows it."""
-    from pinclear.drives import Drive
+    from pinclear.model.drives import Drive
 
     def law2(t):
         CALLS.append(t)

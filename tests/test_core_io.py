@@ -9,8 +9,8 @@ import pytest
 import scipy
 
 import pinclear
-from pinclear import cli
-from pinclear.trajectory import Trajectory
+from pinclear.cli import commands as cli
+from pinclear.dynamics.trajectory import Trajectory
 
 from conftest import URDF_DIR
 
@@ -79,7 +79,7 @@ def test_cli_simulate_writes_trajectory_and_summary(tmp_path, capsys, four_bar):
     assert tr.t[0] == 0.0 and tr.t[-1] == pytest.approx(1.0)
     assert tr.meta["method"]["alpha"] == 2.5
     # the file's states are a valid run: closure satisfied at every sample
-    from pinclear import kinematics
+    from pinclear.model import kinematics
 
     ws = four_bar.workspace()
     res = [np.abs(kinematics.closure_residual(four_bar, ws, q)).max() for q in tr.q]

@@ -1,4 +1,4 @@
-"""Model economy (pinclear.economy, `pinclear info --along`): redundant rows by name, planarity
+"""Model economy (pinclear.analysis.economy, `pinclear info --along`): redundant rows by name, planarity
 and the planar model's size, and each body's influence on the drive forces.
 
 References: hand counts of rows and freedoms (Grübler, planar and spatial), Bricard's known
@@ -15,11 +15,13 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import economy, kinematics, screw
-from pinclear.cli import main
-from pinclear.errors import InputError
+from pinclear.analysis import economy
+from pinclear.model import kinematics
+from pinclear.dynamics import screw
+from pinclear.cli.commands import main
+from pinclear.core.errors import InputError
 from pinclear.mechanisms import four_ups_upr as upr
-from pinclear.models import model_path
+from pinclear.core.models import model_path
 
 # slider-crank_clearance: crank r at constant speed w (5000 rpm), rod l, slider mass, crank com
 R, L, W = 0.05, 0.12, 523.5987755982989

@@ -1,4 +1,4 @@
-"""The energy audit (pinclear.energy) and the energy properties of the clearance contacts.
+"""The energy audit (pinclear.dynamics.energy) and the energy properties of the clearance contacts.
 
 Property tests (Hypothesis): the spherical (clr_ball, clr_pendulum), planar revolute
 (clr_planar_pendulum) and spatial revolute (clr_hinge) clearances, for every normal law and every
@@ -27,8 +27,8 @@ import pytest
 import pinclear
 from pinclear.contact.laws import FRICTION_LAWS, HYSTERESIS, NormalLaw, make_normal_law
 from pinclear.contact.spherical import SphericalClearance
-from pinclear.forces import ForceElement, JointForce
-from pinclear.timelaws import build_law
+from pinclear.model.forces import ForceElement, JointForce
+from pinclear.model.timelaws import build_law
 
 hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings  # noqa: E402
@@ -110,7 +110,7 @@ UNIT = st.lists(st.floats(0.0, 1.0), min_size=13, max_size=13)
 @given(u=UNIT)
 def test_elastic_laws_conserve_energy(name, c, law, u):
     """ce = 1, no friction: no dissipation at all, and T + V_el (gravity off, nothing else)
-    constant to the bound derived from rtol and the steps (pinclear.energy)."""
+    constant to the bound derived from rtol and the steps (pinclear.dynamics.energy)."""
     mech = _scene(name, c, law, 1.0)
     q, v = _state(mech, name, u)
     tr, b = _run(mech, q, v)
@@ -268,8 +268,8 @@ def test_drive_work_closes_the_balance(clr):
 
 
 def test_summary_carries_the_balance_and_the_cli_warns(tmp_path, monkeypatch, capsys):
-    from pinclear import cli
-    from pinclear.trajectory import Trajectory
+    from pinclear.cli import commands as cli
+    from pinclear.dynamics.trajectory import Trajectory
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -299,7 +299,7 @@ def test_the_work_meter_with_dropped_rows_is_the_same_in_both_loops():
     A crank drive added: both loops give the same meter, it matches the trapezoid of
     lam_d v_j over fine samples (a smooth power: h^2/12 |P''| T is ~1e-7 of the work), and the
     balance closes."""
-    from pinclear.drives import Drive
+    from pinclear.model.drives import Drive
 
     mech = pinclear.load("four_bar_revolute")
     j = mech.model.getJointId("crank_joint")

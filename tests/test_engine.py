@@ -1,4 +1,4 @@
-"""The stepping engine (pinclear.stepping): one compiled step logic over stages.
+"""The stepping engine (pinclear.dynamics.stepping): one compiled step logic over stages.
 
 The compiled stages and the plug-ins' Python methods (``loop="python"``) compute the same
 numbers with the same kernels, and both are stepped by the same compiled step logic, so a run
@@ -16,10 +16,11 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import pinclear
-from pinclear import formulations, native, stepping
-from pinclear.stepping.build import Evaluation
-from pinclear.stepping.run import CHUNK
-from pinclear.trajectory import FAILURE_KINDS, Trajectory
+from pinclear.dynamics import formulations, stepping
+from pinclear.model import native
+from pinclear.dynamics.stepping.build import Evaluation
+from pinclear.dynamics.stepping.run import CHUNK
+from pinclear.dynamics.trajectory import FAILURE_KINDS, Trajectory
 
 # scene, clearances, simulated time: ideal closures, seed drives with analytic inverse
 # kinematics, dropped redundant rows, and the three clearance types with their events
@@ -122,7 +123,7 @@ def test_the_step_logic_takes_scipys_steps(method):
 @pytest.mark.parametrize("integrator", sorted(set(stepping.INTEGRATORS) - {"RK4"}))
 def test_every_integrator_runs_compiled_stages_and_conserves_energy(integrator):
     """Every integrator evaluates through the compiled stages and conserves the four-bar's energy
-    within the bound its tolerance implies (pinclear.energy); RK4 at a step whose error is far
+    within the bound its tolerance implies (pinclear.dynamics.energy); RK4 at a step whose error is far
     below the bound."""
     mech = pinclear.load("four_bar")
     tr = _quiet(pinclear.simulate, mech, 1.0, integrator=integrator, rtol=1e-8)
@@ -161,7 +162,7 @@ def test_longer_chunks_take_the_same_steps(monkeypatch, name, clearances, t_end,
     """Without a progress callback the compiled chunks grow (run.next_chunk); with one they stay
     at CHUNK steps. The steps, evaluations, events and every sample must be the same bits: the
     step state lives in the compiled Steps, which a chunk boundary does not touch."""
-    from pinclear.stepping import run as R
+    from pinclear.dynamics.stepping import run as R
     calls = []
     advance = R.C.advance
     monkeypatch.setattr(R.C, "advance", lambda *a: calls.append(a[-1]) or advance(*a))
@@ -192,7 +193,7 @@ def test_runs_evaluated_in_python_say_why(kw, why):
 
 def _with_python_law(mech, fn):
     """mech with its first drive's law replaced by the Python function fn (no compiled form)."""
-    from pinclear import timelaws
+    from pinclear.model import timelaws
 
     d = mech.drives[0]
     return mech.replace(drives=[type(d)(d.name, d.joint, d.idx_q, d.idx_v, timelaws.Callable(fn))])

@@ -25,10 +25,10 @@ import yaml
 
 import pinclear
 from conftest import ROOT, write_sidecar
-from pinclear import kinematics, native
-from pinclear import timelaws as TL
-from pinclear.forces import JointForce
-from pinclear.stepping.stage import T, bind
+from pinclear.model import kinematics, native
+from pinclear.model import timelaws as TL
+from pinclear.model.forces import JointForce
+from pinclear.core.stage import T, bind
 
 EPS = np.finfo(float).eps
 LUGRE = {"type": "lugre", "mu_s": 0.3, "mu_c": 0.2, "vs": 1e-3, "s0": 1e4, "s1": 10.0, "s2": 0.01}
@@ -330,7 +330,7 @@ def test_spring_torque_run_is_compiled_takes_the_python_steps_and_closes_its_ene
 def test_force_elements_do_not_use_the_old_binder():
     """forces.py and pinclear/contact bind their kernels through the stepping engine's stages
     only (pinclear._bind is being retired)."""
-    files = [ROOT / "pinclear" / "forces.py", *sorted((ROOT / "pinclear" / "contact").glob("*.py"))]
+    files = [ROOT / "pinclear" / "model" / "forces.py", *sorted((ROOT / "pinclear" / "contact").glob("*.py"))]
     for path in files:
         for node in ast.walk(ast.parse(Path(path).read_text())):
             if isinstance(node, ast.ImportFrom):

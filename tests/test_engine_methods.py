@@ -26,8 +26,9 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import formulations, kinematics
-from pinclear.formulations.proximal import proximal_multipliers
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
+from pinclear.dynamics.formulations.proximal import proximal_multipliers
 
 METHODS = ("lagrange", "projection", "proximal", "manifold")
 
@@ -189,7 +190,7 @@ def test_projection_moves_velocities_in_the_mass_metric():
 
 
 def test_proximal_iterations_equal_the_extended_precision_iterations():
-    """pinclear._kernels.proximal_filter (one Cholesky of S + rho I and its inverse, then k
+    """pinclear.core.regularised.proximal_filter (one Cholesky of S + rho I and its inverse, then k
     matrix-vector products) against the definition evaluated with 50 digits (mpmath): k solves
     (S + rho I) lam_{i+1} = r + rho lam_i from zero, on spectra from well conditioned to
     singular (eigenvalues 1e-14 .. 10, and exactly redundant rows). Error bound: the inverse's
@@ -199,7 +200,7 @@ def test_proximal_iterations_equal_the_extended_precision_iterations():
     digits with the former triangular substitutions, 2026-11-25), asserted 1e-10 relative to
     the largest multiplier."""
     mp = pytest.importorskip("mpmath")
-    from pinclear._kernels import proximal_filter
+    from pinclear.core.regularised import proximal_filter
 
     mp.mp.dps = 50
     rng = np.random.default_rng(11)
@@ -229,7 +230,7 @@ def test_proximal_iterations_equal_the_extended_precision_iterations():
 
 def test_without_the_extension_the_compiled_run_is_the_same():
     """PINCLEAR_NATIVE=0: the projections call Pinocchio's passes through a C callback running
-    the Python bindings (pinclear.native.passes_for), the evaluation's passes run as a Python
+    the Python bindings (pinclear.model.native.passes_for), the evaluation's passes run as a Python
     stage; the library functions are the same, so the run equals the one with the extension."""
     code = ("import warnings, numpy as np, pinclear\n"
             "warnings.simplefilter('ignore')\n"
@@ -254,8 +255,8 @@ def test_monitors():
     """Contract 8: lagrange and projection watch the pivots of their Schur complement (rank
     floor 1 / RANK_COND; reselection only when rows were dropped); proximal and manifold pass
     singular configurations by design and only reject failed evaluations (negative codes)."""
-    from pinclear.formulations.base import RANK_COND
-    from pinclear.formulations.lagrange import RESELECT_DIP
+    from pinclear.dynamics.formulations.base import RANK_COND
+    from pinclear.dynamics.formulations.lagrange import RESELECT_DIP
 
     bricard = pinclear.load("a04_bricard")
     for name in ("lagrange", "projection"):

@@ -8,10 +8,10 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import kinematics
-from pinclear.export_mjcf import export_mjcf
-from pinclear.importers import import_file
-from pinclear.models import available
+from pinclear.model import kinematics
+from pinclear.io.export_mjcf import export_mjcf
+from pinclear.io.importers import import_file
+from pinclear.core.models import available
 
 
 def _q_in(b, a, qa):
@@ -55,7 +55,7 @@ def test_round_trip_gives_the_same_model(name, tmp_path):
 
 
 #: passive mechanisms whose every closure MuJoCo expresses; the clearance scenes' massless links
-#: are merged into their child body (pinclear.export_mjcf._tree_xml); clr_ball's gravity is zero,
+#: are merged into their child body (pinclear.io.export_mjcf._tree_xml); clr_ball's gravity is zero,
 #: so it is tilted here to load the socket
 PASSIVE = {n: [0.0, -9.81, 0.0] if n == "clr_ball" else None for n in available()
            if n in ("four_bar", "four_bar_revolute", "a02_nfourbar_1", "a02_nfourbar_2", "a04_bricard",
@@ -130,7 +130,7 @@ def test_mujoco_runs_the_export_and_agrees_at_rest(name, tmp_path):
     mech = pinclear.load(name, overrides={"gravity": PASSIVE[name]} if PASSIVE[name] else None)
     q = kinematics.assemble(mech, mech.q0)
     m, d, dofs, iv = _mujoco_at(mech, q)
-    from pinclear.formulations import METHODS
+    from pinclear.dynamics.formulations import METHODS
 
     form = METHODS["lagrange"](mech)
     form.use_rows(kinematics.mobility(mech, q)["independent"])
@@ -170,7 +170,7 @@ def test_mujoco_run_converges_to_pinclear_at_second_order(name, h):
     Expected order 2: MuJoCo's closures are soft with time constant tc = 2 h, and their violation
     (forced by the dJ/dt v term MuJoCo's constraint rows leave out, and by the impedance's 1e-4
     leak) settles at O(tc^2); the drives' servos track f with an O(tc^2) error once fed ctrl =
-    f + 2 tc f' (pinclear.export_mjcf._drives_xml); RK4's own O(h^4) is below both. Asserted:
+    f + 2 tc f' (pinclear.io.export_mjcf._drives_xml); RK4's own O(h^4) is below both. Asserted:
     e(h) / e(h/2) within 2^(2 +- 0.3), and the Richardson extrapolation q(h/2) + (q(h/2) - q(h))/3
     nearer pinclear's q than a quarter of e(h/2) (MuJoCo converges to pinclear's motion, not to
     another). pinclear's own error (rtol 1e-11 against 1e-12) is checked to be below 1% of e(h/2)."""

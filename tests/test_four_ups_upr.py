@@ -9,10 +9,11 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import kinematics, screw
-from pinclear.errors import InputError, ModelFileError
+from pinclear.model import kinematics
+from pinclear.dynamics import screw
+from pinclear.core.errors import InputError, ModelFileError
 from pinclear.mechanisms import four_ups_upr as m
-from pinclear.models import model_path, models_dir
+from pinclear.core.models import model_path, models_dir
 
 from conftest import kkt_singular_time
 
@@ -68,7 +69,7 @@ def test_assembly_residual_and_ik_round_trip(mech):
         # forward position analysis of the closed chain by Pinocchio: assemble with the drive
         # rows at the IK lengths from a perturbed guess, then read the platform pose
         fixed = mech.replace(drives=[d.__class__(d.name, d.joint, d.idx_q, d.idx_v,
-                                                 pinclear.timelaws.Constant(ell[k]))
+                                                 pinclear.model.timelaws.Constant(ell[k]))
                                      for k, d in enumerate(mech.drives)])
         q1 = kinematics.assemble(fixed, q + 0.02, ws=fixed.workspace())
         data = mech.model.createData()

@@ -19,7 +19,7 @@ from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 import pinclear  # noqa: E402
-from pinclear import cli  # noqa: E402
+from pinclear.cli import commands as cli  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = yaml.safe_load((ROOT / "urdf" / "four_bar.yaml").read_text())
@@ -186,7 +186,7 @@ hostile = junk | st.sampled_from([
 def saved_run(tmp_path_factory):
     import json
 
-    from pinclear import validate
+    from pinclear.dynamics import validate
 
     d = tmp_path_factory.mktemp("fzrun")
     path = pinclear.simulate(pinclear.load("four_bar"), 0.2, dt_out=0.01).save(d / "run.npz")
@@ -340,7 +340,7 @@ def test_cache_folder_modes(tmp_path_factory, mode, parent_mode, missing):
     import os
     import stat as st_
 
-    from pinclear._jit import CacheFolderError, private_folder
+    from pinclear.core.jit import CacheFolderError, private_folder
 
     if not hasattr(os, "getuid"):
         pytest.skip("POSIX permissions")

@@ -34,9 +34,9 @@ from hypothesis import HealthCheck, event, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 import pinclear  # noqa: E402
-from pinclear import cli  # noqa: E402
-from pinclear.trajectory import Checkpoint  # noqa: E402
-from pinclear.trust import OFFERED, resolve_function  # noqa: E402
+from pinclear.cli import commands as cli  # noqa: E402
+from pinclear.dynamics.trajectory import Checkpoint  # noqa: E402
+from pinclear.core.trust import OFFERED, resolve_function  # noqa: E402
 
 from test_fuzz import CASE_LIMIT, alarm  # noqa: E402
 
@@ -59,7 +59,7 @@ def _pinclear_modules():
 def _chains(root, depth):
     """Attribute paths from a module: every name, and through modules and classes up to
     ``depth`` names long (breadth first, so each module or class is expanded at its shortest
-    path: pinclear.cli:os.spawnvp, not only pinclear.cli:argparse._os.spawnvp)."""
+    path: pinclear.cli.commands:os.spawnvp, not only pinclear.cli.commands:argparse._os.spawnvp)."""
     import builtins
 
     seen, queue = {id(root)}, [(root, ())]
@@ -86,16 +86,16 @@ def _chains(root, depth):
 MODULES = _pinclear_modules()
 CHAINS = sorted({f"{m}:{c}" for m, mod in MODULES.items() for c in _chains(mod, 3)})
 #: the audit's routes, whatever the walk finds
-KNOWN = ["pinclear.timelaws:os.spawnv", "pinclear.cli:os.spawnvp", "pinclear.stepping.stage:os.spawnve",
-         "pinclear.sidecar:re.enum.bltns.exec", "pinclear.cli:main", "pinclear.sidecar:yaml.load",
-         "pinclear.trajectory:os.system", "pinclear.sweeps:subprocess.run", "pinclear.cli:sys.exit",
-         "pinclear.timelaws:np.load", "pinclear.sidecar:copy.copyreg.__builtins__.eval"]
+KNOWN = ["pinclear.model.timelaws:os.spawnv", "pinclear.cli.commands:os.spawnvp", "pinclear.core.stage:os.spawnve",
+         "pinclear.io.sidecar:re.enum.bltns.exec", "pinclear.cli:main", "pinclear.io.sidecar:yaml.load",
+         "pinclear.dynamics.trajectory:os.system", "pinclear.analysis.sweeps:subprocess.run", "pinclear.cli.commands:sys.exit",
+         "pinclear.model.timelaws:np.load", "pinclear.io.sidecar:copy.copyreg.__builtins__.eval"]
 
 
 def test_the_walk_reaches_the_dangerous_names():
     assert len(MODULES) > 40 and len(CHAINS) > 10_000
-    for spec in ("pinclear.trust:os.spawnv", "pinclear.cli:os.spawnvp", "pinclear.cli:main",
-                 "pinclear.cli:os.system", "pinclear.sidecar:re.enum"):
+    for spec in ("pinclear.core.trust:os.spawnv", "pinclear.cli.commands:os.spawnvp", "pinclear.cli:main",
+                 "pinclear.cli.commands:os.system", "pinclear.io.sidecar:re.enum"):
         assert spec in CHAINS, spec
 
 

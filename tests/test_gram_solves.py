@@ -1,4 +1,4 @@
-"""The Cholesky solves that replace the pivoted QR away from rank loss (pinclear._kernels:
+"""The Cholesky solves that replace the pivoted QR away from rank loss (pinclear.core.dense:
 gram_rows, chol_pivoted, chol_solve_pivoted; projection.min_norm_step_gram; the manifold's
 velocity projection and accelerations).
 
@@ -16,10 +16,11 @@ import pytest
 import scipy.linalg
 
 import pinclear
-from pinclear import formulations, kinematics
-from pinclear._kernels import chol_pivoted, chol_solve_pivoted, gram_rows
-from pinclear.formulations import manifold as manifold_mod
-from pinclear.formulations.projection import GRAM_GATE, min_norm_step, min_norm_step_gram
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
+from pinclear.core.dense import chol_pivoted, chol_solve_pivoted, gram_rows
+from pinclear.dynamics.formulations import manifold as manifold_mod
+from pinclear.dynamics.formulations.projection import GRAM_GATE, min_norm_step, min_norm_step_gram
 
 EPS = np.finfo(float).eps
 
@@ -32,7 +33,7 @@ def _rows(m, n, seed, spread=2.0):
 
 
 def _dense(m, n):
-    """Every row's support is every column (pinclear.kinematics.row_support's dense case)."""
+    """Every row's support is every column (pinclear.model.kinematics.row_support's dense case)."""
     return np.tile(np.arange(n, dtype=np.int64), (m, 1)), np.full(m, n, dtype=np.int64)
 
 

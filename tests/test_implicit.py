@@ -1,4 +1,4 @@
-"""pinclear's implicit integrator ROS34PW2 (pinclear.stepping.rosenbrock).
+"""pinclear's implicit integrator ROS34PW2 (pinclear.dynamics.stepping.rosenbrock).
 
 Reference values: the IVP Test Set of Mazzia & Magherini (Bari; problems VDPOL and ROBER,
 reference solutions computed with RADAU in quadruple precision), SciPy's DOP853 at rtol 1e-13
@@ -17,13 +17,13 @@ from numba import carray, cfunc
 from scipy.integrate import solve_ivp
 
 import pinclear
-from pinclear.stepping import INTEGRATORS, chunk as C, rosenbrock as R
-from pinclear.stepping.call import CALLBACK, ptr_f8
-from pinclear.stepping.checks import reset_monitor
-from pinclear.stepping.run import STALL_STEPS
-from pinclear.stepping.state import (ATOL, BAD, H_ABS, H_STALL, MAX_STEP, NJAC, REJECTS, RTOL, STEPS, T, T_BAD,
-                                     T_BOUND, new_steps)
-from pinclear.stepping.system import ode_system
+from pinclear.dynamics.stepping import INTEGRATORS, chunk as C, rosenbrock as R
+from pinclear.core.call import CALLBACK, ptr_f8
+from pinclear.dynamics.stepping.checks import reset_monitor
+from pinclear.dynamics.stepping.run import STALL_STEPS
+from pinclear.dynamics.stepping.state import (ATOL, BAD, H_ABS, H_STALL, MAX_STEP, NJAC, REJECTS, RTOL, STEPS,
+                                              T, T_BAD, T_BOUND, new_steps)
+from pinclear.dynamics.stepping.system import ode_system
 from stiff_odes import ROBER_REF, VDPOL_REF, rober, vdpol
 
 

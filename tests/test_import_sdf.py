@@ -13,10 +13,10 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import kinematics
-from pinclear.errors import ModelFileError
-from pinclear.importers import convert, import_file
-from pinclear.simulate import simulate
+from pinclear.model import kinematics
+from pinclear.core.errors import ModelFileError
+from pinclear.io.importers import convert, import_file
+from pinclear.dynamics.simulate import simulate
 
 DATA = Path(__file__).parent / "data"
 ROOT = Path(__file__).resolve().parents[1]

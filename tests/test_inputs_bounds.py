@@ -18,11 +18,11 @@ import numpy as np
 import pytest
 
 import pinclear
-from pinclear.errors import InputError, ModelFileError
-from pinclear.sidecar import MAX_SIDECAR_BYTES, MAX_YAML_DEPTH, read_yaml
-from pinclear.sweeps import MAX_SWEEP_POINTS, grid, parse_vary
-from pinclear.timelaws import build_law
-from pinclear.urdf_check import MAX_URDF_DEPTH, MAX_URDF_LINKS
+from pinclear.core.errors import InputError, ModelFileError
+from pinclear.io.sidecar import MAX_SIDECAR_BYTES, MAX_YAML_DEPTH, read_yaml
+from pinclear.analysis.sweeps import MAX_SWEEP_POINTS, grid, parse_vary
+from pinclear.model.timelaws import build_law
+from pinclear.io.urdf_check import MAX_URDF_DEPTH, MAX_URDF_LINKS
 
 ROOT = Path(__file__).resolve().parents[1]
 CLI_TIMEOUT = 300          # a hang guard only: every refusal here happens before any simulation
@@ -150,7 +150,7 @@ def test_deeply_nested_yaml_is_refused_at_the_stated_depth(tmp_path):
     deep.write_text("urdf: ok.urdf\ndescription: " + "[" * 5000 + "]" * 5000 + "\n")
     _one_line_exit_2(_cli("info", deep), "deep.yaml", f"nested more than {MAX_YAML_DEPTH} levels")
     with pytest.raises(InputError, match=f"nested more than {MAX_YAML_DEPTH}"):
-        pinclear.sidecar.parse_assignments(["x=" + "[" * 100 + "]" * 100])
+        pinclear.io.sidecar.parse_assignments(["x=" + "[" * 100 + "]" * 100])
 
 
 @pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs on this system")
@@ -343,7 +343,7 @@ def test_sweep_grids_are_refused_above_the_stated_size_before_anything_is_built(
 # ------------------------------------------------------------------------------- plot --ref
 def test_plot_ref_with_a_run_of_another_mechanism_names_both_files(tmp_path, capsys):
     """It was a Pinocchio ValueError from forwardKinematics (q of the wrong size), exit 3."""
-    from pinclear.viz.cli import plot_main
+    from pinclear.cli.view import plot_main
 
     a = pinclear.simulate(pinclear.load("four_bar"), 0.01, dt_out=0.005).save(tmp_path / "a.npz")
     b = pinclear.simulate(pinclear.load("parallelogram"), 0.01, dt_out=0.005).save(tmp_path / "b.npz")

@@ -118,7 +118,7 @@ def test_bearing_radius_is_checked_against_the_nominal_clearance():
     clearance is c - asperity; any other value stops the load, naming the key."""
     mech = pinclear.load(JOURNAL, clearances=["A"], overrides={"A.bearing_radius": R + C})
     assert mech.clearances[0].c_film == pytest.approx(C, rel=1e-15)
-    with pytest.raises(pinclear.errors.ContactSetupError, match=r"A.bearing_radius.*differs from clearance 0.0001 m"):
+    with pytest.raises(pinclear.core.errors.ContactSetupError, match=r"A.bearing_radius.*differs from clearance 0.0001 m"):
         pinclear.load(JOURNAL, clearances=["A"], overrides={"A.bearing_radius": R + 2 * C})
-    with pytest.raises(pinclear.errors.ContactSetupError, match=r"must exceed the journal radius 0.01 m"):
+    with pytest.raises(pinclear.core.errors.ContactSetupError, match=r"must exceed the journal radius 0.01 m"):
         pinclear.load(JOURNAL, clearances=["A"], overrides={"A.bearing_radius": 0.5 * R})

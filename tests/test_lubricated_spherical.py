@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 
 import pinclear
 from pinclear.contact.lubricated_spherical import film_loads, film_pressure
-from pinclear.errors import ContactSetupError
+from pinclear.core.errors import ContactSetupError
 
 BALL = Path(__file__).parent / "data" / "lub_ball.yaml"
 MU, R, C, M = 0.01, 0.02, 1e-4, 2.0            # the sidecar's oil, ball and socket, ball mass (kg)
@@ -123,7 +123,7 @@ def test_film_power_is_never_positive_at_random_states():
 
 def test_a_ball_thrown_through_its_film_into_the_wall_closes_its_audit():
     """Thrown across its (thin) film with spin into the dry wall and back: the film's dissipation
-    never decreases, and total + dissipated stays within the run's integration bound (pinclear.energy)."""
+    never decreases, and total + dissipated stays within the run's integration bound (pinclear.dynamics.energy)."""
     mech = pinclear.load(BALL, clearances=["S"], overrides={"S.viscosity": 1e-4, "S.asperity": 5e-6,
                                                              "S.band": 5e-6})
     tr = pinclear.simulate(mech, 0.004, integrator="Radau", rtol=1e-9, q0=np.zeros(6),
@@ -161,13 +161,13 @@ def test_a_missing_viscosity_stops_the_load(tmp_path):
 
 
 def test_oil_in_s2_of_the_4ups_upu_delays_and_softens_the_landing():
-    """pinclear.study_paper000's case runner on 0.1 s of paper 000's mechanism from its centred start:
+    """pinclear.studies.wear_paper000's case runner on 0.1 s of paper 000's mechanism from its centred start:
     the squeeze film only slows the ball's approach (it carries no load at rest), so with oil the
     first asperity contact comes later and its peak force is lower than the dry joint's; the film's
     dissipation is part of the audited total and the audit closes. Later by more than 2x: at 0.1 Pa s
     under S2's ~140 N the squeeze law alone takes 6 pi mu R^4 / (c^2 W) int_0^0.98 g = 32 ms to cross
     the film (quasi-static), against the dry joint's 12.6 ms fall."""
-    from pinclear import study_paper000 as study
+    from pinclear.studies import wear_paper000 as study
 
     s = {**study._settings(True), "periods": 0.05, "window": 0.025}
     (_, dry), (_, oil) = study.cases()[0], study.cases()[-1]
@@ -184,7 +184,7 @@ def test_the_film_hands_over_to_the_dry_law_without_a_force_jump():
     asperity + band (film weight 1 -> fading) and h_min = asperity (film gone, dry law from zero
     penetration), for a ball approaching with spin: the difference across each end shrinks with the
     step (no jump)."""
-    from pinclear import kinematics
+    from pinclear.model import kinematics
 
     mech = pinclear.load(BALL, clearances=["S"])
     el = mech.forces[-1]

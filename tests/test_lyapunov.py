@@ -63,7 +63,7 @@ def test_a_longer_loop_gives_the_shorter_runs_exponents_bit_for_bit(renorm):
 
 def test_a_loop_that_stops_keeps_the_exponents_of_the_ends_it_passed():
     from pinclear.analysis.lyapunov import LyapunovFailed, benettin
-    from pinclear.errors import IntegrationError
+    from pinclear.core.errors import IntegrationError
 
     def advance(y, t, dt):
         if t >= 2.0:
@@ -79,14 +79,14 @@ def test_a_loop_that_stops_keeps_the_exponents_of_the_ends_it_passed():
 
 @pytest.mark.parametrize("scene", ["four_ups_upu", "slider_crank_clearance"])
 def test_kept_alive_chunks_give_the_per_chunk_simulate_exponents_bit_for_bit(scene, monkeypatch):
-    """mechanism_lyapunov's chunks as pinclear.simulate.Restarts runs (formulation and compiled
+    """mechanism_lyapunov's chunks as pinclear.dynamics.simulate.Restarts runs (formulation and compiled
     evaluation kept) against one simulate(..., resume=Checkpoint) call per chunk: the same first
     steps, steps and end states, so every running estimate is equal bit for bit. 4UPS-UPU + S2
     (paper 000: a spherical clearance with 3 internal states, redundant closure rows dropped,
     mu 0.01, impacts) over 2 periods of 2 s; Flores' slider-crank with its pin clearance P (a
     drive with its work meter state) over 3 crank turns. A wrong first step, a stale row choice
     or a leftover internal state moves the exponents at the first chunk."""
-    import pinclear.stepping.run as R
+    import pinclear.dynamics.stepping.run as R
 
     if scene == "four_ups_upu":
         mech = pinclear.load(scene, clearances=["S2"], overrides={"S2.mu": 0.01})
@@ -113,7 +113,7 @@ def test_kept_alive_chunks_give_the_per_chunk_simulate_exponents_bit_for_bit(sce
 
 @pytest.mark.parametrize("method", ["lagrange", "manifold"])
 def test_restarts_runs_equal_resumed_simulate_runs_when_the_rows_change(method):
-    """pinclear.simulate.Restarts against simulate(..., resume=Checkpoint(h_next=None)) on
+    """pinclear.dynamics.simulate.Restarts against simulate(..., resume=Checkpoint(h_next=None)) on
     Bricard's linkage, whose independent constraint rows by the rank analysis differ between its
     start (4 of 5) and t = 0.02 s (all 5; lagrange's solve then finds the rank loss the overclosed
     linkage has, and both paths fail with the same message): the kept pieces are renewed when a
@@ -121,8 +121,8 @@ def test_restarts_runs_equal_resumed_simulate_runs_when_the_rows_change(method):
     for bit. manifold (not in KEEPS_ALIVE) runs through simulate() itself."""
     import warnings
 
-    from pinclear.simulate import KEEPS_ALIVE, Restarts
-    from pinclear.trajectory import Checkpoint
+    from pinclear.dynamics.simulate import KEEPS_ALIVE, Restarts
+    from pinclear.dynamics.trajectory import Checkpoint
 
     mech = pinclear.load("a04_bricard")
     with warnings.catch_warnings():

@@ -1,4 +1,4 @@
-"""The compiled passes pinclear._passes (pinclear/_cxx/passes.cpp, built by setup.py at install
+"""The compiled passes pinclear.model._passes (pinclear/model/_cxx/passes.cpp, built by setup.py at install
 time) against Pinocchio's Python bindings.
 
 The bindings run the library functions (libpinocchio_default) one after the other; the
@@ -20,7 +20,7 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import native
+from pinclear.model import native
 
 FRAMES, MASS, POSITIONS, MASS_ONLY = native.FRAMES, native.MASS, native.POSITIONS, native.MASS_ONLY
 PASSES_SIG = ctypes.CFUNCTYPE(None, *[ctypes.c_int64] * 5)
@@ -55,7 +55,7 @@ def _model(name):
 @pytest.mark.parametrize("flags", [FRAMES | MASS, FRAMES, MASS, 0, POSITIONS, POSITIONS | MASS, POSITIONS | FRAMES,
                                    MASS_ONLY])
 def test_passes_equal_python_bindings(passes, name, flags):
-    """The reference is pinclear.native.python_passes: flags' sequence of Pinocchio calls through
+    """The reference is pinclear.model.native.python_passes: flags' sequence of Pinocchio calls through
     the bindings, also the fallback run through a C callback when the extension is missing (so
     the fallback and the extension are equal)."""
     model = _model(name)
@@ -96,7 +96,7 @@ def test_env_switch_turns_native_off():
     """PINCLEAR_NATIVE=0 falls back whether or not the extension was built, and says why."""
     env = dict(os.environ, PINCLEAR_NATIVE="0")
     res = subprocess.run([sys.executable, "-c",
-                          "import pinclear.native as n; print(n.available()); print(n.reason)"],
+                          "import pinclear.model.native as n; print(n.available()); print(n.reason)"],
                          env=env, capture_output=True, text=True, timeout=120, check=True)
     available, reason = res.stdout.strip().splitlines()
     assert available == "False"

@@ -21,7 +21,7 @@ SIDECAR = ROOT / "urdf" / "nine_bar.yaml"
 
 
 def _load(path=SIDECAR):
-    from pinclear.sidecar import load
+    from pinclear.io.sidecar import load
 
     return load(path)
 
@@ -142,7 +142,7 @@ def test_sidecar_structure():
 
 # ----------------------------------------------------------------------------- closed-loop kinematics
 def test_mobility_two_at_generic_configuration():
-    from pinclear import kinematics as kin
+    from pinclear.model import kinematics as kin
 
     mech = _load()
     q = kin.assemble(mech, nb.tree_configuration(mech.model, nb.positions(*_laws(0.37))["tree"]), t=0.37)
@@ -158,7 +158,7 @@ def test_mobility_two_at_generic_configuration():
 
 @pytest.mark.parametrize("t", [0.0, 0.21, 0.64])
 def test_assembly_matches_independent_position_analysis(t):
-    from pinclear import kinematics as kin
+    from pinclear.model import kinematics as kin
 
     mech = _load()
     ws = mech.workspace()
@@ -177,7 +177,7 @@ def test_assembly_matches_independent_position_analysis(t):
 def test_restricted_jacobian_matches_core_rows():
     """sweep()'s own point Jacobians and the core's planar_point rows agree (same singular values
     of the closure Jacobian restricted to the six undriven joints)."""
-    from pinclear import kinematics as kin
+    from pinclear.model import kinematics as kin
 
     mech = _load()
     ws = mech.workspace()
@@ -204,7 +204,7 @@ def test_restricted_jacobian_matches_core_rows():
 def test_one_period_tracks_the_drive_laws():
     from scipy.integrate import cumulative_simpson
 
-    from pinclear.simulate import simulate
+    from pinclear.dynamics.simulate import simulate
     mech = _load()
     tr = simulate(mech, 1.0, rtol=1e-10, atol=1e-12, dt_out=0.004)
     assert tr.status == "success"
@@ -242,7 +242,7 @@ def test_one_period_tracks_the_drive_laws():
 
 def test_static_crank_torques_equal_virtual_work(tmp_path):
     """Cranks held still under gravity: the drive multipliers are dV/dtheta on the manifold."""
-    from pinclear.simulate import simulate
+    from pinclear.dynamics.simulate import simulate
     th1, th4 = 2.1, -0.7                   # generic, away from the initial pose
     sc = yaml.safe_load(SIDECAR.read_text())
     sc["urdf"] = str(ROOT / "urdf" / "nine_bar.urdf")

@@ -1,5 +1,5 @@
-"""A run's outputs (pinclear.stepping.outputs) and its peaks from the integration
-(pinclear.stepping.peaks): docs/outputs.md.
+"""A run's outputs (pinclear.dynamics.stepping.outputs) and its peaks from the integration
+(pinclear.dynamics.stepping.peaks): docs/outputs.md.
 
 The compiled pass over the samples and the per-sample Python path (``outputs="python"``, the path
 of every run before it) are two implementations of the same outputs: accelerations and
@@ -128,7 +128,7 @@ def test_summary_json_and_summary_give_the_same_peaks(tmp_path, capsys):
     clearances (with their located peaks), also for the run read back from its file."""
     import json
 
-    from pinclear.cli import main
+    from pinclear.cli.commands import main
 
     out = tmp_path / "o"
     assert main(["simulate", "four_ups_upu", "--clearance", "S2", "--t-end", "0.05", "--out", str(out),

@@ -22,8 +22,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "benchmarks" / "peers"))
 
 import pinclear  # noqa: E402
-from pinclear.errors import InputError  # noqa: E402
-from pinclear.mechanism import Mechanism  # noqa: E402
+from pinclear.core.errors import InputError  # noqa: E402
+from pinclear.model.mechanism import Mechanism  # noqa: E402
 
 import mujoco_peer as mp  # noqa: E402
 
@@ -89,7 +89,7 @@ def test_q_layout_matches_pinocchio_kinematics_four_ups_upu():
         mujoco.mj_kinematics(sc.m, sc.d)
         pin.framesForwardKinematics(model, data, q)
         for j in range(1, model.njoints):
-            # the body a joint moves (named after its link: pinclear.export_mjcf)
+            # the body a joint moves (named after its link: pinclear.io.export_mjcf)
             bid = sc.m.jnt_bodyid[mujoco.mj_name2id(sc.m, mujoco.mjtObj.mjOBJ_JOINT, model.names[j])]
             assert np.allclose(sc.d.xpos[bid], data.oMi[j].translation, atol=1e-12)
             assert np.allclose(sc.d.xmat[bid].reshape(3, 3), data.oMi[j].rotation, atol=1e-12)
@@ -140,7 +140,7 @@ def test_quaternion_mapping_against_pinocchio():
         mujoco.mj_forward(sc.m, sc.d)
         pin.forwardKinematics(model, data, q, v)
         for j in range(1, model.njoints):
-            # the body a joint moves (named after its link: pinclear.export_mjcf)
+            # the body a joint moves (named after its link: pinclear.io.export_mjcf)
             bid = sc.m.jnt_bodyid[mujoco.mj_name2id(sc.m, mujoco.mjtObj.mjOBJ_JOINT, model.names[j])]
             assert np.allclose(sc.d.xpos[bid], data.oMi[j].translation, atol=1e-12)
             assert np.allclose(sc.d.xmat[bid].reshape(3, 3), data.oMi[j].rotation, atol=1e-12)

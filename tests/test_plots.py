@@ -16,7 +16,7 @@ import pytest
 
 import pinclear
 from pinclear.viz import plots
-from pinclear.viz.cli import plot_main
+from pinclear.cli.view import plot_main
 
 URDF = Path(__file__).resolve().parents[1] / "urdf"
 

@@ -1,5 +1,5 @@
 """The proximal method's iteration count fitted to the start's conditioning
-(pinclear.formulations.proximal.Proximal.fit_start): k proximal iterations leave the fraction
+(pinclear.dynamics.formulations.proximal.Proximal.fit_start): k proximal iterations leave the fraction
 (rho / (s + rho))^k of the constraint force along an eigen-direction s of J M^-1 J^T unapplied, so a
 fixed k = 30 silently under-held mechanisms whose independent rows are nearly dependent."""
 import warnings
@@ -50,7 +50,8 @@ def test_a_fixed_count_too_small_is_a_warning_and_is_wrong(three_upru_up):
 def test_well_conditioned_mechanisms_keep_thirty_iterations():
     """four_ups_upu (smallest eigenvalue 16 rho) needs no more than the former count: its
     iterations, and so its results, are unchanged."""
-    from pinclear import formulations, kinematics
+    from pinclear.dynamics import formulations
+    from pinclear.model import kinematics
 
     mech = pinclear.load("four_ups_upu")
     form = formulations.get("proximal")(mech)

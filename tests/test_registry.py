@@ -1,4 +1,4 @@
-"""Registries of plug-in kinds (pinclear.registry) and the key reference generated from them.
+"""Registries of plug-in kinds (pinclear.core.registry) and the key reference generated from them.
 
 A new force element, a new clearance type and a new integrator are each one module plus one
 registry line: the toy types below are defined here (the module), registered with one ``add``
@@ -17,11 +17,11 @@ import pytest
 from pinclear.contact.base import ClearanceJoint
 from pinclear.contact.laws import FRICTION_LAWS, NORMAL_LAWS, make_friction_law, make_normal_law
 from pinclear.contact.spec import COMMON, FRICTION_LAW_KEYS, NORMAL_LAW_KEYS
-from pinclear.errors import ContactSetupError, ModelFileError
-from pinclear.forces import ForceElement
-from pinclear.registry import CLEARANCE_TYPES, FORCE_TYPES, INTEGRATORS, ClearancePlot, Key, PluginType
-from pinclear.sidecar import load
-from pinclear.simulate import simulate
+from pinclear.core.errors import ContactSetupError, ModelFileError
+from pinclear.model.forces import ForceElement
+from pinclear.core.registry import CLEARANCE_TYPES, FORCE_TYPES, INTEGRATORS, ClearancePlot, Key, PluginType
+from pinclear.io.sidecar import load
+from pinclear.dynamics.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -187,7 +187,7 @@ def test_a_clearance_on_a_tree_joint_says_clearances_go_on_cut_joints(toys, tmp_
 
 def test_the_command_line_says_so_in_one_line(tmp_path, capsys):
     """`pinclear simulate ... --clearance rod_joint` (a tree joint of the bundled slider-crank)."""
-    from pinclear import cli
+    from pinclear.cli import commands as cli
 
     argv = ["simulate", "slider_crank_clearance", "--clearance", "rod_joint", "--t-end", "0.01",
             "--out", str(tmp_path)]
@@ -217,11 +217,11 @@ def test_a_revolute_clearance_on_a_planar_point_closure_names_planar_revolute(tm
 
 # ------------------------------------------------------------------ the key reference
 def test_the_key_reference_is_the_code_s():
-    """docs/keys.md is what `python -m pinclear.keyref --out docs/keys.md` writes today."""
-    from pinclear.keyref import render
+    """docs/keys.md is what `python -m pinclear.io.keyref --out docs/keys.md` writes today."""
+    from pinclear.io.keyref import render
 
     assert (ROOT / "docs" / "keys.md").read_text(encoding="utf-8") == render(), \
-        "docs/keys.md is stale: run python -m pinclear.keyref --out docs/keys.md"
+        "docs/keys.md is stale: run python -m pinclear.io.keyref --out docs/keys.md"
 
 
 def test_every_type_and_key_a_builder_accepts_is_declared():
@@ -294,13 +294,13 @@ def heun_tableau():
     """Heun's method (the explicit trapezoidal rule): second order, two stages (Butcher tableau
     A = [[0, 0], [1, 0]], b = [1/2, 1/2], c = [0, 1]; Hairer, Norsett & Wanner, Solving ODEs I,
     II.1), taken with fixed steps by the compiled RK step (kind RK_FIXED)."""
-    from pinclear.stepping.state import RK_FIXED, tableau
+    from pinclear.dynamics.stepping.state import RK_FIXED, tableau
 
     return tableau(RK_FIXED, 1, A=[[0.0, 0.0], [1.0, 0.0]], B=[0.5, 0.5], C=[0.0, 1.0])
 
 
 def _heun():
-    from pinclear.stepping.rk import ExplicitRK
+    from pinclear.dynamics.stepping.rk import ExplicitRK
 
     return ExplicitRK("toy_heun", heun_tableau, rows=3, adaptive=False, doc="Heun's method, fixed step h")
 
@@ -321,8 +321,8 @@ def test_a_toy_integrator_converges_at_its_order(toys, toy_heun, tmp_path):
     relative O(w h) term (w h <= 0.08 here); [3.6, 4.4] excludes first order (2) and RK4's fourth (16), so a wrong
     tableau, a stage left out or a step of the wrong length fails. Through the registry the
     integrator is also one of the command line's and the atlas's."""
-    from pinclear import atlas
-    from pinclear.stepping import get
+    from pinclear.studies.bench import atlas
+    from pinclear.dynamics.stepping import get
 
     k, rest, A = 50.0, 0.1, 0.02
     path = _files(tmp_path, f"initial: {{q: {{slide: {rest + A}}}}}\n"
@@ -376,9 +376,9 @@ def _import_graph(package: Path) -> dict:
 def test_the_stepping_engine_has_no_import_circle():
     """base.py (the integrators' contract) imports no step logic, so rk.py and rosenbrock.py
     define their kernels and their Method in one file, and chunk.py imports them: no module of
-    pinclear.stepping reaches itself again through its imports (lazy ones included)."""
+    pinclear.dynamics.stepping reaches itself again through its imports (lazy ones included)."""
     graph = _import_graph(ROOT / "pinclear")
-    inside = {m for m in graph if m.startswith("pinclear.stepping")}
+    inside = {m for m in graph if m.startswith("pinclear.dynamics.stepping")}
     for start in inside:
         seen, todo = set(), [d for d in graph[start] if d in inside]
         while todo:

@@ -17,7 +17,7 @@ import yaml
 
 import pinclear
 from conftest import run_cli, write_sidecar
-from pinclear import cli
+from pinclear.cli import commands as cli
 
 ROOT = Path(__file__).resolve().parents[1]
 FOUR = yaml.safe_load((ROOT / "urdf" / "four_bar.yaml").read_text())
@@ -170,7 +170,7 @@ def test_4_max_cpu_keeps_samples_and_checkpoint_resumes(tmp_path):
         part = pinclear.simulate(mech, 100.0, rtol=1e-11, max_cpu=0.2, checkpoint=saved.append, progress=slow)
     assert part.status == "failed" and "max_cpu" in part.message and len(part.t) > 1
     saved[-1].save(tmp_path / "ck.npz")
-    ck = pinclear.trajectory.Checkpoint.load(tmp_path / "ck.npz")
+    ck = pinclear.dynamics.trajectory.Checkpoint.load(tmp_path / "ck.npz")
     rest = pinclear.simulate(mech, 100.0, rtol=1e-11, resume=ck)
     whole = pinclear.simulate(mech, 100.0, rtol=1e-11)
     np.testing.assert_array_equal(rest.q, whole.q)          # the same steps: bit for bit
@@ -358,7 +358,7 @@ def test_7_yaml_alias_bomb_is_refused(tmp_path):
 
 
 def test_7_cpu_budget_on_the_command_line(tmp_path, capsys):
-    from pinclear._jit import compile_cpu
+    from pinclear.core.jit import compile_cpu
 
     # a hang guard on the run's own CPU: a cold cache compiles for ~40 s first, never counted
     t0 = time.process_time() - compile_cpu()

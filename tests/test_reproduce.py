@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from pinclear.reproduce import paper004
+from pinclear.studies.reproduce import paper004
 
 
 def test_reproduce_004_matches_the_papers_G_and_peaks(tmp_path):
@@ -57,7 +57,7 @@ def test_bands_design_and_budget():
     """--bands: the nominal point, each input at both ends of its range (or each choice), then a Latin
     hypercube whose points each fall in a different 1/n slice of every range; a CPU budget keeps the
     one-at-a-time points and drops space-filling ones."""
-    from pinclear.reproduce import bands
+    from pinclear.studies.reproduce import bands
 
     inputs = bands.reconstructed_inputs("004")
     pts = bands.design(inputs, n_lhs=8, seed=1)
@@ -93,7 +93,7 @@ def test_reproduce_names_the_available_papers(tmp_path):
                                          ("three_upru_up", (5.0, 1.0))])    # paper 003, eq. 20, Table 3
 def test_the_papers_baumgarte_gains_reach_the_formulation(name, gains):
     import pinclear
-    from pinclear.formulations.lagrange import Lagrange
+    from pinclear.dynamics.formulations.lagrange import Lagrange
 
     mech = pinclear.load(name)
     assert Lagrange(mech).baumgarte() == gains
@@ -106,8 +106,8 @@ def test_baumgarte_key_errors_name_the_file_and_key(tmp_path):
     import yaml
 
     import pinclear
-    from pinclear.models import model_path
-    from pinclear.errors import ModelFileError
+    from pinclear.core.models import model_path
+    from pinclear.core.errors import ModelFileError
 
     src = model_path("four_bar")
     sc = yaml.safe_load(src.read_text())

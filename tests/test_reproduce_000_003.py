@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 
 import pinclear
-from pinclear.errors import InputError
+from pinclear.core.errors import InputError
 from pinclear.mechanisms import four_ups_upu
-from pinclear.reproduce import PAPERS, paper000, paper003
-from pinclear.reproduce.report import write_report
+from pinclear.studies.reproduce import PAPERS, paper000, paper003
+from pinclear.studies.reproduce.report import write_report
 
 KEYS = {"title", "paper", "settings", "results", "notes", "figures", "checks"}
 
@@ -25,7 +25,7 @@ def _check_files(rep, out):
     assert html.count("data:image/png;base64,") == len(rep["figures"])
     back = json.loads((out / "report.json").read_text())
     assert len(back["results"]) == len(rep["results"]) > 0
-    from pinclear.reproduce.verdicts import CLASSES
+    from pinclear.studies.reproduce.verdicts import CLASSES
 
     for r in back["results"]:
         assert r["verdict"] in CLASSES and (r["why"] or r["group"] in rep["groups"])

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from pinclear.mechanisms import nine_bar
-import pinclear.reproduce.paper002 as p002
-from pinclear.reproduce import reproduce
+import pinclear.studies.reproduce.paper002 as p002
+from pinclear.studies.reproduce import reproduce
 
 T_RESP = 0.3
 TINY = {"response t_end [s]": T_RESP, "clearances [mm]": [0.01, 0.8], "speeds [pi rad/s]": [2.0, 3.0],
@@ -23,7 +23,7 @@ TINY = {"response t_end [s]": T_RESP, "clearances [mm]": [0.01, 0.8], "speeds [p
 
 @pytest.fixture(scope="module")
 def report(tmp_path_factory):
-    import pinclear.reproduce.paper002 as p002
+    import pinclear.studies.reproduce.paper002 as p002
 
     out = tmp_path_factory.mktemp("r002")
     orig = p002._settings
@@ -117,7 +117,7 @@ def test_journal_stays_within_clearance_plus_hertz_penetration(report):
 
 
 def test_cli_takes_workers_and_scheduler(tmp_path, capsys):
-    from pinclear.reproduce import cli_main
+    from pinclear.cli.reproduce import cli_main
 
     r = subprocess.run([sys.executable, "-m", "pinclear.cli", "reproduce", "002", "--workers", "0", "--out",
                         str(tmp_path)], capture_output=True, text=True, timeout=120)
@@ -135,12 +135,11 @@ def test_bands_run_the_one_at_a_time_design_through_the_sweep_runner(tmp_path):
     nominal point's value, and the journal radius moves the first impact the way K ~ sqrt(R_eff) says
     (a larger journal, a stiffer contact, a larger peak)."""
     import pinclear
-    from pinclear.models import model_path
-    from pinclear.reproduce import bands
+    from pinclear.core.models import model_path
 
     s = {**p002._settings(True), "response t_end [s]": 0.6, "output step [s]": 1e-3}
     ideal = pinclear.simulate(pinclear.load(model_path("nine_bar")), 0.6, rtol=p002.RTOL, dt_out=1e-3)
-    got, table = bands.paper002_bands(tmp_path, s, "serial", ideal.q[0].tolist(), ideal.v[0].tolist(), budget=1.0,
+    got, table = p002.paper002_bands(tmp_path, s, "serial", ideal.q[0].tolist(), ideal.v[0].tolist(), budget=1.0,
                                       cost=0.5)
     rows = {r[0]: r for r in table["rows"]}
     assert len(rows) == 11 and all(r[-1] == "success" for r in rows.values())

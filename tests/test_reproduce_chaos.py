@@ -1,10 +1,10 @@
-"""pinclear.reproduce.chaos: the studies' 'irregular' runs become 'chaotic' only with a positive
+"""pinclear.studies.reproduce.chaos: the studies' 'irregular' runs become 'chaotic' only with a positive
 Lyapunov exponent that agrees over both tolerances and both run lengths (analysis.lyapunov's rule),
 the paper's named values are checked first, and the limit is kept and reported."""
 from types import SimpleNamespace
 
 from pinclear.analysis.classify import Classification
-from pinclear.reproduce import chaos
+from pinclear.studies.reproduce import chaos
 
 
 def irregular(K):

@@ -1,4 +1,4 @@
-"""The supports (pinclear.kinematics.row_support, FrameKinematics.fcols): the frame Jacobians
+"""The supports (pinclear.model.kinematics.row_support, FrameKinematics.fcols): the frame Jacobians
 and the Gram and Schur matrices (J J^T, J M^-1 J^T) walk only the dofs that can move each frame
 and each row. The claim is that nothing is lost: outside a row's support J and J L^-1 are exact
 zeros, so the dense kernels (every dof in every row's support, as before the supports existed)
@@ -12,8 +12,11 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import formulations, kinematics
-from pinclear._kernels import constraint_rows_all, gram_rows, ltl_factor, schur_complement
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
+from pinclear.model.rows import constraint_rows_all
+from pinclear.core.dense import gram_rows
+from pinclear.core.tree_solve import ltl_factor, schur_complement
 
 
 def _dense(R, nv):

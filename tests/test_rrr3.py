@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import pinclear
-from pinclear import cli, kinematics
+from pinclear.cli import commands as cli
+from pinclear.model import kinematics
 
 from conftest import ROOT, URDF_DIR
 
@@ -138,8 +139,8 @@ def test_poincare_suggests_a_period_aligned_grid_and_labels_units(tmp_path, caps
 def test_builder_errors_name_the_choices(tmp_path):
     """Mistakes in a builder script are refused where they are made (joint type, unknown body),
     or by the loader on write() naming the file and the key (a clearance key)."""
-    from pinclear.builder import Builder
-    from pinclear.errors import InputError, PinclearError
+    from pinclear.io.builder import Builder
+    from pinclear.core.errors import InputError, PinclearError
 
     b = Builder("pend").body("arm", 1.0, com=(0.5, 0, 0), inertia=(1e-4, 0.1, 0.1))
     with pytest.raises(InputError, match="unknown type 'ball'.*revolute"):

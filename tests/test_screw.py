@@ -11,15 +11,17 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 import pinclear
-from pinclear import kinematics, screw
-from pinclear.errors import ModelFileError
-from pinclear.models import model_path
-from pinclear.forces import JointForce
+from pinclear.model import kinematics
+from pinclear.dynamics import screw
+from pinclear.cli.inverse_dynamics import cli_main as screw_main
+from pinclear.core.errors import ModelFileError
+from pinclear.core.models import model_path
+from pinclear.model.forces import JointForce
 from pinclear.mechanisms import four_ups_upr as m
 
 from conftest import kkt_singular_time
-from pinclear.reproduce.paper004 import PAPER_G    # paper 004, sec. 4.1: G_q^p at the initial configuration
-from pinclear.timelaws import Callable
+from pinclear.studies.reproduce.paper004 import PAPER_G    # paper 004, sec. 4.1: G_q^p at the initial configuration
+from pinclear.model.timelaws import Callable
 
 SIDECAR = model_path("four_ups_upr")
 GENERIC = (0.12, -0.09, 0.04, 0.07)
@@ -346,7 +348,7 @@ def test_same_code_path_on_the_4ups_upu_of_paper_000():
 
 def test_cli_writes_csv_png_and_peaks(tmp_path, capsys):
     out = tmp_path / "id"
-    rc = screw.cli_main([str(SIDECAR), "--law", "low", "--limbs", "off", "--gravity", "off", "--n", "301",
+    rc = screw_main([str(SIDECAR), "--law", "low", "--limbs", "off", "--gravity", "off", "--n", "301",
                          "--out", str(out)])
     assert rc == 0
     peaks = json.loads((out / "peaks.json").read_text())
@@ -357,7 +359,7 @@ def test_cli_writes_csv_png_and_peaks(tmp_path, capsys):
     assert csv.shape == (301, 1 + 4 + 2 + 1)
     assert np.abs(csv[:, 1:5]).max() == pytest.approx(peaks["peak_abs_all"])
     assert (out / "drive_forces.png").stat().st_size > 1000
-    assert screw.cli_main([str(SIDECAR), "--option", "layout=z", "--out", str(out)]) == 2
+    assert screw_main([str(SIDECAR), "--option", "layout=z", "--out", str(out)]) == 2
     assert "layout" in capsys.readouterr().err
 
 
@@ -395,7 +397,7 @@ def test_virtual_joint_rule_changes_only_the_constraint_limb_forces(mech, system
     scale = np.abs(ref.constraint_wrench).max()
     assert np.abs(alt.constraint_wrench - ref.constraint_wrench).max() < 1e-9 * scale and scale > 10.0
     # the registered rule named as module:function is the same rule
-    named = screw.screw_system(_with_screw(mech, virtual={"UPR": "pinclear.screw.virtual:line_normal"}))
+    named = screw.screw_system(_with_screw(mech, virtual={"UPR": "pinclear.dynamics.screw.virtual:line_normal"}))
     assert np.array_equal(named.influence_coefficients(mech.q0)[0], system.influence_coefficients(mech.q0)[0])
 
 
@@ -436,9 +438,9 @@ def test_cli_serves_a_mechanism_without_screw_section(tmp_path, capsys):
     """The 4UPS-UPU sidecar declares nothing for the screw method: limbs from the topology, the
     numerical IK, and its platform.motion over the default end time."""
     out = tmp_path / "upu"
-    assert screw.cli_main(["four_ups_upu", "--n", "5", "--out", str(out)]) == 0
+    assert screw_main(["four_ups_upu", "--n", "5", "--out", str(out)]) == 0
     peaks = json.loads((out / "peaks.json").read_text())
     assert set(peaks["peaks"]) == {f"drive{i}" for i in range(1, 6)} and peaks["law"] is None
     assert peaks["t_end"] == 2.0 and peaks["cond_max"] < 100
-    assert screw.cli_main(["four_ups_upu", "--law", "high", "--out", str(out)]) == 2
+    assert screw_main(["four_ups_upu", "--law", "high", "--out", str(out)]) == 2
     assert "screw.motions" in capsys.readouterr().err

@@ -12,7 +12,7 @@ import pytest
 import pinclear
 import pinclear.analysis as an
 from conftest import run_cli
-from pinclear.errors import InputError, ModelFileError
+from pinclear.core.errors import InputError, ModelFileError
 
 
 def _listener(answer: bytes | None):
@@ -38,7 +38,7 @@ def _listener(answer: bytes | None):
 @pytest.mark.parametrize("answer", [None, b"\xff" * 64], ids=["silent", "garbage"])
 def test_a_dask_scheduler_that_never_answers_or_answers_garbage_is_one_line(answer, monkeypatch):
     pytest.importorskip("distributed")
-    from pinclear import sweeps
+    from pinclear.analysis import sweeps
 
     monkeypatch.setattr(sweeps, "SCHEDULER_TIMEOUT_S", 1.0)
     srv, _ = _listener(answer)

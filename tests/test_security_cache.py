@@ -16,7 +16,7 @@ import numba
 import pytest
 
 import pinclear
-from pinclear._jit import CacheFolderError, private_folder
+from pinclear.core.jit import CacheFolderError, private_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,6 +1,6 @@
 """Hostile round 4 (issue 42), links and sweep points: every file pinclear creates, truncates or
 replaces in a results folder is written without following a link and stays inside the folder
-(pinclear.safeio); sweep points carry their sweep's identity; sweep folders are locked; a point
+(pinclear.core.safeio); sweep points carry their sweep's identity; sweep folders are locked; a point
 that cannot be written leaves a named copy. Each test plants the hostile file and checks the
 victim's bytes afterwards."""
 from __future__ import annotations
@@ -17,9 +17,10 @@ import pytest
 
 import pinclear
 from conftest import run_cli
-from pinclear import safeio, sweeps
-from pinclear.errors import InputError
-from pinclear.trajectory import Trajectory
+from pinclear.core import safeio
+from pinclear.analysis import sweeps
+from pinclear.core.errors import InputError
+from pinclear.dynamics.trajectory import Trajectory
 
 VICTIM = b"the user's data\n"
 MODEL, LOAD = "clr_pendulum", {"clearances": ["S"], "overrides": {"S.friction_law": "coulomb", "S.mu": 0.1}}
@@ -199,7 +200,7 @@ def test_foreign_points_are_moved_aside_and_computed_again(tmp_path, capsys):
 
 
 def test_an_edited_mechanism_file_makes_old_points_foreign(tmp_path, capsys):
-    from pinclear.models import model_path
+    from pinclear.core.models import model_path
 
     side = tmp_path / "pend.yaml"
     src = model_path(MODEL)

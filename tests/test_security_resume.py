@@ -22,7 +22,7 @@ T_END = 0.1
 def _mech(name, cl):
     import yaml
 
-    from pinclear.models import model_path
+    from pinclear.core.models import model_path
 
     cl = cl or yaml.safe_load(model_path(name).read_text())["clearances"][0]["name"]
     return pinclear.load(name, clearances=[cl])
@@ -60,7 +60,7 @@ def test_an_implicit_resume_reuses_the_saved_jacobian(tmp_path, name, cl):
     """ROS34PW2 keeps its Jacobian across steps (a W-method): the checkpoint carries it (through
     a file here), and the resumed run is bit-identical; recomputing it at the resume point had
     moved clr_hinge by 2.4e-3 rad by t = 0.1 s."""
-    from pinclear.trajectory import Checkpoint
+    from pinclear.dynamics.trajectory import Checkpoint
 
     mech = _mech(name, cl)
     kw = dict(integrator="ROS34PW2", rtol=1e-6, dt_out=1e-3)

@@ -11,9 +11,9 @@ import pytest
 import pinclear
 from conftest import run_cli
 from test_trust import _tampered as tampered_npz
-from pinclear import validate
-from pinclear.errors import ModelFileError
-from pinclear.trust import check_recorded_args
+from pinclear.dynamics import validate
+from pinclear.core.errors import ModelFileError
+from pinclear.core.trust import check_recorded_args
 
 SECRET = "AKIA-SECRET-KEY-4242"
 
@@ -50,7 +50,7 @@ def test_recorded_overrides_never_add_code_even_trusted(four_bar_run, tmp_path, 
           "hook": {"hook": "pinclear.cli:main"},
           "nested": {"S1.mu": {"deep": [{"x": "os.path:join"}]}}}[overrides]
     run = _tampered(four_bar_run, tmp_path / "run.npz", load_args={"overrides": ov})
-    four = str(pinclear.models.model_path("four_bar"))
+    four = str(pinclear.core.models.model_path("four_bar"))
     for argv in (["view", str(run), "--trust", "--html", str(tmp_path / "x.html")],
                  ["plot", str(run), "--trust", "--out", str(tmp_path / "f")],
                  ["plot", str(run), "--mech", four, "--trust", "--out", str(tmp_path / "f")]):
@@ -81,7 +81,7 @@ def test_a_recorded_path_is_never_opened(four_bar_run, tmp_path, capsys, monkeyp
     creds = tmp_path / "credentials.yaml"
     creds.write_text(f"[default]\naws_secret_access_key = {SECRET}\n: {{ [\n")
     opened = []
-    import pinclear.sidecar as sidecar
+    import pinclear.io.sidecar as sidecar
     real = sidecar.read_yaml
     monkeypatch.setattr(sidecar, "read_yaml", lambda p, *a, **k: (opened.append(str(p)), real(p, *a, **k))[1])
     run = _tampered(four_bar_run, tmp_path / "run.npz", mech_path=str(creds),

@@ -30,8 +30,9 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import formulations, kinematics
-from pinclear.errors import InputError
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
+from pinclear.core.errors import InputError
 from pinclear.mechanisms import benchmarks as B
 
 from conftest import a02_branch, a02_cranks, energy_drift, flat_passages, parallelogram_branch
@@ -123,7 +124,7 @@ def test_shifted_solve_is_the_eigenvalue_filter(m):
     1e-14 .. 1e2, through the filter's knee at mu^2. Bound: both errors are ~ m eps cond(S + i mu^2)
     <= m eps (s_max / mu^2) <= m^2 1e4 eps (mu^2 = 1e-4 mean(diag S)) in units of max g = 1 / (2 mu^2)
     times |r|: 4.4e-10 at m = 20; asserted 1e-9 (observed 2e-11 over 1200 draws)."""
-    from pinclear.formulations.manifold import filtered_solve_ws, shifted_factor
+    from pinclear.dynamics.formulations.filtered_solve import filtered_solve_ws, shifted_factor
     rng = np.random.default_rng(m)
     for _ in range(50):
         Qm, _r = np.linalg.qr(rng.standard_normal((m, m)))
@@ -155,7 +156,7 @@ def test_shifted_solve_scales_by_group_and_leaves_the_drive_rows_exact(mc, nd, n
     the scaled rows D^-1 w relative to the filter's largest gain |D r| / (2 mu^2) for the
     reference and the change of unit (measured 1.3e-11, 5.8e-12), relative to |S_d| |w| for the
     drive rows' residual (measured 2.8e-14; 1.2e-4 with a shift of 1e-4 S_ii on the drive rows)."""
-    from pinclear.formulations.manifold import filtered_solve_ws, shifted_factor
+    from pinclear.dynamics.formulations.filtered_solve import filtered_solve_ws, shifted_factor
     rng = np.random.default_rng(10 * mc + nd)
     nv, m = mc + nd + 1, mc + nd
     grp = np.sort(rng.integers(0, ng, mc))
@@ -208,8 +209,8 @@ def test_series_filter_is_the_shifted_solve_far_from_flat_and_declines_near_it(m
     test above: the series reads the same shifts, row_shifts.)
     Near flat (one eigenvalue at 1e-7 of the largest, below the shift): the series does not
     converge and must say so (False), so the caller takes the complex factor."""
-    from pinclear._kernels import chol_pivoted
-    from pinclear.formulations.manifold import row_shifts, series_filtered
+    from pinclear.core.dense import chol_pivoted
+    from pinclear.dynamics.formulations.filtered_solve import row_shifts, series_filtered
     rng = np.random.default_rng(7 * mc + nd)
     m = mc + nd
     grp = np.unique(rng.integers(0, ng, mc), return_inverse=True)[1].astype(np.int64)

@@ -17,11 +17,12 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import pinclear
-from pinclear import formulations, kinematics
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
 from pinclear.mechanisms import squeezer as S
-from pinclear.models import models_dir
-from pinclear.simulate import initial_state
-from pinclear.stepping.build import Evaluation
+from pinclear.core.models import models_dir
+from pinclear.dynamics.simulate import initial_state
+from pinclear.dynamics.stepping.build import Evaluation
 
 Y0 = np.array([S.ANGLES0[a] for a in S.ANGLES])
 Y_REF = np.array([S.ANGLES_REF[a] for a in S.ANGLES])

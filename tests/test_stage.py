@@ -1,4 +1,4 @@
-"""Stages (pinclear.stepping.stage): a kernel bound to its buffers, called through a C address
+"""Stages (pinclear.core.stage): a kernel bound to its buffers, called through a C address
 from compiled code and from Python. A stage must run the kernel on the very memory it was given
 (a wrong address, shape or memory order would give other numbers or garbage) and return its code."""
 import sys
@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import pinclear
-from pinclear._jit import cache_dir
-from pinclear.stepping.call import ERROR, OK, run_stages
-from pinclear.stepping.stage import T, bind, python_stage
+from pinclear.core.jit import cache_dir
+from pinclear.core.call import ERROR, OK, run_stages
+from pinclear.core.stage import T, bind, python_stage
 from stage_kernels import Pair, mix
 
 

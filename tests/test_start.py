@@ -1,4 +1,4 @@
-"""The start state of a run (pinclear.kinematics.start_state, simulate(start=...), --start):
+"""The start state of a run (pinclear.model.kinematics.start_state, simulate(start=...), --start):
 a clearance run starts by default where the papers start, from the ideal mechanism's assembled
 state and velocity (journal centred, no relative velocity at the clearance)."""
 from __future__ import annotations
@@ -10,8 +10,8 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import kinematics
-from pinclear.errors import InputError
+from pinclear.model import kinematics
+from pinclear.core.errors import InputError
 
 from conftest import URDF_DIR
 
@@ -129,7 +129,7 @@ def test_state_start_keeps_given_state(nine_a, tmp_path, sim):
 
 
 def _read(path, mech):
-    from pinclear.simulate import read_state
+    from pinclear.dynamics.simulate import read_state
 
     return read_state(path, mech)
 

@@ -9,10 +9,10 @@ import pytest
 
 from pinclear import analysis as an
 from pinclear.analysis import signals
-from pinclear.models import model_path
-from pinclear.reproduce import paper000 as P
-from pinclear.sidecar import load, read_yaml
-from pinclear.simulate import simulate
+from pinclear.core.models import model_path
+from pinclear.studies.reproduce import paper000 as P
+from pinclear.io.sidecar import load, read_yaml
+from pinclear.dynamics.simulate import simulate
 
 
 @pytest.fixture(scope="module")

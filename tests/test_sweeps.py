@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import pinclear
-from pinclear.errors import InputError
-from pinclear.sweeps import grid, parse_vary
-from pinclear.trajectory import Trajectory
+from pinclear.core.errors import InputError
+from pinclear.analysis.sweeps import grid, parse_vary
+from pinclear.dynamics.trajectory import Trajectory
 
 # a pendulum on a spherical joint with clearance and Coulomb friction: cheap, with impacts; friction and
 # clearance both change its motion, so every point's trajectory differs from the others

@@ -17,10 +17,10 @@ import yaml
 from scipy.integrate import cumulative_simpson
 
 import pinclear
-from pinclear import kinematics
-from pinclear.drives import Drive
+from pinclear.model import kinematics
+from pinclear.model.drives import Drive
 from pinclear.mechanisms import three_upru_up as mod
-from pinclear.timelaws import Constant
+from pinclear.model.timelaws import Constant
 
 ROOT = Path(__file__).resolve().parents[1]
 SIDECAR = ROOT / "urdf" / "three_upru_up.yaml"

@@ -21,11 +21,11 @@ import yaml
 
 import pinclear
 from conftest import run_cli, write_sidecar
-from pinclear import cli
-from pinclear.errors import InputError, ModelFileError
-from pinclear.screw.section import read_section
-from pinclear.trajectory import Checkpoint
-from pinclear.trust import OFFERED, resolve_function
+from pinclear.cli import commands as cli
+from pinclear.core.errors import InputError, ModelFileError
+from pinclear.dynamics.screw.section import read_section
+from pinclear.dynamics.trajectory import Checkpoint
+from pinclear.core.trust import OFFERED, resolve_function
 
 ROOT = Path(__file__).resolve().parents[1]
 FOUR = yaml.safe_load((ROOT / "urdf" / "four_bar.yaml").read_text())
@@ -56,15 +56,15 @@ def _chain_docs(marker):
     spawnv = {"file": "/bin/sh", "args": _shell(marker)}
     return {
         "drive law": dict(FOUR, drives=[{"name": "d", "joint": "crank_joint", "law": {
-            "type": "python", "function": "pinclear.timelaws:os.spawnv", "args": spawnv}}]),
+            "type": "python", "function": "pinclear.model.timelaws:os.spawnv", "args": spawnv}}]),
         "joint_force law": dict(FOUR, forces=[{"name": "f", "type": "joint_force", "joint": "crank_joint", "law": {
-            "type": "python", "function": "pinclear.cli:os.spawnvp", "args": dict(spawnv, file="sh")}}]),
+            "type": "python", "function": "pinclear.cli.commands:os.spawnvp", "args": dict(spawnv, file="sh")}}]),
         "platform motion": dict(FOUR, platform={"frame": "coupler", "motion": {
-            "function": "pinclear.stepping.stage:os.spawnve", "args": dict(spawnv, env={})}}),
-        "hook": dict(FOUR, hook="pinclear.sidecar:re.enum.bltns.exec"),
+            "function": "pinclear.core.stage:os.spawnve", "args": dict(spawnv, env={})}}),
+        "hook": dict(FOUR, hook="pinclear.io.sidecar:re.enum.bltns.exec"),
         "cli main as a law": dict(FOUR, drives=[{"name": "d", "joint": "crank_joint", "law": {
             "type": "python", "function": "pinclear.cli:main", "args": {"argv": ["info", "x"]}}}]),
-        "screw ik": dict(FOUR, screw={"ik": "pinclear.trajectory:os.system"}),
+        "screw ik": dict(FOUR, screw={"ik": "pinclear.dynamics.trajectory:os.system"}),
     }
 
 
@@ -154,7 +154,7 @@ def test_viewing_or_plotting_a_run_calls_no_sidecar_code(tmp_path, capsys, monke
     assert code == 2 and "not a bundled mechanism" in err and not marker.exists()
     assert not marker.exists() and not (tmp_path / "x.html").exists()
     # the attribute-chain spelling of the same motion, recorded in a run: refused as well
-    meta_doc = dict(FOUR, platform={"frame": "coupler", "motion": {"function": "pinclear.viz.cli:sys.exit",
+    meta_doc = dict(FOUR, platform={"frame": "coupler", "motion": {"function": "pinclear.cli.view:sys.exit",
                                                                     "args": {}}})
     m = write_sidecar(tmp_path, meta_doc, name="m.yaml")
     code, _, err = run_cli(["view", run, "--mech", str(m), "--html", str(tmp_path / "x.html")], capsys)
@@ -406,7 +406,7 @@ def test_sigterm_while_saving_keeps_the_run(tmp_path):
     out = tmp_path / "o"
     script = (
         "import os, signal, sys\n"
-        "import pinclear.trajectory as T\n"
+        "import pinclear.dynamics.trajectory as T\n"
         "from pinclear import cli\n"
         "orig = T.Trajectory.save\n"
         "def save(self, path):\n"
@@ -467,7 +467,7 @@ def test_a_failed_write_leaves_a_fallback_copy(tmp_path, capsys, monkeypatch):
     the run is written to the user cache folder instead (the probe file had passed)."""
     import errno
 
-    from pinclear import trajectory
+    from pinclear.dynamics import trajectory
 
     out = tmp_path / "o"
     cache = tmp_path / "cache"

@@ -1,10 +1,10 @@
-"""The classes of a reproduction's rows (pinclear.reproduce.verdicts), on hand-made cases of each."""
+"""The classes of a reproduction's rows (pinclear.studies.reproduce.verdicts), on hand-made cases of each."""
 from __future__ import annotations
 
 import pytest
 
-from pinclear.errors import InputError
-from pinclear.reproduce import verdicts as v
+from pinclear.core.errors import InputError
+from pinclear.studies.reproduce import verdicts as v
 
 
 def test_each_class_on_a_hand_made_case():

@@ -15,9 +15,9 @@ import pytest
 import yaml
 
 import pinclear
-from pinclear import kinematics
+from pinclear.model import kinematics
 from pinclear.viz import animate, build_scene, export_html, resample
-from pinclear.viz.cli import view_main
+from pinclear.cli.view import view_main
 from pinclear.viz.html import find_chromium, screenshot
 from pinclear.viz.scene import MechanismScene, clearance_frames
 

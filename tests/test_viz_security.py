@@ -23,10 +23,10 @@ import numpy as np
 import pytest
 
 import pinclear
-from pinclear.errors import ModelFileError
-from pinclear.models import model_path
+from pinclear.core.errors import ModelFileError
+from pinclear.core.models import model_path
 from pinclear.viz import build_scene, export_html
-from pinclear.viz.cli import plot_main, view_main
+from pinclear.cli.view import plot_main, view_main
 
 pytestmark = pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="needs Linux /proc")
 

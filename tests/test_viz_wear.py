@@ -10,10 +10,10 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear.viz.cli import view_main
+from pinclear.cli.view import view_main
 from pinclear.viz.html import legend
 from pinclear.viz.scene import MechanismScene, clearance_frames
-from pinclear.wearing import _history_keys, _tables, read_profile, with_profile, worn_joint
+from pinclear.analysis.wear_life import _history_keys, _tables, read_profile, with_profile, worn_joint
 
 WEAR = "A.wear={k: 1.0e-5, hardness: 2.0e+9, nodes: 180}"
 

@@ -1,4 +1,4 @@
-"""Archard wear of a planar revolute clearance (pinclear.contact.wear, pinclear.wearing) against
+"""Archard wear of a planar revolute clearance (pinclear.contact.wear, pinclear.analysis.wear_life) against
 the law integrated by hand, energy conservation of the worn geometry, the iterative scheme and the
 sidecar's errors."""
 import math
@@ -11,8 +11,8 @@ from scipy.integrate import quad
 import pinclear
 from conftest import assert_audit_closes
 from pinclear.contact import wear
-from pinclear.errors import ContactSetupError, InputError
-from pinclear.wearing import WearSettings, block_length, converged, wear_run
+from pinclear.core.errors import ContactSetupError, InputError
+from pinclear.analysis.wear_life import WearSettings, block_length, converged, wear_run
 
 JOURNAL = Path(__file__).parent / "data" / "wear_journal.yaml"
 OMEGA = 20.0                                   # journal spin, rad/s

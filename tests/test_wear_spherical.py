@@ -11,11 +11,11 @@ from scipy.integrate import dblquad, quad
 
 import pinclear
 from conftest import assert_audit_closes
-from pinclear.contact import _kernels
+from pinclear.contact import worn_geometry
 from pinclear.contact import wear_spherical as ws
 from pinclear.contact.wear import trapezoid_weights
-from pinclear.errors import ContactSetupError, InputError
-from pinclear.wearing import WearSettings, converged, wear_run
+from pinclear.core.errors import ContactSetupError, InputError
+from pinclear.analysis.wear_life import WearSettings, converged, wear_run
 
 BALL = Path(__file__).parent / "data" / "wear_ball.yaml"
 OMEGA, W = 20.0, 20.0                 # spin about x (rad/s); weight m g (N), along -z
@@ -118,7 +118,7 @@ def _geometry(joint, e):
     M1, M2 = np.eye(4), np.eye(4)
     M2[:3, 3] = e
     delta, n, p1, p2, scr = np.zeros(1), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((1, 3)), np.zeros((4, 3))
-    _kernels.worn_spherical_geometry(joint._geo.gpar, M1, M2, delta, n, p1, p2, scr)
+    worn_geometry.worn_spherical_geometry(joint._geo.gpar, M1, M2, delta, n, p1, p2, scr)
     return delta[0], n[0].copy(), scr[3, 0]
 
 
@@ -238,11 +238,11 @@ def test_socket_wear_key_errors_name_file_key_and_choices(wear_spec, key, text):
 
 
 def test_s2_of_the_4ups_upu_wears_where_its_ball_rests(tmp_path):
-    """pinclear.study_paper000's worn case on a short life (40 periods, 2 then 4 updates): the socket
+    """pinclear.studies.wear_paper000's worn case on a short life (40 periods, 2 then 4 updates): the socket
     wears on the side the new joint's ball presses (its mean eccentricity direction), the worn volume
     is the history's, and no checkpoint lands in the report folder."""
-    from pinclear import study_paper000 as study
-    from pinclear.models import model_path
+    from pinclear.studies import wear_paper000 as study
+    from pinclear.core.models import model_path
 
     s = {**study._settings(True), "periods": 1, "window": 1, "wear cycles": 40.0, "wear first updates": 2,
          "wear max rounds": 2}

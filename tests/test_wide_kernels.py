@@ -1,4 +1,4 @@
-"""The dense kernels' wide loops (pinclear._kernels.WIDE rows and more: A02 at IFToMM's size,
+"""The dense kernels' wide loops (pinclear.core.dense.WIDE rows and more: A02 at IFToMM's size,
 benchmarks/bench_a02_scale.md) against their row-wise loops, which the small scenes keep. The
 claim is that nothing changes but the memory order: each entry sees the same operations in the
 same order, so the two give the same bits, pivot order and rank decision included. Checked on
@@ -14,10 +14,12 @@ import pinocchio as pin
 import pytest
 
 import pinclear
-from pinclear import _kernels as K
-from pinclear import formulations, kinematics
-from pinclear.formulations import manifold as manifold_mod
-from pinclear.formulations.projection import GRAM_GATE, minus_jt_times
+from pinclear.core import dense, tree_solve
+from pinclear.model import rows
+from pinclear.dynamics import formulations
+from pinclear.model import kinematics
+from pinclear.dynamics.formulations import manifold as manifold_mod
+from pinclear.dynamics.formulations.projection import GRAM_GATE, minus_jt_times
 from pinclear.mechanisms import benchmarks as B
 
 EPS = np.finfo(float).eps
@@ -29,7 +31,7 @@ def a02_wide(tmp_path_factory):
     folder = tmp_path_factory.mktemp("a02_wide")
     B.write_a02(N, folder)
     mech = pinclear.load(folder / f"{B.a02_name(N)}.yaml")
-    assert mech.m == 2 * N >= K.WIDE and mech.nv >= K.WIDE
+    assert mech.m == 2 * N >= dense.WIDE and mech.nv >= dense.WIDE
     return mech
 
 
@@ -58,7 +60,7 @@ def _rows(mech, form, q, v):
     kinematics.update(mech, ws, q, v)
     form.drive_values(0.0)
     R = form.row_buffers
-    K.constraint_rows_all(R, 0.0, 0.0, q, v, ws.drive_data.f)
+    rows.constraint_rows_all(R, 0.0, 0.0, q, v, ws.drive_data.f)
     return R, ws.data.M.copy(), ws.parent
 
 
@@ -73,8 +75,8 @@ def _assert_same_factor(G, gate):
     gate), pivots, diagonal work and lower triangle; the wide one's upper triangle is L^T. When
     they do not stop, chol_solve_pivoted's wide solves (read from the mirror) give the row-wise
     solves' bits. Returns the ratio."""
-    a = _factor(K._chol_pivoted_wide, G, gate)
-    b = _factor(K._chol_pivoted_rows, G, gate)
+    a = _factor(dense._chol_pivoted_wide, G, gate)
+    b = _factor(dense._chol_pivoted_rows, G, gate)
     assert a[0] == b[0]
     assert np.array_equal(a[2], b[2]) and np.array_equal(a[3], b[3])
     if a[0] == 0.0:
@@ -85,10 +87,10 @@ def _assert_same_factor(G, gate):
     m = G.shape[0]
     r = np.random.default_rng(m).standard_normal(m)
     x = np.zeros(m)
-    K.chol_solve_pivoted(La, piv, r, np.zeros(m), x)       # wide: m >= WIDE
+    dense.chol_solve_pivoted(La, piv, r, np.zeros(m), x)       # wide: m >= WIDE
     y = r[piv].copy()
-    K.lower_solve(Lb, m, y)
-    K.lower_t_solve(Lb, m, y)
+    dense.lower_solve(Lb, m, y)
+    dense.lower_t_solve(Lb, m, y)
     ref = np.zeros(m)
     ref[piv] = y
     assert np.array_equal(x, ref)
@@ -111,23 +113,23 @@ def test_wide_kernels_equal_the_row_kernels_bit_for_bit_on_a02(a02_wide):
     for q, v in _states(mech):
         R, M, parent = _rows(mech, form, q, v)
         La, Lb = np.zeros((nv, nv)), np.zeros((nv, nv))
-        assert K._ltl_factor(M, parent, La, True) and K._ltl_factor(M, parent, Lb, False)
+        assert tree_solve._ltl_factor(M, parent, La, True) and tree_solve._ltl_factor(M, parent, Lb, False)
         assert np.array_equal(La, Lb)
         assert np.abs(La.T @ La - np.triu(M) - np.triu(M, 1).T).max() <= 10 * nv * EPS * np.abs(M).max()
         rows = np.arange(m, dtype=np.int64)
         Y, S = np.full((m, nv), np.nan), np.zeros((m, m))
-        K.schur_complement(La, parent, R.Jc, rows, R.cols, R.ncols, Y, S)
+        tree_solve.schur_complement(La, parent, R.Jc, rows, R.cols, R.ncols, Y, S)
         Y2, S2 = np.full((m, nv), np.nan), np.zeros((m, m))
-        K._scaled_rows_narrow(La, parent, R.Jc, rows, Y2)
-        K._gram(Y2, rows, R.cols, R.ncols, S2, False)
+        tree_solve._scaled_rows_narrow(La, parent, R.Jc, rows, Y2)
+        dense._gram(Y2, rows, R.cols, R.ncols, S2, False)
         assert np.array_equal(Y, Y2) and np.array_equal(S, S2)
         Y3 = np.full((m, nv), np.nan)
-        K.scaled_rows(La, parent, R.Jc, rows, Y3)
+        tree_solve.scaled_rows(La, parent, R.Jc, rows, Y3)
         assert np.array_equal(Y, Y3)
         for sel in (rows, rows[::-1].copy()):
             G, G2 = np.zeros((m, m)), np.zeros((m, m))
-            K.gram_rows(R.Jc, sel, R.cols, R.ncols, G)
-            K._gram(R.Jc, sel, R.cols, R.ncols, G2, True)
+            dense.gram_rows(R.Jc, sel, R.cols, R.ncols, G)
+            dense._gram(R.Jc, sel, R.cols, R.ncols, G2, True)
             assert np.array_equal(G, G2)
         stops += _assert_same_factor(S, gate) == 0.0
         stops += _assert_same_factor(G, GRAM_GATE) == 0.0
@@ -150,21 +152,21 @@ def _spread(m, n, seed):
     return rng.standard_normal((m, n)) * 10.0 ** rng.uniform(-2, 2, (m, 1))
 
 
-@pytest.mark.parametrize("m", [K.WIDE, 40, 80])
+@pytest.mark.parametrize("m", [dense.WIDE, 40, 80])
 def test_wide_pivoted_cholesky_equals_the_row_one_and_solves_as_numpy(m):
     """Random Gram matrices, full rank and of rank m - 3 (three rows combinations of others):
     the wide factor equals the row-wise one bit for bit, stopping at the same pivot below a gate
     of 1e-8; its solve agrees with NumPy's LU solve to m eps cond(G)."""
     A = _spread(m, m + 1, seed=m)
     G = np.zeros((m, m))
-    K.gram_rows(A, np.arange(m, dtype=np.int64), np.tile(np.arange(m + 1, dtype=np.int64), (m, 1)),
+    dense.gram_rows(A, np.arange(m, dtype=np.int64), np.tile(np.arange(m + 1, dtype=np.int64), (m, 1)),
                 np.full(m, m + 1, dtype=np.int64), G)
     assert np.abs(G - A @ A.T).max() <= 10 * m * EPS * (np.abs(A) @ np.abs(A).T).max()
     assert _assert_same_factor(G, 0.0) > 0.0
-    ratio, L, piv, _ = _factor(K.chol_pivoted, G, 0.0)
+    ratio, L, piv, _ = _factor(dense.chol_pivoted, G, 0.0)
     r = np.random.default_rng(1).standard_normal(m)
     x = np.zeros(m)
-    K.chol_solve_pivoted(L, piv, r, np.zeros(m), x)
+    dense.chol_solve_pivoted(L, piv, r, np.zeros(m), x)
     ref = np.linalg.solve(G, r)
     assert np.abs(x - ref).max() <= 10 * m * EPS * np.linalg.cond(G) * np.abs(ref).max()
     D = A.copy()
@@ -172,4 +174,4 @@ def test_wide_pivoted_cholesky_equals_the_row_one_and_solves_as_numpy(m):
     Gd = D @ D.T
     Gd = 0.5 * (Gd + Gd.T)
     assert _assert_same_factor(Gd, 1e-8) == 0.0       # rank m - 3: stops below the gate
-    assert _factor(K.chol_pivoted, Gd, 1e-8)[0] == 0.0
+    assert _factor(dense.chol_pivoted, Gd, 1e-8)[0] == 0.0

@@ -5,7 +5,7 @@
 import sys
 from pathlib import Path
 
-from pinclear import atlas
+from pinclear.studies.bench import atlas
 
 HERE = Path(__file__).resolve().parent
 

@@ -48,9 +48,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from pinclear import kinematics
-from pinclear.errors import InputError
-from pinclear.export_mjcf import CLOCK_ARMATURE, DMAX, SUPPORTED_CLOSURES, mjcf  # noqa: F401  (the translation)
+from pinclear.model import kinematics
+from pinclear.core.errors import InputError
+from pinclear.io.export_mjcf import CLOCK_ARMATURE, DMAX, SUPPORTED_CLOSURES, mjcf  # noqa: F401  (the translation)
 
 SCENES = {"four_bar", "a02_nfourbar_2", "four_ups_upu"}
 TOLS = [2e-3, 1e-3, 5e-4, 2.5e-4, 1e-4, 5e-5, 2.5e-5]

@@ -9,7 +9,7 @@ For each scene, in this one process:
    MuJoCo and back unchanged and satisfies the closures there; a short run converges to
    pinclear's tight reference (projection + DOP853, rtol 1e-12) as the step shrinks, with the
    observed order; the energy of conservative scenes drifts less as the step shrinks;
-2. pinclear.atlas.run_atlas times pinclear's cells (lagrange / projection / proximal x RK45 /
+2. pinclear.studies.bench.atlas.run_atlas times pinclear's cells (lagrange / projection / proximal x RK45 /
    DOP853, rtol 1e-4 .. 1e-10) and the MuJoCo peer's time-step ladder against the atlas's
    reference and draws both on work_precision_<scene>.png;
 3. peers.json / peers.md: per scene, the cheapest configuration of each engine reaching an error
@@ -33,8 +33,9 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import pinclear  # noqa: E402
-from pinclear import atlas, bench, kinematics  # noqa: E402
-from pinclear.models import model_path  # noqa: E402
+from pinclear.studies.bench import atlas, rhs as bench
+from pinclear.model import kinematics  # noqa: E402
+from pinclear.core.models import model_path  # noqa: E402
 
 from mujoco_peer import MujocoScene, closure_residual, energy, make_peer  # noqa: E402
 
@@ -146,7 +147,7 @@ def solref_scan(scenes, res, factors=(1.0, 2.0, 4.0), steps=(1e-3, 5e-4)):
 
 
 def charts(res, scenes, out):
-    """Redraw work_precision_<scene>.png with pinclear.bench._chart (as the atlas does), then tell
+    """Redraw work_precision_<scene>.png with pinclear.studies.bench.rhs._chart (as the atlas does), then tell
     the two MuJoCo peers apart: the chart draws every peer as black stars."""
     import matplotlib
 

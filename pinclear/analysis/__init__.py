@@ -1,4 +1,4 @@
-"""Nonlinear analysis of simulated runs: phase portraits, Poincaré maps, bifurcation diagrams
+"""Layer 6, analysis: nonlinear analysis of simulated runs: phase portraits, Poincaré maps, bifurcation diagrams
 and a classification of the motion (period-k / quasi-periodic / chaotic).
 
 Papers 000 and 002 judge the motion of a clearance joint and of the platform from phase
@@ -40,17 +40,18 @@ failure as a result, and classifies each value; :func:`plot_phase_portrait`,
 no GUI backend) and return the arrays they drew. Command line (:func:`cli_main`):
 ``pinclear analyse bifurcation|poincare ...``.
 """
-from .classify import (CHAOS_THRESHOLD, CLEARANCE_FRACTION, Classification, chaos_01, classify, classify_state, detect_period,
-                       integration_rtol, settled_period)
-from .cli import cli_main
-from .lyapunov import ChaosEvidence, LyapunovResult, confirm_chaos, largest_lyapunov, mechanism_lyapunov
-from .plots import plot_bifurcation, plot_phase_portrait, plot_poincare
-from .poincare import PoincareSection, poincare, section_times
-from .signals import Series, phase_portrait, relative_rate, series
-from .sweep import BifurcationResult, BifurcationRun, bifurcation, signal_key
+from pinclear.analysis.classify import (CHAOS_THRESHOLD, CLEARANCE_FRACTION, Classification, chaos_01,
+                                        classify, classify_state, detect_period, integration_rtol,
+                                        settled_period)
+from pinclear.analysis.lyapunov import (ChaosEvidence, LyapunovResult, confirm_chaos, largest_lyapunov,
+                                        mechanism_lyapunov)
+from pinclear.analysis.plots import plot_bifurcation, plot_phase_portrait, plot_poincare
+from pinclear.analysis.poincare import PoincareSection, poincare, section_times
+from pinclear.analysis.signals import Series, phase_portrait, relative_rate, series
+from pinclear.analysis.diagrams import BifurcationResult, BifurcationRun, bifurcation, signal_key
 
 __all__ = ["CHAOS_THRESHOLD", "Classification", "chaos_01", "classify", "classify_state", "detect_period",
-           "integration_rtol", "settled_period", "cli_main",
+           "integration_rtol", "settled_period",
            "plot_bifurcation", "plot_phase_portrait", "plot_poincare", "PoincareSection", "poincare",
            "section_times", "Series", "phase_portrait", "relative_rate", "series", "BifurcationResult",
            "BifurcationRun", "bifurcation", "signal_key", "LyapunovResult", "largest_lyapunov",

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InputError
-from .poincare import PoincareSection
+from pinclear.core.errors import InputError
+from pinclear.analysis.poincare import PoincareSection
 
 
 
@@ -245,7 +245,7 @@ def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_sample
     return beyond_threshold(clusters, K, n, note, lyapunov)
 
 
-#: how an 'irregular' note starts its reason (pinclear.reproduce.chaos strips it to add evidence)
+#: how an 'irregular' note starts its reason (pinclear.studies.reproduce.chaos strips it to add evidence)
 NOT_CONFIRMED = "0-1 test only, chaos not confirmed: "
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import InputError, PinclearError
+from pinclear.core.errors import InputError, PinclearError
 
 
 @dataclass
@@ -147,13 +147,13 @@ def mechanism_lyapunov(mech, t_end, renorm=0.05, d0=1e-7, transient=0.0, q0=None
 
     Each chunk of each trajectory is the run ``simulate(mech, t + dt, t0=t, t_eval=[t, t + dt],
     resume=Checkpoint(...at (t, q, v, z), h_next=None))`` gives; ``keep_alive`` (the default)
-    runs the chunks as pinclear.simulate.Restarts runs, which keep the set-up between chunks and
+    runs the chunks as pinclear.dynamics.simulate.Restarts runs, which keep the set-up between chunks and
     give the same end states bit for bit; False calls simulate() per chunk (the reference)."""
     import pinocchio as pin
 
-    from ..kinematics import assemble, consistent_velocity
-    from ..simulate import Restarts, simulate
-    from ..trajectory import Checkpoint
+    from pinclear.model.kinematics import assemble, consistent_velocity
+    from pinclear.dynamics.simulate import Restarts, simulate
+    from pinclear.dynamics.trajectory import Checkpoint
 
     model = mech.model
     sim = {"rtol": 1e-9, **sim_options}

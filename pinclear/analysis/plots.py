@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
-from ..safeio import savefig
-from .poincare import PoincareSection
-from .signals import axis_label, phase_portrait, series
-from .sweep import BifurcationResult, is_number
+from pinclear.core.errors import InputError
+from pinclear.core.safeio import savefig
+from pinclear.analysis.poincare import PoincareSection
+from pinclear.analysis.signals import axis_label, phase_portrait, series
+from pinclear.analysis.diagrams import BifurcationResult, is_number
 
 
 

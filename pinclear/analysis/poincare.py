@@ -7,8 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
-from ..errors import InputError
-from .signals import series
+from pinclear.core.errors import InputError
+from pinclear.analysis.signals import series
 
 
 

@@ -8,8 +8,8 @@ import numpy as np
 import pinocchio as pin
 from scipy.interpolate import CubicSpline
 
-from ..errors import InputError
-from ..kinematics import frame_motion
+from pinclear.core.errors import InputError
+from pinclear.model.kinematics import frame_motion
 
 LWA = pin.LOCAL_WORLD_ALIGNED
 _AXES = {"x": 0, "y": 1, "z": 2}
@@ -29,7 +29,7 @@ class Series:
     unit: str | None = None         # SI unit of x (None: not known); the rate's is unit/s
 
 
-#: units of the force elements' outputs (pinclear.contact._kernels.RECORD, pinclear.forces)
+#: units of the force elements' outputs (pinclear.contact.channels.RECORD, pinclear.model.forces)
 OUTPUT_UNITS = {"penetration": "m", "normal_force": "N", "friction_force": "N", "fn": "N", "contact": "-",
                 "dissipated": "J", "eccentricity": "m", "length": "m", "force": "N"}
 

@@ -1,8 +1,8 @@
-"""Clearance joints: a sidecar ``clearances:`` entry replaces an ideal closure by a
+"""Layer 2, contact: clearance joints: a sidecar ``clearances:`` entry replaces an ideal closure by a
 contact force element. See laws.py (normal and friction laws), spherical.py, revolute.py,
 prismatic.py (geometry per joint type) and base.py (forces, events, energy bookkeeping).
 
-Sidecar keys: docs/keys.md, generated from the types' records (pinclear.registry.CLEARANCE_TYPES:
+Sidecar keys: docs/keys.md, generated from the types' records (pinclear.core.registry.CLEARANCE_TYPES:
 each type module declares its keys, parser, the closure types it replaces and its plot; the keys
 of every type are contact.spec.COMMON). The prismatic type's two models: energy (default, a
 Winkler foundation on each slider face, the exact gradient of its energy) and paper003 (the
@@ -17,15 +17,16 @@ best for soft, low-restitution impacts. Hertz is the undamped reference.
 """
 from __future__ import annotations
 
-from pinclear.errors import ContactSetupError
-from pinclear.registry import CLEARANCE_TYPES
+from pinclear.core.errors import ContactSetupError
+from pinclear.core.registry import CLEARANCE_TYPES
 
-from .base import ClearanceJoint
-from .laws import FRICTION_LAWS, NORMAL_LAWS, FrictionLaw, NormalLaw, make_friction_law, make_normal_law, restitution_1dof
-from .spec import Spec
+from pinclear.contact.base import ClearanceJoint
+from pinclear.contact.laws import (FRICTION_LAWS, NORMAL_LAWS, FrictionLaw, NormalLaw, make_friction_law,
+                                   make_normal_law, restitution_1dof)
+from pinclear.contact.spec import Spec
 
 #: clearance type -> PluginType (its keys, parser, closure types it may replace, plot): the
-#: registry is pinclear.registry.CLEARANCE_TYPES; one line there per type module
+#: registry is pinclear.core.registry.CLEARANCE_TYPES; one line there per type module
 TYPES = CLEARANCE_TYPES
 
 

@@ -42,12 +42,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from pinclear.errors import ContactSetupError
-from pinclear.forces import Bodies, ForceElement, Frames, add_wrenches, relative_velocity
-from pinclear.kinematics import supporting_dofs
+from pinclear.core.errors import ContactSetupError
+from pinclear.model.forces import Bodies, ForceElement, Frames, add_wrenches, relative_velocity
+from pinclear.model.kinematics import supporting_dofs
 
-from . import _kernels
-from ._kernels import Channels, Friction, Geometry, Laws
+from pinclear.contact import channels
+from pinclear.contact.channels import Channels, Friction, Geometry, Laws
 
 
 def _readonly(a):
@@ -162,7 +162,7 @@ class ClearanceJoint(ForceElement):
         ``_kernel_args(ws, d)`` followed by (v, z, tau, zdot)."""
         if self._geo is None or self._laws is None or self._friction is None:
             return None
-        return _kernels.clearance_force
+        return channels.clearance_force
 
     def _kernel_args(self, ws, d):
         return (self._geo, self._frames(ws, d), self._bodies(ws), self._laws, self._friction, d.channels)
@@ -185,7 +185,7 @@ class ClearanceJoint(ForceElement):
         """Fill d.delta, d.n, d.p1, d.p2 from Pinocchio's frame placements in ``data``: the same
         compiled geometry as the compiled force, which takes its placements from the joint chain."""
         g, oMf = self._geo, data.oMf
-        _kernels.channel_geometry(g.code, g.gpar, oMf[self.f1].homogeneous, oMf[self.f2].homogeneous, d.scratch,
+        channels.channel_geometry(g.code, g.gpar, oMf[self.f1].homogeneous, oMf[self.f2].homogeneous, d.scratch,
                                   d.delta, d.n, d.p1, d.p2)
 
     def _channel_laws(self):
@@ -287,7 +287,7 @@ class ClearanceJoint(ForceElement):
     def event_kernel(self, mech, ws, d, g):
         if self._geo is None:
             return None
-        return _kernels.event_penetrations, (self._geo, self._frames(ws, d), d.channels, self.event_snap, g)
+        return channels.event_penetrations, (self._geo, self._frames(ws, d), d.channels, self.event_snap, g)
 
     def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
         if self._kernel is not None:
@@ -333,7 +333,7 @@ class ClearanceJoint(ForceElement):
         if self._geo is not None:
             # penetrations are geometry alone: the event kernel's placements and channel geometry
             d.key = d.q_key = None
-            _kernels.channel_penetrations(self._geo, self._frames(ws, d), d.channels, self.event_snap)
+            channels.channel_penetrations(self._geo, self._frames(ws, d), d.channels, self.event_snap)
             return d.delta.copy()
         val = self._eval(ws, d, t, q, v, z).delta.copy()
         val[np.abs(val) < self.event_snap] = 0.0
@@ -368,9 +368,9 @@ class ClearanceJoint(ForceElement):
     def _record(self, d, z, M1, M2, laws):
         """(elastic energy, outputs) of the channel quantities in d, frames at M1 and M2, in one
         compiled call; ``laws`` = (code, p0, p1, weight) per channel (zero weights: no energy)."""
-        row = np.empty(_kernels.RECORD_SIZE)
-        _kernels.channel_record(d.delta, d.n, d.Fn, d.F2, M1, M2, float(z[self.nc]), *laws, row)
-        return float(row[-1]), {name: (row[a] if size == 1 else row[a:a + size]) for name, a, size in _kernels.RECORD}
+        row = np.empty(channels.RECORD_SIZE)
+        channels.channel_record(d.delta, d.n, d.Fn, d.F2, M1, M2, float(z[self.nc]), *laws, row)
+        return float(row[-1]), {name: (row[a] if size == 1 else row[a:a + size]) for name, a, size in channels.RECORD}
 
     def record(self, mech, ws, d, t, q, v, z, after_rhs):
         if not (after_rhs and self._kernel is not None):
@@ -382,24 +382,24 @@ class ClearanceJoint(ForceElement):
     def record_layout(self):
         if self._kernel is None:
             return None
-        return tuple((name, size) for name, _, size in _kernels.RECORD)
+        return tuple((name, size) for name, _, size in channels.RECORD)
 
     def record_kernel(self, mech, ws, d, z, zdot, row):
         if self._kernel is None:
             return None
         # the compiled force of this evaluation left every channel quantity and the frames in d
-        return _kernels.clearance_record, (d.channels, d.M, z, zdot, self.nc, *self._record_laws(d),
-                                           np.zeros(_kernels.RECORD_SIZE), row)
+        return channels.clearance_record, (d.channels, d.M, z, zdot, self.nc, *self._record_laws(d),
+                                           np.zeros(channels.RECORD_SIZE), row)
 
     def peak_kernel(self, mech, ws, d, z, zdot, out, k):
         """The stages putting this joint's total normal force at the state buffer into ``out[k]``
-        (its contact-force peak, pinclear.stepping.peaks), after the position-level placements and
+        (its contact-force peak, pinclear.dynamics.stepping.peaks), after the position-level placements and
         joint Jacobian; None: Python only. The force kernel writes ``ws.tau`` and ``zdot``, which
         every evaluation writes again."""
         made = self.force_kernel(mech, ws, d, z, zdot)
         if made is None:
             return None
-        return made, (_kernels.total_normal_force, (d.Fn, out, k))
+        return made, (channels.total_normal_force, (d.Fn, out, k))
 
     def _record_laws(self, d):
         """(law code, p0, p1, weight) per channel, as the compiled force used them."""

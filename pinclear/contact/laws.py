@@ -4,7 +4,7 @@ All laws are vectorised over the contacts of one joint (numpy arrays of equal le
 never allocate more than their result. ``NormalLaw`` and ``FrictionLaw`` state the contract.
 Each law is written once: the damped power laws, the line law, the hysteresis term and the
 friction laws (LuGre's as contact._kernels.lugre_channel) are the compiled functions of
-``contact/_kernels.py``, which these classes call and the joints' channel loop calls too.
+``contact/channels.py``, which these classes call and the joints' channel loop calls too.
 Sign conventions:
 
 * ``delta`` penetration (m), > 0 in contact; ``ddelta`` its rate (m/s), > 0 while
@@ -67,9 +67,9 @@ from types import MappingProxyType
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from pinclear.errors import ContactSetupError
+from pinclear.core.errors import ContactSetupError
 
-from . import _kernels
+from pinclear.contact import force_laws
 
 # ============================================================================ materials
 #: a few engineering materials (E in Pa, Poisson ratio), for ``material: steel`` in sidecars
@@ -179,7 +179,7 @@ class NormalLaw(_Immutable, abc.ABC):
         """Normal force; zero where d <= 0."""
         fe, dd, dd0 = _vec(self.elastic(d), dd, dd0)
         F = np.empty_like(fe)
-        _kernels.damped_forces(fe, dd, dd0, float(self.chi), F)
+        force_laws.damped_forces(fe, dd, dd0, float(self.chi), F)
         return F
 
     def force_and_elastic(self, d, dd, dd0):
@@ -204,14 +204,14 @@ class PowerLaw(NormalLaw):
     def elastic(self, d):
         (d,) = _vec(d)
         Fe = np.empty_like(d)
-        _kernels.power_law_elastic(d, self.K, self.n, Fe)
+        force_laws.power_law_elastic(d, self.K, self.n, Fe)
         return Fe
 
     def energy(self, d):
         # the potential of elastic(), including its constant continuation beyond DELTA_CAP
         (d,) = _vec(d)
         U = np.empty_like(d)
-        _kernels.power_law_energy(d, self.K, self.n, U)
+        force_laws.power_law_energy(d, self.K, self.n, U)
         return U
 
     def force(self, d, dd, dd0):
@@ -220,11 +220,11 @@ class PowerLaw(NormalLaw):
     def force_and_elastic(self, d, dd, dd0):
         d, dd, dd0 = _vec(d, dd, dd0)
         F, Fe = np.empty_like(d), np.empty_like(d)
-        _kernels.power_law_forces(d, dd, dd0, self.K, self.n, self.chi, F, Fe)
+        force_laws.power_law_forces(d, dd, dd0, self.K, self.n, self.chi, F, Fe)
         return F, Fe
 
     def kernel_params(self):
-        return _kernels.N_POWER, self.K, self.n, self.chi
+        return force_laws.N_POWER, self.K, self.n, self.chi
 
     def __repr__(self):
         return f"{self.name}(K={self.K:.4g}, n={self.n}, ce={self.ce}, chi={self.chi:.4g})"
@@ -260,7 +260,7 @@ class LineLaw(NormalLaw):
     def elastic(self, d):
         (d,) = _vec(d)
         P = np.empty_like(d)
-        _kernels.line_elastic_all(d, self.c, self.a, P)
+        force_laws.line_elastic_all(d, self.c, self.a, P)
         return P
 
     def energy(self, d):
@@ -276,14 +276,14 @@ class LineLaw(NormalLaw):
     def force_and_elastic(self, d, dd, dd0):
         fe, dd, dd0 = _vec(self.elastic(d), dd, dd0)
         F = np.empty_like(fe)
-        _kernels.damped_forces(fe, dd, dd0, self.chi, F)
+        force_laws.damped_forces(fe, dd, dd0, self.chi, F)
         return F, fe
 
     def force(self, d, dd, dd0):
         return self.force_and_elastic(d, dd, dd0)[0]
 
     def kernel_params(self):
-        return _kernels.N_LINE, self.c, self.a, self.chi
+        return force_laws.N_LINE, self.c, self.a, self.chi
 
     def __repr__(self):
         return f"line(E*={self.Estar:.4g}, l={self.l}, R={self.R}, chi={self.chi:.4g})"
@@ -378,7 +378,7 @@ class MemorylessFriction(FrictionLaw):
         code, par = self.kernel_params()
         (s,) = _vec(s)
         mu = np.empty_like(s)
-        _kernels.friction_coefficients(code, par, s, mu)
+        force_laws.friction_coefficients(code, par, s, mu)
         return mu
 
     def force(self, Fn, vt, state=None, dstate=None):
@@ -386,7 +386,7 @@ class MemorylessFriction(FrictionLaw):
         vt = np.ascontiguousarray(vt, dtype=float).reshape(-1, 3)
         (Fn,) = _vec(Fn)
         Ft = np.empty_like(vt)
-        _kernels.memoryless_friction(code, par, np.ascontiguousarray(np.broadcast_to(Fn, len(vt))), vt, Ft)
+        force_laws.memoryless_friction(code, par, np.ascontiguousarray(np.broadcast_to(Fn, len(vt))), vt, Ft)
         return Ft
 
 
@@ -405,7 +405,7 @@ class NoFriction(MemorylessFriction):
         self._freeze()
 
     def kernel_params(self):
-        return _kernels.F_NONE, self._par
+        return force_laws.F_NONE, self._par
 
 
 class Coulomb(MemorylessFriction):
@@ -419,7 +419,7 @@ class Coulomb(MemorylessFriction):
         self._freeze()
 
     def kernel_params(self):
-        return _kernels.F_COULOMB, self._par
+        return force_laws.F_COULOMB, self._par
 
 
 class ModifiedCoulomb(MemorylessFriction):
@@ -434,7 +434,7 @@ class ModifiedCoulomb(MemorylessFriction):
         self._freeze()
 
     def kernel_params(self):
-        return _kernels.F_MODIFIED, self._par
+        return force_laws.F_MODIFIED, self._par
 
 
 class StickSlip(MemorylessFriction):
@@ -449,7 +449,7 @@ class StickSlip(MemorylessFriction):
         self._freeze()
 
     def kernel_params(self):
-        return _kernels.F_STICKSLIP, self._par
+        return force_laws.F_STICKSLIP, self._par
 
 
 class LuGre(FrictionLaw):
@@ -475,7 +475,7 @@ class LuGre(FrictionLaw):
         self._freeze()
 
     def kernel_params(self):
-        return _kernels.F_LUGRE, self._par
+        return force_laws.F_LUGRE, self._par
 
     def force(self, Fn, vt, state=None, dstate=None):
         vt = np.ascontiguousarray(vt, dtype=float).reshape(-1, 3)
@@ -483,7 +483,7 @@ class LuGre(FrictionLaw):
         state = np.ascontiguousarray(state, dtype=float).reshape(-1, 3)
         zd = np.empty_like(vt)
         Ft = np.empty_like(vt)
-        _kernels.lugre_forces(self._par, np.ascontiguousarray(np.broadcast_to(Fn, len(vt))), vt, state, zd, Ft)
+        force_laws.lugre_forces(self._par, np.ascontiguousarray(np.broadcast_to(Fn, len(vt))), vt, state, zd, Ft)
         if dstate is not None:
             dstate[:] = zd
         return Ft

@@ -45,16 +45,15 @@ is c - h_a), and the film's loads are scaled by s = smoothstep((h_min - h_a) / b
 """
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
 
-from pinclear.forces import add_body_wrench, add_wrenches, body_twist
-from pinclear.registry import Key, PluginType, key_names
+from pinclear.model.forces import add_body_wrench, add_wrenches, body_twist
+from pinclear.core.registry import Key, PluginType, key_names
 
-from .revolute import _PLANAR, _PLOT, RevoluteClearance, check_bearing_radius
-from .revolute import from_spec as _dry_from_spec
+from pinclear.contact.revolute import _PLANAR, _PLOT, RevoluteClearance, check_bearing_radius
+from pinclear.contact.revolute import from_spec as _dry_from_spec
 
 THEORIES = ("short", "long")
 #: quadrature points over the circumference (trapezoid, periodic; the Guembel kinks at P = 0 make

@@ -50,12 +50,12 @@ import math
 
 import numpy as np
 
-from pinclear.forces import body_twist
-from pinclear.registry import PluginType, key_names
+from pinclear.model.forces import body_twist
+from pinclear.core.registry import PluginType, key_names
 
-from .lubricated import FILM_KEYS, FilmJoint, film_spec
-from .spherical import _RADIUS, SPHERICAL, SphericalClearance
-from .spherical import from_spec as _dry_from_spec
+from pinclear.contact.lubricated import FILM_KEYS, FilmJoint, film_spec
+from pinclear.contact.spherical import _RADIUS, SPHERICAL, SphericalClearance
+from pinclear.contact.spherical import from_spec as _dry_from_spec
 
 #: Gauss-Legendre nodes in theta over [0, pi]: the integrands are smooth but for the kinks of the
 #: cavitation boundary; 256 nodes keep the uncavitated squeeze force within 1e-12 of its closed form

@@ -48,11 +48,18 @@ from types import MappingProxyType
 
 import numpy as np
 
-from pinclear.registry import ClearancePlot, Key, PluginType, key_names
+from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
 
-from . import _kernels
-from ._kernels import Foundation, Laws, Modes
-from .base import ClearanceData, ClearanceJoint, _readonly
+from pinclear.contact import channels, force_laws
+from pinclear.contact.prismatic_geometry import Foundation, Modes
+from pinclear.contact.channels import Laws
+from pinclear.contact.base import ClearanceData, ClearanceJoint, _readonly
+from pinclear.core.jit import njit
+from pinclear.model.forces import add_wrenches, place_frames, relative_velocity
+from pinclear.contact.channels import channel_forces, channel_friction, free_flight, onset_speeds
+from pinclear.contact.force_laws import damped
+from pinclear.contact.prismatic_geometry import (prismatic_foundation, prismatic_geometry, prismatic_laws,
+                                                 prismatic_mode)
 
 #: normal-force models of the ``model`` key; the first is the default
 MODELS = ("energy", "paper003")
@@ -134,7 +141,7 @@ def classify(touch):
     {"", "point", "points2", "line_long", "line_short", "plane"}.
     """
     info = np.zeros(8, dtype=np.int64)
-    _kernels.prismatic_mode(np.where(np.asarray(touch, bool), 1.0, -1.0), _MEMBERS, _MODE_TABLE, info)
+    prismatic_mode(np.where(np.asarray(touch, bool), 1.0, -1.0), _MEMBERS, _MODE_TABLE, info)
     return _from_info(info)
 
 
@@ -165,7 +172,7 @@ class PrismaticData(ClearanceData):
 class PrismaticClearance(ClearanceJoint):
     kind = "prismatic"
     event_direction = 0
-    geometry_code = _kernels.G_PRISMATIC
+    geometry_code = channels.G_PRISMATIC
     _data_class = PrismaticData
 
     def __init__(self, name, model, f1, f2, section, clearance, length, laws, friction, *, contact_model="energy",
@@ -205,8 +212,8 @@ class PrismaticClearance(ClearanceJoint):
         if self._friction is None:
             return None
         if self.contact_model == "energy":
-            return _kernels.prismatic_energy_force
-        return None if self._rows is None else _kernels.prismatic_force
+            return prismatic_energy_force
+        return None if self._rows is None else prismatic_force
 
     def _kernel_args(self, ws, d):
         modes = Modes(_MEMBERS, _MODE_TABLE, d.info)
@@ -234,7 +241,7 @@ class PrismaticClearance(ClearanceJoint):
     def _geometry(self, data, dat):
         super()._geometry(data, dat)
         # the mode belongs to this pose (paper003: the touching corners decide each face's law)
-        _kernels.prismatic_mode(dat.delta, _MEMBERS, _MODE_TABLE, dat.info)
+        prismatic_mode(dat.delta, _MEMBERS, _MODE_TABLE, dat.info)
         dat.mode_from_info()
 
     def _apply(self, dat, fn):
@@ -258,7 +265,7 @@ class PrismaticClearance(ClearanceJoint):
     def _foundation(self, dat, delta):
         """Elastic corner loads (16,) of the energy model; the face energies go to dat.Uf."""
         Fel = np.zeros(16)
-        _kernels.prismatic_foundation(self._geo.gpar, self.kf, _MEMBERS, np.ascontiguousarray(delta, float), dat.poly,
+        prismatic_foundation(self._geo.gpar, self.kf, _MEMBERS, np.ascontiguousarray(delta, float), dat.poly,
                                       Fel, dat.Uf)
         return Fel
 
@@ -266,7 +273,7 @@ class PrismaticClearance(ClearanceJoint):
         if self.contact_model == "energy":
             Fel = self._foundation(dat, delta)
             F = np.empty(16)
-            _kernels.damped_forces(Fel, np.ascontiguousarray(dd, float), np.ascontiguousarray(dd0, float), self.chi,
+            force_laws.damped_forces(Fel, np.ascontiguousarray(dd, float), np.ascontiguousarray(dd0, float), self.chi,
                                    F)
             return np.where(Fel > 0.0, F, 0.0), np.maximum(Fel, 0.0)
         Fn = np.zeros(16)
@@ -379,3 +386,51 @@ PRISMATIC = PluginType(
 
 
 __all__ = ["PrismaticClearance", "PRISMATIC", "classify", "MODES", "MODE_NAMES", "SIGNS"]
+
+
+@njit(cache=True, inline="always")
+def prismatic_force(geo, frames, bodies, modes, rows, laws, fr, ch, v, z, tau, zdot):
+    """The prismatic clearance's right-hand-side contribution in one call (model paper003):
+    placements, corner geometry, the contact mode and each channel's law from the law table
+    ``rows`` (into ``laws``' arrays), then channel_forces."""
+    M, delta, members, info = frames.M, ch.delta, modes.members, modes.info
+    place_frames(frames)
+    prismatic_geometry(geo.gpar, M[0], M[1], delta, ch.n, ch.p1, ch.p2)
+    prismatic_mode(delta, members, modes.table, info)
+    prismatic_laws(info, members, rows, laws.code, laws.P0, laws.P1, laws.chi, laws.W)
+    return channel_forces(bodies, laws, fr, ch, v, z, tau, zdot)
+
+
+@njit(cache=True, inline="always")
+def prismatic_energy_force(geo, frames, bodies, modes, found, fr, ch, v, z, tau, zdot):
+    """The energy-consistent prismatic clearance's right-hand-side contribution in one call:
+    placements, corner geometry, the paper's mode (an output only), the foundation's corner
+    loads Fel, then per loaded corner the damping F = Fel (1 + chi dd/dd0) clipped at zero and
+    friction from F, and the wrenches. zdot = (0 per channel, dissipated power (F - Fel) dd -
+    Ft . vt, friction-state rates). Returns the number of faces in contact."""
+    delta, n, p1, p2, dd, vt, dd0 = ch.delta, ch.n, ch.p1, ch.p2, ch.dd, ch.vt, ch.dd0
+    Fn, Fel, F2 = ch.Fn, ch.Fel, ch.F2
+    M, gpar, members = frames.M, geo.gpar, modes.members
+    fcode, fpar, chi = fr.code, fr.par, found.chi
+    place_frames(frames)
+    prismatic_geometry(gpar, M[0], M[1], delta, n, p1, p2)
+    prismatic_mode(delta, members, modes.table, modes.info)
+    on = prismatic_foundation(gpar, found.kf, members, delta, found.poly, Fel, found.Uf)
+    if on == 0:
+        free_flight(zdot, Fn, Fel, F2)
+        return 0
+    relative_velocity(bodies.J, bodies.idx1, bodies.idx2, v, n, p1, p2, dd, vt)
+    onset_speeds(z, found.vmin, dd0, zdot)
+    loss = 0.0
+    for k in range(delta.shape[0]):
+        fe = Fel[k]
+        if fe <= 0.0:
+            Fn[k] = 0.0
+            F2[k, 0] = F2[k, 1] = F2[k, 2] = 0.0
+            continue
+        f = damped(fe, dd[k], dd0[k], chi)
+        Fn[k] = f
+        loss += (f - fe) * dd[k] + channel_friction(k, fcode, fpar, f, vt, n, F2, z, zdot)
+    zdot[delta.shape[0]] = loss
+    add_wrenches(bodies.J, bodies.idx1, bodies.idx2, F2, p1, p2, tau)
+    return on

@@ -21,11 +21,12 @@ import numpy as np
 
 import functools
 
-from pinclear.registry import ClearancePlot, Key, PluginType, key_names
+from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
 
-from . import _kernels
-from .base import ClearanceJoint
-from .spherical import stiffness
+from pinclear.contact import channels, worn_geometry
+from pinclear.contact.base import ClearanceJoint
+from pinclear.contact.spherical import stiffness
+from pinclear.contact.wear import WornData, WornJoint, spline_coefficients
 
 _PLANAR = (Key("radius", "number", "m", 0.01, "> 0", "paper 002 eq. 6", "journal radius R_journal"),
            Key("bearing_radius", "number", "m", "radius + clearance", "radius + clearance", "paper 002 eq. 6",
@@ -44,14 +45,14 @@ class RevoluteClearance(ClearanceJoint):
     """Planar (``spatial=False``, one radial channel at the journal centre) or spatial."""
 
     #: geometry code of the planar joint (a worn bearing has its own: contact.wear)
-    planar_geometry = _kernels.G_PLANAR_REVOLUTE
+    planar_geometry = channels.G_PLANAR_REVOLUTE
 
     def __init__(self, name, model, f1, f2, clearance, R_journal, law, friction, *, spatial=False,
                  length=None, axial_clearance=None, stiffness_note="given", **kw):
         nc = 4 if spatial else 1
         super().__init__(name, model, f1, f2, nc, friction, **kw)
         self.kind = "revolute" if spatial else "planar_revolute"
-        self.geometry_code = _kernels.G_REVOLUTE if spatial else self.planar_geometry
+        self.geometry_code = channels.G_REVOLUTE if spatial else self.planar_geometry
         self.spatial = spatial
         self.c = float(clearance)
         self.R2 = float(R_journal)
@@ -97,9 +98,9 @@ def from_spec(sp, mech, closure, spatial):
     args = (sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law())
     kw = dict(spatial=spatial, length=L, axial_clearance=ca, stiffness_note=note, **sp.common(min(c, ca or c)))
     if sp.d.get("wear") is not None:
-        from . import wear
+        from pinclear.contact import wear
 
-        return wear.WornRevoluteClearance(*args, wear=wear.parse(sp, R1, R2, L), **kw)
+        return WornRevoluteClearance(*args, wear=wear.parse(sp, R1, R2, L), **kw)
     return RevoluteClearance(*args, **kw)
 
 
@@ -117,3 +118,26 @@ REVOLUTE = PluginType(
     source="paper 002 eqs. 1-6 per channel", keys=_SPATIAL, plot=_PLOT)
 KEYS_PLANAR = key_names(_PLANAR + _WEAR)
 KEYS_SPATIAL = key_names(_SPATIAL)
+
+
+class WornRevoluteClearance(WornJoint, RevoluteClearance):
+    """A planar revolute clearance whose bearing has worn ``depth`` (m, one value per wear node)."""
+
+    _data_class = WornData
+    planar_geometry = channels.G_WORN_PLANAR
+
+    def _geometry_params(self):
+        head = np.array([self.c, self.R1, self.R2, self.ca, self.L, float(self.wear.nodes)])
+        return np.concatenate([head, spline_coefficients(self.depth).ravel()])
+
+    def profile(self, theta):
+        """(w, dw/dtheta) of the worn profile at the angles theta (the kernel's spline)."""
+        g = self._geo.gpar
+        pairs = [worn_geometry.worn_depth(g, float(t)) for t in np.atleast_1d(theta)]
+        return np.array(pairs).T
+
+    def describe(self):
+        w = self.wear
+        return {**super().describe(), "wear": {"model": "archard", "k": w.k, "hardness": w.hardness,
+                                               "nodes": w.nodes, "distribution": w.distribution,
+                                               "max_depth": float(self.depth.max())}}

@@ -4,12 +4,13 @@ from __future__ import annotations
 import math
 import numbers
 
-from pinclear.errors import ContactSetupError
-from pinclear.registry import REQUIRED, Key, key_names
+from pinclear.core.errors import ContactSetupError
+from pinclear.core.registry import REQUIRED, Key, key_names
 
-from .laws import HYSTERESIS, MATERIALS, NORMAL_LAWS, effective_modulus, make_friction_law, make_normal_law
+from pinclear.contact.laws import (HYSTERESIS, MATERIALS, NORMAL_LAWS, effective_modulus, make_friction_law,
+                                   make_normal_law)
 
-#: the keys of every ``clearances:`` entry (pinclear.registry.CLEARANCE_TYPES' common keys); a
+#: the keys of every ``clearances:`` entry (pinclear.core.registry.CLEARANCE_TYPES' common keys); a
 #: type's own keys are in its module's PluginType record
 COMMON = (
     Key("name", "string", doc="the clearance joint's name (--clearance NAME, NAME.key=... overrides, outputs "

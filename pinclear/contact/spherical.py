@@ -10,19 +10,21 @@ from __future__ import annotations
 
 import numpy as np
 
-from pinclear.registry import ClearancePlot, Key, PluginType, key_names
+from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
 
-from . import _kernels
-from .base import ClearanceJoint
-from .laws import hertz_stiffness
-from .spec import DEFAULTS
+from pinclear.contact import channels, worn_geometry
+from pinclear.contact.base import ClearanceJoint
+from pinclear.contact.laws import hertz_stiffness
+from pinclear.contact.spec import DEFAULTS
+from pinclear.contact.wear import WornData, WornJoint
+from pinclear.contact.wear_spherical import POLES
 
 _RADIUS = Key("radius", "number", "m", 0.01, "> 0", "paper 000 eq. 6", "ball radius R_ball")
 
 
 class SphericalClearance(ClearanceJoint):
     kind = "spherical"
-    geometry_code = _kernels.G_SPHERICAL
+    geometry_code = channels.G_SPHERICAL
 
     def __init__(self, name, model, f1, f2, clearance, R_ball, law, friction, *, stiffness_note="given", **kw):
         super().__init__(name, model, f1, f2, 1, friction, **kw)
@@ -57,9 +59,9 @@ def from_spec(sp, mech, closure):
     K, note = stiffness(sp, R2, R1)
     law = sp.normal_law(K=K)
     if sp.d.get("wear") is not None:
-        from . import wear_spherical
+        from pinclear.contact import wear_spherical
 
-        return wear_spherical.WornSphericalClearance(
+        return WornSphericalClearance(
             sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(), stiffness_note=note,
             wear=wear_spherical.parse(sp, R1, R2), **sp.common(c))
     return SphericalClearance(sp.name, mech.model, closure.f1, closure.f2, c, R2, law, sp.friction_law(),
@@ -87,3 +89,30 @@ SPHERICAL = PluginType(
               "reshaping its contact geometry (pinclear wear)")),
     plot=ClearancePlot(across_axis=False, travel=False, boundary="circle", body="ball"))
 KEYS = key_names(SPHERICAL.keys)
+
+
+# ------------------------------------------------------------------ the worn joint
+class WornSphericalClearance(WornJoint, SphericalClearance):
+    """A spherical clearance whose socket has worn ``depth`` (m, one value per mesh node, row by
+    row). The kernel plumbing (force scaled by |grad delta|, record with the slip speed) is
+    the worn joints' shared one (contact.wear.WornJoint)."""
+
+    _data_class = WornData
+    geometry_code = channels.G_WORN_SPHERICAL
+
+    def _geometry_params(self):
+        w = self.wear
+        return np.concatenate([[self.c, self.R1, self.R2, float(w.pole), 0.0, float(w.rows), float(w.cols)],
+                               self.depth])
+
+    def profile(self, theta, phi):
+        """(w, dw/dtheta, dw/dphi) of the worn socket at the mesh angles (the kernel's interpolant)."""
+        g = self._geo.gpar
+        return np.array([worn_geometry.worn_sphere_depth(g, float(t), float(p))
+                         for t, p in zip(np.atleast_1d(theta), np.atleast_1d(phi))]).T
+
+    def describe(self):
+        w = self.wear
+        return {**super().describe(), "wear": {"model": "archard", "k": w.k, "hardness": w.hardness,
+                                               "nodes": w.rows, "distribution": w.distribution,
+                                               "pole": POLES[w.pole], "max_depth": float(self.depth.max())}}

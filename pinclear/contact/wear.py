@@ -33,12 +33,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pinclear.registry import Key
+from pinclear.core.registry import Key
 
-from . import _kernels
-from ._kernels import Laws
-from .base import ClearanceData
-from .revolute import RevoluteClearance
+from pinclear.contact import channels
+from pinclear.contact.channels import Laws
+from pinclear.contact.base import ClearanceData
 
 MODELS = ("archard",)
 DISTRIBUTIONS = ("hertz", "uniform")
@@ -255,36 +254,19 @@ class WornJoint:
         lay = super().record_layout()
         return None if lay is None else lay + (("slip", 1),)
 
-
-class WornRevoluteClearance(WornJoint, RevoluteClearance):
-    """A planar revolute clearance whose bearing has worn ``depth`` (m, one value per wear node)."""
-
-    _data_class = WornData
-    planar_geometry = _kernels.G_WORN_PLANAR
-
     def with_depth(self, depth, continuing=False):
         """The same joint with the bearing worn to ``depth`` (a new, immutable joint).
-        continuing: its runs continue a run's state (a block of pinclear.wearing), which may be
+        continuing: its runs continue a run's state (a block of pinclear.analysis.wear_life), which may be
         in a deep impact: the start-pose check (max_initial_penetration) is then off."""
         args, kw = self._ctor
         if continuing:
             kw = {**kw, "max_initial_penetration": None}
         return type(self)(*args, wear=self.wear, depth=depth, **kw)
 
-    def _geometry_params(self):
-        head = np.array([self.c, self.R1, self.R2, self.ca, self.L, float(self.wear.nodes)])
-        return np.concatenate([head, spline_coefficients(self.depth).ravel()])
-
-    def profile(self, theta):
-        """(w, dw/dtheta) of the worn profile at the angles theta (the kernel's spline)."""
-        g = self._geo.gpar
-        pairs = [_kernels.worn_depth(g, float(t)) for t in np.atleast_1d(theta)]
-        return np.array(pairs).T
-
     def _compiled_kernel(self):
         if self._geo is None or self._laws is None or self._friction is None:
             return None
-        return _kernels.worn_clearance_force
+        return channels.worn_clearance_force
 
     def _kernel_args(self, ws, d):
         lw = self._laws
@@ -309,11 +291,5 @@ class WornRevoluteClearance(WornJoint, RevoluteClearance):
     def record_kernel(self, mech, ws, d, z, zdot, row):
         if self._kernel is None:
             return None
-        return _kernels.worn_record, (d.channels, d.M, z, zdot, self.nc, *self._record_laws(d),
-                                      np.zeros(_kernels.RECORD_SIZE), row)
-
-    def describe(self):
-        w = self.wear
-        return {**super().describe(), "wear": {"model": "archard", "k": w.k, "hardness": w.hardness,
-                                               "nodes": w.nodes, "distribution": w.distribution,
-                                               "max_depth": float(self.depth.max())}}
+        return channels.worn_record, (d.channels, d.M, z, zdot, self.nc, *self._record_laws(d),
+                                      np.zeros(channels.RECORD_SIZE), row)

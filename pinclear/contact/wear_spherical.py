@@ -33,14 +33,11 @@ from functools import cached_property
 
 import numpy as np
 
-from pinclear._jit import njit
-from pinclear.errors import InputError
-from pinclear.registry import Key
+from pinclear.core.jit import njit
+from pinclear.core.errors import InputError
+from pinclear.core.registry import Key
 
-from . import _kernels
-from .spherical import SphericalClearance
-from .wear import (DISTRIBUTIONS, MODELS, WornData, WornJoint, WornRevoluteClearance, positive, trapezoid_weights,
-                   wear_mapping)
+from pinclear.contact.wear import DISTRIBUTIONS, MODELS, positive, trapezoid_weights, wear_mapping
 
 POLES = ("x", "y", "z")
 
@@ -292,41 +289,6 @@ def block_increment(wm: SphericalWearModel, name, traj):
                          "(theta, phi) chart is singular: put the pole on another frame1 axis",
                          key=f"clearances.{name}.wear.pole", choices=[p for p in POLES if p != POLES[wm.pole]])
     return h
-
-
-# ------------------------------------------------------------------ the worn joint
-class WornSphericalClearance(WornJoint, SphericalClearance):
-    """A spherical clearance whose socket has worn ``depth`` (m, one value per mesh node, row by
-    row). The kernel plumbing (force scaled by |grad delta|, record with the slip speed) is the
-    worn revolute's, taken from contact.wear.WornRevoluteClearance."""
-
-    _data_class = WornData
-    geometry_code = _kernels.G_WORN_SPHERICAL
-    # the worn joints' shared plumbing (these methods use no zero-argument super())
-    with_depth = WornRevoluteClearance.with_depth
-    _compiled_kernel = WornRevoluteClearance._compiled_kernel
-    _kernel_args = WornRevoluteClearance._kernel_args
-    _normal = WornRevoluteClearance._normal
-    _record_laws = WornRevoluteClearance._record_laws
-    _slip = WornRevoluteClearance._slip
-    record_kernel = WornRevoluteClearance.record_kernel
-
-    def _geometry_params(self):
-        w = self.wear
-        return np.concatenate([[self.c, self.R1, self.R2, float(w.pole), 0.0, float(w.rows), float(w.cols)],
-                               self.depth])
-
-    def profile(self, theta, phi):
-        """(w, dw/dtheta, dw/dphi) of the worn socket at the mesh angles (the kernel's interpolant)."""
-        g = self._geo.gpar
-        return np.array([_kernels.worn_sphere_depth(g, float(t), float(p))
-                         for t, p in zip(np.atleast_1d(theta), np.atleast_1d(phi))]).T
-
-    def describe(self):
-        w = self.wear
-        return {**super().describe(), "wear": {"model": "archard", "k": w.k, "hardness": w.hardness,
-                                               "nodes": w.rows, "distribution": w.distribution,
-                                               "pole": POLES[w.pole], "max_depth": float(self.depth.max())}}
 
 
 def plot_depth_map(ax, wm: SphericalWearModel, depth, title=""):

@@ -1,6 +1,6 @@
 """Pieces shared by the mechanism generators: mass properties of tubes, cylinders and U-joint
 crosses, URDF text, sidecar writing, and an independent closed-chain solver (ClosedChain) that
-the tests use as a second method beside pinclear.closures."""
+the tests use as a second method beside pinclear.model.closures."""
 from __future__ import annotations
 
 import math
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-from ..models import models_dir
+from pinclear.core.models import models_dir
 
 STEEL = 7850.0       # kg/m^3
 ALUMINIUM = 2700.0   # kg/m^3
@@ -46,31 +46,6 @@ def u_angles(d, e1, e2, zero_dir):
     return a, b
 
 
-def _fmt(v):
-    return " ".join(repr(float(x)) for x in v)
-
-
-def urdf_link(name, inertial=None):
-    if inertial is None:
-        return f'  <link name="{name}"/>\n'
-    m, c, I = inertial
-    return (f'  <link name="{name}">\n    <inertial>\n      <origin xyz="{_fmt(c)}" rpy="0 0 0"/>\n'
-            f'      <mass value="{m!r}"/>\n'
-            f'      <inertia ixx="{float(I[0, 0])!r}" ixy="{float(I[0, 1])!r}" ixz="{float(I[0, 2])!r}" '
-            f'iyy="{float(I[1, 1])!r}" iyz="{float(I[1, 2])!r}" izz="{float(I[2, 2])!r}"/>\n'
-            f'    </inertial>\n  </link>\n')
-
-
-def urdf_joint(name, jtype, parent, child, xyz=(0, 0, 0), axis=None, limits=None, rpy=(0, 0, 0)):
-    s = (f'  <joint name="{name}" type="{jtype}">\n    <parent link="{parent}"/>\n'
-         f'    <child link="{child}"/>\n    <origin xyz="{_fmt(xyz)}" rpy="{_fmt(rpy)}"/>\n')
-    if axis is not None:
-        s += f'    <axis xyz="{_fmt(axis)}"/>\n'
-    if limits is not None:
-        s += f'    <limit lower="{limits[0]:.12g}" upper="{limits[1]:.12g}" effort="1e6" velocity="100"/>\n'
-    return s + "  </joint>\n"
-
-
 
 def write_sidecar_yaml(path, d, head):
     """Write a generated sidecar; a ``clearances:`` block already in the file is kept (it is
@@ -87,9 +62,9 @@ def write_sidecar_yaml(path, d, head):
 
 class ClosedChain:
     """Closure equations of a URDF tree written directly on Pinocchio frame kinematics,
-    independently of pinclear.closures (used for forward position analysis and as a
+    independently of pinclear.model.closures (used for forward position analysis and as a
     cross-check of the core). Supports spherical, universal, prismatic (closure conventions
-    of pinclear.closures: axes are the frames' z axes, prismatic frames aligned)."""
+    of pinclear.model.closures: axes are the frames' z axes, prismatic frames aligned)."""
 
     def __init__(self, model, closures, drive_joints=()):
         self.model = model
@@ -146,7 +121,7 @@ class ClosedChain:
         r, _ = self.residual_jacobian(q, targets)
         if np.max(np.abs(r)) < 1e-10:
             return q
-        from pinclear.errors import AssemblyError
+        from pinclear.core.errors import AssemblyError
         raise AssemblyError(f"closed-chain Newton did not converge: |residual| = {np.max(np.abs(r)):.3e}")
 
 

@@ -22,8 +22,8 @@ SDF_DIR = "cassie_description/robots"
 
 def sdf_path(variant: str) -> Path:
     """example-robot-data's SDF file of a Cassie variant."""
-    from ..errors import ModelFileError
-    from ..models import example_robot_data_dir
+    from pinclear.core.errors import ModelFileError
+    from pinclear.core.models import example_robot_data_dir
 
     if variant not in VARIANTS:
         raise ModelFileError(variant, "variant", "not a Cassie variant of example-robot-data", choices=VARIANTS)
@@ -35,8 +35,8 @@ def sdf_path(variant: str) -> Path:
 
 def write_models(out=None) -> dict:
     """Import the five variants into ``out`` (default: the bundled models folder); {variant: report}."""
-    from ..importers import import_file
-    from ..models import models_dir
+    from pinclear.io.importers import import_file
+    from pinclear.core.models import models_dir
 
     out = Path(out) if out is not None else models_dir()
     reports = {}

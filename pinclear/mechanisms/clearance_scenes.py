@@ -10,14 +10,15 @@ from types import MappingProxyType
 
 import numpy as np
 
-import pinclear
-from pinclear.errors import InputError
-from pinclear.models import model_path
+from pinclear.io import sidecar
+from pinclear.dynamics.simulate import simulate
+from pinclear.core.errors import InputError
+from pinclear.core.models import model_path
 
 
 @dataclass(frozen=True)
 class Scene:
-    mechanism: str              # bundled model name (pinclear.models)
+    mechanism: str              # bundled model name (pinclear.core.models)
     clearances: tuple
     t_end: float
     source: str
@@ -46,9 +47,9 @@ def load(name, overrides=None):
     (``{"S2.mu": 0.05}``)."""
     sc = scene(name)
     path = model_path(sc.mechanism)
-    ideal = pinclear.load(path)
+    ideal = sidecar.load(path)
     overrides = {**sc.overrides, **(overrides or {})}
-    return ideal, pinclear.load(path, clearances=list(sc.clearances), overrides=overrides)
+    return ideal, sidecar.load(path, clearances=list(sc.clearances), overrides=overrides)
 
 
 def run(name, *, t_end=None, integrator="RK45", rtol=1e-6, dt_out=None, max_cpu=None, overrides=None,
@@ -66,10 +67,10 @@ def run(name, *, t_end=None, integrator="RK45", rtol=1e-6, dt_out=None, max_cpu=
     out = {"scene": name, "source": sc.source, "t_end": t_end, "mech": m_clr, "mech_ideal": m_ideal}
     if ideal:
         c0 = time.process_time()
-        out["ideal"] = pinclear.simulate(m_ideal, t_end, integrator="RK45", rtol=min(rtol, 1e-8), dt_out=dt_out)
+        out["ideal"] = simulate(m_ideal, t_end, integrator="RK45", rtol=min(rtol, 1e-8), dt_out=dt_out)
         out["cpu_ideal"] = time.process_time() - c0
     c0 = time.process_time()
-    out["clearance"] = pinclear.simulate(m_clr, t_end, integrator=integrator, rtol=rtol, dt_out=dt_out,
+    out["clearance"] = simulate(m_clr, t_end, integrator=integrator, rtol=rtol, dt_out=dt_out,
                                          max_cpu=max_cpu, max_step=max_step)
     out["cpu"] = time.process_time() - c0
     return out

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ._common import URDF_DIR
+from pinclear.mechanisms._common import URDF_DIR
 
 STEEL = 7850.0          # kg/m^3
 SECTION = 0.01          # m, square bar side

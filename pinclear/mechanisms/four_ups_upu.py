@@ -37,10 +37,11 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .._jit import njit
-from ._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, solve_lengths,  # noqa: F401
-                      cylinder_inertia, u_angles, urdf_joint, urdf_link, write_sidecar_yaml)
-from ._common import cross_inertia as _cross_inertia
+from pinclear.core.jit import njit
+from pinclear.mechanisms._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, solve_lengths,
+                                         cylinder_inertia, u_angles, write_sidecar_yaml)
+from pinclear.io.urdf_write import urdf_joint, urdf_link
+from pinclear.mechanisms._common import cross_inertia as _cross_inertia
 
 G = 9.81
 

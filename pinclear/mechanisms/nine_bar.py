@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ._common import URDF_DIR
+from pinclear.mechanisms._common import URDF_DIR
 
 RHO_STEEL = 7850.0          # kg/m^3
 GRAVITY = 9.81              # m/s^2, along -y

@@ -61,7 +61,7 @@ from types import MappingProxyType
 
 import numpy as np
 
-from ._common import URDF_DIR
+from pinclear.mechanisms._common import URDF_DIR
 
 NAME = "squeezer"
 SOURCE = "Test Set for IVP Solvers (Mazzia, Magherini), problem andrews, andrews.f"
@@ -235,7 +235,7 @@ def sidecar(p=P):
 
 
 def write(folder=URDF_DIR):
-    from .benchmarks import _write_sidecar
+    from pinclear.mechanisms.benchmarks import _write_sidecar
 
     folder = Path(folder)
     (folder / f"{NAME}.urdf").write_text(urdf_text())

@@ -29,10 +29,10 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .._jit import njit
-from ._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, cross_inertia, solve_lengths,
-                      u_angles,
-                      urdf_joint, urdf_link, write_sidecar_yaml)
+from pinclear.core.jit import njit
+from pinclear.mechanisms._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, cross_inertia,
+                                         solve_lengths, u_angles, write_sidecar_yaml)
+from pinclear.io.urdf_write import urdf_joint, urdf_link
 
 G = 9.81
 # ------------------------------------------------------------------ paper 003, Table 2

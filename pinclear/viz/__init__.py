@@ -1,4 +1,4 @@
-"""Visual checks: meshcat scenes, standalone HTML animations, the standard plots.
+"""Layer 7, viz: visual checks: meshcat scenes, standalone HTML animations, the standard plots.
 
 Headless by default: nothing opens a browser or blocks unless asked.
 
@@ -14,11 +14,11 @@ import time
 
 import numpy as np
 
-from .animate import animate, resample
-from .html import export_html, scene_html, screenshot
-from .elements import active_clearances
-from .scene import MechanismScene, SceneRecorder
-from .server import LocalServer
+from pinclear.viz.animate import animate, resample
+from pinclear.viz.html import export_html, scene_html, screenshot
+from pinclear.viz.elements import active_clearances
+from pinclear.viz.scene import MechanismScene, SceneRecorder
+from pinclear.viz.server import LocalServer
 
 __all__ = ["show", "build_scene", "animate", "resample", "export_html", "scene_html", "screenshot",
            "MechanismScene", "SceneRecorder", "active_clearances", "start_viewer", "LocalServer"]
@@ -30,7 +30,7 @@ def _assembled(mech, q=None):
     if q is not None:
         return np.asarray(q, float)
     try:
-        from pinclear import kinematics
+        from pinclear.model import kinematics
         return kinematics.assemble(mech, mech.q0)
     except Exception:      # an unassemblable guess is still worth looking at
         return np.asarray(mech.q0, float)
@@ -73,7 +73,7 @@ def start_viewer(scene: MechanismScene, zmq_url: str | None = None, open_browser
     import zmq
     from meshcat.visualizer import ViewerWindow
 
-    from ..errors import InputError
+    from pinclear.core.errors import InputError
 
     server = None
     if zmq_url is None:

@@ -18,9 +18,9 @@ import pinocchio as pin
 from meshcat.animation import Animation, AnimationClip, AnimationTrack
 from scipy.spatial.transform import Rotation
 
-from pinclear.kinematics import frame_motion
+from pinclear.model.kinematics import frame_motion
 
-from .scene import MechanismScene, arrow_matrix
+from pinclear.viz.scene import MechanismScene, arrow_matrix
 
 
 def resample(model: pin.Model, t: np.ndarray, q: np.ndarray, fps: float = 30.0,

@@ -3,7 +3,7 @@ saved run whose mechanism is not loaded (the element types recorded in its metad
 only place the viewer and the plots tell clearance joints apart."""
 from __future__ import annotations
 
-from pinclear.registry import CLEARANCE_TYPES
+from pinclear.core.registry import CLEARANCE_TYPES
 
 
 def active_clearances(mech) -> list:
@@ -12,7 +12,7 @@ def active_clearances(mech) -> list:
 
 
 def clearance_plot(kind):
-    """How clearance type ``kind`` is drawn (pinclear.registry.ClearancePlot), or None for a type
+    """How clearance type ``kind`` is drawn (pinclear.core.registry.ClearancePlot), or None for a type
     not registered (a run saved by a newer pinclear)."""
     return CLEARANCE_TYPES.get(kind).plot if kind in CLEARANCE_TYPES else None
 

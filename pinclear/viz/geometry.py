@@ -39,10 +39,10 @@ import meshcat.geometry as mg
 import numpy as np
 import pinocchio as pin
 
-from pinclear.errors import ModelFileError
-from pinclear.models import example_robot_data_dir
-from pinclear.sidecar import allowed_roots
-from pinclear.timelaws import TRUST_ENV, trusted
+from pinclear.core.errors import ModelFileError
+from pinclear.core.models import example_robot_data_dir
+from pinclear.io.sidecar import allowed_roots
+from pinclear.model.timelaws import TRUST_ENV, trusted
 
 GROUND_COLOR = 0x8A8F98
 _EPS = 1e-9
@@ -303,7 +303,7 @@ def viewer_trust(mech=None, trust=None) -> bool:
 
 def mesh_roots(urdf_path, sidecar_path=None) -> list[Path]:
     """Folders an untrusted URDF's meshes may come from: the sidecar's and the URDF's folders,
-    pinclear's bundled models and example-robot-data's robots (see pinclear.sidecar)."""
+    pinclear's bundled models and example-robot-data's robots (see pinclear.io.sidecar)."""
     roots = allowed_roots(sidecar_path if sidecar_path is not None else urdf_path)
     own = Path(urdf_path).resolve().parent
     return roots if own in roots else roots + [own]

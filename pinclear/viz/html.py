@@ -21,8 +21,8 @@ from pathlib import Path
 
 import meshcat
 
-from .. import safeio
-from .scene import MechanismScene
+from pinclear.core import safeio
+from pinclear.viz.scene import MechanismScene
 
 _MAIN_JS = Path(meshcat.__file__).parent / "viewer" / "dist" / "main.min.js"
 

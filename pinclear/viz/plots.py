@@ -25,11 +25,11 @@ import numpy as np
 import pinocchio as pin
 from matplotlib.figure import Figure
 
-from pinclear import safeio
-from pinclear.kinematics import frame_motion
+from pinclear.core import safeio
+from pinclear.model.kinematics import frame_motion
 
-from .elements import active_clearances, clearance_plot, recorded_clearances, run_clearances
-from .elements import clearance_size as element_clearance
+from pinclear.viz.elements import active_clearances, clearance_plot, recorded_clearances, run_clearances
+from pinclear.viz.elements import clearance_size as element_clearance
 
 AXES = "xyz"
 
@@ -58,7 +58,7 @@ def clearance_names(traj) -> list[str]:
 
 
 def clearance_type(traj, name: str) -> str | None:
-    """Kind of clearance joint ``name`` (a type of pinclear.registry.CLEARANCE_TYPES)."""
+    """Kind of clearance joint ``name`` (a type of pinclear.core.registry.CLEARANCE_TYPES)."""
     return run_clearances(traj).get(name)
 
 
@@ -198,10 +198,10 @@ ENERGY_CURVES = {"kinetic": ("kinetic T", 1), "gravity": ("gravity V_g - V_g(0)"
 
 
 def fig_energy(traj):
-    """The audited energy balance over time (pinclear.energy.balance_series): each term of
+    """The audited energy balance over time (pinclear.dynamics.energy.balance_series): each term of
     B = T + V_g + V_el + E_diss - W_d - W_c - W_a that is not zero, and below, on its own scale,
     the balance's error B - B(0) with the audit's bound (a closed balance is a flat line)."""
-    from ..energy import balance_series, energy_balance
+    from pinclear.dynamics.energy import balance_series, energy_balance
 
     try:
         S = balance_series(traj)

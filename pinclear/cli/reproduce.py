@@ -1,0 +1,41 @@
+"""`pinclear reproduce PAPER`: the command line of the papers' studies.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from pinclear.studies.reproduce.verdicts import summary
+from pinclear.studies.reproduce import PAPERS, reproduce
+
+
+def build_parser():
+    """The parser of `pinclear reproduce`."""
+    from pinclear.cli.args import OneLineParser, number
+
+    ap = OneLineParser(prog="pinclear reproduce", description=__doc__.splitlines()[0])
+    ap.add_argument("paper", choices=sorted(PAPERS), help="the source paper's study to run")
+    ap.add_argument("--quick", action="store_true", help="a reduced study (smoke run)")
+    ap.add_argument("--bands", action="store_true",
+                    help="measure each row's band over the reconstructed inputs (one-at-a-time plus a small "
+                         "space-filling sample; costs runs: see --budget)")
+    ap.add_argument("--budget", type=number("positive", "CPU s"), default=None, metavar="CPU_S",
+                    help="CPU seconds the bands may use (default: the whole design)")
+    ap.add_argument("--out", default=None, help="report folder (default: reproduce_PAPER)")
+    ap.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per CPU)")
+    ap.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                    help="run the simulations on the Dask cluster at ADDRESS (tcp://HOST:8786) "
+                         "(default: local processes)")
+    return ap
+
+
+def cli_main(argv=None) -> int:
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    out = Path(args.out or f"reproduce_{args.paper}")
+    if args.workers is not None and args.workers < 1:
+        ap.error(f"--workers must be a positive number of processes, got {args.workers}")
+    if args.budget is not None and not args.bands:
+        ap.error("--budget is the CPU budget of --bands: give --bands too")
+    rep = reproduce(args.paper, out, quick=args.quick, workers=args.workers, scheduler=args.scheduler,
+                    bands=args.bands, budget=args.budget)
+    print(f"{rep['title']}: {summary(rep['results'])}; report: {out / 'report.md'}")
+    return 0

@@ -1,0 +1,31 @@
+"""`pinclear study NAME`: the command line of the wear studies.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from pinclear.studies.wear import STUDIES
+
+
+def build_parser():
+    p = argparse.ArgumentParser(prog="pinclear study", description="wear and lubrication studies the seed papers "
+                                "name as their next step (docs/wear_lubrication.md); each writes OUT/README.md with "
+                                "its findings")
+    p.add_argument("name", choices=sorted(STUDIES), help="the study")
+    p.add_argument("--out", default=None, help="output folder (default docs/study/NAME)")
+    p.add_argument("--quick", action="store_true", help="a shorter service life and chaos series (minutes)")
+    p.add_argument("--smoke", action="store_true", help="the whole path in about a minute, to check that it runs "
+                   "(not a result)")
+    return p
+
+
+def cli_main(argv=None) -> int:
+    import importlib
+
+    args = build_parser().parse_args(argv)
+    module, func = STUDIES[args.name].split(":")
+    run = getattr(importlib.import_module(module), func)
+    rows = run(args.out or Path("docs") / "study" / args.name, quick=args.quick or args.smoke, smoke=args.smoke)
+    print(json.dumps(rows, indent=1, default=str))
+    return 0

@@ -1,0 +1,469 @@
+"""Trajectory: the one result object of a simulation (after SciPy's OdeResult)."""
+from __future__ import annotations
+
+import json
+import platform
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from pinclear.model import kinematics
+from pinclear.core.jsonsafe import jsonable
+from pinclear.core.failures import Failure, FailureKind
+
+
+def _versions():
+    import scipy
+
+    from pinclear.core.version import __version__
+
+    return {"pinclear": __version__, "pinocchio": pin.__version__, "numpy": np.__version__,
+            "scipy": scipy.__version__, "python": platform.python_version()}
+
+
+#: one implementation (pinclear.core.jsonsafe), under its old names here too
+_jsonable = jsonable
+
+
+@dataclass
+class Checkpoint:
+    """Where a run stood after an accepted step: enough to continue it exactly (same steps,
+    same samples) with ``simulate(..., resume=checkpoint)``."""
+
+    t0: float
+    q: np.ndarray                # initial state of the run
+    v: np.ndarray
+    z: np.ndarray
+    t: float                     # time of the last accepted step
+    q_now: np.ndarray
+    v_now: np.ndarray
+    z_now: np.ndarray
+    h_next: float | None         # the step the integrator would try next
+    samples: list = field(default_factory=list)      # (t, q, v, z) output samples so far
+    stats: dict = field(default_factory=dict)
+    identity: dict | None = None  # the run it belongs to (pinclear.dynamics.validate.run_identity)
+    path: str | None = None       # the file it was loaded from (named in errors)
+    #: what the integrator carries from step to step beyond the state (ROS34PW2: its Jacobian;
+    #: pinclear.dynamics.stepping.run.method_state), saved as arrays ``method/NAME``
+    method_state: dict = field(default_factory=dict)
+
+    def save(self, path):
+        """NPZ, written atomically (a temporary file renamed into place)."""
+        n = len(self.samples)
+        arrays = {k: np.asarray(getattr(self, k), float) for k in ("q", "v", "z", "q_now", "v_now", "z_now")}
+        arrays["ts"] = np.array([s[0] for s in self.samples], float)
+        for i, k in enumerate(("qs", "vs", "zs")):
+            arrays[k] = (np.array([s[i + 1] for s in self.samples], float) if n
+                         else np.zeros((0, arrays[k[0]].size)))
+        meta = {"t0": self.t0, "t": self.t, "h_next": self.h_next, "stats": self.stats, "identity": self.identity}
+        arrays["meta"] = np.array(json.dumps(_jsonable(meta)))
+        for k, a in (self.method_state or {}).items():
+            arrays[f"method/{k}"] = np.asarray(a, float)
+        return atomic_savez(path, arrays)
+
+    @classmethod
+    def load(cls, path):
+        """A checkpoint written by :meth:`save`, checked as data (headers and sizes before
+        loading, consistent shapes, finite values, JSON types); :func:`pinclear.dynamics.validate.
+        check_checkpoint` then checks it against the mechanism and the run it is to continue."""
+        from pinclear.dynamics import validate as V
+
+        arrays = V.read_npz(path, "checkpoint")
+        meta = V.read_meta(arrays, path, "checkpoint")
+        for k in ("t0", "t", "h_next", "stats"):
+            if k not in meta:
+                raise V.file_error(path, f"metadata has no {k!r}: not a pinclear checkpoint")
+        if not isinstance(meta["stats"], dict):
+            raise V.file_error(path, "stats must be a mapping")
+        vec = {k: V.real_array(arrays, k, path, 1) for k in ("q", "v", "z", "q_now", "v_now", "z_now")}
+        ts = V.real_array(arrays, "ts", path, 1)
+        n = len(ts)
+        qs, vs, zs = (V.real_array(arrays, k, path, 2, rows=n, cols=vec[k[0]].size) for k in ("qs", "vs", "zs"))
+        V.increasing(ts, path, "ts")
+        samples = [(float(t), q, v, z) for t, q, v, z in zip(ts, qs, vs, zs)]
+        identity = meta.get("identity")
+        if not isinstance(identity, dict):
+            raise V.file_error(path, "the checkpoint records no identity of its run (written by another program or an "
+                               "older pinclear): it cannot be matched to a run, start the run again")
+        return cls(t0=V.number(meta["t0"], path, "t0"), q=vec["q"], v=vec["v"], z=vec["z"],
+                   t=V.number(meta["t"], path, "t"), q_now=vec["q_now"], v_now=vec["v_now"], z_now=vec["z_now"],
+                   h_next=V.number(meta["h_next"], path, "h_next", positive=True, allow_none=True),
+                   samples=samples, stats=dict(meta["stats"]), identity=identity, path=str(path),
+                   method_state={k[7:]: V.real_array(arrays, k, path, arrays[k].ndim) for k in arrays
+                                 if k.startswith("method/") and arrays[k].ndim in (1, 2)})
+
+
+def atomic_savez(path, arrays: dict, root=None):
+    """np.savez_compressed to a new temporary file in the target folder, then an atomic rename,
+    never through a link (pinclear.core.safeio): a reader never sees half a file, and two runs
+    writing one path never mix their contents."""
+    from pinclear.core.safeio import savez
+
+    return savez(path, arrays, root)
+
+
+def atomic_write_text(path, text: str, root=None):
+    """Text written link-safely to a temporary file beside ``path`` and renamed into place."""
+    from pinclear.core.safeio import write_text
+
+    return write_text(path, text, root)
+
+
+#: the energy channels every saved run holds
+ENERGY_KEYS = ("kinetic", "potential", "spring", "dissipated_power")
+#: the statuses a run can end with
+STATUSES = ("success", "failed", "interrupted", "empty")
+#: the kinds of a run's failure (Trajectory.failure = Failure(kind, t, detail)), pinclear.core.failures
+FAILURE_KINDS = tuple(k.value for k in FailureKind)
+
+
+def _rows(V, arrays, key, path, n):
+    a = arrays[key]
+    if a.dtype.kind not in "fiub" or a.ndim < 1 or len(a) != n:
+        raise V.file_error(path, f"array {key!r} has shape {a.shape} and dtype {a.dtype}, expected {n} rows of numbers")
+    return np.asarray(a, float)
+
+
+def _read_failure(V, rec, path):
+    """Trajectory.failure from its saved record, checked as data."""
+    if rec is None:
+        return None
+    if not isinstance(rec, dict) or set(rec) != {"kind", "t", "detail"}:
+        raise V.file_error(path, "metadata 'failure': expected a mapping of kind, t, detail")
+    if rec["kind"] not in FAILURE_KINDS:
+        raise V.file_error(path, f"metadata 'failure.kind': {rec['kind']!r} is not a failure kind (valid: "
+                           f"{', '.join(FAILURE_KINDS)})")
+    if not isinstance(rec["detail"], str):
+        raise V.file_error(path, "metadata 'failure.detail': expected a string")
+    return Failure(FailureKind(rec["kind"]), V.number(rec["t"], path, "failure.t", allow_none=True), rec["detail"])
+
+
+class Trajectory:
+    """Samples of a run: t, q, v, a, lam (by name), residual, outputs, energy, stats, status."""
+
+    def __init__(self):
+        self.t = np.zeros(0)
+        self.q = self.v = self.a = np.zeros((0, 0))
+        self.z = np.zeros((0, 0))
+        self.lam: dict[str, np.ndarray] = {}
+        self.residual = np.zeros(0)
+        self.drive_error = np.zeros(0)
+        self.outputs: dict[str, np.ndarray] = {}
+        self.energies: dict[str, np.ndarray] = {}
+        self.stats: dict = {}
+        self.status, self.message = "empty", ""
+        #: why the run did not succeed, as data: a pinclear.core.failures.Failure (kind, time s, detail), or None
+        self.failure = None
+        self.meta: dict = {}
+        self.mech = None
+        self.mech_path = None
+
+    # ------------------------------------------------------------------ building
+    @classmethod
+    def empty(cls, mech, form, integrator, rtol, atol, t_eval):
+        tr = cls()
+        tr.mech, tr.mech_path = mech, mech.path
+        tr.stats = {"rhs_evals": 0, "steps": 0, "restarts": 0, "events": [], "cpu_s": 0.0}
+        tr.meta = {"mechanism": mech.describe(), "method": form.describe(), "integrator": integrator,
+                   "rtol": rtol, "atol": atol if np.isscalar(atol) else list(np.ravel(atol)),
+                   "t_requested": [float(t_eval[0]), float(t_eval[-1]), len(t_eval)],
+                   "options": mech.options, "versions": _versions()}
+        return tr
+
+    def fill_states(self, samples):
+        """Times and states of the samples (pinclear.dynamics.stepping.outputs.Samples: arrays t, q, v,
+        z), nothing evaluated."""
+        mech = self.mech
+        n = len(samples.t)
+        self.t = np.array(samples.t, float)
+        self.q = np.array(samples.q, float).reshape(n, mech.nq)
+        self.v = np.array(samples.v, float).reshape(n, mech.nv)
+        self.z = np.array(samples.z, float).reshape(n, mech.nz)
+        self.a = np.full((n, mech.nv), np.nan)
+        self.residual = np.full(n, np.nan)
+        self.drive_error = np.full(n, np.nan)
+
+    def write_outputs(self, samples, outs):
+        """The samples (t, q, v, z) and everything recorded at them (``outs``: a
+        pinclear.dynamics.stepping.outputs.Outputs, whole arrays): accelerations, multipliers by row name,
+        residuals, the elements' outputs and the energies of the audit."""
+        mech = self.mech
+        self.fill_states(samples)
+        n, nv, m, mc = len(samples.t), mech.nv, mech.m, mech.compiled.m
+        core = outs.core
+        self.a = np.array(core[:, :nv])
+        lam, absphi = core[:, nv:nv + m], np.abs(core[:, nv + m:nv + 2 * m])
+        if n:
+            self.residual[:] = absphi[:, :mc].max(axis=1) if mc else 0.0
+            self.drive_error[:] = absphi[:, mc:].max(axis=1) if mech.drives else 0.0
+        self.lam = {nm: np.array(lam[:, k]) for k, nm in enumerate(mech.row_names())}
+        # power of the closure rows' forces (pinclear.dynamics.energy: Baumgarte drift), sampled
+        E = {"closure_power": np.array(core[:, nv + 2 * m]), "kinetic": np.array(core[:, nv + 2 * m + 1]),
+             "potential": np.array(core[:, nv + 2 * m + 2])}
+        E["spring"], E["dissipated_power"], E["applied_power"] = np.zeros(n), np.zeros(n), np.zeros(n)
+        self.outputs = {}
+        for f, (pot, loss, named) in zip(mech.forces, outs.elements):
+            E["spring"] += pot
+            E["dissipated_power"] += loss
+            if f.dissipation_state is None:      # integrated over the samples by the audit
+                E["applied_power"] += loss
+            self.outputs.update({f"{f.name}.{k}": np.array(val) for k, val in named.items()})
+        # the integrated energy states of the audit (pinclear.dynamics.energy): dissipated energy of the
+        # elements that integrate it, the work of the drive rows
+        E["dissipated"] = np.zeros(n)
+        for f, sl in zip(mech.forces, mech.z_slices):
+            if f.dissipation_state is not None:
+                E["dissipated"] += self.z[:, sl.start + f.dissipation_state]
+        E["work_drives"] = self.z[:, mech.z_work.start].copy() if mech.n_work else np.zeros(n)
+        self.energies = E
+        if outs.failures:             # samples whose evaluation failed (NaN a, lam): named, not lost
+            first = outs.failures[0]
+            self.stats["failed_samples"] = {"count": len(outs.failures),
+                                            "kinds": sorted({str(f.kind) for f in outs.failures}),
+                                            "first": {"t": first.t, "kind": str(first.kind), "detail": first.detail}}
+        if self.status != "success" and n:
+            self.message += f" (samples kept up to t = {self.t[-1]:.6g} s)"
+
+    # ------------------------------------------------------------------ results
+    def closure_residual(self):
+        return self.residual
+
+    def energy(self) -> dict:
+        E = dict(self.energies)
+        E["total"] = E["kinetic"] + E["potential"] + E["spring"]
+        return E
+
+    def energy_balance(self) -> dict:
+        """The run's energy audit (pinclear.dynamics.energy.energy_balance): error, t, ok, bound, scale..."""
+        from pinclear.dynamics.energy import energy_balance
+
+        return energy_balance(self)
+
+    def drive_forces(self) -> dict:
+        if self.mech is None:
+            names = self.meta["mechanism"]["drives"]
+            return {d["name"]: self.lam[d["name"]] for d in names}
+        return {d.name: self.lam[d.name] for d in self.mech.drives}
+
+    def tracking_error(self) -> dict:
+        """Drive coordinates vs their laws; platform pose vs its prescribed motion (if any)."""
+        res = {}
+        if len(self.drive_error) and self.mech is not None and self.mech.drives:
+            res["drives"] = float(np.max(self.drive_error))
+        mech = self.mech
+        if mech is not None and mech.platform_frame is not None and mech.platform_motion is not None:
+            fm = kinematics.frame_motion(mech.model, [mech.platform_frame], self.q)
+            ep, er = 0.0, 0.0
+            for k, t in enumerate(self.t):
+                M = pin.SE3(fm.R[k, 0], fm.p[k, 0])
+                Mref = mech.platform_motion(t)
+                if isinstance(Mref, tuple):
+                    Mref = Mref[0]
+                ep = max(ep, float(np.linalg.norm(M.translation - Mref.translation)))
+                er = max(er, float(np.linalg.norm(pin.log3(Mref.rotation.T @ M.rotation))))
+            res["platform_position"] = ep
+            res["platform_rotation"] = er
+        return res
+
+    def summary(self) -> dict:
+        s = {"status": self.status, "message": self.message, "failure": self._failure_record(),
+             "t_end": float(self.t[-1]) if len(self.t) else None,
+             "samples": len(self.t),
+             "max_closure_residual": float(np.max(self.residual)) if len(self.residual) else None,
+             "rhs_evals": self.stats.get("rhs_evals"), "steps": self.stats.get("steps"),
+             "cpu_s": self.stats.get("cpu_s"), "events": len(self.stats.get("events", [])),
+             "method": self.meta.get("method", {}).get("method"), "integrator": self.meta.get("integrator"),
+             "rtol": self.meta.get("rtol")}
+        for k in ("mobility", "redundant_constraints", "redundant_rows", "rank_loss", "cpu_per_sim_s", "compile_s"):
+            if k in self.stats:
+                s[k] = self.stats[k]
+        if self.mech is not None and len(self.t):
+            conservative = self.mech.conservative
+            s["conservative"] = conservative
+            if conservative:
+                E = self.energy()["total"]
+                scale = max(abs(E[0]), float(np.max(self.energies["kinetic"])), 1e-300)
+                s["energy_drift_rel"] = float(np.max(np.abs(E - E[0])) / scale)
+            te = self.tracking_error()
+            if te:
+                s["tracking_error"] = te
+        s["energy_balance"] = self.energy_balance()
+        s.update(self.peak_summary())
+        return _jsonable(s)
+
+    def peak_summary(self) -> dict:
+        """The run's peaks as summary.json and :meth:`summary` give them (one function for both):
+        ``drive_force_peaks`` {drive: N or N m}, ``drive_force_peak_times`` {drive: s},
+        ``acceleration_peaks`` {dof: {value, t}}, ``clearances`` (each active clearance's
+        description with ``peak_normal_force`` N and ``t_peak`` s), the same as
+        ``contact_force_peaks`` {clearance: N} and ``contact_force_peak_times``, and ``peaks_from``:
+        "integration" (over the accepted steps, pinclear.dynamics.stepping.peaks: independent of the
+        output grid) or "samples" (a run saved before the peaks were recorded)."""
+        pk = self.stats.get("peaks")
+        if isinstance(pk, dict):
+            drives, acc, contact = (dict(pk.get(k) or {}) for k in ("drive_forces", "accelerations", "contact_forces"))
+            clr = [dict(c, peak_normal_force=(contact.get(c.get("name")) or {}).get("value"),
+                        t_peak=(contact.get(c.get("name")) or {}).get("t")) for c in self.stats.get("clearances", [])]
+            return {"peaks_from": "integration",
+                    "drive_force_peaks": {k: None if r is None else r["value"] for k, r in drives.items()},
+                    "drive_force_peak_times": {k: None if r is None else r["t"] for k, r in drives.items()},
+                    "acceleration_peaks": acc, "clearances": clr,
+                    # the same peaks by name (a sweep's per-point table keeps mappings, not lists)
+                    "contact_force_peaks": {k: None if r is None else r["value"] for k, r in contact.items()},
+                    "contact_force_peak_times": {k: None if r is None else r["t"] for k, r in contact.items()}}
+        names = [d["name"] for d in (self.meta.get("mechanism") or {}).get("drives", [])]
+        return {"peaks_from": "samples",
+                "drive_force_peaks": {k: float(np.nanmax(np.abs(self.lam[k]))) if len(self.t) and k in self.lam
+                                      else None for k in names},
+                "clearances": list(self.stats.get("clearances", []))}
+
+    def _failure_record(self):
+        if self.failure is None:
+            return None
+        kind, t, detail = self.failure
+        return {"kind": str(kind), "t": None if t is None else float(t), "detail": detail}
+
+    def _summary_for_saving(self) -> dict:
+        """The summary, or why it could not be computed: the summary calls user code (the
+        platform motion of the tracking error), and nothing it raises may cost the run's file."""
+        try:
+            return self.summary()
+        except Exception as exc:
+            return {"status": self.status, "message": self.message,
+                    "summary_error": f"{type(exc).__name__}: {' '.join(str(exc).split())[:300]}"}
+
+    # ------------------------------------------------------------------ I/O
+    def save(self, path):
+        """NPZ with every array + JSON metadata (versions, parameters, method options, stats)."""
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        arrays = {"t": self.t, "q": self.q, "v": self.v, "a": self.a, "z": self.z, "residual": self.residual,
+                  "drive_error": self.drive_error}
+        for k, v in self.lam.items():
+            arrays[f"lam/{k}"] = v
+        for k, v in self.outputs.items():
+            arrays[f"out/{k}"] = v
+        for k, v in self.energies.items():
+            arrays[f"energy/{k}"] = v
+        meta = dict(self.meta, status=self.status, message=self.message, failure=self._failure_record(), stats=self.stats,
+                    mech_path=str(Path(self.mech_path).resolve()) if self.mech_path else None,
+                    load_args=getattr(self.mech, "load_args", None),
+                    lam_names=list(self.lam), summary=self._summary_for_saving())
+        if self.mech is not None:
+            meta["parameters"] = self.mech.parameters
+        arrays["meta"] = np.array(json.dumps(_jsonable(meta)))
+        return atomic_savez(path, arrays)
+
+    @classmethod
+    def load(cls, path, mech=None):
+        """A saved run (NPZ + JSON metadata). Loading never imports code; ``mech`` (optional) is
+        the mechanism it belongs to, checked against the recorded description. The file is checked
+        as data first (pinclear.dynamics.validate: declared sizes before loading, JSON types, shapes,
+        finite states, increasing times); a failure is an InputError naming the file."""
+        from pinclear.dynamics import validate as V
+
+        tr = cls()
+        arrays = V.read_npz(path, "trajectory")
+        meta = V.read_meta(arrays, path, "trajectory")
+        for k, types in (("status", str), ("message", str), ("stats", dict), ("lam_names", list)):
+            if not isinstance(meta.get(k), types):
+                raise V.file_error(path, f"metadata {k!r}: expected a {types.__name__}, got {type(meta.get(k)).__name__}")
+        if meta["status"] not in STATUSES:
+            raise V.file_error(path, f"metadata 'status': {meta['status']!r} is not a run status (valid: {', '.join(STATUSES)})")
+        if not all(isinstance(k, str) for k in meta["lam_names"]):
+            raise V.file_error(path, "metadata 'lam_names': expected a list of names")
+        if not isinstance(meta.get("mech_path"), (str, type(None))):
+            raise V.file_error(path, "metadata 'mech_path': expected a path")
+        for k, types in (("mechanism", dict), ("load_args", dict), ("method", dict), ("options", dict),
+                         ("versions", dict), ("summary", dict), ("integrator", str), ("rtol", (int, float)),
+                         ("atol", (int, float, list)), ("t_requested", list), ("parameters", list)):
+            if not isinstance(meta.get(k), (types, type(None))) or isinstance(meta.get(k), bool):
+                raise V.file_error(path, f"metadata {k!r}: expected {getattr(types, '__name__', 'a number')}, "
+                                   f"got {type(meta.get(k)).__name__}")
+        # the tolerances and step count the energy audit and the residual bound read back
+        V.number(meta.get("rtol"), path, "rtol", positive=True, allow_none=True)
+        atol = meta.get("atol")
+        for a in (atol if isinstance(atol, list) and atol else [atol]):
+            if (a is not None or isinstance(atol, list)) and V.number(a, path, "atol") < 0:
+                raise V.file_error(path, f"atol: expected a number >= 0, got {a!r}")
+        for k in ("steps", "rhs_evals"):
+            V.number(meta["stats"].get(k), path, f"stats.{k}", integer=True, allow_none=True)
+        tr.meta, tr.status, tr.message, tr.stats = meta, meta["status"], meta["message"], dict(meta["stats"])
+        tr.failure = _read_failure(V, meta.get("failure"), path)
+        tr.mech_path = meta.get("mech_path")
+        rec = meta.get("mechanism") or {}
+        dims = {}
+        for k in ("nq", "nv"):
+            if k in rec:
+                dims[k] = V.number(rec[k], path, f"mechanism.{k}", integer=True)
+        tr.t = V.real_array(arrays, "t", path, 1)
+        n = len(tr.t)
+        V.increasing(tr.t, path, "t")
+        tr.q = V.real_array(arrays, "q", path, 2, rows=n, cols=dims.get("nq"))
+        tr.v = V.real_array(arrays, "v", path, 2, rows=n, cols=dims.get("nv"))
+        tr.z = V.real_array(arrays, "z", path, 2, rows=n)
+        # accelerations, residuals and multipliers are NaN where a sample could not be evaluated
+        tr.a = V.real_array(arrays, "a", path, 2, finite=False, rows=n, cols=tr.v.shape[1])
+        tr.residual = V.real_array(arrays, "residual", path, 1, finite=False, rows=n)
+        tr.drive_error = (V.real_array(arrays, "drive_error", path, 1, finite=False, rows=n)
+                          if "drive_error" in arrays else np.zeros(0))
+        tr.lam = {k: V.real_array(arrays, f"lam/{k}", path, 1, finite=False, rows=n) for k in meta["lam_names"]}
+        tr.outputs = {k[4:]: _rows(V, arrays, k, path, n) for k in arrays if k.startswith("out/")}
+        tr.energies = {k[7:]: V.real_array(arrays, k, path, 1, finite=False, rows=n)
+                       for k in arrays if k.startswith("energy/")}
+        missing = [k for k in ENERGY_KEYS if k not in tr.energies]
+        if missing:
+            raise V.file_error(path, f"array 'energy/{missing[0]}' is missing")
+        if mech is not None:
+            tr.check_mechanism(mech, path)
+        tr.mech = mech
+        return tr
+
+    def check_mechanism(self, mech, path="<trajectory>"):
+        """Refuse a mechanism other than the one the run recorded (same sizes are not enough)."""
+        from pinclear.core.errors import InputError
+
+        rec = self.meta.get("mechanism") or {}
+        have = mech.describe()
+        def kinds(forces):           # force elements and active clearances by name and type
+            # (a tampered record's entries that are not mappings compare as what they are)
+            return sorted((str(f.get("name")), str(f.get("type"))) if isinstance(f, dict) else ("", repr(f)[:40])
+                          for f in (forces if isinstance(forces, list) else [forces] if forces else []))
+        for key in ("name", "nq", "nv", "joints", "closures", "drives", "forces", "gravity"):
+            if key not in rec:
+                continue
+            a, b = (kinds(rec[key]), kinds(have[key])) if key == "forces" else (_jsonable(rec[key]),
+                                                                                  _jsonable(have[key]))
+            if a != b:
+                raise InputError(f"{path}: the run was made with mechanism {rec.get('name')!r} "
+                                 f"({rec.get('path')}); {mech.path or mech.name} differs in {key!r}")
+        if self.q.ndim == 2 and self.q.shape[1] != mech.nq:
+            raise InputError(f"{path}: q has {self.q.shape[1]} columns, mechanism {mech.name!r} has nq = {mech.nq}")
+        for k, n in (("v", mech.nv), ("a", mech.nv), ("z", mech.nz)):
+            arr = getattr(self, k)
+            if arr.ndim == 2 and len(arr) and arr.shape[1] != n:
+                raise InputError(f"{path}: {k} has {arr.shape[1]} columns, mechanism {mech.name!r} needs {n}")
+
+    def load_mechanism(self, path=None, trust=None):
+        """The mechanism this run used, loaded again with the recorded options, overrides and
+        active clearances. ``path``: the mechanism file, named by the caller; without it only a
+        bundled mechanism is loaded, by the name the run records (a path recorded in a results
+        file is never opened). ``trust`` covers the file at ``path`` only: recorded arguments
+        never add code or files (pinclear.core.trust.check_recorded_args), and a bundled mechanism
+        needs no trust (docs/security.md)."""
+        from pinclear.io.sidecar import load
+        from pinclear.core.trust import check_recorded_args, recorded_mechanism
+
+        kw = check_recorded_args(self.meta.get("load_args"), "<saved run>")
+        if path is None:
+            path, trust = recorded_mechanism(self.meta, "<saved run>"), False
+        mech = load(path, **kw, trust=trust)
+        self.check_mechanism(mech)
+        self.mech = mech
+        return self.mech
+
+    def __repr__(self):
+        return (f"Trajectory({self.status}, {len(self.t)} samples, t = [{self.t[:1]}, {self.t[-1:]}], "
+                f"rhs_evals={self.stats.get('rhs_evals')})")

@@ -1,0 +1,197 @@
+"""Wear studies (``pinclear study``; docs/wear_lubrication.md): what the seed papers name as their
+next step, run on pinclear's worn joints. Not a reproduction (``pinclear reproduce`` owns those):
+each study writes its own findings.
+
+paper002: the paper-002 nine-bar (Chen & Pan 2021; urdf/nine_bar.yaml, every dimension
+reconstructed, docs/papers.md) with both clearances A and B worn together by Archard's law over a
+service life (pinclear.analysis.wear_life's depth-limited update, its step chosen by the convergence test), at two nominal
+clearances, friction 0.3 as in the paper's sec. 4: how A and B grow, and the 0-1 test K (Gottwald &
+Melbourne) of the journals' stroboscopic eccentricities, new vs worn, at each clearance (does the
+chaos window move).
+"""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pinclear.core import safeio
+
+#: the study's wear law: k for mild wear of lubricated-free steel on steel, hardness of a through-
+#: hardened pin (both stated, not from paper 002, which gives none)
+WEAR = {"model": "archard", "k": 1e-5, "hardness": 2e9, "nodes": 360}
+#: name -> "module:function" of each study (function(out, quick=False, smoke=False) -> rows)
+STUDIES = {"paper002": "pinclear.studies.wear:paper002", "paper000": "pinclear.studies.wear_paper000:paper000"}
+
+
+def _settings(quick, smoke=False):
+    # the depth scheme (pinclear.analysis.wear_life): the worn profile changes this linkage's motion (the deepest
+    # node's rate grows ~30 x over the first 10 um at 0.1 mm, docs/study/paper002/README.md), so the
+    # updates are limited in depth, first at 0.2 % of the clearance, the step halved per trial
+    return {"clearances [mm]": [0.1, 0.8], "cycles": 1e6 if not quick else 1e5, "period [s]": 1.0,
+            "scheme": "depth", "first step [fraction of c]": 2e-3, "max rounds": 3, "max updates": 4000,
+            "block tol": 0.025, "max block periods": 16,
+            "chaos periods": 100 if not quick else 60, "transient periods": 10,
+            "rtol": 1e-6, "dt_out [s]": 1e-4, "mu": 0.3, "wear": WEAR, "quick": quick} if not smoke else {
+        # the whole path in about a minute (CI's check that the command runs), not a result
+        "clearances [mm]": [0.8], "cycles": 400.0, "period [s]": 1.0, "scheme": "depth",
+        "first step [fraction of c]": 2e-3, "max rounds": 2, "max updates": 40, "block tol": 0.025,
+        "max block periods": 2, "chaos periods": 24, "transient periods": 2, "rtol": 1e-6, "dt_out [s]": 1e-4,
+        "mu": 0.3, "wear": WEAR, "quick": True, "smoke": True}
+
+
+def chaos_K(mech, periods, transient, period, rtol):
+    """(largest 0-1 test K over the four eccentricity components of A and B sampled once per
+    period, their spread per joint, and the run's kind by analysis.classify_state: period within
+    the run's integration error bound, 'below resolution' under CLEARANCE_FRACTION x the
+    clearance, else the 0-1 test; K alone never says chaos)."""
+    from pinclear.dynamics.simulate import simulate
+    from pinclear.analysis import poincare
+    from pinclear.analysis.classify import CLEARANCE_FRACTION, chaos_01, classify_state
+
+    T = (periods + transient) * period
+    tr = simulate(mech, T, rtol=rtol, dt_out=period)
+    if tr.status != "success":
+        return float("nan"), {}, "failed"
+    keep = tr.t >= transient * period - 1e-9
+    K, spread = 0.0, {}
+    for j in ("A", "B"):
+        e = tr.outputs[f"{j}.eccentricity"][keep]
+        for k in (0, 1):
+            K = max(K, float(chaos_01(e[:, k])))
+        spread[j] = float(np.max(np.std(e[:, :2], axis=0)))
+    secs = [poincare(tr, period, f"{j}.eccentricity[{k}]", skip_transient=transient, mech=mech)
+            for j in ("A", "B") for k in (0, 1)]
+    c = min(el.c for el in mech.clearances if el.name in ("A", "B"))
+    kind = classify_state(secs, sim_rtol=rtol, steps_per_period=max(tr.stats.get("steps", 1), 1) / (periods + transient),
+                          resolution=CLEARANCE_FRACTION * c).kind
+    return K, spread, kind
+
+
+def paper002(out, quick=False, smoke=False):
+    from pinclear.io.sidecar import load
+    from dataclasses import replace
+
+    from pinclear.analysis.wear_life import WearSettings, _tables, block_length, converged, plot, worn_joint
+
+    s = _settings(quick, smoke)
+    out = safeio.make_dirs(Path(out))
+    rows, cpu0 = [], time.process_time()
+    for c_mm in s["clearances [mm]"]:
+        ov = {f"{j}.{k}": v for j in ("A", "B") for k, v in (("clearance", c_mm * 1e-3), ("mu", s["mu"]),
+                                                              ("wear", WEAR))}
+        mech = load("nine_bar", clearances=["A", "B"], overrides=ov)
+        ws = WearSettings(cycles=s["cycles"], period=s["period [s]"], scheme=s["scheme"],
+                          step=s["first step [fraction of c]"], max_updates=s["max updates"], rtol=s["rtol"],
+                          dt_out=s["dt_out [s]"])
+        folder = safeio.make_dirs(out / f"c{c_mm:g}mm")
+        c1 = time.process_time()
+        # blocks long enough that their mean wear rate is a converged average (on the new bearing)
+        n, n_ok, n_table = block_length(mech, ["A", "B"], ws, tol=s["block tol"], max_periods=s["max block periods"])
+        ws = replace(ws, block_periods=n)
+        res = converged(mech, ["A", "B"], ws, max_rounds=s["max rounds"], out=folder)
+        plot(res, folder)
+        _tables(folder, {n: worn_joint(res["mech"], n)[1].wear for n in res["depth"]}, res["depth"], res["history"])
+        c2 = time.process_time()
+        h = res["history"]
+        K_new, sp_new, kind_new = chaos_K(mech, s["chaos periods"], s["transient periods"], s["period [s]"], s["rtol"])
+        K_worn, sp_worn, kind_worn = chaos_K(res["mech"], s["chaos periods"], s["transient periods"], s["period [s]"],
+                                             s["rtol"])
+        rows.append({"clearance_mm": c_mm, "converged": res["converged"], "rounds": res["rounds"],
+                     "step": res["settings"].step, "updates": len(h["factor"]), "block_periods": n,
+                     "block_converged": n_ok, "block_table": n_table,
+                     "update_factor": [min(h["factor"]), max(h["factor"])],
+                     "A_growth_um": 1e6 * float(res["depth"]["A"].max()), "B_growth_um": 1e6 * float(res["depth"]["B"].max()),
+                     "A_angle_deg": float(np.degrees(res["angles"]["A"][np.argmax(res["depth"]["A"])])),
+                     "B_angle_deg": float(np.degrees(res["angles"]["B"][np.argmax(res["depth"]["B"])])),
+                     "max_audit_error": float(np.nanmax(h["audit_error"])),
+                     "max_reshape_jump_J": float(np.max(np.abs(h["jump"]))),
+                     "update_over_sim_cpu": float(sum(h["cpu_update"]) / sum(h["cpu_sim"])),
+                     "K_new": K_new, "K_worn": K_worn, "kind_new": kind_new, "kind_worn": kind_worn,
+                     "spread_new_um": {k: 1e6 * v for k, v in sp_new.items()},
+                     "spread_worn_um": {k: 1e6 * v for k, v in sp_worn.items()},
+                     "cpu_wear_s": c2 - c1, "cpu_chaos_s": time.process_time() - c2})
+    cpu = time.process_time() - cpu0
+    safeio.write_text(out / "results.json", json.dumps({"settings": s, "rows": rows, "cpu_s": cpu}, indent=1) + "\n")
+    safeio.write_text(out / "README.md", _report(s, rows, cpu, out))
+    return rows
+
+
+def _volumes(trial):
+    v = trial.get("worn_volume")
+    return f" (worn volume A {1e9 * v['A']:.3g}, B {1e9 * v['B']:.3g} mm^3)" if v else ""
+
+
+def _report(s, rows, cpu, out):
+    lines = ["# Study: paper 002's nine-bar with A and B worn together (pinclear study paper002)", "",
+             "Generated by `pinclear study paper002" + (" --smoke" if s.get("smoke") else " --quick" if s["quick"] else "")
+             + "`; the method is in "
+             "docs/wear_lubrication.md. The linkage is paper 002's topology with reconstructed dimensions "
+             "(docs/papers.md): the numbers are this linkage's, not the paper's.", "",
+             f"Wear law: Archard, k = {WEAR['k']:g}, H = {WEAR['hardness']:g} Pa (stated, not from the paper), "
+             f"{WEAR['nodes']} nodes; service life {s['cycles']:g} crank turns of {s['period [s]']:g} s; friction "
+             f"{s['mu']} (sec. 4). Depth-limited update (docs/wear_lubrication.md; the wear step sized by the "
+             "largest nodal increment as in Podra & Andersson 1999, Tribol. Int. 32, 71 and Mukras et al. 2009, Wear "
+             "266, 822): each update's largest nodal increment is a step x the joint's clearance; the step halved from "
+             f"{s['first step [fraction of c]']:g} until halving it changes each joint's final depth by <= 5 %, at "
+             f"most {s['max rounds']} trials of at most {s['max updates']} updates. Each update simulates a block of "
+             "turns long enough that its mean wear rate is a converged average: on the new bearing, the block "
+             f"doubled from 1 turn until doubling it changes each joint's largest mean nodal rate by <= "
+             f"{100 * s['block tol']:g} % (at most {s['max block periods']} turns; pinclear.analysis.wear_life.block_length).", "",
+             "| clearance [mm] | step converged | block [turns] | step [x c] | updates | factor [cycles] "
+             "| A growth [um] at [deg] "
+             "| B growth [um] at [deg] | K (kind) new | K (kind) worn | audit error (max, per block) "
+             "| max reshape jump [J] | update / sim CPU |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        f0, f1 = r["update_factor"]
+        blk = f"{r.get('block_periods', 1)}" + ("" if r.get("block_converged", True) else " (not converged)")
+        lines.append(f"| {r['clearance_mm']:g} | {'yes' if r['converged'] else 'no'} | {blk} | {r['step']:.3g} | "
+                     f"{r['updates']} | {f0:.3g}-{f1:.3g} | "
+                     f"{r['A_growth_um']:.3g} at {r['A_angle_deg']:.0f} | {r['B_growth_um']:.3g} at "
+                     f"{r['B_angle_deg']:.0f} | {r['K_new']:.2f} ({r['kind_new']}) | {r['K_worn']:.2f} ({r['kind_worn']}) | {r['max_audit_error']:.2g} | "
+                     f"{r['max_reshape_jump_J']:.2g} | {r['update_over_sim_cpu']:.3f} |")
+    lines += ["", "Trials of the convergence test (step, updates made, final max depth A / B):", ""]
+    for r in rows:
+        trials = "; ".join(f"step {t['step']:.3g}: {t['updates']} updates, A {1e6 * t['max_depth']['A']:.3g} um, "
+                           f"B {1e6 * t['max_depth']['B']:.3g} um" + _volumes(t)
+                           + ("" if t["complete"] else " (stopped)")
+                           for t in r["rounds"])
+        trial_cpu = sum(t.get("cpu_s", 0.0) for t in r["rounds"])
+        lines.append(f"- c = {r['clearance_mm']:g} mm (the trials' blocks and updates {trial_cpu:.0f} CPU s): {trials}")
+    lines += ["", "Block length (pinclear.analysis.wear_life.block_length, new bearing: the largest mean nodal increment per "
+              "turn, A / B, over the first n turns):", ""]
+    for r in rows:
+        table = ", ".join(f"{n}: {1e12 * m['A']:.3g} / {1e12 * m['B']:.3g} pm" for n, m in r.get("block_table", []))
+        lines.append(f"- c = {r['clearance_mm']:g} mm: {table}; block {r.get('block_periods', 1)} turns"
+                     + ("" if r.get("block_converged", True) else " (the largest allowed, not converged: the "
+                        "growth still depends on the block length)"))
+    lines += ["", "Findings (from the table above, this run):", ""]
+    for r in rows:
+        faster = "A" if r["A_growth_um"] > r["B_growth_um"] else "B"
+        ratio = max(r["A_growth_um"], r["B_growth_um"]) / max(min(r["A_growth_um"], r["B_growth_um"]), 1e-30)
+        moved = (f"the same kind of motion ({r['kind_new']})" if r["kind_new"] == r["kind_worn"] else
+                 f"the motion changes from {r['kind_new']} to {r['kind_worn']} (analysis.classify_state; "
+                 "'irregular' is the 0-1 test without a Lyapunov check, not chaos)")
+        conv = "" if r["converged"] else (" The depth step did not converge within the trials: the growth is "
+                                          "the finest trial's, the trials above show the spread.")
+        lines.append(f"- c = {r['clearance_mm']:g} mm: {faster} wears {ratio:.2g} x faster; K {r['K_new']:.2f} new vs "
+                     f"{r['K_worn']:.2f} worn: {moved}.{conv}")
+    lines += ["", f"CPU of this run of the study: {cpu:.0f} s (one core; a run resumed from the trials' checkpoints "
+              "counts only what it computed); per clearance: "
+              + ", ".join(f"{r['clearance_mm']:g} mm wear {r['cpu_wear_s']:.0f} s + 0-1 test {r['cpu_chaos_s']:.0f} s"
+                          for r in rows) + ".",
+              "Figures: c*mm/depth_vs_angle.png (worn profiles), c*mm/growth.png (clearance growth vs cycles); "
+              "histories and profiles: c*mm/history.csv, c*mm/profile.csv (the finest trial's).", "",
+              "The worn bearings in the meshcat view (depth magnified by the printed, labelled factor):", ""]
+    wear = "{k: %g, hardness: %g, nodes: %d}" % (WEAR["k"], WEAR["hardness"], WEAR["nodes"])
+    for r in rows:
+        c = r["clearance_mm"] * 1e-3
+        lines.append(f"    pinclear view nine_bar --clearance A --clearance B --set A.clearance={c:g} "
+                     f"--set B.clearance={c:g} --set 'A.wear={wear}' --set 'B.wear={wear}' "
+                     f"--wear {Path(out).as_posix()}/c{r['clearance_mm']:g}mm "
+                     f"--html out/worn_c{r['clearance_mm']:g}mm.html")
+    lines.append("")
+    return "\n".join(lines)
