@@ -32,6 +32,10 @@ numbers read as numbers). Floats agree within a bound from the computation that 
     pitch asin-like term has unit radius, S = 1; roll = atan2(R21, R22) and yaw = atan2(R10, R00)
     have radius |cos pitch|, S = 1 / |cos pitch| (the Euler angles' condition near gimbal lock).
     Angles are compared modulo 2 pi (a yaw at +-pi may come out on either side).
+* Numbers a generator rounds before writing them (the ``parameters`` tables and ``initial``
+  positions: round(x, 6), f"{x:.6g}", f"{x:.12g}", round(q, 12)) may also be one unit of their
+  last kept digit apart: a computed value within its rounding error of a tie rounds to either
+  neighbour.
 
 A real change of a model (a moved frame, a different mass) is orders of magnitude above this
 bound: at L = 0.5 m the translation bound is 64 * 2.2e-16 * 0.5 = 7e-15 m.
@@ -41,6 +45,7 @@ from __future__ import annotations
 import math
 import re
 import xml.etree.ElementTree as ET
+from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
@@ -51,6 +56,8 @@ ULPS = 64
 #: a float literal as repr / yaml write it (ints are compared exactly as numbers too)
 NUMBER = re.compile(r"(?<![\w.])[-+]?(?:\d+\.\d*|\.\d+|\d+)(?:[eE][-+]?\d+)?(?![\w.])")
 INERTIA = ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")
+#: sidecar keys whose numbers the generators round (parameter tables, initial positions)
+ROUNDED = ("parameters", "initial")
 
 
 def _text(x) -> str:
@@ -110,7 +117,25 @@ def _numbers(x) -> bool:
     return isinstance(x, list) and bool(x) and all(map(_is_number, x))
 
 
-def _yaml_same(got, ref, where, L):
+def _rounded_close(a: float, b: float) -> bool:
+    """``b`` as a generator rounded it (round(x, 6), f"{x:.6g}", f"{x:.12g}", round(q, 12) in the
+    parameter tables and initial positions): when the computed value sits within its rounding
+    error of a tie, a 1-ulp difference moves the kept value to the neighbour, one unit of the
+    last kept digit away. Only for a reference printed with 6 or more significant digits (what
+    the generators round to); a short typed constant (0.1, 0.35) keeps the ulp bound."""
+    digits = Decimal(repr(b)).normalize().as_tuple().digits
+    n = len(digits)
+    if not 6 <= n < 16:
+        return False
+    unit = 10.0 ** (Decimal(repr(b)).adjusted() - n + 1)
+    return abs(a - b) <= 1.01 * unit
+
+
+def _float_close(a, b, scale, rounded) -> bool:
+    return _close(a, b, scale) or (rounded and _rounded_close(a, b))
+
+
+def _data_same(got, ref, where, L, rounded=False):
     assert type(got) is type(ref), f"{where}: {type(got).__name__} {got!r} != {type(ref).__name__} {ref!r}"
     if isinstance(ref, dict):
         assert list(got) == list(ref), f"{where}: keys {list(got)} != {list(ref)}"
@@ -122,19 +147,26 @@ def _yaml_same(got, ref, where, L):
             elif k == "xyz" and vector:
                 assert all(_close(a, b, L) for a, b in zip(g, r)), f"{where}.xyz: {g} != {r}"
             else:
-                _yaml_same(g, r, f"{where}.{k}", L)
+                _data_same(g, r, f"{where}.{k}", L, rounded or k in ROUNDED)
     elif isinstance(ref, list):
         assert len(got) == len(ref), f"{where}: {len(got)} items != {len(ref)}"
         if ref and all(isinstance(e, float) for e in ref):
             S = max(abs(e) for e in ref)
-            assert all(_close(a, b, S) for a, b in zip(got, ref)), f"{where}: {got} != {ref}"
+            assert all(isinstance(a, float) and _float_close(a, b, S, rounded) for a, b in zip(got, ref)), \
+                f"{where}: {got} != {ref}"
         else:
             for i, (g, r) in enumerate(zip(got, ref)):
-                _yaml_same(g, r, f"{where}[{i}]", L)
+                _data_same(g, r, f"{where}[{i}]", L, rounded)
     elif isinstance(ref, float):
-        assert _close(got, ref, abs(ref)), f"{where}: {got!r} != {ref!r}"
+        assert _float_close(got, ref, abs(ref), rounded), f"{where}: {got!r} != {ref!r}"
     else:
         assert got == ref, f"{where}: {got!r} != {ref!r}"
+
+
+def assert_same_data(got, ref, name="data", rounded=False):
+    """Two parsed documents (dicts, lists, numbers, strings) equal by value; ``rounded``: the
+    numbers are a generator's rounded ones throughout (a parameter table)."""
+    _data_same(got, ref, name, _yaml_lengths(ref), rounded)
 
 
 def _comments(text) -> str:
@@ -146,7 +178,7 @@ def assert_same_yaml(got, ref, name="yaml"):
     g, r = _text(got), _text(ref)
     _free_text(_comments(g), _comments(r), f"{name} comments")
     rd = yaml.safe_load(r)
-    _yaml_same(yaml.safe_load(g), rd, name, _yaml_lengths(rd))
+    _data_same(yaml.safe_load(g), rd, name, _yaml_lengths(rd))
 
 
 # ----------------------------------------------------------------------------- URDF
