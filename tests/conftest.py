@@ -76,11 +76,11 @@ def sim():
 
 def kkt_singular_time(mech, a, b, law="high"):
     """Independent reference for a singular crossing of the 4-UPS/UPR: the time in [a, b] at which
-    the closed chain's full constraint Jacobian (closures + drive rows, from pinclear.kinematics at
+    the closed chain's full constraint Jacobian (closures + drive rows, from pinclear.model.kinematics at
     the exact inverse-kinematics configuration of ``law``) has its smallest singular value."""
     from scipy.optimize import minimize_scalar
 
-    from pinclear import kinematics
+    from pinclear.model import kinematics
     from pinclear.mechanisms import four_ups_upr as m
 
     ws = mech.workspace()
@@ -171,7 +171,7 @@ def write_sidecar(folder, doc, name="m.yaml", urdf="four_bar.urdf"):
 
 def run_cli(argv, capsys):
     """pinclear's command line in this process: (exit code, stdout, stderr)."""
-    from pinclear.cli import commands as cli
+    from pinclear.cli.commands.commands import commands as cli
 
     code = cli.main(argv)
     out = capsys.readouterr()
@@ -181,9 +181,27 @@ def run_cli(argv, capsys):
 def assert_audit_closes(tr, joint, rel=1e-6):
     """A dissipative contact run's energy audit: the joint's dissipated energy D is a real share
     (> 10 % of the energy moved), E + D stays at its start value to ``rel`` of the energy moved (the
-    integration tolerance's order: the run's rtol is far below it), and D never decreases."""
+    integration tolerance's order: the run's rtol is far below it), and D never decreases by more
+    than the dense output's interpolation error."""
     E, D = tr.energy()["total"], tr.outputs[f"{joint}.dissipated"]
     scale = E[0] - E.min()
     assert D[-1] > 0.1 * scale
     assert np.max(np.abs(E + D - E[0])) < rel * scale
-    assert np.all(np.diff(D) >= -1e-12 * scale)
+    # D is the integral of a power >= 0, so the exact D never decreases; the samples (dt_out) are
+    # the integrator's dense output, a polynomial over each step, not the exact D. Its error on
+    # a component is of the order of the local error the step-size control admits, and the
+    # control bounds a norm over all n state components of err_i / (atol + rtol |y_i|) by 1 (RMS
+    # for RK45; DOP853's err5^2 / sqrt(n (err5^2 + 0.01 err3^2)) <= err5 / sqrt(n)), so one
+    # component alone may carry sqrt(n) (atol + rtol |D|). Two neighbouring samples can be off in
+    # opposite directions: a fall of up to 2 sqrt(n) (atol + rtol max|D|) is interpolation, not
+    # physics. It happens where the contact ends inside a step (the power's kink at separation:
+    # the polynomial overshoots the plateau): measured, 2.7e-13 J in the worn bearing (D 0.052 J,
+    # bound 3.5e-11 J) and 7.4e-11 J in the worn socket (D 0.49 J, bound 3.8e-10 J) at rtol 1e-10.
+    # The bound stays tight against energy creation: 3.8e-10 J over one sample interval (1e-5 s)
+    # is 4e-5 W, 4e-6 of those runs' mean dissipated power (~10 W); a friction or damping term
+    # of the wrong sign falls by its whole power times dt_out at every sample.
+    rtol = tr.meta["rtol"] or 0.0
+    atol = float(np.max(tr.meta["atol"])) if tr.meta["atol"] is not None else 0.0
+    n = tr.q.shape[1] + tr.v.shape[1] + tr.z.shape[1]
+    interpolation = 2.0 * np.sqrt(n) * (atol + rtol * np.max(np.abs(D)))
+    assert np.all(np.diff(D) >= -interpolation), (np.diff(D).min(), interpolation)

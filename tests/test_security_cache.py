@@ -16,7 +16,7 @@ import numba
 import pytest
 
 import pinclear
-from pinclear.core.jit import CacheFolderError, private_folder
+from pinclear.core.jit import KERNEL_OPTIONS, KERNELS_DIGEST, CacheFolderError, private_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -32,13 +32,17 @@ class _Payload:
 
 def _plant(cache: Path, marker: Path) -> int:
     """Copy the names of this process's cached kernel index files into ``cache`` (same layout),
-    each holding the payload. Returns how many were planted."""
+    each holding the payload, under the folder a child with PINCLEAR_CACHE_DIR=cache reads
+    (pinclear.core.jit: numba-<options>-<digest>; this process's own folder has another name when
+    the suite runs with NUMBA_CACHE_DIR set, which _run removes from the child's environment).
+    Returns how many were planted."""
     pinclear.simulate(pinclear.load("four_bar"), 0.01)          # the four-bar's kernels are cached
     real = Path(numba.config.CACHE_DIR)
+    child = cache / f"numba-{KERNEL_OPTIONS}-{KERNELS_DIGEST.hex()[:12]}"
     blob = pickle.dumps(_Payload(marker))
     n = 0
     for f in real.rglob("*.nbi"):
-        dst = cache / real.name / f.relative_to(real)
+        dst = child / f.relative_to(real)
         dst.parent.mkdir(parents=True, exist_ok=True)
         dst.write_bytes(blob)
         n += 1
