@@ -171,7 +171,7 @@ def write_sidecar(folder, doc, name="m.yaml", urdf="four_bar.urdf"):
 
 def run_cli(argv, capsys):
     """pinclear's command line in this process: (exit code, stdout, stderr)."""
-    from pinclear.cli.commands.commands import commands as cli
+    from pinclear.cli import commands as cli
 
     code = cli.main(argv)
     out = capsys.readouterr()

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import pinclear
-from pinclear.cli.commands.commands import commands as cli
+from pinclear.cli import commands as cli
 from pinclear.model import kinematics
 
 from conftest import ROOT, URDF_DIR
