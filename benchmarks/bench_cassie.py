@@ -68,13 +68,13 @@ def applied_and_rows(mech, T, Q, V, Z):
 
 
 #: what the table cannot show: why method 'pinocchio' is refused, and the gearbox variant's diagnosis
-#: (measured by tests/test_cassie.py and the SVDs quoted)
+#: (measured by tests/io/test_cassie.py and the SVDs quoted)
 NOTES = """Method `pinocchio` is refused before a run (one line, naming the rows and the methods that work) when
 closure rows are redundant at the start: Pinocchio's rigid constraints take a ball closure's three rows whole,
 and at pinclear's settings (mu 1e-12, 50 iterations) its proximal solver does not meet its stopping test on
 them (pin.constraintDynamics above: 50 of 50 iterations at every state; as a run it stopped at t = 0 with
 Pinocchio's residual 7.5). On cassie_reduced and cassie_simple, whose plantar loops are not planar (no
-redundant row), the method runs and ends where lagrange does (tests/test_cassie.py).
+redundant row), the method runs and ends where lagrange does (tests/io/test_cassie.py).
 
 The gearbox variant `cassie` (cassie.sdf) runs with manifold. lagrange and projection stop at
 t = 0 and name the rows: after the rank test on J (tolerance 7e-12 of its scale) drops 8 of the 32 rows, the

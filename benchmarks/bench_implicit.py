@@ -40,7 +40,7 @@ from scipy.integrate import solve_ivp
 import pinclear
 from pinclear.studies.bench.rhs import pinocchio_floor, scenes
 from pinclear.core.models import model_path
-from pinclear.dynamics.stepping import INTEGRATORS, chunk as C, rosenbrock as R
+from pinclear.dynamics.stepping import INTEGRATORS, chunk as C, rosenbrock as R, rosenbrock_peers as peers
 from pinclear.dynamics.stepping.base import MethodState
 from pinclear.dynamics.stepping.checks import reset_monitor
 from pinclear.dynamics.stepping.run import STALL_STEPS
@@ -142,8 +142,8 @@ def bench_odes(rtols=(1e-4, 1e-6, 1e-8)):
 
 CHOICES = [("ROS34PW2", R.ROS34PW2),
            ("ROS34PW2, Jacobian every step", R.Rosenbrock("ROS34PW2", R.ROS34PW2_COEFFS, max_age=1)),
-           ("ROS3PW (W-order 2)", R.Rosenbrock("ROS3PW", R.ROS3PW_COEFFS)),
-           ("RODASP (Jacobian every step)", R.Rosenbrock("RODASP", R.RODASP_COEFFS, max_age=1))]
+           ("ROS3PW (W-order 2)", R.Rosenbrock("ROS3PW", peers.ROS3PW_COEFFS)),
+           ("RODASP (Jacobian every step)", R.Rosenbrock("RODASP", peers.RODASP_COEFFS, max_age=1))]
 #: clearance scenes without drives (autonomous: RODASP needs no df/dt there) for the choice
 CHOICE_SCENES = (("clr_planar_pendulum", "A"), ("clr_pendulum", "S"), ("clr_hinge", "R"), ("clr_slider", "P"))
 

@@ -6,7 +6,7 @@ in one process: CPU to reach a given error at t = 0.03 s, and the ratio pinclear
 
 Error: the largest absolute difference of the 7 angles at t = 0.03 s from the Test Set's
 reference (pinclear.mechanisms.squeezer.ANGLES_REF). That reference is itself good to ~1.5e-9
-rad in beta and Theta (tests/test_squeezer.py), so errors below ~2e-9 are not resolved; the
+rad in beta and Theta (tests/mechanisms/test_squeezer.py), so errors below ~2e-9 are not resolved; the
 default target 1e-8 lies above that floor.
 
 Ladders: rtol 1e-4 ... 1e-12 (atol = rtol / 100) for the adaptive integrators; for a fixed-step
@@ -225,7 +225,7 @@ def chart(configs, path, target):
         kw = {} if c["engine"] == "plain" else {"color": f"C{integs.index(c['integrator']) % 10}"}
         ax.loglog(x, y, style, label=name, ms=7 if c["engine"] == "plain" else 5, **kw)
     ax.axhline(target, color="grey", lw=0.8, ls=":")
-    # below ~1.5e-9 rad the published reference itself is off (tests/test_squeezer.py)
+    # below ~1.5e-9 rad the published reference itself is off (tests/mechanisms/test_squeezer.py)
     ax.axhspan(ax.get_ylim()[0], 1.5e-9, color="grey", alpha=0.12, lw=0)
     ax.text(ax.get_xlim()[0] * 1.05, 1.0e-9, "reference accuracy (~1.5e-9 rad)", fontsize=7, color="grey",
             va="top")

@@ -66,7 +66,7 @@ T_CLEARANCE = {"clr_hinge+R": 0.02, "clr_pendulum+S": 0.03, "clr_planar_pendulum
                "slider_crank_clearance+P": 0.003, "three_upru_up+P_UP": 0.012, "clr_ball+S": 0.01}
 T_CLEARANCE_DEFAULT = 0.02
 #: a start for the scenes whose ideal start does not move the clearance (no gravity, no drive):
-#: the free ball off centre with a velocity, not assembled (as tests/test_wear_spherical.py starts it)
+#: the free ball off centre with a velocity, not assembled (as tests/contact/test_wear_spherical.py starts it)
 BALL_START = {"q0": [2e-5, 0.0, 0.0, 0.0, 0.0, 0.0], "v0": [0.05, 0.03, -0.1, 30.0, 5.0, 0.0], "assemble": False}
 
 #: every formulation x every integrator on one scene of each clearance type and one rigid scene

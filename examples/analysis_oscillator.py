@@ -1,5 +1,5 @@
 """Phase portrait, Poincaré map and bifurcation diagram of a driven linear oscillator, checked
-against its transfer function (the model of tests/test_analysis.py).
+against its transfer function (the model of tests/analysis/test_analysis.py).
 
     python examples/analysis_oscillator.py [--out DIR] [--workers N] [--quick]
 

@@ -1,4 +1,4 @@
-"""Kernels for tests/test_stage.py (a module of their own: a stage's generated wrapper imports
+"""Kernels for tests/core/test_stage.py (a module of their own: a stage's generated wrapper imports
 its kernel by module and name)."""
 from typing import NamedTuple
 

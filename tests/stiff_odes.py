@@ -1,6 +1,6 @@
 """Stiff test problems of the IVP Test Set (F. Mazzia, C. Magherini, Univ. Bari: VDPOL and ROBER,
 reference solutions computed with RADAU in quadruple precision) as compiled right-hand sides of
-the stage signature, for tests/test_implicit.py and benchmarks/bench_implicit.py. Each reads x
+the stage signature, for tests/dynamics/test_implicit.py and benchmarks/bench_implicit.py. Each reads x
 from the head of one buffer and writes its rates after it (pinclear.dynamics.stepping.system.ode_system)."""
 import numpy as np
 from numba import carray, cfunc

@@ -40,15 +40,28 @@ failure as a result, and classifies each value; :func:`plot_phase_portrait`,
 no GUI backend) and return the arrays they drew. Command line (:func:`cli_main`):
 ``pinclear analyse bifurcation|poincare ...``.
 """
-from pinclear.analysis.classify import (CHAOS_THRESHOLD, CLEARANCE_FRACTION, Classification, chaos_01,
-                                        classify, classify_state, detect_period, integration_rtol,
-                                        settled_period)
-from pinclear.analysis.lyapunov import (ChaosEvidence, LyapunovResult, confirm_chaos, largest_lyapunov,
-                                        mechanism_lyapunov)
+from pinclear.analysis.classify import (
+                                        CHAOS_THRESHOLD,
+                                        CLEARANCE_FRACTION,
+                                        Classification,
+                                        chaos_01,
+                                        classify,
+                                        classify_state,
+                                        detect_period,
+                                        integration_rtol,
+                                        settled_period,
+)
+from pinclear.analysis.diagrams import BifurcationResult, BifurcationRun, bifurcation, signal_key
+from pinclear.analysis.lyapunov import (
+                                        ChaosEvidence,
+                                        LyapunovResult,
+                                        confirm_chaos,
+                                        largest_lyapunov,
+                                        mechanism_lyapunov,
+)
 from pinclear.analysis.plots import plot_bifurcation, plot_phase_portrait, plot_poincare
 from pinclear.analysis.poincare import PoincareSection, poincare, section_times
 from pinclear.analysis.signals import Series, phase_portrait, relative_rate, series
-from pinclear.analysis.diagrams import BifurcationResult, BifurcationRun, bifurcation, signal_key
 
 __all__ = ["CHAOS_THRESHOLD", "Classification", "chaos_01", "classify", "classify_state", "detect_period",
            "integration_rtol", "settled_period",

@@ -15,9 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pinclear.core.errors import InputError
 from pinclear.analysis.poincare import PoincareSection
-
+from pinclear.core.errors import InputError
 
 
 def detect_period(points, rtol=1e-4, atol=0.0, scale=None, max_period=16, settle=False):
@@ -77,7 +76,7 @@ def integration_rtol(sim_rtol, steps_per_period):
     period's global error, and so the part of it that differs from one cycle to the next (the
     step sequence is chosen afresh each cycle), is at most the sum over its steps:
     sim_rtol * steps_per_period of the signal's scale. A periodic orbit's section points
-    scatter well inside this bound (tests/test_analysis.py measures it on a forced linear
+    scatter well inside this bound (tests/analysis/test_analysis.py measures it on a forced linear
     oscillator; the nine-bar with 0.01 mm clearances at rtol 1e-6 scatters by 1e-6 of its
     scale against a bound of 4e-3); points further apart than it are not resolved as
     different by the integration. The bound grows with the step count: a run with many steps

@@ -14,13 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pinclear.core.errors import InputError, ModelFileError
-from pinclear.core.safeio import savez as atomic_savez
-from pinclear.analysis.sweeps import MAX_SWEEP_POINTS, make_executor, run_jobs
 from pinclear.analysis.classify import Classification, classify
 from pinclear.analysis.poincare import PoincareSection, poincare, section_times
 from pinclear.analysis.signals import series
-
+from pinclear.analysis.sweeps import MAX_SWEEP_POINTS, make_executor, run_jobs
+from pinclear.core.errors import InputError, ModelFileError
+from pinclear.core.safeio import savez as atomic_savez
 
 
 def _parameter_overrides(path, parameter, load_kw):

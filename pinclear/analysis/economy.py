@@ -18,9 +18,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
+from pinclear.core.errors import InputError
 from pinclear.model import kinematics
 from pinclear.model.closures import CLOSURE_TYPES
-from pinclear.core.errors import InputError
 
 #: fraction of the motion (twists, rotations weighted by the mechanism's size) allowed out of the
 #: best plane before the mechanism counts as spatial; round-off of a planar tree is ~1e-15

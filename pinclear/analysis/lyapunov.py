@@ -151,9 +151,9 @@ def mechanism_lyapunov(mech, t_end, renorm=0.05, d0=1e-7, transient=0.0, q0=None
     give the same end states bit for bit; False calls simulate() per chunk (the reference)."""
     import pinocchio as pin
 
-    from pinclear.model.kinematics import assemble, consistent_velocity
     from pinclear.dynamics.simulate import Restarts, simulate
     from pinclear.dynamics.trajectory import Checkpoint
+    from pinclear.model.kinematics import assemble, consistent_velocity
 
     model = mech.model
     sim = {"rtol": 1e-9, **sim_options}

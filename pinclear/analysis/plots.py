@@ -1,15 +1,13 @@
 """Phase portraits, Poincaré maps and bifurcation diagrams on matplotlib Figures (no pyplot)."""
 from __future__ import annotations
 
-
 import numpy as np
 
-from pinclear.core.errors import InputError
-from pinclear.core.safeio import savefig
+from pinclear.analysis.diagrams import BifurcationResult, is_number
 from pinclear.analysis.poincare import PoincareSection
 from pinclear.analysis.signals import axis_label, phase_portrait, series
-from pinclear.analysis.diagrams import BifurcationResult, is_number
-
+from pinclear.core.errors import InputError
+from pinclear.core.safeio import savefig
 
 
 def _figure(ax, figsize):

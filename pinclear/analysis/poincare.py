@@ -7,10 +7,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.interpolate import CubicHermiteSpline, CubicSpline
 
-from pinclear.core.errors import InputError
 from pinclear.analysis.signals import series
-
-
+from pinclear.core.errors import InputError
 
 #: section points of one map or one run's section times: ~0.5 GB of arrays at this size
 MAX_SECTION_POINTS = 10_000_000

@@ -228,8 +228,8 @@ def describe_point(overrides):
 def _run_point(job):
     """Worker: load the variant, simulate, return the saved trajectory's bytes and its summary
     (or the reason the point could not run)."""
-    from pinclear.io.sidecar import load
     from pinclear.dynamics.simulate import simulate
+    from pinclear.io.sidecar import load
 
     t0 = time.perf_counter()
     try:

@@ -9,15 +9,14 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from pinclear.core.errors import InputError, ModelFileError
-from pinclear.core.safeio import write_text
-from pinclear.io.sidecar import parse_assignments
 from pinclear.analysis.classify import classify
+from pinclear.analysis.diagrams import bifurcation
 from pinclear.analysis.plots import plot_bifurcation, plot_phase_portrait, plot_poincare
 from pinclear.analysis.poincare import aligned_dt_out, poincare
 from pinclear.analysis.signals import phase_portrait, series
-from pinclear.analysis.diagrams import bifurcation
-
+from pinclear.core.errors import InputError, ModelFileError
+from pinclear.core.safeio import write_text
+from pinclear.io.sidecar import parse_assignments
 
 
 def _values_arg(text):
@@ -153,10 +152,9 @@ def cli_main(argv) -> int:
         print(f"wrote {out}/bifurcation.npz, bifurcation.json and the figures")
         return 0 if not res.failures else 1
 
-    from pinclear.io.sidecar import load
-    from pinclear.dynamics.trajectory import Trajectory
-
     from pinclear.core.bounded import check_regular
+    from pinclear.dynamics.trajectory import Trajectory
+    from pinclear.io.sidecar import load
 
     check_regular(args.trajectory, "path", "trajectory")     # a FIFO or a device would block or never end
     tr0 = Trajectory.load(args.trajectory)

@@ -17,11 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-
 from pinclear.cli.args import HelpFormatter, count, number
 from pinclear.core.errors import InputError, PinclearError
-
-
 from pinclear.io.sidecar import parse_assignments as parse_kv
 
 
@@ -275,8 +272,8 @@ def _fixed_step_tol(args) -> dict:
 
 def _start_options(start, mech) -> dict:
     """simulate()'s start, q0, v0 from --start NAME [FILE] (pinclear.model.kinematics.STARTS)."""
-    from pinclear.model.kinematics import STARTS
     from pinclear.dynamics.simulate import read_state
+    from pinclear.model.kinematics import STARTS
 
     name, rest = (start[0], start[1:]) if start else ("ideal", [])
     if name not in STARTS:
@@ -380,8 +377,8 @@ def _actuation(n_drives, mobility):
 def info_text(mech, q, mob, economy) -> str:
     """pinclear info's readable summary: counts, mobility and actuation, the branch, the
     assembly residual, the clearances declared and the assembled q by joint name."""
-    from pinclear.model import kinematics
     from pinclear.analysis.signals import joint_unit
+    from pinclear.model import kinematics
 
     ws = mech.workspace()
     phi = kinematics.closure_residual(mech, ws, q, with_drives=True)
@@ -438,8 +435,8 @@ def _split_names(text, default):
 
 
 def cmd_bench(args):
-    from pinclear.studies.bench import rhs as bench
     from pinclear.dynamics import formulations
+    from pinclear.studies.bench import rhs as bench
 
     runs_only = [o for o, v in (("--integrators", args.integrators), ("--max-cpu", args.max_cpu)) if v is not None]
     if runs_only and args.what != "runs":
@@ -599,9 +596,9 @@ def _version() -> str:
     """The version, where the package was imported from, and whether its C++ extension is in use
     (and why not): the one check that works from any folder (`python3 -c "import pinclear"` in
     the repository root imports the source folder, which has no built extension)."""
+    from pinclear.core.jit import cache_dir
     from pinclear.core.version import __version__
     from pinclear.model import native
-    from pinclear.core.jit import cache_dir
 
     ext = "in use" if native.available() else f"not in use: {native.reason}"
     return (f"pinclear {__version__} from {Path(__file__).resolve().parents[1]}\n"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+
 from pinclear.io.importers import import_file
 
 

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 from pathlib import Path
-from pinclear.studies.reproduce.verdicts import summary
+
 from pinclear.studies.reproduce import PAPERS, reproduce
+from pinclear.studies.reproduce.verdicts import summary
 
 
 def build_parser():

@@ -41,10 +41,10 @@ def load_run(npz, mech_path=None, trust=None):
     records: a path recorded in a results file is never opened. ``trust`` covers the file at
     ``mech_path`` (named by the user) only; the recorded options and overrides never add code
     or files (pinclear.core.trust.check_recorded_args; docs/security.md)."""
-    from pinclear.io.sidecar import load
     from pinclear.core.errors import ModelFileError, PinclearError
     from pinclear.core.trust import check_recorded_args, recorded_mechanism
     from pinclear.dynamics.trajectory import Trajectory
+    from pinclear.io.sidecar import load
 
     npz = Path(npz)
     if not npz.exists():
@@ -164,10 +164,8 @@ def view_main(argv: list[str]) -> int:
     except SystemExit as exc:          # --help (0) or a one-line usage error (2): a return code
         return int(exc.code or 0)
 
-    from pinclear.io.sidecar import load
     from pinclear.core.errors import PinclearError
-    from pinclear.io.sidecar import parse_assignments
-
+    from pinclear.io.sidecar import load, parse_assignments
     from pinclear.viz import build_scene, export_html, screenshot, start_viewer, wait_forever
 
     trust = _trust(a.trust)
@@ -261,7 +259,6 @@ def plot_main(argv: list[str]) -> int:
         return int(exc.code or 0)
 
     from pinclear.core.errors import PinclearError
-
     from pinclear.viz.plots import save_all
 
     try:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 from dataclasses import asdict
 from pathlib import Path
+
+from pinclear.analysis.wear_life import SCHEMES, WearSettings, _tables, block_length, converged, plot, worn_joint
 from pinclear.core import safeio
 from pinclear.core.errors import InputError
-from pinclear.analysis.wear_life import (SCHEMES, WearSettings, _tables, block_length, converged, plot,
-                                         worn_joint)
 
 
 def build_parser():

@@ -17,13 +17,19 @@ best for soft, low-restitution impacts. Hertz is the undamped reference.
 """
 from __future__ import annotations
 
+from pinclear.contact.base import ClearanceJoint
+from pinclear.contact.laws import (
+    FRICTION_LAWS,
+    NORMAL_LAWS,
+    FrictionLaw,
+    NormalLaw,
+    make_friction_law,
+    make_normal_law,
+    restitution_1dof,
+)
+from pinclear.contact.spec import Spec
 from pinclear.core.errors import ContactSetupError
 from pinclear.core.registry import CLEARANCE_TYPES
-
-from pinclear.contact.base import ClearanceJoint
-from pinclear.contact.laws import (FRICTION_LAWS, NORMAL_LAWS, FrictionLaw, NormalLaw, make_friction_law,
-                                   make_normal_law, restitution_1dof)
-from pinclear.contact.spec import Spec
 
 #: clearance type -> PluginType (its keys, parser, closure types it may replace, plot): the
 #: registry is pinclear.core.registry.CLEARANCE_TYPES; one line there per type module

@@ -42,12 +42,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from pinclear.contact import channels
+from pinclear.contact.channels import Channels, Friction, Geometry, Laws
 from pinclear.core.errors import ContactSetupError
 from pinclear.model.forces import Bodies, ForceElement, Frames, add_wrenches, relative_velocity
 from pinclear.model.kinematics import supporting_dofs
-
-from pinclear.contact import channels
-from pinclear.contact.channels import Channels, Friction, Geometry, Laws
 
 
 def _readonly(a):

@@ -9,12 +9,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pinclear.core.jit import njit
-from pinclear.model.forces import add_wrenches, place_frames, relative_velocity
 from pinclear.contact.force_laws import F_LUGRE, channel_force, law_energy, lugre_channel, normal_force
 from pinclear.contact.prismatic_geometry import prismatic_geometry
 from pinclear.contact.radial_geometry import radial_geometry
 from pinclear.contact.worn_geometry import worn_planar_geometry, worn_spherical_geometry
+from pinclear.core.jit import njit
+from pinclear.model.forces import add_wrenches, place_frames, relative_velocity
 
 
 class Geometry(NamedTuple):

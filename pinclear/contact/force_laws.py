@@ -5,9 +5,10 @@ Formulas and sources: pinclear.contact.laws.
 from __future__ import annotations
 
 import math
-import numpy as np
-from pinclear.core.jit import njit
 
+import numpy as np
+
+from pinclear.core.jit import njit
 
 #: penetration (m) and rate ratio dd/dd0 beyond which the laws are held constant (never physical)
 DELTA_CAP, RATE_CAP = 0.1, 1e6

@@ -67,9 +67,8 @@ from types import MappingProxyType
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from pinclear.core.errors import ContactSetupError
-
 from pinclear.contact import force_laws
+from pinclear.core.errors import ContactSetupError
 
 # ============================================================================ materials
 #: a few engineering materials (E in Pa, Poisson ratio), for ``material: steel`` in sidecars

@@ -19,7 +19,7 @@ Cavitation: Guembel's half-Sommerfeld condition, the film carries no tension: P+
 At a steady load (eps_dot = gdot = 0) this gives the closed forms of the load and attitude angle
 (short: W = mu w R L^3 eps sqrt(16 eps^2 + pi^2 (1 - eps^2)) / (4 c^2 (1 - eps^2)^2), tan psi =
 pi sqrt(1 - eps^2) / (4 eps); long: W = 6 mu w R^3 L eps sqrt(pi^2 - eps^2 (pi^2 - 4)) /
-(c^2 (2 + eps^2)(1 - eps^2)), tan psi = pi sqrt(1 - eps^2) / (2 eps)) that tests/test_lubricated.py
+(c^2 (2 + eps^2)(1 - eps^2)), tan psi = pi sqrt(1 - eps^2) / (2 eps)) that tests/contact/test_lubricated.py
 checks through the coupled dynamics.
 
 Force on the journal: F = R int P+ (cos phi e_hat + sin phi t_hat) dphi (t_hat = axis x e_hat),
@@ -34,7 +34,7 @@ the journal's moment (the film holds no momentum). The power of these loads on t
 where P+ > 0 is not tied to the bracket's sign when squeeze and wedge mix, Reynolds' equation
 (h^3 P')' = -6 mu R^2 c (bracket) integrated by parts over each interval where P > 0 (P+ vanishes
 at its ends) gives int P+ (bracket) = int_{P>0} h^3 P'^2 / (6 mu R^2 c) >= 0. The film only
-dissipates (tests/test_lubricated.py checks both at random states, the long one to the quadrature's
+dissipates (tests/contact/test_lubricated.py checks both at random states, the long one to the quadrature's
 error); its dissipation is a state of the joint (output ``film_dissipated``) and part of the energy
 audit's E_diss.
 
@@ -49,11 +49,10 @@ import math
 
 import numpy as np
 
-from pinclear.model.forces import add_body_wrench, add_wrenches, body_twist
-from pinclear.core.registry import Key, PluginType, key_names
-
 from pinclear.contact.revolute import _PLANAR, _PLOT, RevoluteClearance, check_bearing_radius
 from pinclear.contact.revolute import from_spec as _dry_from_spec
+from pinclear.core.registry import Key, PluginType, key_names
+from pinclear.model.forces import add_body_wrench, add_wrenches, body_twist
 
 THEORIES = ("short", "long")
 #: quadrature points over the circumference (trapezoid, periodic; the Guembel kinks at P = 0 make

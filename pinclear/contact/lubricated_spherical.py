@@ -22,7 +22,7 @@ lubricated.py), is the sum of two closed forms (x = cos theta, u = 1 - eps x):
 * across e (V_perp = |V - V_par e_hat|, phi from its direction):
   p_perp = 12 mu R^2 V_perp sin theta cos phi (2 - eps x) / (c^3 (4 + eps^2) u^2)
 
-(each satisfies the equation exactly: tests/test_lubricated_spherical.py checks the residual).
+(each satisfies the equation exactly: tests/contact/test_lubricated_spherical.py checks the residual).
 Cavitation: Guembel's condition, the film carries no tension, p+ = max(p_par + p_perp, 0). On each
 ring of constant theta the phi integrals of p+ and p+ cos phi are closed forms (``ring``); theta is
 integrated by Gauss-Legendre (``NQ`` nodes). Without cavitation (a ball approaching the wall, no
@@ -50,16 +50,15 @@ import math
 
 import numpy as np
 
-from pinclear.model.forces import body_twist
-from pinclear.core.registry import PluginType, key_names
-
 from pinclear.contact.lubricated import FILM_KEYS, FilmJoint, film_spec
 from pinclear.contact.spherical import _RADIUS, SPHERICAL, SphericalClearance
 from pinclear.contact.spherical import from_spec as _dry_from_spec
+from pinclear.core.registry import PluginType, key_names
+from pinclear.model.forces import body_twist
 
 #: Gauss-Legendre nodes in theta over [0, pi]: the integrands are smooth but for the kinks of the
 #: cavitation boundary; 256 nodes keep the uncavitated squeeze force within 1e-12 of its closed form
-#: at eps 0.97 (tests/test_lubricated_spherical.py)
+#: at eps 0.97 (tests/contact/test_lubricated_spherical.py)
 NQ = 256
 _XI, _WXI = np.polynomial.legendre.leggauss(NQ)
 _TH = 0.5 * math.pi * (_XI + 1.0)

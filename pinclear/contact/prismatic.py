@@ -48,18 +48,21 @@ from types import MappingProxyType
 
 import numpy as np
 
-from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
-
 from pinclear.contact import channels, force_laws
-from pinclear.contact.prismatic_geometry import Foundation, Modes
-from pinclear.contact.channels import Laws
 from pinclear.contact.base import ClearanceData, ClearanceJoint, _readonly
-from pinclear.core.jit import njit
-from pinclear.model.forces import add_wrenches, place_frames, relative_velocity
-from pinclear.contact.channels import channel_forces, channel_friction, free_flight, onset_speeds
+from pinclear.contact.channels import Laws, channel_forces, channel_friction, free_flight, onset_speeds
 from pinclear.contact.force_laws import damped
-from pinclear.contact.prismatic_geometry import (prismatic_foundation, prismatic_geometry, prismatic_laws,
-                                                 prismatic_mode)
+from pinclear.contact.prismatic_geometry import (
+    Foundation,
+    Modes,
+    prismatic_foundation,
+    prismatic_geometry,
+    prismatic_laws,
+    prismatic_mode,
+)
+from pinclear.core.jit import njit
+from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
+from pinclear.model.forces import add_wrenches, place_frames, relative_velocity
 
 #: normal-force models of the ``model`` key; the first is the default
 MODELS = ("energy", "paper003")

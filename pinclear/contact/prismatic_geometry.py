@@ -5,7 +5,9 @@ faces (pinclear.contact.prismatic; maths: docs/contact_models.md).
 from __future__ import annotations
 
 from typing import NamedTuple
+
 import numpy as np
+
 from pinclear.core.jit import njit
 
 

@@ -17,16 +17,15 @@ bearing axis turns (energy balance exact).
 """
 from __future__ import annotations
 
-import numpy as np
-
 import functools
 
-from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
+import numpy as np
 
 from pinclear.contact import channels, worn_geometry
 from pinclear.contact.base import ClearanceJoint
 from pinclear.contact.spherical import stiffness
 from pinclear.contact.wear import WornData, WornJoint, spline_coefficients
+from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
 
 _PLANAR = (Key("radius", "number", "m", 0.01, "> 0", "paper 002 eq. 6", "journal radius R_journal"),
            Key("bearing_radius", "number", "m", "radius + clearance", "radius + clearance", "paper 002 eq. 6",

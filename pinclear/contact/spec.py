@@ -4,11 +4,16 @@ from __future__ import annotations
 import math
 import numbers
 
+from pinclear.contact.laws import (
+    HYSTERESIS,
+    MATERIALS,
+    NORMAL_LAWS,
+    effective_modulus,
+    make_friction_law,
+    make_normal_law,
+)
 from pinclear.core.errors import ContactSetupError
 from pinclear.core.registry import REQUIRED, Key, key_names
-
-from pinclear.contact.laws import (HYSTERESIS, MATERIALS, NORMAL_LAWS, effective_modulus, make_friction_law,
-                                   make_normal_law)
 
 #: the keys of every ``clearances:`` entry (pinclear.core.registry.CLEARANCE_TYPES' common keys); a
 #: type's own keys are in its module's PluginType record

@@ -10,14 +10,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
-
 from pinclear.contact import channels, worn_geometry
 from pinclear.contact.base import ClearanceJoint
 from pinclear.contact.laws import hertz_stiffness
 from pinclear.contact.spec import DEFAULTS
 from pinclear.contact.wear import WornData, WornJoint
 from pinclear.contact.wear_spherical import POLES
+from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
 
 _RADIUS = Key("radius", "number", "m", 0.01, "> 0", "paper 000 eq. 6", "ball radius R_ball")
 

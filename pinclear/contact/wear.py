@@ -33,11 +33,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pinclear.core.registry import Key
-
 from pinclear.contact import channels
-from pinclear.contact.channels import Laws
 from pinclear.contact.base import ClearanceData
+from pinclear.contact.channels import Laws
+from pinclear.core.registry import Key
 
 MODELS = ("archard",)
 DISTRIBUTIONS = ("hertz", "uniform")

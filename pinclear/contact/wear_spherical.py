@@ -33,11 +33,10 @@ from functools import cached_property
 
 import numpy as np
 
-from pinclear.core.jit import njit
-from pinclear.core.errors import InputError
-from pinclear.core.registry import Key
-
 from pinclear.contact.wear import DISTRIBUTIONS, MODELS, positive, trapezoid_weights, wear_mapping
+from pinclear.core.errors import InputError
+from pinclear.core.jit import njit
+from pinclear.core.registry import Key
 
 POLES = ("x", "y", "z")
 

@@ -5,8 +5,8 @@ contact points a worn channel needs (pinclear.contact.wear, pinclear.contact.wea
 from __future__ import annotations
 
 import math
-from pinclear.core.jit import njit
 
+from pinclear.core.jit import njit
 
 #: worn planar bearing: gpar = (c, R1, R2, ca, L, N, then the periodic cubic spline's 4 N
 #: coefficients of the wear depth, cell i = [i, i + 1) 2 pi / N, highest power first)

@@ -8,7 +8,6 @@ pinclear.model.closures and pinclear.model.kinematics.FrameKinematics.
 """
 from __future__ import annotations
 
-
 import numpy as np
 
 from pinclear.core.jit import njit

@@ -29,7 +29,6 @@ from numba.core import event as _event
 
 from pinclear.core.errors import PinclearError
 
-
 #: bump when the compile options of the kernels change (names the cache folder, see below)
 KERNEL_OPTIONS = "npfloat1"
 

@@ -6,6 +6,7 @@ formulations.proximal).
 from __future__ import annotations
 
 import math
+
 from pinclear.core.jit import njit
 
 
@@ -51,7 +52,7 @@ def proximal_inverse(F, d):
     2.0x faster at m = 5, 1.7x at m = 13 (pinclear.core.regularised.proximal_iterations). S + rho I is
     well conditioned (cond <= 1 + 1 / rho_rel), so the explicit inverse costs no accuracy:
     against 50-digit iterations the filter's error is the same to two digits (1.9e-11 relative
-    at m = 20, tests/test_engine_methods.py)."""
+    at m = 20, tests/dynamics/test_engine_methods.py)."""
     m = d.shape[0]
     for j in range(m):                       # G = F^-1, column by column (G[i, i] = d[i])
         F[j, j] = d[j]

@@ -29,8 +29,8 @@ import sys
 
 import numpy as np
 
-from pinclear.core.jit import KERNELS_DIGEST, cache_dir
 from pinclear.core.call import ERROR, run_stage
+from pinclear.core.jit import KERNELS_DIGEST, cache_dir
 
 
 class _Time:

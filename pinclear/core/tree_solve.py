@@ -5,8 +5,9 @@ J M^-1 J^T and the KKT solve (numba).
 from __future__ import annotations
 
 import numpy as np
-from pinclear.core.jit import njit
+
 from pinclear.core.dense import WIDE, _axpy, _gram, _gram_wide, lower_solve, lower_t_solve
+from pinclear.core.jit import njit
 
 
 @njit(cache=True)

@@ -13,8 +13,8 @@ the user has chosen to run the file's code.
 from __future__ import annotations
 
 import importlib
-import re
 import os
+import re
 import types
 from types import MappingProxyType
 

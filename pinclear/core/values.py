@@ -4,6 +4,7 @@ the file, the key and what is allowed.
 from __future__ import annotations
 
 import numpy as np
+
 from pinclear.core.errors import ModelFileError
 
 

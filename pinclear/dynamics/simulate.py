@@ -11,13 +11,13 @@ import warnings
 
 import numpy as np
 
-from pinclear.dynamics import formulations, stepping, validate
-from pinclear.model import kinematics
-from pinclear.core.jit import compile_cpu
 from pinclear.core.errors import InputError
+from pinclear.core.jit import compile_cpu
+from pinclear.dynamics import formulations, stepping, validate
 from pinclear.dynamics.stepping.run import Run, checked_method_state, method_state, run_clock
 from pinclear.dynamics.stepping.state import EXTERNAL
 from pinclear.dynamics.trajectory import Checkpoint, Trajectory
+from pinclear.model import kinematics
 
 INTEGRATORS = stepping.INTEGRATORS       # the registry itself (pinclear.core.registry): added ones included
 #: simulate()'s relative tolerance when none is given (bifurcation() derives its period tolerance from it)
@@ -266,7 +266,7 @@ def _record(traj, res):
 
 #: formulations whose evaluation depends on the state and the kept constraint rows alone (no warm
 #: start carried between evaluations, no option fitted to the start state): :class:`Restarts`
-#: keeps their workspace and compiled evaluation from one run to the next (tests/test_lyapunov.py
+#: keeps their workspace and compiled evaluation from one run to the next (tests/analysis/test_lyapunov.py
 #: compares its runs with simulate()'s bit for bit). Not proximal (fit_start raises its iteration
 #: count from each start, and a kept form keeps the raised count) nor, until a test compares them,
 #: the manifold method (its projection reuses the last evaluation's factors: ManifoldWork)

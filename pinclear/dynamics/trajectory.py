@@ -9,9 +9,9 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from pinclear.model import kinematics
-from pinclear.core.jsonsafe import jsonable
 from pinclear.core.failures import Failure, FailureKind
+from pinclear.core.jsonsafe import jsonable
+from pinclear.model import kinematics
 
 
 def _versions():
@@ -453,8 +453,8 @@ class Trajectory:
         file is never opened). ``trust`` covers the file at ``path`` only: recorded arguments
         never add code or files (pinclear.core.trust.check_recorded_args), and a bundled mechanism
         needs no trust (docs/security.md)."""
-        from pinclear.io.sidecar import load
         from pinclear.core.trust import check_recorded_args, recorded_mechanism
+        from pinclear.io.sidecar import load
 
         kw = check_recorded_args(self.meta.get("load_args"), "<saved run>")
         if path is None:

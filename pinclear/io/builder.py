@@ -22,8 +22,8 @@ import numpy as np
 
 from pinclear.core import safeio
 from pinclear.core.errors import InputError
-from pinclear.io.urdf_write import urdf_joint, urdf_link
 from pinclear.io.urdf_write import thin_rod as rod  # noqa: F401  (re-exported: a bar's central inertia)
+from pinclear.io.urdf_write import urdf_joint, urdf_link
 
 #: URDF joint types the builder writes (pinclear's loader accepts what Pinocchio parses)
 JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")
@@ -143,8 +143,8 @@ class Builder:
         A mistake raises the loader's error naming the file and the key."""
         import yaml
 
-        from pinclear.model import kinematics
         from pinclear.io.sidecar import load
+        from pinclear.model import kinematics
 
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)

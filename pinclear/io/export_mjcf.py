@@ -190,7 +190,7 @@ def _tree_xml(model, names, sites, extras, kinds, notes):
     child's body sits at the composed placement B and each merged joint gets pos and axis from
     its own frame S in B's axes (B^-1 S): the kinematics are the same map of q, and the massless
     body adds nothing to the mass matrix or the bias forces, so the dynamics are unchanged
-    (tests/test_export_mjcf.py compares MuJoCo's M and bias with Pinocchio's)."""
+    (tests/io/test_export_mjcf.py compares MuJoCo's M and bias with Pinocchio's)."""
     children = {j: [] for j in range(model.njoints)}
     for j in range(1, model.njoints):
         children[model.parents[j]].append(j)
@@ -268,7 +268,7 @@ def _drives_xml(mech, g, tc, solref, drives, notes, q0):
     critically damped lag of time constant tc, e -> -2 tc f' + O(tc^2), first order in MuJoCo's
     step (tc = 2 h). ctrl = f + 2 tc f' (kp 2 tc f' = kv f') leaves the O(tc^2) part only, and
     taken at the step's midpoint (MuJoCo holds ctrl over a step) no O(h) hold error either: the
-    run then converges to the prescribed motion at second order (tests/test_export_mjcf.py)."""
+    run then converges to the prescribed motion at second order (tests/io/test_export_mjcf.py)."""
     world, equality = [], []
     actuators = []
     if mech.drives and drives == "clock":

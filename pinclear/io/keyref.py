@@ -5,7 +5,7 @@ laws (pinclear.model.timelaws.LAW_KEYS), and the registries of force elements an
 
     python -m pinclear.io.keyref --out docs/keys.md
 
-and compared with the committed file by tests/test_registry.py, so the reference cannot drift
+and compared with the committed file by tests/core/test_registry.py, so the reference cannot drift
 from the code.
 """
 from __future__ import annotations
@@ -107,11 +107,11 @@ def _contact_laws() -> list[str]:
 
 def render() -> str:
     """The whole key reference as markdown."""
-    from pinclear.io import sidecar as S
     from pinclear.core.registry import CLEARANCE_TYPES, FORCE_TYPES
+    from pinclear.io import sidecar as S
 
     out = ["# Sidecar keys", "",
-           "Generated from the code by `python -m pinclear.io.keyref --out docs/keys.md` (tests/test_registry.py "
+           "Generated from the code by `python -m pinclear.io.keyref --out docs/keys.md` (tests/core/test_registry.py "
            "checks that this file matches the code). A sidecar (`urdf/NAME.yaml`) names the URDF of a mechanism's "
            "spanning tree and adds what a tree cannot hold. Units are SI, angles in radians. An unknown key is an "
            "error naming the file, the key and the valid keys. Every number is finite.", ""]

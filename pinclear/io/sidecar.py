@@ -9,17 +9,18 @@ import numpy as np
 import pinocchio as pin
 import yaml
 
-from pinclear.model.closures import CLOSURES, Closure
-from pinclear.model.closures import KEYS as CLOSURE_ENTRY_KEYS
-from pinclear.model.drives import Drive
 from pinclear.core.errors import ModelFileError, PinclearError
-from pinclear.model.mechanism import Mechanism
 from pinclear.core.registry import CLEARANCE_TYPES as CLEARANCE_REGISTRY
 from pinclear.core.registry import FORCE_TYPES as FORCE_REGISTRY
 from pinclear.core.registry import Key, key_names
+from pinclear.core.values import check_keys as _check_keys
+from pinclear.core.values import joint as _joint
+from pinclear.core.values import number as _number
+from pinclear.model.closures import CLOSURES, Closure
+from pinclear.model.closures import KEYS as CLOSURE_ENTRY_KEYS
+from pinclear.model.drives import Drive
+from pinclear.model.mechanism import Mechanism
 from pinclear.model.timelaws import build_law, resolve_function, trusted
-from pinclear.core.values import check_keys as _check_keys, joint as _joint, number as _number
-
 
 #: nesting levels of a YAML document (the bundled sidecars use 6); deeper input would otherwise
 #: exhaust Python's recursion limit in PyYAML's composer

@@ -6,9 +6,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-
 import numpy as np
 import pinocchio as pin
+
 from pinclear.core.models import models_dir
 
 STEEL = 7850.0       # kg/m^3

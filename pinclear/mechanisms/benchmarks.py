@@ -56,8 +56,8 @@ from types import MappingProxyType
 
 import numpy as np
 
-from pinclear.mechanisms._common import URDF_DIR, axis_inertia
 from pinclear.io.urdf_write import thin_rod
+from pinclear.mechanisms._common import URDF_DIR, axis_inertia
 
 G = 9.81                     # m/s^2, along -y
 

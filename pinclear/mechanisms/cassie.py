@@ -35,8 +35,8 @@ def sdf_path(variant: str) -> Path:
 
 def write_models(out=None) -> dict:
     """Import the five variants into ``out`` (default: the bundled models folder); {variant: report}."""
-    from pinclear.io.importers import import_file
     from pinclear.core.models import models_dir
+    from pinclear.io.importers import import_file
 
     out = Path(out) if out is not None else models_dir()
     reports = {}

@@ -10,10 +10,10 @@ from types import MappingProxyType
 
 import numpy as np
 
-from pinclear.io import sidecar
-from pinclear.dynamics.simulate import simulate
 from pinclear.core.errors import InputError
 from pinclear.core.models import model_path
+from pinclear.dynamics.simulate import simulate
+from pinclear.io import sidecar
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-
 import numpy as np
 
 from pinclear.mechanisms._common import URDF_DIR

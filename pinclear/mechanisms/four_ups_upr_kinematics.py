@@ -5,7 +5,9 @@ pinclear.mechanisms.four_ups_upr (numba).
 from __future__ import annotations
 
 import math
+
 import numpy as np
+
 from pinclear.core.jit import njit
 
 

@@ -38,9 +38,18 @@ import numpy as np
 import pinocchio as pin
 
 from pinclear.core.jit import njit
-from pinclear.mechanisms._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, solve_lengths,
-                                         cylinder_inertia, u_angles, write_sidecar_yaml)
 from pinclear.io.urdf_write import urdf_joint, urdf_link
+from pinclear.mechanisms._common import (
+    ALUMINIUM,
+    STEEL,
+    URDF_DIR,
+    ClosedChain,
+    config_vector,
+    cylinder_inertia,
+    solve_lengths,
+    u_angles,
+    write_sidecar_yaml,
+)
 from pinclear.mechanisms._common import cross_inertia as _cross_inertia
 
 G = 9.81

@@ -30,9 +30,18 @@ import numpy as np
 import pinocchio as pin
 
 from pinclear.core.jit import njit
-from pinclear.mechanisms._common import (ALUMINIUM, STEEL, URDF_DIR, ClosedChain, config_vector, cross_inertia,
-                                         solve_lengths, u_angles, write_sidecar_yaml)
 from pinclear.io.urdf_write import urdf_joint, urdf_link
+from pinclear.mechanisms._common import (
+    ALUMINIUM,
+    STEEL,
+    URDF_DIR,
+    ClosedChain,
+    config_vector,
+    cross_inertia,
+    solve_lengths,
+    u_angles,
+    write_sidecar_yaml,
+)
 
 G = 9.81
 # ------------------------------------------------------------------ paper 003, Table 2

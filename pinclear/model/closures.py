@@ -29,11 +29,11 @@ from types import MappingProxyType
 
 import numpy as np
 
-from pinclear.model.rows import COUPLE, DIST, DOT, PERP, PLANE, POINT
+from pinclear.core.errors import ModelFileError
+from pinclear.core.registry import Key
 from pinclear.model.coupling import COUPLING_KEYS
 from pinclear.model.coupling import KEYS as COUPLING_ENTRY_KEYS
-from pinclear.core.registry import Key
-from pinclear.core.errors import ModelFileError
+from pinclear.model.rows import COUPLE, DIST, DOT, PERP, PLANE, POINT
 
 # (primitive, arguments, row labels)
 _POINT = ("point", (), ("x", "y", "z"))
@@ -187,7 +187,9 @@ class CompiledClosures:
 
 def coupling_closure(model, spec, file, key, name):
     """The Closure of a sidecar ``type: coupling`` entry (the joints checked as 1-dof joints)."""
-    from pinclear.core.values import check_keys as _check_keys, joint as _joint, number as _number
+    from pinclear.core.values import check_keys as _check_keys
+    from pinclear.core.values import joint as _joint
+    from pinclear.core.values import number as _number
 
     _check_keys(spec, COUPLING_ENTRY_KEYS, file, key)
     ends = []

@@ -14,9 +14,9 @@ from typing import NamedTuple
 import numpy as np
 
 from pinclear.core.jit import njit
-from pinclear.model.kinematics import supporting_dofs
 from pinclear.core.registry import Key, PluginType
 from pinclear.core.stage import T
+from pinclear.model.kinematics import supporting_dofs
 from pinclear.model.timelaws import TimeLaw, eval_laws, law_table
 
 

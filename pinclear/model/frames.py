@@ -8,6 +8,7 @@ maths: pinclear.model.kinematics.FrameKinematics.
 from __future__ import annotations
 
 import numpy as np
+
 from pinclear.core.jit import njit
 
 

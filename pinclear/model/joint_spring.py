@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from pinclear.core.jit import njit
-from pinclear.model.forces import ForceElement
 from pinclear.core.registry import Key, PluginType
+from pinclear.model.forces import ForceElement
 
 
 @njit(cache=True)

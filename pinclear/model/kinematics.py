@@ -4,12 +4,11 @@ assembly on the configuration manifold, consistent velocities, mobility and redu
 from __future__ import annotations
 
 import numpy as np
-
-from pinclear.model.frames import J_PRISMATIC, J_REVOLUTE, frame_kinematics, joint_placements
-from pinclear.model.rows import Rows, constraint_rows_all
 import pinocchio as pin
 
 from pinclear.core.errors import AssemblyError
+from pinclear.model.frames import J_PRISMATIC, J_REVOLUTE, frame_kinematics, joint_placements
+from pinclear.model.rows import Rows, constraint_rows_all
 
 
 def supporting_dofs(model: pin.Model, fid: int) -> np.ndarray:

@@ -16,8 +16,8 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from pinclear.core.jit import njit
 from pinclear.core.call import call_passes
+from pinclear.core.jit import njit
 
 _mod = None
 #: why the compiled passes are not in use ("" when they are)

@@ -4,11 +4,12 @@ kinematics, one loop over rows (numba). The primitives are documented in pinclea
 from __future__ import annotations
 
 from typing import NamedTuple
+
 import numpy as np
+
 from pinclear.core.jit import njit
 from pinclear.model.coupling import coupling_positions, coupling_velocities
 from pinclear.model.frames import _cross, frame_positions, frame_velocities
-
 
 # primitive codes of CompiledClosures.table
 POINT, PLANE, DOT, PERP, DIST, COUPLE = 0, 1, 2, 3, 4, 5

@@ -8,9 +8,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pinclear.core.jit import njit
 from pinclear.core.errors import ModelFileError
+from pinclear.core.jit import njit
 from pinclear.core.registry import Key
+
 # the trust gate lives in pinclear.core.trust; re-exported here, where sidecar and screw import it
 from pinclear.core.trust import TRUST_ENV, resolve_function, trusted  # noqa: F401
 

@@ -47,9 +47,9 @@ def chaos_K(mech, periods, transient, period, rtol):
     period, their spread per joint, and the run's kind by analysis.classify_state: period within
     the run's integration error bound, 'below resolution' under CLEARANCE_FRACTION x the
     clearance, else the 0-1 test; K alone never says chaos)."""
-    from pinclear.dynamics.simulate import simulate
     from pinclear.analysis import poincare
     from pinclear.analysis.classify import CLEARANCE_FRACTION, chaos_01, classify_state
+    from pinclear.dynamics.simulate import simulate
 
     T = (periods + transient) * period
     tr = simulate(mech, T, rtol=rtol, dt_out=period)
@@ -71,10 +71,10 @@ def chaos_K(mech, periods, transient, period, rtol):
 
 
 def paper002(out, quick=False, smoke=False):
-    from pinclear.io.sidecar import load
     from dataclasses import replace
 
     from pinclear.analysis.wear_life import WearSettings, _tables, block_length, converged, plot, worn_joint
+    from pinclear.io.sidecar import load
 
     s = _settings(quick, smoke)
     out = safeio.make_dirs(Path(out))

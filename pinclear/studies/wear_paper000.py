@@ -28,11 +28,11 @@ import numpy as np
 
 from pinclear import analysis
 from pinclear.core import safeio
-from pinclear.mechanisms import four_ups_upu as mod
 from pinclear.core.models import model_path
-from pinclear.studies.reproduce.paper000 import SMOOTH, T, moving_average
-from pinclear.io.sidecar import load
 from pinclear.dynamics.simulate import simulate
+from pinclear.io.sidecar import load
+from pinclear.mechanisms import four_ups_upu as mod
+from pinclear.studies.reproduce.paper000 import SMOOTH, T, moving_average
 
 #: Pa s: a light spindle oil to a medium gear oil at operating temperature (ISO VG 10-100 at ~40 C)
 VISCOSITIES = (0.01, 0.03, 0.1)

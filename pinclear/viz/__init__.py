@@ -15,8 +15,8 @@ import time
 import numpy as np
 
 from pinclear.viz.animate import animate, resample
-from pinclear.viz.html import export_html, scene_html, screenshot
 from pinclear.viz.elements import active_clearances
+from pinclear.viz.html import export_html, scene_html, screenshot
 from pinclear.viz.scene import MechanismScene, SceneRecorder
 from pinclear.viz.server import LocalServer
 

@@ -19,7 +19,6 @@ from meshcat.animation import Animation, AnimationClip, AnimationTrack
 from scipy.spatial.transform import Rotation
 
 from pinclear.model.kinematics import frame_motion
-
 from pinclear.viz.scene import MechanismScene, arrow_matrix
 
 

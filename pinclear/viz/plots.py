@@ -27,7 +27,6 @@ from matplotlib.figure import Figure
 
 from pinclear.core import safeio
 from pinclear.model.kinematics import frame_motion
-
 from pinclear.viz.elements import active_clearances, clearance_plot, recorded_clearances, run_clearances
 from pinclear.viz.elements import clearance_size as element_clearance
 

@@ -40,11 +40,17 @@ import meshcat.geometry as mg
 import numpy as np
 import pinocchio as pin
 import umsgpack
-from meshcat.commands import SetAnimation, SetObject, SetProperty, SetTransform, Delete
+from meshcat.commands import Delete, SetAnimation, SetObject, SetProperty, SetTransform
 
 from pinclear.viz.elements import active_clearances, clearance_plot, clearance_size
-from pinclear.viz.geometry import (body_names, mechanism_extent, mechanism_primitives, mesh_roots,
-                                   rotation_y_to, viewer_trust)
+from pinclear.viz.geometry import (
+    body_names,
+    mechanism_extent,
+    mechanism_primitives,
+    mesh_roots,
+    rotation_y_to,
+    viewer_trust,
+)
 
 ROOT = "pinclear"
 # overlays: fully saturated, darker or more vivid than any body (bodies are pastel, see

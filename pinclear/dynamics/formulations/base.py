@@ -8,9 +8,9 @@ from typing import NamedTuple
 import numpy as np
 from scipy.linalg import cho_factor
 
-from pinclear.model import kinematics
-from pinclear.core.errors import InputError, RankLossError
 from pinclear.core.call import ERROR, OK
+from pinclear.core.errors import InputError, RankLossError
+from pinclear.model import kinematics
 
 #: condition number of the constraint Schur complement beyond which a plain solve is garbage
 RANK_COND = 1e12

@@ -4,8 +4,8 @@ rows, or from a short series on a pivoted Cholesky factor when the shifts are sm
 """
 from __future__ import annotations
 
-from pinclear.core.jit import njit
 from pinclear.core.dense import WIDE, _axpy4, lower_solve, mirrored_lower_solve
+from pinclear.core.jit import njit
 
 
 @njit(cache=True, inline="always")

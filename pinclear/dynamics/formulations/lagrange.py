@@ -7,14 +7,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import cho_solve
 
-from pinclear.model import kinematics
-from pinclear.core.jit import njit
-from pinclear.dynamics.formulations.base import Solve
 from pinclear.core.call import NONFINITE
+from pinclear.core.jit import njit
 from pinclear.core.stage import bind
-from pinclear.dynamics.formulations.base import RANK_COND, Compiled, Formulation
-from pinclear.model.rows import constraint_rows_all
 from pinclear.core.tree_solve import kkt_solve
+from pinclear.dynamics.formulations.base import RANK_COND, Compiled, Formulation, Solve
+from pinclear.model import kinematics
+from pinclear.model.rows import constraint_rows_all
 
 #: pivot ratio of the kept rows, relative to its start, below which the independent rows are
 #: chosen again (before the singular-passage monitor's SINGULAR_DIP would stop the run)

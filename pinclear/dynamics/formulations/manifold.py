@@ -68,23 +68,37 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pinclear.model import kinematics
-from pinclear.core.jit import njit
-from pinclear.core.dense import (WIDE, chol_pivoted, chol_solve_pivoted, min_norm_solve, min_norm_x,
-                                 project_out, qr_pivoted, support_runs_add)
-from pinclear.dynamics.formulations.base import Solve
-from pinclear.model.rows import constraint_rows_positions, constraint_rows_velocities
-from pinclear.dynamics.formulations.lagrange import lagrange_accel
-from pinclear.core.tree_solve import ltl_factor, ltl_solve, ltl_solve_t, schur_complement
-from pinclear.core.errors import InputError
 from pinclear.core.call import ERROR, OK, RANK
+from pinclear.core.dense import (
+    WIDE,
+    chol_pivoted,
+    chol_solve_pivoted,
+    min_norm_solve,
+    min_norm_x,
+    project_out,
+    qr_pivoted,
+    support_runs_add,
+)
+from pinclear.core.errors import InputError
+from pinclear.core.jit import njit
 from pinclear.core.stage import T, bind
-from pinclear.dynamics.formulations.base import Compiled, Formulation
-from pinclear.dynamics.formulations.projection import (at_positions, iterations, ltl_mul, mass_only,
-                                                       min_norm_step_gram, move, position_passes, row_residual,
-                                                       stalled)
-from pinclear.dynamics.formulations.filtered_solve import (filtered_solve_ws, row_shifts, series_filtered,
-                                                           shifted_factor)
+from pinclear.core.tree_solve import ltl_factor, ltl_solve, ltl_solve_t, schur_complement
+from pinclear.dynamics.formulations.base import Compiled, Formulation, Solve
+from pinclear.dynamics.formulations.filtered_solve import filtered_solve_ws, row_shifts, series_filtered, shifted_factor
+from pinclear.dynamics.formulations.lagrange import lagrange_accel
+from pinclear.dynamics.formulations.projection import (
+    at_positions,
+    iterations,
+    ltl_mul,
+    mass_only,
+    min_norm_step_gram,
+    move,
+    position_passes,
+    row_residual,
+    stalled,
+)
+from pinclear.model import kinematics
+from pinclear.model.rows import constraint_rows_positions, constraint_rows_velocities
 
 
 class ManifoldWork(NamedTuple):

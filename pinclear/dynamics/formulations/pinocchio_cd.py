@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from pinclear.model.closures import PINOCCHIO_TYPES
 from pinclear.core.errors import InputError, RankLossError
 from pinclear.dynamics.formulations.base import Formulation
+from pinclear.model.closures import PINOCCHIO_TYPES
 
 
 def rigid_constraints(mech, alpha=0.0, beta=0.0):

@@ -23,18 +23,26 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from pinclear.model import native
-from pinclear.core.jit import njit
-from pinclear.core.dense import (WIDE, chol_pivoted, chol_solve_pivoted, gram_rows, min_norm_x, project_out,
-                                 qr_pivoted, support_runs_add)
-from pinclear.model.rows import constraint_rows_all
-from pinclear.model.frames import joint_placements_jacobians
-from pinclear.core.tree_solve import ltl_factor, ltl_solve, scaled_rows, schur_complement
-from pinclear.core.regularised import proximal_filter, relative_rho
-from pinclear.core.errors import InputError
 from pinclear.core.call import ERROR, NONFINITE, OK, RANK, call_passes, call_stage
+from pinclear.core.dense import (
+    WIDE,
+    chol_pivoted,
+    chol_solve_pivoted,
+    gram_rows,
+    min_norm_x,
+    project_out,
+    qr_pivoted,
+    support_runs_add,
+)
+from pinclear.core.errors import InputError
+from pinclear.core.jit import njit
+from pinclear.core.regularised import proximal_filter, relative_rho
 from pinclear.core.stage import T, bind, python_stage
+from pinclear.core.tree_solve import ltl_factor, ltl_solve, scaled_rows, schur_complement
 from pinclear.dynamics.formulations.lagrange import Lagrange
+from pinclear.model import native
+from pinclear.model.frames import joint_placements_jacobians
+from pinclear.model.rows import constraint_rows_all
 
 #: relative pivot below which a direction of J^T (or of B^T = (J L^-1)^T) is dropped from the
 #: minimum-norm steps: singular values below 1e-6 of the largest, as a least-squares solve of the

@@ -7,7 +7,7 @@ unique) and give a bounded, least-squares-like acceleration where gamma is incon
 configurations): the part of lam along null(J^T) does not reach the accelerations. Baumgarte as
 in lagrange; positions and velocities are projected after every step with the same filter
 (pinclear.dynamics.formulations.projection.project_state). rho is relative to the mean diagonal of S
-(default 1e-4; the parallelogram study in tests/test_core_fourbar.py shows 1e-6 already makes a
+(default 1e-4; the parallelogram study in tests/model/test_core_fourbar.py shows 1e-6 already makes a
 singular passage depend on rounding). The solve is one compiled kernel
 (pinclear.dynamics.formulations.proximal.proximal_accel), tested against the NumPy expression
 :func:`proximal_multipliers`.
@@ -28,19 +28,24 @@ import warnings
 import numpy as np
 import pinocchio as pin
 
-from pinclear.model import kinematics
-from pinclear.dynamics.formulations.base import Solve
-from pinclear.core.errors import InputError
 from pinclear.core.call import RANK
-from pinclear.core.stage import T, bind
-from pinclear.dynamics.formulations.base import Compiled, Formulation
-from pinclear.dynamics.formulations.projection import (RCOND, iterations, position_passes, project_state,
-                                                       projector, run_projection)
+from pinclear.core.errors import InputError
 from pinclear.core.jit import njit
-from pinclear.dynamics.formulations.lagrange import _finite_code
-from pinclear.model.rows import constraint_rows_all
-from pinclear.core.tree_solve import ltl_factor, ltl_solve, ltl_solve_t, schur_complement
 from pinclear.core.regularised import proximal_filter, relative_rho
+from pinclear.core.stage import T, bind
+from pinclear.core.tree_solve import ltl_factor, ltl_solve, ltl_solve_t, schur_complement
+from pinclear.dynamics.formulations.base import Compiled, Formulation, Solve
+from pinclear.dynamics.formulations.lagrange import _finite_code
+from pinclear.dynamics.formulations.projection import (
+    RCOND,
+    iterations,
+    position_passes,
+    project_state,
+    projector,
+    run_projection,
+)
+from pinclear.model import kinematics
+from pinclear.model.rows import constraint_rows_all
 
 
 class Proximal(Formulation):

@@ -40,18 +40,40 @@ loader's trust rule). Errors name the file, the key and the valid choices.
 """
 from __future__ import annotations
 
-from pinclear.dynamics.screw.algebra import (adjoint, bracket, cross, describe_twist, dual_cross, from_force,
-                                             from_motion, gravity_wrench, inertia_wrench, line_twist,
-                                             reciprocal_product, skew, spatial_inertia, swap, to_force,
-                                             to_motion)
-from pinclear.dynamics.screw.inverse_dynamics import (InverseDynamicsResult, condition_along, ik_solver,
-                                                      influence_coefficients, inverse_dynamics,
-                                                      lagrange_inverse_dynamics, monitor, motion_function,
-                                                      numerical_ik, pose_derivatives, singularity,
-                                                      threshold_intervals)
+from pinclear.dynamics.screw.algebra import (
+                                             adjoint,
+                                             bracket,
+                                             cross,
+                                             describe_twist,
+                                             dual_cross,
+                                             from_force,
+                                             from_motion,
+                                             gravity_wrench,
+                                             inertia_wrench,
+                                             line_twist,
+                                             reciprocal_product,
+                                             skew,
+                                             spatial_inertia,
+                                             swap,
+                                             to_force,
+                                             to_motion,
+)
+from pinclear.dynamics.screw.inverse_dynamics import (
+                                             InverseDynamicsResult,
+                                             condition_along,
+                                             ik_solver,
+                                             influence_coefficients,
+                                             inverse_dynamics,
+                                             lagrange_inverse_dynamics,
+                                             monitor,
+                                             motion_function,
+                                             numerical_ik,
+                                             pose_derivatives,
+                                             singularity,
+                                             threshold_intervals,
+)
 from pinclear.dynamics.screw.section import Motion, ScrewSection, read_section
-from pinclear.dynamics.screw.system import (CUT_SCREWS, Limb, ScrewSystem, cond_sign, screw_system,
-                                            singularity_of)
+from pinclear.dynamics.screw.system import CUT_SCREWS, Limb, ScrewSystem, cond_sign, screw_system, singularity_of
 from pinclear.dynamics.screw.virtual import VIRTUAL_RULES, line_normal
 
 __all__ = [

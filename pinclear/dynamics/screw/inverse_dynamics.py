@@ -8,11 +8,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from pinclear.model import kinematics
 from pinclear.core.errors import InputError, ModelFileError, PinclearError
 from pinclear.dynamics.screw.algebra import from_motion
 from pinclear.dynamics.screw.section import read_section
 from pinclear.dynamics.screw.system import cond_sign, screw_system
+from pinclear.model import kinematics
+
 
 @dataclass
 class InverseDynamicsResult:

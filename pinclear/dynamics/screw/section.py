@@ -9,8 +9,8 @@ from types import MappingProxyType
 from typing import Callable
 
 from pinclear.core.errors import ModelFileError
-from pinclear.model.timelaws import resolve_function
 from pinclear.dynamics.screw.virtual import COMPLEMENT, VIRTUAL_RULES, rule_choices
+from pinclear.model.timelaws import resolve_function
 
 SECTION_KEYS = ("limbs", "ik", "motions", "virtual")
 LIMB_KEYS = ("name", "joints", "closure")

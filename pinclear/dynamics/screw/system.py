@@ -23,8 +23,15 @@ import numpy as np
 import pinocchio as pin
 
 from pinclear.core.errors import ModelFileError
-from pinclear.dynamics.screw.algebra import (bracket, describe_twist, gravity_wrench, inertia_wrench,
-                                             line_twist, skew, spatial_inertia)
+from pinclear.dynamics.screw.algebra import (
+    bracket,
+    describe_twist,
+    gravity_wrench,
+    inertia_wrench,
+    line_twist,
+    skew,
+    spatial_inertia,
+)
 from pinclear.dynamics.screw.section import ScrewSection, read_section
 from pinclear.dynamics.screw.virtual import COMPLEMENT
 

@@ -16,14 +16,14 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from pinclear.dynamics import energy
-from pinclear.model import kinematics, native
-from pinclear.core.jit import njit
-from pinclear.model.frames import joint_placements, joint_placements_jacobians
-from pinclear.core.errors import RankLossError
 from pinclear.core.call import ERROR, NONFINITE, RANK
+from pinclear.core.errors import RankLossError
+from pinclear.core.jit import njit
 from pinclear.core.stage import bind, python_stage
+from pinclear.dynamics import energy
 from pinclear.dynamics.stepping.system import System, evaluate
+from pinclear.model import kinematics, native
+from pinclear.model.frames import joint_placements, joint_placements_jacobians
 
 
 @njit(cache=True)

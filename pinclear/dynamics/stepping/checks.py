@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from pinclear.core.jit import njit
 from pinclear.core.call import ERROR
-from pinclear.dynamics.stepping.state import (BAD as BAD_COUNT, CODE_BAD, MON_FLOOR, MON_MIN, MON_REF,
-                                              MON_RESELECT, NO_RESELECT, T_BAD)
+from pinclear.core.jit import njit
+from pinclear.dynamics.stepping.state import BAD as BAD_COUNT
+from pinclear.dynamics.stepping.state import CODE_BAD, MON_FLOOR, MON_MIN, MON_REF, MON_RESELECT, NO_RESELECT, T_BAD
 
 #: monitor verdicts on one evaluation
 GOOD, BAD, RESELECT, FAILED = 0, 1, 2, 3

@@ -25,21 +25,66 @@ from __future__ import annotations
 
 import numpy as np
 
-from pinclear.core.jit import njit
 from pinclear.core.call import call_stage
+from pinclear.core.jit import njit
 from pinclear.dynamics.stepping.checks import BAD, FAILED, GOOD, dipped, first_crossing, observe, stalled
 from pinclear.dynamics.stepping.control import ACCEPTED, ASK_RESELECT, BAD_EVALS, TOO_SMALL
-from pinclear.dynamics.stepping.rk import rk_dense, rk_dense_at, rk_step
-from pinclear.dynamics.stepping.rosenbrock import rosenbrock_step
-from pinclear.dynamics.stepping.roots import (BRENT_STATE, ROOT_STATE, brent_next, brent_root_next,
-                                              brent_root_start, brent_start)
-from pinclear.dynamics.stepping.state import (ATOL, BAD as BAD_COUNT, CHART, DENSE, DIRS, DX, EVENT_K,
-                                              EXTERNAL, F, G_NEW, G_PREV, G_WORK, RK_FIXED, H_ABS, H_PREV,
-                                              H_STALL, MAX_STEP, MON_MIN, N_ACC, NO_RESELECT, OUT_I, RTOL,
-                                              STEPS, T, T_BAD, T_BOUND, T_EVENT, T_OLD, XB, XE, Y, Y_OLD, YS)
-from pinclear.dynamics.stepping.state import (F_OLD, PK_MAX, PK_NOW, PK_SLOPE, PK_T, PK_W1, PK_W2, PK_W3,
-                                              ROSENBROCK, Y_NEW)
 from pinclear.dynamics.stepping.peaks import fold, forces_at, stage_forces
+from pinclear.dynamics.stepping.rk import rk_dense, rk_dense_at, rk_step
+from pinclear.dynamics.stepping.roots import (
+    BRENT_STATE,
+    ROOT_STATE,
+    brent_next,
+    brent_root_next,
+    brent_root_start,
+    brent_start,
+)
+from pinclear.dynamics.stepping.rosenbrock import rosenbrock_step
+from pinclear.dynamics.stepping.state import (
+    ATOL,
+    CHART,
+    DENSE,
+    DIRS,
+    DX,
+    EVENT_K,
+    EXTERNAL,
+    F_OLD,
+    G_NEW,
+    G_PREV,
+    G_WORK,
+    H_ABS,
+    H_PREV,
+    H_STALL,
+    MAX_STEP,
+    MON_MIN,
+    N_ACC,
+    NO_RESELECT,
+    OUT_I,
+    PK_MAX,
+    PK_NOW,
+    PK_SLOPE,
+    PK_T,
+    PK_W1,
+    PK_W2,
+    PK_W3,
+    RK_FIXED,
+    ROSENBROCK,
+    RTOL,
+    STEPS,
+    T_BAD,
+    T_BOUND,
+    T_EVENT,
+    T_OLD,
+    XB,
+    XE,
+    Y_NEW,
+    Y_OLD,
+    YS,
+    F,
+    T,
+    Y,
+)
+from pinclear.dynamics.stepping.state import BAD as BAD_COUNT
 from pinclear.dynamics.stepping.system import evaluate, event_values, peak_values, project
 
 #: what a chunk ended with

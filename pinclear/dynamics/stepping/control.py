@@ -9,7 +9,8 @@ import numpy as np
 
 from pinclear.core.jit import njit
 from pinclear.dynamics.stepping.checks import BAD, FAILED, RESELECT
-from pinclear.dynamics.stepping.state import BAD as BAD_COUNT, H_ABS, H_START, MAX_STEP, REJECTS, T
+from pinclear.dynamics.stepping.state import BAD as BAD_COUNT
+from pinclear.dynamics.stepping.state import H_ABS, H_START, MAX_STEP, REJECTS, T
 
 #: outcomes of one step (pinclear.dynamics.stepping.chunk.advance passes the failures on)
 ACCEPTED, TOO_SMALL, BAD_EVALS, ASK_RESELECT, STAGE_ERROR = range(5)

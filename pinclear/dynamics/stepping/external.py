@@ -8,17 +8,31 @@ They stay for comparison and for users who know them; pinclear's own implicit me
 """
 from __future__ import annotations
 
-
 import numpy as np
 from scipy import integrate as spi
 
-from pinclear.dynamics.stepping.base import Method, MethodState
 from pinclear.core.call import NONFINITE
+from pinclear.core.stage import python_stage
+from pinclear.dynamics.stepping.base import Method, MethodState
 from pinclear.dynamics.stepping.checks import GOOD, observe
 from pinclear.dynamics.stepping.control import ACCEPTED, BAD_EVALS, MAX_BAD, TOO_SMALL
-from pinclear.core.stage import python_stage
-from pinclear.dynamics.stepping.state import (ATOL, BAD, EXTERNAL, F, H_ABS, H_PREV, MAX_STEP, RTOL, T,
-                                              T_BOUND, T_OLD, XB, XE, Y, tableau)
+from pinclear.dynamics.stepping.state import (
+    ATOL,
+    BAD,
+    EXTERNAL,
+    H_ABS,
+    H_PREV,
+    MAX_STEP,
+    RTOL,
+    T_BOUND,
+    T_OLD,
+    XB,
+    XE,
+    F,
+    T,
+    Y,
+    tableau,
+)
 from pinclear.dynamics.stepping.system import evaluate
 
 

@@ -23,15 +23,15 @@ from typing import NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from pinclear.model import kinematics
+from pinclear.core.call import ERROR, NONFINITE, run_stages
 from pinclear.core.errors import RankLossError
 from pinclear.core.failures import Failure, FailureKind
 from pinclear.core.jit import njit
-from pinclear.model.rows import constraint_rows_positions
-from pinclear.model.frames import joint_placements, joint_placements_jacobians
-from pinclear.core.call import ERROR, NONFINITE, run_stages
 from pinclear.core.stage import bind
 from pinclear.dynamics.stepping.system import evaluate, project
+from pinclear.model import kinematics
+from pinclear.model.frames import joint_placements, joint_placements_jacobians
+from pinclear.model.rows import constraint_rows_positions
 
 #: the code a sample gets when its projection failed (the run raises the Python path's error)
 PROJECTION_FAILED = -10.0

@@ -12,11 +12,40 @@ from scipy import integrate as spi
 from pinclear.core.jit import njit
 from pinclear.dynamics.stepping.base import Method
 from pinclear.dynamics.stepping.checks import BAD, GOOD, observe
-from pinclear.dynamics.stepping.control import (ACCEPTED, BAD_EVALS, GO_ON, TOO_SMALL, begin, grown, outcome,
-                                                propose, shrunk)
-from pinclear.dynamics.stepping.state import (ATOL, DENSE, F, F_OLD, H_ABS, H_FIXED, H_PREV, H_START,
-                                              RK_DOP853, RK_EMBEDDED, RK_FIXED, RTOL, T, T_BOUND, T_OLD, XB, Y,
-                                              Y_NEW, Y_OLD, YS, tableau)
+from pinclear.dynamics.stepping.control import (
+    ACCEPTED,
+    BAD_EVALS,
+    GO_ON,
+    TOO_SMALL,
+    begin,
+    grown,
+    outcome,
+    propose,
+    shrunk,
+)
+from pinclear.dynamics.stepping.state import (
+    ATOL,
+    DENSE,
+    F_OLD,
+    H_ABS,
+    H_FIXED,
+    H_PREV,
+    H_START,
+    RK_DOP853,
+    RK_EMBEDDED,
+    RK_FIXED,
+    RTOL,
+    T_BOUND,
+    T_OLD,
+    XB,
+    Y_NEW,
+    Y_OLD,
+    YS,
+    F,
+    T,
+    Y,
+    tableau,
+)
 from pinclear.dynamics.stepping.system import evaluate
 
 

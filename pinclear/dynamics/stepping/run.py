@@ -14,20 +14,44 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from pinclear.model import kinematics
-from pinclear.core.jit import compile_cpu
 from pinclear.core.errors import RankLossError
 from pinclear.core.failures import Failure, FailureKind
-from pinclear.dynamics.trajectory import Checkpoint
+from pinclear.core.jit import compile_cpu
 from pinclear.dynamics.stepping import chunk as C
 from pinclear.dynamics.stepping.build import Evaluation
 from pinclear.dynamics.stepping.checks import reset_monitor
-from pinclear.dynamics.stepping.outputs import (Outputs, Samples, compiled_outputs, compiled_ready,
-                                                python_outputs)
-from pinclear.dynamics.stepping.state import (ATOL, BAD, CHART, CODE_BAD, DIRS, EVENT_K, H_ABS, H_FIXED,
-                                              H_STALL, MAX_STEP, N_ACC, NI, NO_RESELECT, NR, OUT_I, PK_MAX,
-                                              PK_T, RTOL, STEPS, T, T_BAD, T_BOUND, T_EVENT, XB, XE, Y,
-                                              new_steps)
+from pinclear.dynamics.stepping.outputs import Outputs, Samples, compiled_outputs, compiled_ready, python_outputs
+from pinclear.dynamics.stepping.state import (
+    ATOL,
+    BAD,
+    CHART,
+    CODE_BAD,
+    DIRS,
+    EVENT_K,
+    H_ABS,
+    H_FIXED,
+    H_STALL,
+    MAX_STEP,
+    N_ACC,
+    NI,
+    NO_RESELECT,
+    NR,
+    OUT_I,
+    PK_MAX,
+    PK_T,
+    RTOL,
+    STEPS,
+    T_BAD,
+    T_BOUND,
+    T_EVENT,
+    XB,
+    XE,
+    T,
+    Y,
+    new_steps,
+)
+from pinclear.dynamics.trajectory import Checkpoint
+from pinclear.model import kinematics
 
 #: accepted steps per compiled call; between calls Python looks at progress, checkpoints and
 #: the CPU budget (a chunk of a clearance run takes well under a millisecond)

@@ -15,8 +15,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pinclear.core.jit import njit
 from pinclear.core.call import NONFINITE, run_stages
+from pinclear.core.jit import njit
 
 
 class System(NamedTuple):

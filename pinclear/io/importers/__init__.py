@@ -137,8 +137,8 @@ def header(report) -> str:
 def import_file(path, out, cut=(), fix=None, name=None) -> dict:
     """Write OUT/NAME.urdf, OUT/NAME.yaml and OUT/NAME.import.json; load the result back and add
     its closure residual at the reference configuration to the report."""
-    from pinclear.model import kinematics
     from pinclear.io.sidecar import load
+    from pinclear.model import kinematics
 
     urdf, sidecar, report = convert(path, cut, fix, name)
     out = Path(out)

@@ -7,7 +7,7 @@
 // J and dJ, on the very Data whose arrays the kernels already read.
 //
 // Without bits 4 and 8 the passes give, bit for bit, what pinclear.kinematics.update's sequence
-// of library calls gives (tests/test_native_build.py compares every array they write):
+// of library calls gives (tests/model/test_native_build.py compares every array they write):
 //   computeJointJacobiansTimeVariation(model, data, q, v)   oMi, J, dJ, v
 //   updateFramePlacements(model, data)        (flags & 1)   oMf (force elements read frames)
 //   crba(model, data, q, LOCAL)               (flags & 2)   M (upper triangle)

@@ -19,13 +19,14 @@ import numpy as np
 import pinocchio as pin
 from scipy.integrate import simpson, solve_ivp
 
-from pinclear.studies.bench import rhs as bench
-from pinclear.dynamics import formulations, stepping as integrators
-from pinclear.model import kinematics
 from pinclear.core import safeio
 from pinclear.core.errors import InputError, PinclearError
 from pinclear.core.failures import FailureKind
+from pinclear.dynamics import formulations
+from pinclear.dynamics import stepping as integrators
 from pinclear.dynamics.stepping.run import run_clock as _run_clock
+from pinclear.model import kinematics
+from pinclear.studies.bench import rhs as bench
 
 #: columns of atlas.csv, in order (the JSON rows carry the same keys)
 COLUMNS = ["scene", "method", "integrator", "tol", "h", "status", "reason", "failure_kind", "message", "t_failed", "t_end", "error",

@@ -18,9 +18,8 @@ import sys
 
 import numpy as np
 
-from pinclear.core.errors import InputError
-
 from pinclear.contact.laws import HYSTERESIS, effective_modulus, make_normal_law, restitution_1dof
+from pinclear.core.errors import InputError
 
 DAMPED = [n for n in HYSTERESIS if n != "hertz"]
 
@@ -91,8 +90,8 @@ def measured_impact(model, name, nv, axis, v=0.2, rtol=1e-10):
     onset event to the separation, located by linear interpolation of the penetration."""
     import pinocchio as pin
 
-    from pinclear.io.sidecar import load
     from pinclear.dynamics.simulate import simulate
+    from pinclear.io.sidecar import load
 
     mech = load(model, clearances=[name], overrides={f"{name}.normal_law": "hertz"})
     mech.model.gravity = pin.Motion.Zero()

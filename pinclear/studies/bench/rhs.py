@@ -10,14 +10,14 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from pinclear.dynamics import formulations
 from pinclear.core import safeio
-from pinclear.model.closures import PINOCCHIO_TYPES
 from pinclear.core.errors import InputError, PinclearError
-from pinclear.dynamics.simulate import simulate
 from pinclear.core.jit import njit
+from pinclear.dynamics import formulations
+from pinclear.dynamics.simulate import simulate
 from pinclear.dynamics.stepping.build import Evaluation
 from pinclear.dynamics.stepping.system import evaluate as evaluate_rhs
+from pinclear.model.closures import PINOCCHIO_TYPES
 
 
 def baseline_constraints(mech):

@@ -24,17 +24,17 @@ import numpy as np
 import pinocchio as pin
 
 from pinclear import analysis
-from pinclear.model import kinematics
+from pinclear.analysis.sweeps import make_executor, sweep
 from pinclear.core import safeio
 from pinclear.core.errors import InputError
-from pinclear.mechanisms import four_ups_upu as mod
 from pinclear.core.models import model_path
-from pinclear.io.sidecar import load
 from pinclear.dynamics.simulate import simulate
-from pinclear.analysis.sweeps import make_executor, sweep
+from pinclear.io.sidecar import load
+from pinclear.mechanisms import four_ups_upu as mod
+from pinclear.model import kinematics
 from pinclear.studies.reproduce import chaos
-from pinclear.studies.reproduce.verdicts import row
 from pinclear.studies.reproduce.bands import design, reconstructed_inputs, spread, within_budget
+from pinclear.studies.reproduce.verdicts import row
 
 T = mod.PERIOD
 #: paper 000 sec. 4.3: (min, max) of the S2 contact force over four steady periods (t ~ 102-108 s)
@@ -716,8 +716,8 @@ def _run000(job):
     contact-force span per mu and the platform's X offset over the response window, and the
     clearance's motion at mu 0.01 (classified with the clearance's resolution)."""
     from pinclear import analysis
-    from pinclear.mechanisms import four_ups_upu as mod
     from pinclear.dynamics.simulate import simulate
+    from pinclear.mechanisms import four_ups_upu as mod
 
     s, out = job["s"], {}
     t_end = s["force_periods"] * T

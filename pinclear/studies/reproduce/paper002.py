@@ -19,14 +19,14 @@ import time
 
 import numpy as np
 
-from pinclear.core import safeio
 from pinclear import analysis as an
 from pinclear.analysis.classify import CLEARANCE_FRACTION, classify_state
-from pinclear.core.models import model_path
 from pinclear.analysis.sweeps import make_executor, sweep
+from pinclear.core import safeio
+from pinclear.core.models import model_path
 from pinclear.studies.reproduce import chaos
-from pinclear.studies.reproduce.verdicts import row
 from pinclear.studies.reproduce.bands import design, reconstructed_inputs, spread, within_budget
+from pinclear.studies.reproduce.verdicts import row
 
 SLIDER = "guide"                      # slider 9's prismatic joint (urdf/nine_bar.urdf)
 JOINTS = ("A", "B")
@@ -105,8 +105,8 @@ RESPONSE_SWEEPS = [
 
 def _response_runs(out, s, executor):
     """Trajectories of sec. 3: 'ideal', 'A 0.5', 'A 0.1', 'B 0.5', 'AB 0.5' (and the ideal start state)."""
-    from pinclear.io.sidecar import load
     from pinclear.dynamics.simulate import simulate
+    from pinclear.io.sidecar import load
 
     path = model_path("nine_bar")
     ideal = load(path)
@@ -628,9 +628,8 @@ def start_states(q0, e=START_E, angles=START_ANGLES):
     moves the journal in the bearing to first order; the map from that motion to the
     eccentricity is measured by finite differences and inverted. Returns (q, e_reached) per
     angle, e_reached from the assembled state."""
-    from pinclear.io.sidecar import load
     from pinclear.dynamics.simulate import simulate
-
+    from pinclear.io.sidecar import load
     from pinclear.model import kinematics
 
     mech = load(model_path("nine_bar"), clearances=["A"])
@@ -658,8 +657,8 @@ def start_states(q0, e=START_E, angles=START_ANGLES):
 def _start_run(job):
     """One 2 s run of the A-clearance model from a given start state (module-level: it pickles
     to worker processes). Returns the impact-force peaks and the run's status and CPU."""
-    from pinclear.io.sidecar import load
     from pinclear.dynamics.simulate import simulate
+    from pinclear.io.sidecar import load
 
     mech = load(model_path("nine_bar"), clearances=["A"])
     tr = simulate(mech, job["t_end"], method="lagrange", integrator="RK45", rtol=RTOL, dt_out=job["dt"],
@@ -793,10 +792,9 @@ def _impact_band(sens):
 def _run002(job):
     """One A 0.5 mm run of paper 002's sec. 3 at a design point (module-level: it pickles):
     the slider's shift at the ideal peak and the impact and acceleration peaks."""
-    from pinclear.io.sidecar import load
-    from pinclear.dynamics.simulate import simulate
-
     from pinclear.core.models import model_path
+    from pinclear.dynamics.simulate import simulate
+    from pinclear.io.sidecar import load
 
     over = {k.format(j="A"): v for k, v in job["values"].items()}
     mech = load(model_path("nine_bar"), clearances=["A"], overrides=over)
@@ -814,11 +812,10 @@ def _run002(job):
 def paper002_bands(out, s, executor, q0, v0, budget=None, cost=None):
     """({row key: (lo, hi, what)}, table) of paper 002's A 0.5 mm rows over the keyed inputs of
     reconstructed.yaml; ``cost``: CPU s of one run (the centred A 0.5 mm run's), for the budget."""
-    from pinclear.io.sidecar import load
-    from pinclear.dynamics.simulate import simulate
-
-    from pinclear.core.models import model_path
     from pinclear.analysis.sweeps import run_jobs
+    from pinclear.core.models import model_path
+    from pinclear.dynamics.simulate import simulate
+    from pinclear.io.sidecar import load
 
     inputs = reconstructed_inputs("002")
     pts = within_budget(design(inputs), float(cost or 60.0), budget)

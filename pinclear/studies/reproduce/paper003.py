@@ -17,14 +17,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from pinclear.core import safeio
 from pinclear import analysis
-from pinclear.core.errors import InputError
-from pinclear.mechanisms import three_upru_up as mod
-from pinclear.core.models import model_path
-from pinclear.io.sidecar import load
-from pinclear.dynamics.simulate import simulate
 from pinclear.analysis.sweeps import sweep
+from pinclear.core import safeio
+from pinclear.core.errors import InputError
+from pinclear.core.models import model_path
+from pinclear.dynamics.simulate import simulate
+from pinclear.io.sidecar import load
+from pinclear.mechanisms import three_upru_up as mod
 from pinclear.studies.reproduce.paper000 import executor_for, worst_condition
 from pinclear.studies.reproduce.verdicts import row
 

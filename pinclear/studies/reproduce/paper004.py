@@ -23,8 +23,8 @@ import numpy as np
 from pinclear.core import safeio
 from pinclear.dynamics import screw
 from pinclear.mechanisms import four_ups_upr as mod
-from pinclear.studies.reproduce.verdicts import row
 from pinclear.studies.reproduce.bands import design, reconstructed_inputs, run_points, within_budget
+from pinclear.studies.reproduce.verdicts import row
 
 #: paper 004 sec. 4.1, G_q^p at the initial configuration (columns P1..P4, virtual 1, virtual 2)
 PAPER_G = np.array([[0.8237, 0.8237, -0.8673, -0.8673, 0.0, 0.4628],

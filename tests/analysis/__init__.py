@@ -1,0 +1,1 @@
+"""Tests of layer 6, pinclear.analysis."""

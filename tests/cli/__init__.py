@@ -1,0 +1,1 @@
+"""Tests of layer 9, pinclear.cli."""

@@ -1,0 +1,1 @@
+"""Tests of layer 2, pinclear.contact."""

@@ -1,0 +1,1 @@
+"""Tests of layer 0, pinclear.core."""

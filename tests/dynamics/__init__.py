@@ -1,0 +1,1 @@
+"""Tests of layer 3, pinclear.dynamics."""

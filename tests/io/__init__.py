@@ -1,0 +1,1 @@
+"""Tests of layer 4, pinclear.io."""

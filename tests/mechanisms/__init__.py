@@ -1,0 +1,1 @@
+"""Tests of layer 5, pinclear.mechanisms."""

@@ -1,0 +1,1 @@
+"""Tests of layer 1, pinclear.model."""

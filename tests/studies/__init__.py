@@ -1,0 +1,1 @@
+"""Tests of layer 8, pinclear.studies."""

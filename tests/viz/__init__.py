@@ -1,0 +1,1 @@
+"""Tests of layer 7, pinclear.viz."""
