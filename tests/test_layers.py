@@ -200,3 +200,19 @@ def test_no_kernel_file_over_600_lines():
             if (b"@njit" in p.read_bytes() or b"cfunc(" in p.read_bytes())
             and (n := len(p.read_text().splitlines())) > 600}
     assert not long, long
+
+
+def test_tests_sit_by_layer_and_every_module_keeps_fast_tests():
+    """tests/<layer>/ per layer; a module whose every test is marked slow would drop out of the
+    README's test command (the fast tier) entirely."""
+    tests = ROOT / "tests"
+    assert sorted(p.name for p in tests.iterdir() if p.is_dir() and (p / "__init__.py").exists()) == sorted(LAYERS)
+    assert not list(tests.glob("test_*.py")) or [p.name for p in tests.glob("test_*.py")] == ["test_layers.py"]
+    only_slow = []
+    for p in sorted(tests.glob("*/test_*.py")):
+        funcs = [n for n in ast.parse(p.read_text()).body if isinstance(n, ast.FunctionDef) and n.name.startswith("test_")]
+        fast = [f for f in funcs if not any(ast.unparse(d) in ("pytest.mark.slow", "pytest.mark.examples")
+                                            for d in f.decorator_list)]
+        if funcs and not fast and "pytestmark" not in p.read_text():
+            only_slow.append(p.relative_to(tests).as_posix())
+    assert not only_slow, only_slow

@@ -52,7 +52,6 @@ def test_section_times_hit_the_section_exactly():
     assert np.allclose(np.diff(te), 0.3 / 7, rtol=0, atol=1e-15)
 
 
-@pytest.mark.slow
 def test_poincare_converges_to_transfer_function_steady_state(traj):
     assert traj.status == "success"
     sec = an.poincare(traj, T, "slide", skip_transient=TRANSIENT)

@@ -292,7 +292,6 @@ def _pendulum(tmp_path, axes):
     return pinclear.load(tmp_path / "p.yaml")
 
 
-@pytest.mark.slow
 def test_rotation_alone_decides_the_plane(tmp_path):
     """A pendulum swinging about x: its pivot point does not move, only the rotation tells the
     plane (normal x). Hung on a U joint (x then y) it swings out of any plane."""

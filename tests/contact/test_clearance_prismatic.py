@@ -100,7 +100,6 @@ def penetrations(mech, el, ws, d, q):
     return el.event_values(mech, ws, d, 0.0, q, np.zeros(6), np.zeros(el.nz))
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("mode", sorted(MODES))
 def test_each_contact_mode_is_produced_and_classified(slider, mode):
     mech, el, ws, d = slider
@@ -158,7 +157,6 @@ def test_slider_settles_on_its_face_at_the_plane_law_deflection():
     assert tr.outputs["P.normal_force"][-1] == pytest.approx([W, 0, 0], rel=1e-2)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("model", ["energy", "paper003"])
 @pytest.mark.parametrize("scene, name, friction", [("clr_slider", "P", None),
                                                    ("clr_slider", "P", {"type": "coulomb", "mu": 0.2}),

@@ -79,7 +79,6 @@ def g_squeeze(eps):
     return (2 * eps / (1 - eps * eps) - math.log((1 + eps) / (1 - eps))) / eps ** 3
 
 
-@pytest.mark.slow
 def test_a_loaded_ball_sinks_through_its_film_as_the_closed_form_squeeze_law_says():
     """A 2 kg ball under 200 N along -z, no spin, from eps 0.05 at rest: the simulated eps(t) against
     m c eps'' = W - 6 pi mu R^4 g(eps) eps' / c^2 integrated by DOP853 at rtol 1e-12 (a second method

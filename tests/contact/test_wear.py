@@ -247,7 +247,6 @@ def _spring_run(step, tol, max_rounds):
     return res, exact, load
 
 
-@pytest.mark.slow
 def test_depth_scheme_follows_a_known_geometric_feedback():
     # the spring presses the journal less as it sinks into its wear: the load falls ~20 % over the
     # life and the wear rate with it. The scheme is explicit Euler in the cycles with a depth step:

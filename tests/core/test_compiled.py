@@ -210,7 +210,6 @@ def test_fused_clearance_events_and_records_equal_the_python_path(scene, name):
 
 
 # ------------------------------------------------------------------ bound kernels
-@pytest.mark.slow
 @pytest.mark.parametrize("name,clearance", [("four_ups_upu", "S2"), ("nine_bar", "A"), ("parallelogram", None)])
 def test_bound_kernels_equal_the_direct_calls(name, clearance):
     """pinclear.core.stage.bind passes a kernel's buffers (NamedTuples of them: Rows, Solve)
@@ -279,7 +278,6 @@ def test_clearance_force_stages_equal_the_direct_calls(scene, name):
     assert seen_contact >= 3
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("name", ["four_bar", "nine_bar", "four_ups_upu", "three_upru_up", "squeezer",
                                   "clr_slider", "a04_bricard"])
 def test_joint_jacobians_from_the_placements_equal_pinocchios(name):

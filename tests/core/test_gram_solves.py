@@ -47,7 +47,6 @@ def _factor(G, gate=0.0):
     return chol_pivoted(G, piv, L, d, gate), L, piv
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("m,n", [(1, 3), (2, 3), (5, 8), (16, 16), (20, 21), (40, 41)])
 def test_pivoted_cholesky_of_the_gram_matrix_is_the_pivoted_qr_of_the_rows(m, n):
     """G = A A^T by gram_rows equals NumPy's product; chol_pivoted picks the pivots of the pivoted
@@ -101,7 +100,6 @@ def test_pivoted_cholesky_stops_below_the_gate():
     assert _factor(A @ A.T, gate=1e-14)[0] == pytest.approx(low, rel=1e-3)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("redundant", [False, True])
 def test_gram_step_is_the_minimum_norm_step(redundant):
     """min_norm_step_gram's dq = -J^+ Phi (NumPy's SVD pseudo-inverse) to eps cond(J)^2 |dq|

@@ -136,7 +136,6 @@ def toys():
         CLEARANCE_TYPES.remove("toy_gap")
 
 
-@pytest.mark.slow
 def test_a_toy_force_element_loads_from_a_sidecar_and_conserves_energy(toys, tmp_path):
     """m x'' = -k (x - rest): x = rest + A cos(w t), w = sqrt(k/m), and 1/2 m v^2 + 1/2 k (x - rest)^2
     stays 1/2 k A^2. RK45 at rtol 1e-10 keeps the global error near 1e-10 of the amplitude over

@@ -62,7 +62,6 @@ def _run(cache: Path, out: Path):
                           timeout=900)
 
 
-@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "getuid"), reason="POSIX permissions")
 def test_a_planted_kernel_index_runs_only_from_a_private_folder(tmp_path):
     marker = tmp_path / "MARKER"

@@ -96,7 +96,6 @@ def _assert_same_factor(G, gate):
     return a[0]
 
 
-@pytest.mark.slow
 def test_wide_kernels_equal_the_row_kernels_bit_for_bit_on_a02(a02_wide):
     """At every state: L^T L = M by ltl_factor's chain loop equals its walk; Y = J L^-1 and
     S = Y Y^T (schur_complement, scaled_rows) equal the row-wise scaled rows and _gram; J J^T

@@ -155,7 +155,6 @@ def test_clearance_kernels_equal_the_python_methods(joint):
         assert touching >= 4, fname
 
 
-@pytest.mark.slow
 def test_spring_kernel_equals_its_python_methods_and_pinocchio(tmp_path):
     """The spring-damper's stage against add_force (bitwise), and force, potential, power loss
     and outputs against the same physics from Pinocchio's frame placements and frame Jacobians

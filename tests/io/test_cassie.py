@@ -113,7 +113,6 @@ def _hip_drives(variant):
         for s in ("left", "right")]})
 
 
-@pytest.mark.slow
 def test_prescribed_hip_motion_every_formulation_agrees():
     """cassie_v2, both hip-pitch joints driven by 0.2 sin(6 t): lagrange, projection, proximal and
     manifold reach the same state (to their tolerance) with the energy balance closed. Pinocchio's

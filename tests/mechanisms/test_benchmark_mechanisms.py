@@ -202,7 +202,6 @@ def test_bricard_proximal_conserves_energy_with_a_redundant_row_everywhere(brica
         assert kinematics.mobility(bricard, qi, ws)["mobility"] == 1
 
 
-@pytest.mark.slow
 def test_bricard_lagrange_chooses_its_rows_again_when_the_dropped_one_is_needed(bricard, bricard_proximal):
     """``lagrange`` drops J5.z, found redundant at t0 (a tie among J5.x, J5.z, J5.rx there). The
     four rows it keeps lose rank at BRICARD_SWITCH, reached at t* ~ 1.2479 s, where J5.z is the

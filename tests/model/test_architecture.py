@@ -67,7 +67,6 @@ def test_loaded_mechanisms_are_independent_objects():
         a.forces[0].nc = 3
 
 
-@pytest.mark.slow
 def test_replace_shares_no_element_data():
     mech = pinclear.load("four_ups_upu", clearances=["S2"])
     other = mech.replace(q0=mech.q0.copy())
@@ -87,7 +86,6 @@ def test_replace_shares_no_element_data():
         np.testing.assert_array_equal(getattr(wb.force_data[0], k), val)
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("name, kw", [("four_bar", {}),
                                       ("clr_ball", {"clearances": ["S"]})])
 def test_two_threads_give_bit_identical_trajectories(name, kw):

@@ -63,7 +63,6 @@ def test_flat_time_quadrature_agrees_with_the_branch_ode():
     assert te[0] == pytest.approx(tq, abs=1e-9)
 
 
-@pytest.mark.slow
 def test_lagrange_on_the_parallelogram_is_recorded_as_rank_loss_at_the_flat_time(tmp_path):
     """lagrange cannot solve its KKT system where the parallelogram is flat: each cell says
     'rank loss' at the flat time. The run stops where the pivot ratio of the kept rows falls

@@ -210,7 +210,6 @@ def test_view_server_listens_on_loopback_only_and_stops_with_the_viewer(sig, tmp
             viewer.wait()
 
 
-@pytest.mark.slow
 def test_show_starts_a_loopback_server_that_close_stops():
     mech = pinclear.load("nine_bar")
     scene = pinclear.viz.show(mech)
