@@ -1,6 +1,7 @@
 """`pinclear analyse bifurcation|poincare ...`: the command line of the analysis package."""
 from __future__ import annotations
 
+import argparse
 import math
 import re
 import sys
@@ -72,13 +73,15 @@ def _period_of_speed(w):
 
 def build_parser():
     """The parser of `pinclear analyse bifurcation|poincare`."""
-    from pinclear.cli.args import OneLineParser, count, number, run_choices
+    from pinclear.cli.args import MECH_HELP, OneLineParser, add_mech_option, count, number, run_choices
 
     methods, integrators = run_choices()
     ap = OneLineParser(prog="pinclear analyse", description="phase portraits, Poincaré maps and bifurcation diagrams")
     sub = ap.add_subparsers(dest="cmd", required=True, metavar="{bifurcation,poincare}", parser_class=OneLineParser)
     b = sub.add_parser("bifurcation", help="Poincaré samples against a swept parameter (parallel runs)")
-    b.add_argument("file", help="mechanism sidecar (urdf/NAME.yaml)")
+    b.add_argument("file", nargs="?", metavar="FILE",
+                   help="mechanism sidecar (urdf/NAME.yaml, a bundled name or your own FILE.yaml); or give it as --mech")
+    add_mech_option(b, "the mechanism sidecar to sweep, as FILE (either one)")
     b.add_argument("--param", action="append", required=True, metavar="PATH[*FACTOR]",
                    help="swept key: NAME.key of a clearance (S2.mu), a scene option or a sidecar path "
                         "(forces[spring].k, drives[crank1_drive].law.coeffs[1]); repeat to set several keys, "
@@ -106,8 +109,7 @@ def build_parser():
     b.add_argument("--out", default="out", help="output folder (created if missing)")
     p = sub.add_parser("poincare", help="phase portrait + Poincaré map of a saved run (trajectory.npz)")
     p.add_argument("trajectory", help="trajectory.npz written by `pinclear simulate`")
-    p.add_argument("--file", help="mechanism sidecar (default: the bundled mechanism the run names; a path "
-                   "recorded in a run is never opened)")
+    add_mech_option(p, MECH_HELP)
     p.add_argument("--clearance", action="append", metavar="NAME", help="clearance joints active in the run")
     p.add_argument("--period", type=number(unit="s"), required=True, help="driving period [s]")
     p.add_argument("--signal", action="append", required=True, help="as for bifurcation; repeatable")
@@ -121,7 +123,17 @@ def cli_main(argv) -> int:
     """`pinclear analyse bifurcation|poincare ...` (see --help)."""
     import json
 
-    args = build_parser().parse_args(argv)
+    ap = build_parser()
+    args, extra = ap.parse_known_args(argv)
+    sub = next(a for a in ap._actions if isinstance(a, argparse._SubParsersAction)).choices[args.cmd]
+    if extra:       # named with the subcommand's own --help, not `pinclear analyse --help`
+        sub.error(f"unrecognized arguments: {' '.join(extra)}")
+    if args.cmd == "bifurcation":
+        if args.file and args.mech and args.file != args.mech:
+            sub.error(f"the mechanism given twice, {args.file} and --mech {args.mech}: give one")
+        args.file = args.file or args.mech
+        if not args.file:
+            sub.error("the mechanism sidecar to sweep is missing: give --mech FILE.yaml (or FILE)")
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
 
@@ -161,8 +173,8 @@ def cli_main(argv) -> int:
     from pinclear.core.models import model_path
     from pinclear.core.trust import recorded_mechanism
 
-    # a path recorded in the run is never opened: --file, or the bundled mechanism it names
-    path = args.file or model_path(recorded_mechanism(tr0.meta, args.trajectory))
+    # a path recorded in the run is never opened: --mech, or the bundled mechanism it names
+    path = args.mech or model_path(recorded_mechanism(tr0.meta, args.trajectory, prog="pinclear analyse poincare"))
     if args.clearance is None:
         from pinclear.io.sidecar import read_yaml
 

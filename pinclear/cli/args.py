@@ -78,6 +78,17 @@ class OneLineParser(argparse.ArgumentParser):
         sys.exit(2)
 
 
+#: help of --mech (alias --file): plot, view and analyse poincare name a run's mechanism file with it
+MECH_HELP = ("the mechanism sidecar the run was made with: needed for a run of your own mechanism; a bundled "
+             "mechanism's run reopens by the name it records (a path recorded in a run is never opened)")
+
+
+def add_mech_option(ap, help=MECH_HELP):
+    """``--mech FILE.yaml``, ``--file`` kept as an alias: the one option name for the mechanism
+    file in plot, view, analyse poincare and analyse bifurcation."""
+    return ap.add_argument("--mech", "--file", dest="mech", default=None, metavar="FILE.yaml", help=help)
+
+
 def run_choices():
     """(methods, integrators) as registered (pinclear.dynamics.formulations.METHODS,
     pinclear.dynamics.stepping.INTEGRATORS): a new formulation appears in every --method at once."""

@@ -33,14 +33,15 @@ def check_run_mechanism(traj, mech, file):
     traj.check_mechanism(mech, str(file))
 
 
-def load_run(npz, mech_path=None, trust=None):
+def load_run(npz, mech_path=None, trust=None, prog=None):
     """A saved trajectory and the mechanism it was run on (same options and active clearances
     as recorded in its metadata), checked to be that mechanism (:func:`check_run_mechanism`).
 
     Without ``mech_path`` only a bundled mechanism is loaded again, by the name the run
     records: a path recorded in a results file is never opened. ``trust`` covers the file at
     ``mech_path`` (named by the user) only; the recorded options and overrides never add code
-    or files (pinclear.core.trust.check_recorded_args; docs/security.md)."""
+    or files (pinclear.core.trust.check_recorded_args; docs/security.md). ``prog``: the
+    subcommand asking, whose --help the error of a run without ``mech_path`` points to."""
     from pinclear.core.errors import ModelFileError, PinclearError
     from pinclear.core.trust import check_recorded_args, recorded_mechanism
     from pinclear.dynamics.trajectory import Trajectory
@@ -58,7 +59,7 @@ def load_run(npz, mech_path=None, trust=None):
     # recorded path is never opened: the user names the file, or the run's is a bundled one
     la = check_recorded_args(_recorded_load_args(traj), npz)
     if mech_path is None:
-        mech_path, trust = recorded_mechanism(traj.meta, npz), False
+        mech_path, trust = recorded_mechanism(traj.meta, npz, prog=prog), False
     mech = load(mech_path, **la, trust=trust)
     check_run_mechanism(traj, mech, npz)
     traj.mech = mech
@@ -124,7 +125,7 @@ def _checked_scene_args(a):
 
 def build_view_parser():
     """The parser of `pinclear view`."""
-    from pinclear.cli.args import OneLineParser, number
+    from pinclear.cli.args import MECH_HELP, OneLineParser, add_mech_option, number
 
     ap = OneLineParser(prog="pinclear view",
                        description="Show a mechanism (FILE.yaml / FILE.urdf) or animate a saved run "
@@ -138,7 +139,7 @@ def build_view_parser():
     ap.add_argument("--no-block", action="store_true", help="start the server, print its URL and return")
     ap.add_argument("--open", action="store_true", help="open the viewer in a web browser")
     ap.add_argument("--zmq-url", default=None, help="use a running meshcat server (default: start one on loopback)")
-    ap.add_argument("--mech", default=None, help="mechanism file of a run (default: recorded in the .npz)")
+    add_mech_option(ap, MECH_HELP + "; with a trajectory .npz only")
     ap.add_argument("--clearance", action="append", default=[], metavar="NAME", help="activate a clearance joint")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                     help="NAME.key=value (clearance key) or option=value (scene option)")
@@ -173,7 +174,7 @@ def view_main(argv: list[str]) -> int:
         size = _checked_scene_args(a)
         traj = None
         if a.file.lower().endswith(".npz"):
-            traj, mech = load_run(a.file, a.mech, trust=trust)
+            traj, mech = load_run(a.file, a.mech, trust=trust, prog="pinclear view")
         else:
             mech = load(a.file, options=parse_assignments(a.option, "--option") or None,
                                  overrides=parse_assignments(a.set, "--set") or None,
@@ -236,13 +237,13 @@ def _report(scene):
 
 def build_plot_parser():
     """The parser of `pinclear plot`."""
-    from pinclear.cli.args import OneLineParser
+    from pinclear.cli.args import MECH_HELP, OneLineParser, add_mech_option
 
     ap = OneLineParser(prog="pinclear plot", description="Write the standard figures of a saved run.")
     ap.add_argument("file", help="trajectory .npz (from pinclear simulate --out)")
     ap.add_argument("--out", required=True, help="output folder (created if missing)")
     ap.add_argument("--ref", default=None, help="a second run (e.g. ideal joints) drawn dashed on the platform plot")
-    ap.add_argument("--mech", default=None, help="mechanism file (default: recorded in the .npz)")
+    add_mech_option(ap, MECH_HELP + "; also of the --ref run")
     ap.add_argument("--frame", default=None,
                     help="frame plotted as the platform (default: the sidecar's platform frame)")
     ap.add_argument("--format", default="png", choices=["png", "pdf", "svg"], help="image format")
@@ -267,10 +268,10 @@ def plot_main(argv: list[str]) -> int:
         for f in (a.file, a.ref):
             if f is not None:               # a FIFO or a device would block or never end
                 check_regular(f, "path", "trajectory")
-        traj, mech = load_run(a.file, a.mech, trust=_trust(a.trust))
+        traj, mech = load_run(a.file, a.mech, trust=_trust(a.trust), prog="pinclear plot")
         ref = None
         if a.ref:
-            ref, ref_mech = load_run(a.ref, a.mech, trust=_trust(a.trust))
+            ref, ref_mech = load_run(a.ref, a.mech, trust=_trust(a.trust), prog="pinclear plot")
             check_same_tree(mech, ref_mech, a.file, a.ref)
         written, skipped = save_all(traj, a.out, mech=mech, ref=ref, fmt=a.format, frame=a.frame)
     except PinclearError as exc:

@@ -138,20 +138,23 @@ def _refuse_code(key, value, run_file, where, depth=0):
             _refuse_code(i, v, run_file, f"{where}[{i}]", depth + 1)
 
 
-def recorded_mechanism(meta, run_file) -> str:
+def recorded_mechanism(meta, run_file, prog=None) -> str:
     """The bundled mechanism a saved run was made with, by name. A path recorded in a results
     file is never opened: a run of any other mechanism file needs the file named by the user
-    (``--mech FILE``, ``load_mechanism(path)``); the error quotes only the run file's own text."""
+    (``--mech FILE``, ``load_mechanism(path)``); the error quotes only the run file's own text.
+    ``prog``: the subcommand asking (``"pinclear plot"``), whose --help the error points to."""
     from pinclear.core.models import available
 
+    how = (f"--mech FILE.yaml, the sidecar the run was made with (see {prog} --help)" if prog else
+           "--mech FILE.yaml on the command line, or Trajectory.load_mechanism(path)")
     la = meta.get("load_args") if isinstance(meta.get("load_args"), dict) else {}
     rec = la.get("path") or meta.get("mech_path")
     if not isinstance(rec, str) or not rec:
-        raise ModelFileError(str(run_file), "mech_path", "the run does not name its mechanism file; pass --mech FILE.yaml")
+        raise ModelFileError(str(run_file), "mech_path", f"the run does not name its mechanism file; pass {how}")
     name = rec.replace("\\", "/").rsplit("/", 1)[-1]
     stem = name[:-5] if name.endswith(".yaml") else None
     if stem is None or stem not in available():
         raise ModelFileError(str(run_file), "mech_path", f"the run was made with {rec[:300]!r}, not a bundled "
                              "mechanism: pinclear opens no file a results file names; pass the mechanism file "
-                             "yourself (--mech FILE.yaml, or Trajectory.load_mechanism(path))")
+                             f"yourself: {how}")
     return stem
