@@ -451,7 +451,7 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     close = None
     ex = executor
     if ex is None and jobs:
-        ex, close = make_executor(max_workers or max(1, min(os.cpu_count() or 1, len(jobs))))
+        ex, close = make_executor(max_workers, jobs=len(jobs))
     try:
         run_jobs(_run_one, jobs, ex, lambda job, run: finish(run),
                  lambda job, exc: finish(BifurcationRun(job["index"], job["value"], "error",

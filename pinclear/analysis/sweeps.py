@@ -49,9 +49,11 @@ MAX_POINT_META_BYTES = 16_000_000
 
 
 # ------------------------------------------------------------------------------- executors
-def make_executor(workers=None, scheduler=None):
+def make_executor(workers=None, scheduler=None, jobs=None):
     """(executor, close) for ``workers`` local processes, or the Dask cluster at ``scheduler``
-    (``tcp://HOST:PORT``; dask.distributed is then required)."""
+    (``tcp://HOST:PORT``; dask.distributed is then required). Local processes are never more
+    than the CPUs nor than ``jobs`` when it is given (:func:`worker_count`): every command's
+    ``--workers`` ends here, and ``--workers 100000`` once forked a process per number."""
     if scheduler is not None:
         try:
             from distributed import Client
@@ -61,7 +63,7 @@ def make_executor(workers=None, scheduler=None):
         return client.get_executor(), lambda abort=False: client.close()
     if workers is not None and int(workers) < 1:
         raise InputError(f"workers must be a positive number of processes, got {workers!r}")
-    ex = ProcessPoolExecutor(max_workers=int(workers) if workers else os.cpu_count() or 1,
+    ex = ProcessPoolExecutor(max_workers=worker_count(workers, jobs),
                              initializer=_die_with_parent, initargs=(os.getpid(),))
 
     def close(abort=False):
@@ -380,11 +382,11 @@ def _point_identities(spec, path):
     return [point_identity(spec, model_bytes, i) for i in range(len(spec["points"]))]
 
 
-def _worker_count(workers, points):
-    """Local processes for ``points`` points: what was asked, never more than the points or the
-    CPUs (``--workers 40`` for 2 points forked 40 processes)."""
+def worker_count(workers=None, jobs=None):
+    """Local processes for ``jobs`` jobs: what was asked (default: one per CPU), never more than
+    the CPUs or the jobs (``--workers 40`` for 2 sweep points forked 40 processes)."""
     cpus = os.cpu_count() or 1
-    return max(1, min(int(workers) if workers else cpus, points, cpus))
+    return max(1, min(int(workers) if workers else cpus, cpus, jobs if jobs else cpus))
 
 
 def _write_index(index_path, doc):
@@ -535,7 +537,7 @@ def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=
         if jobs:
             ex = executor
             if ex is None:
-                ex, close = make_executor(_worker_count(workers, len(jobs)) if scheduler is None else None, scheduler)
+                ex, close = make_executor(workers if scheduler is None else None, scheduler, jobs=len(jobs))
             run_jobs(_run_point, jobs, ex, on_result, on_error)
     except BaseException:
         if close is not None:

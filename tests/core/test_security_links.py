@@ -228,9 +228,68 @@ def test_two_sweeps_into_one_folder_do_not_both_compute(tmp_path):
 
 def test_workers_are_bounded_by_points_and_cpus():
     cpus = os.cpu_count() or 1
-    assert sweeps._worker_count(40, 2) == min(2, cpus)
-    assert sweeps._worker_count(None, 1000) == cpus
-    assert sweeps._worker_count(1, 1000) == 1
+    assert sweeps.worker_count(40, 2) == min(2, cpus)
+    assert sweeps.worker_count(None, 1000) == cpus
+    assert sweeps.worker_count(1, 1000) == 1
+    assert sweeps.worker_count(100000) == cpus
+
+
+@pytest.mark.parametrize("workers,jobs", [(100000, None), (100000, 3), (None, None), (1, None)])
+def test_the_one_executor_maker_never_starts_more_processes_than_cpus(monkeypatch, workers, jobs):
+    """Every command's --workers (sweep, reproduce, study, analyse bifurcation) reaches the pool
+    through make_executor, which caps it: `reproduce 000 --quick --workers 100000` forked more
+    than 1150 processes on 2 cores."""
+    asked = []
+
+    class Spy:
+        def __init__(self, max_workers, **kw):
+            asked.append(max_workers)
+
+        def shutdown(self, wait=True, cancel_futures=False):
+            pass
+
+    monkeypatch.setattr(sweeps, "ProcessPoolExecutor", Spy)
+    ex, close = sweeps.make_executor(workers, jobs=jobs)
+    close()
+    cpus = os.cpu_count() or 1
+    assert asked == [min(workers or cpus, cpus, jobs or cpus)]
+
+
+def _workers_options():
+    """(command, parser) of every pinclear parser that has a --workers option (introspected)."""
+    import argparse
+
+    from pinclear.cli import analyse, commands, reproduce
+
+    found = []
+
+    def walk(name, parser):
+        for a in parser._actions:
+            if "--workers" in a.option_strings:
+                found.append(name)
+            if isinstance(a, argparse._SubParsersAction):
+                for sub, sp in a.choices.items():
+                    walk(f"{name} {sub}", sp)
+    walk("pinclear", commands.build_parser())
+    walk("pinclear analyse", analyse.build_parser())
+    walk("pinclear reproduce", reproduce.build_parser())
+    return found
+
+
+def test_every_workers_option_ends_in_the_one_executor_maker():
+    """The class, not the case: every parser's --workers is one of the commands whose code makes
+    its pool with make_executor, and no module of pinclear builds a process pool of its own."""
+    import ast
+
+    import pinclear
+
+    assert set(_workers_options()) == {"pinclear sweep", "pinclear analyse bifurcation", "pinclear reproduce"}
+    own = []
+    for p in Path(pinclear.__file__).parent.rglob("*.py"):
+        for n in ast.walk(ast.parse(p.read_text())):
+            if isinstance(n, ast.Call) and getattr(n.func, "id", getattr(n.func, "attr", None)) == "ProcessPoolExecutor":
+                own.append(p.name)
+    assert own == ["sweeps.py"]
 
 
 def test_a_sweep_into_a_full_disk_keeps_the_point(tmp_path, capsys, monkeypatch):

@@ -17,7 +17,6 @@ worker processes (``workers``) or a Dask cluster (``scheduler``).
 from __future__ import annotations
 
 import dataclasses
-import os
 from types import SimpleNamespace
 
 import numpy as np
@@ -136,7 +135,7 @@ def executor_for(workers, scheduler, n_jobs):
         return "serial", None
     if scheduler is None and workers is not None and int(workers) < 1:
         raise InputError(f"workers must be a positive number of processes, got {workers!r}")
-    return make_executor(workers or max(1, min(os.cpu_count() or 1, n_jobs)), scheduler)
+    return make_executor(workers, scheduler, jobs=n_jobs)
 
 
 #: the response/contact-force runs, the same in both modes (the paper's values; clearance: the sidecar's 0.5 mm)
