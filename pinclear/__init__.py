@@ -59,8 +59,9 @@ from pinclear.core.version import __version__  # noqa: E402
 # function and an old module name: registered here, ``import pinclear.simulate`` finds the module
 # without the import system setting it as this package's attribute over the function.
 _aliases.install()
-_sys_modules = __import__("sys").modules
-_sys_modules.setdefault("pinclear.simulate", _sys_modules["pinclear.dynamics.simulate"])
+import sys as _sys  # noqa: E402
+
+_sys.modules.setdefault("pinclear.simulate", _sys.modules["pinclear.dynamics.simulate"])
 
 
 def __getattr__(name):

@@ -207,7 +207,7 @@ def test_tests_sit_by_layer_and_every_module_keeps_fast_tests():
     README's test command (the fast tier) entirely."""
     tests = ROOT / "tests"
     assert sorted(p.name for p in tests.iterdir() if p.is_dir() and (p / "__init__.py").exists()) == sorted(LAYERS)
-    assert not list(tests.glob("test_*.py")) or [p.name for p in tests.glob("test_*.py")] == ["test_layers.py"]
+    assert [p.name for p in tests.glob("test_*.py")] == ["test_layers.py"]
     only_slow = []
     for p in sorted(tests.glob("*/test_*.py")):
         funcs = [n for n in ast.parse(p.read_text()).body if isinstance(n, ast.FunctionDef) and n.name.startswith("test_")]

@@ -53,7 +53,7 @@ RESUME_KEYS = tuple(k for k in RUN_KEYS if k not in ("trust", "max_cpu", "start"
 RUN_FILES = ("run.json", "trajectory.npz", "summary.json", "checkpoint.npz")
 
 
-def _check_out_dir(out: Path, files=()):
+def check_out_dir(out: Path, files=()):
     """Fail before the run, not after it, when the results could not be written."""
     if out.exists() and not out.is_dir():
         raise InputError(f"--out {str(out)!r} is an existing file; give a folder")
@@ -212,7 +212,7 @@ def _simulate(args, stop):
         raise InputError("simulate needs a mechanism file and --t-end (with --resume DIR: the same mechanism and "
                          "options as the run being continued; nothing is taken from DIR but its checkpoint)" + hint)
     out = Path(args.out)
-    _check_out_dir(out, RUN_FILES)
+    check_out_dir(out, RUN_FILES)
     with folder_lock(out):
         if args.resume:
             recorded = _read_run_json(out)
@@ -454,7 +454,7 @@ def cmd_bench(args):
 
         # the shared --out default names the benchmarks folder: the atlas gets its own sub-folder
         out = Path("benchmarks/atlas" if args.out == "benchmarks" else args.out)
-        _check_out_dir(out)
+        check_out_dir(out)
         files = [args.file] + list(args.rest or []) if args.file else None
         res = atlas.run_atlas(files, out=out, quick=args.quick, budget=args.budget,
                               methods=args.methods.split(",") if args.methods else None,
@@ -467,7 +467,7 @@ def cmd_bench(args):
         from pinclear.dynamics.trajectory import atomic_write_text
 
         out = Path(args.out)
-        _check_out_dir(out)
+        check_out_dir(out)
         res = bench.bench_outputs(t_end=2.0 if args.t_end is None else args.t_end,
                                   progress=lambda s: print(f"bench outputs: {s}", file=sys.stderr, flush=True))
         atomic_write_text(out / "bench_outputs.json", json.dumps(res, indent=2, default=str))
@@ -481,7 +481,7 @@ def cmd_bench(args):
                                                      _split_names(args.integrators, "RK45"),
                                                      keys=("--methods", "--integrators"))
         out = Path(args.out)
-        _check_out_dir(out)
+        check_out_dir(out)
         files = [args.file] + list(args.rest or []) if args.file else None
         kw = {} if args.max_cpu is None else {"max_cpu": args.max_cpu}
         res = bench.bench_runs(files, t_end=0.5 if args.t_end is None else args.t_end, methods=methods,
@@ -512,7 +512,7 @@ def cmd_bench(args):
         from pinclear.dynamics.trajectory import atomic_write_text
 
         out = Path(args.out)
-        _check_out_dir(out)
+        check_out_dir(out)
         atomic_write_text(out / f"bench_rhs_{mech.name}.json", json.dumps(res, indent=2, default=str))
     else:
         res = bench.work_precision(mech, t_end=args.t_end, out_dir=args.out)

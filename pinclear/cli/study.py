@@ -24,7 +24,7 @@ def build_parser():
 def cli_main(argv=None) -> int:
     import importlib
 
-    from pinclear.cli.commands import _check_out_dir
+    from pinclear.cli.commands import check_out_dir
     from pinclear.core import safeio
 
     args = build_parser().parse_args(argv)
@@ -33,7 +33,7 @@ def cli_main(argv=None) -> int:
     out = Path(args.out or Path("docs") / "study" / args.name)
     # as simulate does: an unwritable OUT fails before minutes of computing, and a second study into
     # the same folder is refused while the first runs
-    _check_out_dir(out)
+    check_out_dir(out)
     with safeio.folder_lock(out):
         rows = run(out, quick=args.quick or args.smoke, smoke=args.smoke)
     print(json.dumps(rows, indent=1, default=str))
