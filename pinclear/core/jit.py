@@ -25,9 +25,14 @@ import time
 from pathlib import Path
 
 import numba
+from numba.core import caching as _caching
+from numba.core import config as _config
 from numba.core import event as _event
 
 from pinclear.core.errors import PinclearError
+
+#: the installed package's root folder (the parent of core/)
+PACKAGE = Path(__file__).resolve().parents[1]
 
 #: bump when the compile options of the kernels change (names the cache folder, see below)
 KERNEL_OPTIONS = "npfloat1"
@@ -63,16 +68,14 @@ def kernels_digest() -> bytes:
     rk_step and rosenbrock_step, a contact kernel the helpers of forces.py): an edit there
     would leave stale code in the cache. The cache folder is named by this digest instead."""
     h = hashlib.sha1(f"{numba.__version__} {KERNEL_OPTIONS} {sys.version_info[:2]}".encode())
-    package = Path(__file__).resolve().parents[1]
     for f in kernel_files():
-        h.update(str(f.relative_to(package)).encode() + f.read_bytes())
+        h.update(str(f.relative_to(PACKAGE)).encode() + f.read_bytes())
     return h.digest()
 
 
 def kernel_files() -> list[Path]:
     """Every module of the package (all its subpackages) that defines compiled code, sorted."""
-    package = Path(__file__).resolve().parents[1]
-    return [f for f in sorted(package.rglob("*.py")) if b"njit" in (t := f.read_bytes()) or b"cfunc" in t]
+    return [f for f in sorted(PACKAGE.rglob("*.py")) if b"njit" in (t := f.read_bytes()) or b"cfunc" in t]
 
 
 KERNELS_DIGEST = kernels_digest()
@@ -124,10 +127,31 @@ def private_folder(path, what="kernel cache folder") -> Path:
 # the folder numba reads cached kernels from (its own NUMBA_CACHE_DIR when set) is checked before
 # any kernel is compiled or loaded; numba reads CACHE_DIR when a cached function is first
 # compiled, so setting it before any kernel module is imported is enough
+class PackageLocator(_caching.UserProvidedCacheLocator):
+    """Files a pinclear kernel under its folder's path inside the package (``pinclear_contact``),
+    where numba's own locator hashes the absolute folder. The same sources installed twice
+    (``pip install .`` into site-packages, then ``pip install -e .`` from the clone) then share one
+    cache entry instead of compiling again into a second folder: the digest folder above already
+    keys on every kernel file's content, and numba's source stamp is the file's own content hash,
+    so a path adds nothing but a recompile."""
+
+    @classmethod
+    def get_suitable_cache_subpath(cls, py_file):
+        return "_".join(Path(py_file).resolve().parent.relative_to(PACKAGE.parent).parts)
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        if not _config.CACHE_DIR.startswith(str(cache_dir())) or not Path(py_file).resolve().is_relative_to(PACKAGE):
+            return None     # a user's own kernel, or the user's own NUMBA_CACHE_DIR: numba's locators
+        return super().from_function(py_func, py_file)
+
+
 if os.environ.get("NUMBA_CACHE_DIR"):
     private_folder(os.environ["NUMBA_CACHE_DIR"])
 else:
     numba.config.CACHE_DIR = str(private_folder(cache_dir()) / f"numba-{KERNEL_OPTIONS}-{KERNELS_DIGEST.hex()[:12]}")
+    if PackageLocator not in _caching.CacheImpl._locator_classes:
+        _caching.CacheImpl._locator_classes.insert(0, PackageLocator)
 
 
 #: the line printed (once per process, on stderr) when pinclear starts compiling kernels

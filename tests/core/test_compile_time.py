@@ -55,3 +55,41 @@ def test_the_kernel_cache_is_keyed_on_every_compiled_module_of_every_layer():
     for layer in ("core", "model", "contact", "dynamics", "mechanisms"):
         assert any(f.startswith(layer + "/") for f in files), layer
     assert "contact/channels.py" in files and "dynamics/stepping/chunk.py" in files
+
+
+CALL = ("import numpy as np, pinclear.core.dense as d, pinclear.core.jit as j; "
+        "x = np.ones(3); d.reflect(np.eye(3), np.zeros(3), 0, x); "
+        "print(j.compile_count(), d.__file__)")
+
+
+def test_the_same_sources_at_another_path_load_the_cached_kernels(tmp_path):
+    """A non-editable install (site-packages) and the clone's editable install hold the same
+    sources at two paths: the second must load what the first compiled (pinclear.core.jit.
+    PackageLocator), not compile into a second cache folder. numba's own locator keys on the
+    absolute folder, so there the copy compiles again (counted here: the kernel itself, > 0)."""
+    import shutil
+
+    copy = tmp_path / "site"
+    shutil.copytree(ROOT / "pinclear", copy / "pinclear", ignore=shutil.ignore_patterns("__pycache__"))
+    env = {**os.environ, "PINCLEAR_CACHE_DIR": str(tmp_path / "cache"), "PINCLEAR_QUIET_COMPILE": "1"}
+    env.pop("NUMBA_CACHE_DIR", None)
+    counts = []
+    for tree in (ROOT, copy):
+        r = subprocess.run([sys.executable, "-c", CALL], capture_output=True, text=True, timeout=900,
+                           env={**env, "PYTHONPATH": str(tree)}, cwd=tmp_path)
+        assert r.returncode == 0, r.stderr[-2000:]
+        n, where = r.stdout.split()
+        assert Path(where).resolve().is_relative_to(tree.resolve()), where
+        counts.append(int(n))
+    assert counts[0] > 0 and counts[1] == 0, counts
+    entries = [p.name for p in (tmp_path / "cache").glob("numba-*/*") if p.is_dir()]
+    assert "pinclear_core" in entries and len(entries) == len(set(entries)), entries
+
+
+def test_the_package_locator_keys_a_kernel_on_its_folder_inside_the_package():
+    from pinclear.core import jit
+
+    assert jit.PackageLocator.get_suitable_cache_subpath(str(jit.PACKAGE / "contact" / "channels.py")) \
+        == "pinclear_contact"
+    assert jit.PackageLocator.get_suitable_cache_subpath(str(jit.PACKAGE / "dynamics" / "stepping" / "rk.py")) \
+        == "pinclear_dynamics_stepping"

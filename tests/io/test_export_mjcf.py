@@ -14,6 +14,12 @@ from pinclear.io.importers import import_file
 from pinclear.model import kinematics
 
 
+@pytest.fixture(autouse=True)
+def _in_a_temporary_folder(tmp_path, monkeypatch):
+    """MuJoCo writes MUJOCO_LOG.TXT into the working folder when it warns: keep it out of the clone."""
+    monkeypatch.chdir(tmp_path)
+
+
 def _q_in(b, a, qa):
     """a's configuration qa laid out for b (joints matched by name)."""
     qb = np.zeros(b.model.nq)

@@ -28,6 +28,12 @@ from pinclear.core.errors import InputError  # noqa: E402
 from pinclear.model.mechanism import Mechanism  # noqa: E402
 
 
+@pytest.fixture(autouse=True)
+def _in_a_temporary_folder(tmp_path, monkeypatch):
+    """MuJoCo writes MUJOCO_LOG.TXT into the working folder when it warns: keep it out of the clone."""
+    monkeypatch.chdir(tmp_path)
+
+
 def _load(name):
     return pinclear.load(ROOT / "urdf" / f"{name}.yaml")
 
