@@ -179,3 +179,23 @@ def test_the_tutorial_runs_as_written_and_prints_what_it_quotes(doc, tmp_path):
             continue
         got = measure(printed) if measure.__code__.co_argcount == 1 else measure(printed, tmp_path)
         assert np.isfinite(got) and abs(got - value) <= tol, f"{doc}: {text!r}: measured {got:g} ({why})"
+
+
+@pytest.mark.slow
+def test_info_prints_a_spherical_chains_distance_to_its_lock(tmp_path, capsys):
+    """The builder's chain starts 90 deg from its lock; a start at q2 = 0.5 rad (edited in the
+    sidecar by hand) is 90 deg - 0.5 rad away (pinclear.model.joint_chains: 90 deg - |q2|)."""
+    from pinclear.cli import commands as cli
+    from pinclear.io.builder import Builder
+
+    b = Builder("ball").body("bob", 2.0, com=(0, 0, -0.5), inertia=(0.01, 0.02, 0.03))
+    b.joint("S", "spherical", "ground", "bob", xyz=(0, 0, 1.0), q=(0.1, 0.2, 0.3))
+    b.write(tmp_path)
+    assert cli.main(["info", str(tmp_path / "ball.yaml")]) == 0
+    out = capsys.readouterr().out
+    assert "spherical chain S (3 revolute axes at one point): 90 deg from its lock at t = 0" in out, out
+    sidecar = tmp_path / "ball.yaml"
+    sidecar.write_text(sidecar.read_text().replace("S_2: 0.0", "S_2: 0.5"))
+    assert cli.main(["info", str(sidecar), "--json"]) == 0
+    margin = json.loads(capsys.readouterr().out)["lock_margins_deg"]["S"]
+    assert margin == pytest.approx(90.0 - np.degrees(0.5), abs=1e-9)
