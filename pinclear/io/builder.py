@@ -22,6 +22,8 @@ chain locks where its first and last axes align (pinclear.model.joint_chains): :
 turns each chain's frame to the assembled start, so the start sits 90 deg from the lock and a
 relative rotation of less than 90 deg from it never reaches the lock (a rotation by an angle
 moves an axis by at most that angle); ``pinclear info`` prints the distance at the start.
+A universal joint has no lock of its own: its two axes stay perpendicular (each is fixed in
+the body the other turns).
 
 Every name the builder writes (the mechanism, which names the files, and its bodies, joints,
 closures, drives, clearances and frames) must match :data:`NAME_PATTERN`: a letter or ``_``,
