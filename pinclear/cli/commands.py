@@ -353,6 +353,9 @@ def cmd_info(args):
                  "q_assembled_by_joint": {model.names[j]: q[model.joints[j].idx_q:model.joints[j].idx_q
                                                             + model.joints[j].nq].tolist()
                                           for j in range(1, model.njoints)}})
+    from pinclear.model.joint_chains import lock_margins
+
+    info["lock_margins_deg"] = {k: float(np.degrees(m)) for k, m in lock_margins(model, q).items()}
     from pinclear.analysis.economy import economy_report
 
     info["economy"] = economy_report(mech, t_end=args.along, threshold=args.threshold)
@@ -400,6 +403,11 @@ def info_text(mech, q, mob, economy) -> str:
         lines.append(f"branch: not defined by a sign (the Jacobian with drives is {J.shape[0]} x {J.shape[1]})")
     lines.append(f"assembly residual at t = 0: {np.abs(phi).max() if phi.size else 0.0:.3g} (closures and drives, "
                  "m or rad)")
+    from pinclear.model.joint_chains import lock_margins
+
+    for label, margin in lock_margins(mech.model, q).items():
+        lines.append(f"spherical chain {label} (3 revolute axes at one point): {np.degrees(margin):.3g} deg from its "
+                     "lock at t = 0 (90 at best; at 0 its first and last axes align and it loses a freedom)")
     active = {f.name for f in mech.clearances}
     decl = [c for c in (mech.sidecar.get("clearances") or []) if isinstance(c, dict)]
     lines.append(f"clearances declared: {len(decl) or 'none'}")

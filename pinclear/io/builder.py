@@ -13,22 +13,63 @@ The tree is the URDF: every body hangs from one parent joint; each loop of the m
 closed by one closure (a cut joint), and only a cut joint can take a clearance (the loader
 replaces its closure by the contact element; docs/tutorial.md). Every key is the sidecar's own
 (docs/inputs.md): the builder writes what a user would write by hand, nothing more.
+
+A URDF has no spherical or universal joint: ``joint(NAME, "spherical", ...)`` writes the
+revolute joints NAME_1, NAME_2, NAME_3 (axes x, y, z of the joint frame, meeting at its origin)
+with two massless links NAME_link1, NAME_link2 between them; ``"universal"`` writes NAME_1 and
+NAME_2 (``axis`` and ``axis2``, perpendicular) with one massless link NAME_link1. A spherical
+chain locks where its first and last axes align (pinclear.model.joint_chains): :meth:`Builder.write`
+turns each chain's frame to the assembled start, so the start sits 90 deg from the lock and a
+relative rotation of less than 90 deg from it never reaches the lock (a rotation by an angle
+moves an axis by at most that angle); ``pinclear info`` prints the distance at the start.
+A universal joint has no lock of its own: its two axes stay perpendicular (each is fixed in
+the body the other turns).
+
+Every name the builder writes (the mechanism, which names the files, and its bodies, joints,
+closures, drives, clearances and frames) must match :data:`NAME_PATTERN`: a letter or ``_``,
+then letters, digits, ``_`` or ``-``. So the files land in the named folder and nothing else,
+a name is never markup in the URDF, and ``NAME.key`` overrides (``--set P2.mu=0.1``) can
+address it; the XML is escaped as well (pinclear.io.urdf_write).
 """
 from __future__ import annotations
 
+import math
+import re
 from pathlib import Path
 
 import numpy as np
 
 from pinclear.core import safeio
 from pinclear.core.errors import InputError
-from pinclear.io.urdf_write import thin_rod as rod  # noqa: F401  (re-exported: a bar's central inertia)
-from pinclear.io.urdf_write import urdf_joint, urdf_link
+from pinclear.io.urdf_write import attr, urdf_joint, urdf_link
 
-#: URDF joint types the builder writes (pinclear's loader accepts what Pinocchio parses)
-JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed")
+#: URDF joint types the builder writes (pinclear's loader accepts what Pinocchio parses), and the
+#: two it writes as chains of revolute joints
+JOINT_TYPES = ("revolute", "prismatic", "continuous", "fixed", "spherical", "universal")
+#: every name the builder writes (module docstring); at most 100 characters
+NAME_PATTERN = r"[A-Za-z_][A-Za-z0-9_-]{0,99}"
 #: revolute and prismatic joints get these limits: none in effect (the closures bound the motion)
 _NO_LIMITS = (-1e9, 1e9)
+#: the spherical chain's axes in its joint frame: pairwise perpendicular at the home pose
+_SPHERICAL_AXES = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+_AXES = {"x": 0, "y": 1, "z": 2}
+
+
+def rod(m, L, axis="x", axial=1e-7):
+    """Central inertia [kg m^2] of a uniform thin rod of mass ``m`` [kg] and length ``L`` [m]
+    along ``axis`` ("x", "y", "z" or a direction in the body frame): m L^2 / 12 about every
+    axis across it. The loader rejects a zero principal moment, so the moment about the rod's
+    own axis is a token ``axial`` (it enters the dynamics only if the rod spins about its axis,
+    which a revolute or prismatic joint across the rod never lets it do)."""
+    i = m * L * L / 12.0
+    if isinstance(axis, str):
+        if axis not in _AXES:
+            raise InputError(f"rod: axis {axis!r}: a name or a direction", key="axis", choices=tuple(_AXES))
+        d = [i, i, i]
+        d[_AXES[axis]] = axial
+        return np.diag(d)
+    a = _direction(axis, "rod: axis")
+    return i * (np.eye(3) - np.outer(a, a)) + axial * np.outer(a, a) + 0.0    # + 0.0: no -0.0 in the file
 
 
 def plate(mass, radius):
@@ -43,11 +84,39 @@ def sines(offset, amp, omega, phase=0.0):
             "terms": [{"amp": float(amp), "omega": float(omega), "phase": float(phase)}]}
 
 
+def _direction(v, what):
+    a = np.asarray(v, float).reshape(-1)
+    if a.shape != (3,) or not np.all(np.isfinite(a)) or np.linalg.norm(a) == 0:
+        raise InputError(f"{what}: {v!r} is not a direction (3 finite numbers, not all zero)", key="axis")
+    return a / np.linalg.norm(a)
+
+
+def _rotation(rpy):
+    """URDF's rpy: R = Rz(yaw) Ry(pitch) Rx(roll)."""
+    import pinocchio as pin
+
+    return pin.rpy.rpyToMatrix(*[float(x) for x in rpy])
+
+
+def _rpy(R):
+    import pinocchio as pin
+
+    return tuple(float(x) for x in pin.rpy.matrixToRpy(R))
+
+
+def _axis_rotation(axis, angle):
+    import pinocchio as pin
+
+    return pin.exp3(np.asarray(axis, float) * float(angle))
+
+
 class Builder:
     """Collects a mechanism and writes NAME.urdf + NAME.yaml (see the module docstring)."""
 
     def __init__(self, name, gravity=(0.0, 0.0, -9.81), description=None, ground="ground"):
-        self.name, self.ground = str(name), str(ground)
+        self.name = str(name)
+        self._check_name("mechanism", self.name)
+        self.ground = self._check_name("ground body", ground)
         self.sidecar = {"name": self.name, "urdf": f"{self.name}.urdf"}
         if description:
             self.sidecar["description"] = str(description)
@@ -55,66 +124,162 @@ class Builder:
         self.links = {self.ground: None}
         self.joints, self.q, self.v = [], {}, {}
         self.closures, self.drives, self.clearances, self.parameters = [], [], [], []
+        self.chains = {}          # spherical joint name -> its three joint specs (write() turns them)
+
+    def _check_name(self, what, name):
+        """``name`` as written, or one InputError naming it and the pattern it must match."""
+        if not isinstance(name, str) or re.fullmatch(NAME_PATTERN, name) is None:
+            raise InputError(f"builder {getattr(self, 'name', name)!r}: {what} name {name!r} is not a name: a letter "
+                             f"or _, then letters, digits, _ or - (at most 100 characters; pattern {NAME_PATTERN})",
+                             key=what.split()[-1])
+        return name
+
+    def _new_name(self, what, name, taken):
+        self._check_name(what, name)
+        if name in taken:
+            raise InputError(f"builder {self.name}: {what} {name!r} defined twice", key=what.split()[-1])
+        return name
 
     def body(self, name, mass, com=(0.0, 0.0, 0.0), inertia=None):
         """A rigid body: mass [kg], centre of mass [m] and central inertia [kg m^2] in its frame
         (3 principal moments or a 3x3 matrix; default: a point-like token inertia)."""
-        if name in self.links:
-            raise InputError(f"builder {self.name}: body {name!r} defined twice", key="body")
+        self._new_name("body", name, self.links)
         inertia = np.eye(3) * 1e-7 if inertia is None else np.asarray(inertia, float)
         inertia = np.diag(inertia) if inertia.ndim == 1 else inertia
         self.links[name] = (float(mass), tuple(float(c) for c in com), inertia)
         return self
 
-    def joint(self, name, type, parent, child, xyz=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0), rpy=(0.0, 0.0, 0.0),
-              q=None, v=None):
+    def _joint_names(self):
+        return {j["name"] for j in self.joints}
+
+    def _add(self, name, type, parent, child, xyz, axis, rpy):
+        spec = {"name": name, "type": type, "parent": parent, "child": child, "xyz": tuple(float(x) for x in xyz),
+                "axis": None if type == "fixed" else tuple(float(a) for a in axis),
+                "limits": _NO_LIMITS if type in ("revolute", "prismatic") else None,
+                "rpy": tuple(float(x) for x in rpy)}
+        self.joints.append(spec)
+        return spec
+
+    def joint(self, name, type, parent, child, xyz=(0.0, 0.0, 0.0), axis=None, rpy=(0.0, 0.0, 0.0),
+              q=None, v=None, axis2=None):
         """A tree joint from ``parent`` to ``child`` at ``xyz``/``rpy`` in the parent's frame; q, v:
-        its initial guess (rad or m; rad/s or m/s) for the sidecar's ``initial:``."""
+        its initial guess (rad or m; rad/s or m/s) for the sidecar's ``initial:``.
+
+        ``axis``: the joint's axis in its frame (default z). ``"spherical"``: three revolute joints
+        NAME_1..3 about x, y, z of the joint frame (no ``axis``), ``q`` three angles [rad] (default
+        0) and no ``v`` (the start velocity follows from the drives); ``"universal"``: NAME_1
+        about ``axis`` (default x) and NAME_2 about ``axis2`` (default y), perpendicular, ``q``
+        two angles. Module docstring: the massless links, the lock."""
         if type not in JOINT_TYPES:
             raise InputError(f"builder {self.name}: joint {name!r}: unknown type {type!r}", key="joint",
                              choices=JOINT_TYPES)
+        taken = self._joint_names() | {c["name"] for c in self.closures}
+        self._new_name("joint", name, taken)
         for body in (parent, child):
             if body not in self.links:
                 raise InputError(f"builder {self.name}: joint {name!r}: no body {body!r} (define it with body() "
                                  "first)", key="joint", choices=sorted(self.links))
-        limits = _NO_LIMITS if type in ("revolute", "prismatic") else None
-        self.joints.append(urdf_joint(name, type, parent, child, xyz, None if type == "fixed" else axis, limits, rpy))
+        if child == self.ground or any(j["child"] == child for j in self.joints):
+            raise InputError(f"builder {self.name}: joint {name!r}: body {child!r} already hangs from a joint (a tree "
+                             "gives every body one parent joint; close a loop with closure())", key="joint")
+        if type in ("spherical", "universal"):
+            return self._chain(name, type, parent, child, xyz, axis, axis2, rpy, q, v, taken)
+        if axis2 is not None:
+            raise InputError(f"builder {self.name}: joint {name!r}: axis2 is a universal joint's", key="axis2")
+        self._add(name, type, parent, child, xyz, (0.0, 0.0, 1.0) if axis is None else _direction(
+            axis, f"builder {self.name}: joint {name!r}: axis"), rpy)
         if q is not None:
             self.q[name] = float(q)
         if v is not None:
             self.v[name] = float(v)
         return self
 
+    def _chain(self, name, type, parent, child, xyz, axis, axis2, rpy, q, v, taken):
+        where = f"builder {self.name}: {type} joint {name!r}"
+        if type == "spherical":
+            if axis is not None or axis2 is not None:
+                raise InputError(f"{where}: takes no axis (its axes are x, y, z of the joint frame; turn them with rpy)",
+                                 key="axis")
+            axes = _SPHERICAL_AXES
+        else:
+            a1 = _direction((1.0, 0.0, 0.0) if axis is None else axis, f"{where}: axis")
+            a2 = _direction((0.0, 1.0, 0.0) if axis2 is None else axis2, f"{where}: axis2")
+            if abs(a1 @ a2) > 1e-9:
+                raise InputError(f"{where}: axis {a1.tolist()} and axis2 {a2.tolist()} are not perpendicular "
+                                 f"(angle {math.degrees(math.acos(max(-1.0, min(1.0, a1 @ a2)))):.6g} deg; a "
+                                 "universal joint's cross has perpendicular arms)", key="axis2")
+            axes = (tuple(a1), tuple(a2))
+        if v is not None:
+            raise InputError(f"{where}: takes no initial v (the start velocity follows from the drives; "
+                             "pinclear.model.kinematics.start_state)", key="v")
+        n = len(axes)
+        q = (0.0,) * n if q is None else tuple(float(x) for x in np.asarray(q, float).reshape(-1))
+        if len(q) != n:
+            raise InputError(f"{where}: q {q!r}: {n} angles [rad], one per axis", key="q")
+        joints = [f"{name}_{k}" for k in range(1, n + 1)]
+        links = [f"{name}_link{k}" for k in range(1, n)]
+        for jn in joints:
+            self._new_name("joint", jn, taken)
+        for ln in links:
+            self._new_name("body", ln, self.links)
+        ends = [parent, *links, child]
+        specs = []
+        for k, (jn, a) in enumerate(zip(joints, axes)):
+            if k < n - 1:
+                self.links[links[k]] = None                   # massless: no inertial element
+            first = k == 0
+            specs.append(self._add(jn, "revolute", ends[k], ends[k + 1], xyz if first else (0.0, 0.0, 0.0), a,
+                                   rpy if first else (0.0, 0.0, 0.0)))
+            self.q[jn] = q[k]
+        if type == "spherical":
+            self.chains[name] = specs
+        return self
+
+    def _frame(self, key, fr, where):
+        if not isinstance(fr, (tuple, list)) or len(fr) not in (2, 3):
+            raise InputError(f"{where}: {key} {fr!r} is (body, xyz) or (body, xyz, rpy)", key=key)
+        if fr[0] not in self.links:
+            raise InputError(f"{where}: {key}: no body {fr[0]!r}", key=key, choices=sorted(self.links))
+        entry = {"parent": fr[0], "xyz": [float(x) for x in fr[1]]}
+        if len(fr) > 2:
+            entry["rpy"] = [float(x) for x in fr[2]]
+        return entry
+
     def closure(self, name, type, frame1, frame2, **keys):
         """A cut joint closing a loop: ``frame1``/``frame2`` are (body, xyz) or (body, xyz, rpy)
         (pinclear.model.closures: planar_point, revolute, spherical, ...); ``keys``: e.g. normal."""
+        self._new_name("closure", name, self._joint_names() | {c["name"] for c in self.closures})
+        where = f"builder {self.name}: closure {name!r}"
         entry = {"name": name, "type": type}
-        for key, fr in (("frame1", frame1), ("frame2", frame2)):
-            entry[key] = {"parent": fr[0], "xyz": [float(x) for x in fr[1]]}
-            if len(fr) > 2:
-                entry[key]["rpy"] = [float(x) for x in fr[2]]
+        entry["frame1"] = self._frame("frame1", frame1, where)
+        entry["frame2"] = self._frame("frame2", frame2, where)
         entry.update(keys)
         self.closures.append(entry)
         return self
 
     def drive(self, joint, law, name=None):
         """A rheonomic drive of a tree joint (``law``: a sidecar law mapping, e.g. :func:`sines`)."""
-        self.drives.append({"name": name or f"{joint}_drive", "joint": joint, "law": law})
+        name = self._new_name("drive", name or f"{joint}_drive", {d["name"] for d in self.drives})
+        self.drives.append({"name": name, "joint": self._check_name("joint", joint), "law": law})
         return self
 
     def clearance(self, closure, type="planar_revolute", name=None, active=False, **keys):
         """A clearance joint replacing the closure ``closure`` (inactive unless ``active``: turned
         on by ``--clearance NAME`` / load(..., clearances=[NAME])); ``keys``: clearance [m],
         radius [m], length [m], material, ce, mu, friction_law... (docs/inputs.md)."""
-        self.clearances.append({"name": name or closure, "type": type, "closure": closure, "active": bool(active),
-                                **keys})
+        name = self._new_name("clearance", name or closure, {c["name"] for c in self.clearances})
+        self.clearances.append({"name": name, "type": type, "closure": self._check_name("closure", closure),
+                                "active": bool(active), **keys})
         return self
 
     def platform(self, body, xyz=None, name=None):
         """The frame whose motion the platform figure plots (the sidecar's ``platform: frame:``):
         ``body``'s own frame, or a new frame ``name`` at ``xyz`` [m] in it (e.g. the centre)."""
+        if body not in self.links:
+            raise InputError(f"builder {self.name}: platform: no body {body!r}", key="platform",
+                             choices=sorted(self.links))
         frame = str(body) if xyz is None else {"parent": str(body), "xyz": [float(x) for x in xyz],
-                                               "name": name or f"{body}_centre"}
+                                               "name": self._check_name("frame", name or f"{body}_centre")}
         self.sidecar["platform"] = {"frame": frame}
         return self
 
@@ -125,8 +290,10 @@ class Builder:
 
     def urdf_text(self):
         links = "".join(urdf_link(n, None if p is None else (p[0], p[1], p[2])) for n, p in self.links.items())
-        return (f'<?xml version="1.0"?>\n<!-- written by pinclear.builder -->\n<robot name="{self.name}">\n'
-                + links + "".join(self.joints) + "</robot>\n")
+        joints = "".join(urdf_joint(j["name"], j["type"], j["parent"], j["child"], j["xyz"], j["axis"], j["limits"],
+                                    j["rpy"]) for j in self.joints)
+        return (f'<?xml version="1.0"?>\n<!-- written by pinclear.builder -->\n<robot name={attr(self.name)}>\n'
+                + links + joints + "</robot>\n")
 
     def sidecar_dict(self):
         d = dict(self.sidecar)
@@ -137,23 +304,48 @@ class Builder:
                 d[key] = val
         return d
 
+    def _write_files(self, folder: Path, head: str) -> Path:
+        import yaml
+
+        # root=folder: a file of the builder is a name inside the folder, never a path through it
+        safeio.write_text(folder / f"{self.name}.urdf", self.urdf_text(), root=folder)
+        text = yaml.safe_dump(self.sidecar_dict(), sort_keys=False, default_flow_style=None, width=110)
+        return safeio.write_text(folder / f"{self.name}.yaml", head + text, root=folder)
+
+    def _turn_chains(self, mech, q) -> bool:
+        """Turn each spherical chain's joint frame to its assembled start (module docstring): the
+        new rpy is the old one times the chain's rotation Rx(q1) Ry(q2) Rz(q3), and the chain's
+        guesses become 0, the same start in coordinates 90 deg from the lock. True if any turned."""
+        model, turned = mech.model, False
+        for specs in self.chains.values():
+            angles = [float(q[model.joints[model.getJointId(s["name"])].idx_q]) for s in specs]
+            if max(abs(a) for a in angles) < 1e-12:
+                continue
+            R = _rotation(specs[0]["rpy"])
+            for s, a in zip(specs, angles):
+                R = R @ _axis_rotation(s["axis"], a)
+            specs[0]["rpy"] = _rpy(R)
+            for s in specs:
+                self.q[s["name"]] = 0.0
+            turned = True
+        return turned
+
     def write(self, folder, head="# written by pinclear.builder\n"):
         """Write ``folder``/NAME.urdf and NAME.yaml, then load them (every key checked by the
         loader) and assemble at t = 0 with every clearance active: returns the ideal Mechanism.
+        A spherical joint's frame is turned to the assembled start first (module docstring).
         A mistake raises the loader's error naming the file and the key."""
-        import yaml
-
         from pinclear.io.sidecar import load
         from pinclear.model import kinematics
 
         folder = Path(folder)
-        folder.mkdir(parents=True, exist_ok=True)
-        safeio.write_text(folder / f"{self.name}.urdf", self.urdf_text())
-        path = folder / f"{self.name}.yaml"
-        text = yaml.safe_dump(self.sidecar_dict(), sort_keys=False, default_flow_style=None, width=110)
-        safeio.write_text(path, head + text)
+        path = self._write_files(folder, head)
         mech = load(path)
-        kinematics.assemble(mech)
+        q = kinematics.assemble(mech)
+        if self.chains and self._turn_chains(mech, q):
+            path = self._write_files(folder, head)
+            mech = load(path)
+            kinematics.assemble(mech)
         names = [c["name"] for c in self.clearances]
         if names:
             free = load(path, clearances=names)

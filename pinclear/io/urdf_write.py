@@ -3,7 +3,14 @@ central inertia): the one writer of the builder and the bundled generators.
 """
 from __future__ import annotations
 
+from xml.sax.saxutils import quoteattr
+
 import numpy as np
+
+
+def attr(text) -> str:
+    """An XML attribute value, quoted and escaped: a name is never markup."""
+    return quoteattr(str(text))
 
 
 def _fmt(v):
@@ -12,9 +19,9 @@ def _fmt(v):
 
 def urdf_link(name, inertial=None):
     if inertial is None:
-        return f'  <link name="{name}"/>\n'
+        return f'  <link name={attr(name)}/>\n'
     m, c, I = inertial
-    return (f'  <link name="{name}">\n    <inertial>\n      <origin xyz="{_fmt(c)}" rpy="0 0 0"/>\n'
+    return (f'  <link name={attr(name)}>\n    <inertial>\n      <origin xyz="{_fmt(c)}" rpy="0 0 0"/>\n'
             f'      <mass value="{m!r}"/>\n'
             f'      <inertia ixx="{float(I[0, 0])!r}" ixy="{float(I[0, 1])!r}" ixz="{float(I[0, 2])!r}" '
             f'iyy="{float(I[1, 1])!r}" iyz="{float(I[1, 2])!r}" izz="{float(I[2, 2])!r}"/>\n'
@@ -22,8 +29,8 @@ def urdf_link(name, inertial=None):
 
 
 def urdf_joint(name, jtype, parent, child, xyz=(0, 0, 0), axis=None, limits=None, rpy=(0, 0, 0)):
-    s = (f'  <joint name="{name}" type="{jtype}">\n    <parent link="{parent}"/>\n'
-         f'    <child link="{child}"/>\n    <origin xyz="{_fmt(xyz)}" rpy="{_fmt(rpy)}"/>\n')
+    s = (f'  <joint name={attr(name)} type={attr(jtype)}>\n    <parent link={attr(parent)}/>\n'
+         f'    <child link={attr(child)}/>\n    <origin xyz="{_fmt(xyz)}" rpy="{_fmt(rpy)}"/>\n')
     if axis is not None:
         s += f'    <axis xyz="{_fmt(axis)}"/>\n'
     if limits is not None:
