@@ -132,3 +132,21 @@ def test_plot_cli_figures_and_summary_json_agree(runs, tmp_path, capsys):
     tr = pinclear.Trajectory.load(out / "trajectory.npz")
     mark = _lines(plots.fig_contact_force(tr))["A.peak"]
     assert mark.get_ydata()[0] == summary["contact_force_peaks"]["A"]
+
+
+def test_a_ball_in_its_socket_names_its_projection():
+    """A spherical clearance's journal figure is a projection of a 3-D path: it says onto which
+    plane and how much spread the hidden direction has (the drawn data are the two named
+    components)."""
+    mech = pinclear.load("four_ups_upu", clearances=["S2"])
+    tr = pinclear.simulate(mech, 0.02, dt_out=1e-3, rtol=1e-6)
+    fig = plots.fig_journal(tr)
+    E = tr.outputs["S2.eccentricity"]
+    text = next(t for t in fig.axes[0].texts if t.get_gid() == "S2.projection").get_text()
+    xl = fig.axes[0].get_xlabel()
+    i, j = "xyz".index(xl[2]), "xyz".index(fig.axes[0].get_ylabel()[2])
+    (k,) = {0, 1, 2} - {i, j}
+    assert f"e_{'xyz'[i]}-e_{'xyz'[j]} plane" in text and f"e_{'xyz'[k]} not shown" in text
+    assert f"{(E[:, k].max() - E[:, k].min()) * 1e3:.3g} mm" in text
+    L = _lines(fig)
+    np.testing.assert_allclose(L["S2.path"].get_xdata(), E[:, i] * 1e3)
