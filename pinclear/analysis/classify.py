@@ -230,6 +230,14 @@ def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_sample
                                   f"{what}Poincaré spread {small[0]:.3g} below the resolution {small[1]:.3g}")
     if period is not None:
         note = f"after a transient of {i0} section points" if i0 else ""
+        if clusters < period:
+            # the period is where the whole sequence repeats; clusters count distinct points, and
+            # two points of one period within the tolerance of each other are one cluster
+            note = "; ".join(x for x in (note, f"{clusters} distinct clusters for period {period}: some of the "
+                                         f"{period} section points of one period lie within the period tolerance of "
+                                         "each other (the orbit passes close to one point of the section twice per "
+                                         "period); the period, where the sequence repeats, is the classification")
+                             if x)
         return Classification(f"period-{period}", period, clusters, None, n, note)
     if n < min_samples_01:
         return Classification("unresolved", None, clusters, None, n,

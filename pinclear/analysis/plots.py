@@ -42,11 +42,30 @@ def plot_phase_portrait(x, xdot=None, section=None, label="", ax=None, path=None
     ax.set_xlabel(axis_label(label or "x", unit))
     ax.set_ylabel(axis_label(label or "x", unit, rate=True))
     ax.set_title("phase portrait")
-    ax.ticklabel_format(style="sci", scilimits=(-3, 4))     # mm-sized clearances: no run-together ticks
+    _readable_ticks(ax)
     ax.grid(alpha=0.3)
     if path is not None:
         savefig(fig, path, dpi=120, bbox_inches="tight")
     return fig, data
+
+
+def _readable_ticks(ax):
+    """Ticks that neither run together nor collide with the labels (issue 52): at most 5 per
+    axis, no additive offset, and for mm- or um-sized signals the power of ten written into the
+    axis label ("[1e-4 m]": ticks in units of 0.1 mm) rather than as matplotlib's offset text,
+    which is drawn at the axis' end over the label or the title."""
+    from matplotlib.ticker import FuncFormatter, MaxNLocator
+
+    for axis, lim, setter in ((ax.xaxis, ax.get_xlim(), ax.set_xlabel), (ax.yaxis, ax.get_ylim(), ax.set_ylabel)):
+        axis.set_major_locator(MaxNLocator(nbins=5))
+        big = max(abs(lim[0]), abs(lim[1]))
+        e = int(np.floor(np.log10(big))) if np.isfinite(big) and big > 0 else 0
+        scale = 10.0 ** e if not -2 <= e <= 3 else 1.0
+        axis.set_major_formatter(FuncFormatter(lambda v, _pos, s=scale: f"{v / s:.4g}"))
+        if scale != 1.0:
+            label = axis.get_label_text()
+            head, sep, unit = label.rpartition(" [")           # the unit's bracket, not an index's
+            setter(f"{head} [1e{e} {unit}" if sep and unit.endswith("]") else f"{label} [1e{e}]")
 
 
 def plot_poincare(section: PoincareSection, ax=None, path=None, unit=None):
@@ -56,7 +75,7 @@ def plot_poincare(section: PoincareSection, ax=None, path=None, unit=None):
     ax.plot(section.x, section.xdot, ".", ms=4, color="C3", gid="section")
     ax.set_xlabel(axis_label(section.label, unit))
     ax.set_ylabel(axis_label(section.label, unit, rate=True))
-    ax.ticklabel_format(style="sci", scilimits=(-3, 4))
+    _readable_ticks(ax)
     ax.set_title(f"Poincaré map (T = {section.period:.6g} s, phase {section.phase:.3g} s, {len(section)} points)")
     ax.grid(alpha=0.3)
     if path is not None:

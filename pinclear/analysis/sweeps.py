@@ -184,13 +184,21 @@ def parse_vary(spec):
             if len(parts) == 4:
                 if a <= 0 or b <= 0:
                     raise InputError(f"--vary {spec!r}: a geometric range needs positive ends")
-                return key, np.geomspace(a, b, n).tolist()
-            return key, np.linspace(a, b, n).tolist()
+                return key, _decimal(np.geomspace(a, b, n))
+            return key, _decimal(np.linspace(a, b, n))
         return key, [_number(x) for x in rhs.split(",")]
     except ValueError as exc:
         if isinstance(exc, InputError):         # already says what is wrong
             raise
         raise InputError(f"--vary {spec!r}: expected KEY=a:b:n[:log] (n >= 1) or KEY=v1,v2,...") from None
+
+
+def _decimal(values) -> list:
+    """A range's values rounded to 15 significant digits: the decimals the user's ends imply
+    (linspace(1e-4, 5e-4, 5)[2] is 0.00030000000000000003, one rounding of 1e-4 + 2e-4 away from
+    0.0003), so the run, its point's name and the table all hold 0.0003 (15 digits: below the 15.95
+    digits a double holds exactly, a change of at most 5e-16 relative)."""
+    return [float(f"{v:.15g}") for v in values]
 
 
 def _number(text):
@@ -241,8 +249,12 @@ def _run_point(job):
         mech = load(job["path"], **{**job["load_kw"], "overrides": {**job["fixed"], **job["overrides"]}})
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)      # a failed run is a result here
-            tr = simulate(mech, job["t_end"], **job["sim_kw"])
+            sim_kw = dict(job["sim_kw"])
+            peaks_after = sim_kw.pop("peaks_after", None)     # the summary's, not simulate()'s
+            tr = simulate(mech, job["t_end"], **sim_kw)
         tr.meta["sweep_point"] = job.get("point_id")
+        if peaks_after is not None:
+            tr.meta["peaks_after"] = peaks_after
         with tempfile.TemporaryDirectory() as tmp:
             p = tr.save(Path(tmp) / "point.npz")
             blob = Path(p).read_bytes()
@@ -442,8 +454,9 @@ def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=
     not computed again.
 
     sim_options: keyword arguments of :func:`pinclear.simulate` (method, integrator, rtol, dt_out,
-    max_cpu...). load_options: of :func:`pinclear.load` (clearances, options, overrides for
-    keys that stay fixed). workers: local processes (default: one per CPU); scheduler: a Dask
+    max_cpu...), and ``peaks_after`` (s): each point's summary also gives its peaks from then on
+    (Trajectory.window_peaks), table columns ``peaks_after.*``. load_options: of
+    :func:`pinclear.load` (clearances, options, overrides for keys that stay fixed). workers: local processes (default: one per CPU); scheduler: a Dask
     scheduler address instead; executor: any concurrent.futures.Executor (e.g. a Dask client's
     ``get_executor()``) or 'serial'. progress: a progress bar with ETA on stderr (True), None,
     or f(done, total, point).
@@ -459,6 +472,9 @@ def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=
     for k in ("t_end", "t0", "strict", "resume", "checkpoint", "progress"):
         if k in sim_kw:
             raise InputError(f"sweep: sim_options may not set {k!r}")
+    pa = sim_kw.get("peaks_after")
+    if pa is not None and not (isinstance(pa, (int, float)) and not isinstance(pa, bool) and 0 <= pa < t_end):
+        raise InputError(f"sweep: peaks_after = {pa!r}: expected a time in [0, t_end = {t_end:g}) s")
     load_kw = dict(load_options or {})
     bad = set(load_kw) - {"options", "overrides", "clearances", "trust"}
     if bad:
@@ -497,8 +513,15 @@ def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=
         st, msg, f = _status_from_file(*_point_files(folder, i), ids[i])
         state.append(SweepPoint(i, ov, st, msg, f))
 
+    from pinclear.core.version import provenance
+
+    # who wrote the index last (each point's trajectory records its own versions); not part of the
+    # sweep's identity: a sweep continued after an upgrade is the same sweep
+    versions = provenance()
+
     def write_index():
-        doc = dict(spec, status=[{"index": p.index, "status": p.status, "message": p.message} for p in state])
+        doc = dict(spec, status=[{"index": p.index, "status": p.status, "message": p.message} for p in state],
+                   versions=versions)
         _write_index(index_path, doc)
 
     write_index()
@@ -599,8 +622,8 @@ def write_table(folder, keys, points):
             scalars = summary_scalars(point_summary(p))
         except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
             scalars = {"table_error": f"{type(exc).__name__}: {exc}"}
-        scalars.pop("status", None)
-        scalars.pop("message", None)
+        for k in [k for k in scalars if k in ("status", "message") or k.startswith(("units.", "aliases."))]:
+            del scalars[k]                # the same texts for every point: the summary's, not the table's
         rows.append({"index": p.index, **p.overrides, "status": p.status, "message": p.message, **scalars})
     cols = list(dict.fromkeys(["index", *keys, "status", "message"] + [c for r in rows for c in r]))
     buf = io.StringIO()

@@ -17,6 +17,7 @@ from pinclear.analysis.poincare import aligned_dt_out, poincare
 from pinclear.analysis.signals import phase_portrait, series
 from pinclear.core.errors import InputError, ModelFileError
 from pinclear.core.safeio import write_text
+from pinclear.core.version import write_provenance
 from pinclear.io.sidecar import parse_assignments
 
 
@@ -110,7 +111,13 @@ def build_parser():
     p = sub.add_parser("poincare", help="phase portrait + Poincaré map of a saved run (trajectory.npz)")
     p.add_argument("trajectory", help="trajectory.npz written by `pinclear simulate`")
     add_mech_option(p, MECH_HELP)
-    p.add_argument("--clearance", action="append", metavar="NAME", help="clearance joints active in the run")
+    p.add_argument("--clearance", action="append", metavar="NAME",
+                   help="clearance joints active in the run (only for a run that does not record them)")
+    p.add_argument("--set", action="append", metavar="NAME.KEY=VALUE",
+                   help="repeat an override the run recorded that a results file may not apply itself (code or a file)")
+    p.add_argument("--option", action="append", metavar="KEY=VALUE", help="repeat a scene option the run recorded")
+    p.add_argument("--trust", action="store_true",
+                   help="trust the mechanism file given with --mech (docs/security.md); never a run's recorded file")
     p.add_argument("--period", type=number(unit="s"), required=True, help="driving period [s]")
     p.add_argument("--signal", action="append", required=True, help="as for bifurcation; repeatable")
     p.add_argument("--skip", type=count(0), default=0, help="transient periods to drop")
@@ -155,6 +162,7 @@ def cli_main(argv) -> int:
             plot_bifurcation(res, signal=key, label=label, path=out / f"bifurcation_{_tag(key)}.png")
         table = {key: res.table(signal=key) for key in res.signals}
         write_text(out / "bifurcation.json", json.dumps(table, indent=2, default=str))
+        write_provenance(out, command="analyse bifurcation", mech=args.file, param=args.param, values=args.values)
         for key in res.signals:
             print(f"{key}:")
             for row in table[key]:
@@ -164,29 +172,17 @@ def cli_main(argv) -> int:
         print(f"wrote {out}/bifurcation.npz, bifurcation.json and the figures")
         return 0 if not res.failures else 1
 
+    from pinclear.cli.view import load_run
     from pinclear.core.bounded import check_regular
-    from pinclear.dynamics.trajectory import Trajectory
-    from pinclear.io.sidecar import load
 
     check_regular(args.trajectory, "path", "trajectory")     # a FIFO or a device would block or never end
-    tr0 = Trajectory.load(args.trajectory)
-    from pinclear.core.models import model_path
-    from pinclear.core.trust import recorded_mechanism
-
-    # a path recorded in the run is never opened: --mech, or the bundled mechanism it names
-    path = args.mech or model_path(recorded_mechanism(tr0.meta, args.trajectory, prog="pinclear analyse poincare"))
-    if args.clearance is None:
-        from pinclear.io.sidecar import read_yaml
-
-        sc = read_yaml(path) or {}
-        if not isinstance(sc, dict):
-            raise ModelFileError(str(path), "sidecar", "expected a mapping")
-        names = {c.get("name") for c in sc.get("clearances") or [] if isinstance(c, dict)}
-        rec = tr0.meta.get("mechanism") if isinstance(tr0.meta.get("mechanism"), dict) else {}
-        ran = {f.get("name") for f in rec.get("forces") or [] if isinstance(f, dict)}
-        args.clearance = sorted(names & ran)
-    mech = load(path, clearances=args.clearance or None)
-    traj = Trajectory.load(args.trajectory, mech=mech)
+    # one loader with plot and view: the run's recorded options, overrides and clearances (the ones
+    # a results file may not apply, repeated with --set), a path recorded in the run never opened
+    # (--mech, or the bundled mechanism it names), and the mechanism checked against the run's
+    # record and digest: a mismatch is refused, one line
+    traj, mech = load_run(args.trajectory, args.mech, trust=True if args.trust else None,
+                          prog="pinclear analyse poincare", overrides=_kv(args.set, "--set"),
+                          options=_kv(args.option, "--option"), clearances=args.clearance)
     report = {}
     for sig in args.signal:
         sec = poincare(traj, args.period, sig, phase=args.phase, skip_transient=args.skip, mech=mech)
@@ -200,6 +196,8 @@ def cli_main(argv) -> int:
             report[sig]["hint"] = _dt_out_hint(traj, args.period, args.phase, report[sig]["interpolated"], len(sec))
             print(f"pinclear: note: {sig}: {report[sig]['hint']}", file=sys.stderr)
     write_text(out / "poincare.json", json.dumps(report, indent=2, default=str))
+    write_provenance(out, command="analyse poincare", run=str(args.trajectory), mech=args.mech,
+                     run_versions=traj.meta.get("versions"))
     print(json.dumps(report, indent=2, default=str))
     return 0
 

@@ -187,7 +187,13 @@ def cmd_simulate(args):
     handler; the trajectory is written before anything that can raise, and a write that fails
     leaves a copy elsewhere (docs/security.md)."""
     with _StopRequest() as stop:
-        return _simulate(args, stop)
+        rc = _simulate(args, stop)
+        if getattr(args, "check", False) and rc == 0 and not stop.requested:
+            # the run again at rtol/10 and half the output step, and the table of what moved
+            from pinclear.cli.check import check_run
+
+            rc = check_run(args, lambda refined: _simulate(refined, stop))
+        return rc
 
 
 def _simulate(args, stop):
@@ -211,6 +217,8 @@ def _simulate(args, stop):
                 hint = f"; the run in it was started as: {_resume_command(_read_run_json(Path(args.resume)), args.resume)}"
         raise InputError("simulate needs a mechanism file and --t-end (with --resume DIR: the same mechanism and "
                          "options as the run being continued; nothing is taken from DIR but its checkpoint)" + hint)
+    if getattr(args, "peaks_after", None) is not None and not 0 <= args.peaks_after < args.t_end:
+        raise InputError(f"--peaks-after {args.peaks_after:g}: expected a time in [0, --t-end {args.t_end:g}) s")
     out = Path(args.out)
     check_out_dir(out, RUN_FILES)
     with folder_lock(out):
@@ -261,6 +269,8 @@ def _simulate(args, stop):
                 if bar is not None:
                     bar.close()
         stop.critical = True           # from here on, everything computed is written whatever arrives
+        if getattr(args, "peaks_after", None) is not None:     # the summary's peaks after a transient
+            traj.meta["peaks_after"] = args.peaks_after
         return _save_run(args, mech, traj, out, stop)
 
 
@@ -540,6 +550,8 @@ def cmd_sweep(args):
         sim["dt_out"] = args.dt_out
     if args.max_cpu is not None:
         sim["max_cpu"] = args.max_cpu
+    if args.peaks_after is not None:
+        sim["peaks_after"] = args.peaks_after
     load_kw = {"options": parse_kv(args.option, "--option"), "overrides": parse_kv(args.set, "--set"),
                "clearances": args.clearance}
     from pinclear.io.sidecar import check_disjoint
@@ -596,6 +608,7 @@ DELEGATED = (("view", "pinclear.cli.view", "view_main", "meshcat viewer / standa
              ("reproduce", "pinclear.cli.reproduce", "cli_main", "a source paper's study with its numbers beside ours"),
              ("import", "pinclear.cli.importing", "cli_main", "a mechanism from SDF, MJCF or a closing-frame URDF as a URDF tree + sidecar"),
              ("export", "pinclear.cli.export", "cli_main", "a mechanism as MuJoCo MJCF (--mjcf OUT.xml)"),
+             ("export-run", "pinclear.cli.export_run", "cli_main", "a saved run's samples as CSV / MATLAB .mat"),
              ("wear", "pinclear.cli.wear", "cli_main", "Archard wear of revolute clearances over a service life"),
              ("study", "pinclear.cli.study", "cli_main", "the wear studies (paper 002's linkage worn at A and B)"))
 
@@ -636,6 +649,12 @@ def _add_run_args(s, rtol):
                    help="time integrator (RK4: fixed step --h)")
     s.add_argument("--rtol", type=number(), default=rtol, help="relative tolerance of the adaptive integrators"
                    + (" (default: simulate's, 1e-8)" if rtol is None else ""))
+
+
+def _add_peaks_after(s):
+    s.add_argument("--peaks-after", type=number("nonnegative", "s"), default=None, metavar="T",
+                   help="also give the peaks from T seconds on (summary 'peaks_after': the steady regime after a "
+                        "start-up transient; the whole run's peaks stay)")
 
 
 def build_parser():
@@ -682,6 +701,12 @@ def build_parser():
                         "every clearance centred with zero relative velocity, as the papers start), rest, "
                         "least-energy (the clearance mechanism's velocity of least kinetic energy: a start-up "
                         "impact) or state FILE (q and v from a .npz or .json, kept off centre)")
+    _add_peaks_after(s)
+    s.add_argument("--check", action="store_true",
+                   help="then run again at rtol/10 and half the output step (into OUT/check) and print how the "
+                        "summary's peaks, events and energy audit moved; exit 1 if any moved by more than --check-tol")
+    s.add_argument("--check-tol", type=number(), default=None, metavar="REL",
+                   help="relative change that counts as moved for --check (default 0.01)")
     s.add_argument("--resume", default=None, metavar="DIR",
                    help="continue the interrupted or stopped run saved in DIR (same options, same steps)")
     s.add_argument("--progress", choices=["auto", "on", "off"], default="auto",
@@ -701,6 +726,7 @@ def build_parser():
                    help="output interval [s] (default: 500 intervals per run)")
     s.add_argument("--max-cpu", type=number(unit="s"), default=None,
                    help="CPU budget per point [s] (default: no budget)")
+    _add_peaks_after(s)
     s.add_argument("--workers", type=count(1), default=None, help="local worker processes (default: one per CPU)")
     s.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
                    help="run the points on this Dask distributed cluster instead (default: local processes)")

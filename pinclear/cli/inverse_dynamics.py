@@ -11,6 +11,7 @@ import numpy as np
 
 from pinclear.core import safeio
 from pinclear.core.errors import ModelFileError, PinclearError
+from pinclear.core.version import provenance
 from pinclear.dynamics.screw.inverse_dynamics import inverse_dynamics
 from pinclear.dynamics.screw.section import read_section
 from pinclear.dynamics.screw.system import screw_system
@@ -83,7 +84,8 @@ def cli_main(argv=None) -> int:
                             lambda fh: np.savetxt(fh, table, delimiter=",", header=",".join(header), comments=""))
         summ = res.summary()
         summ.update({"mechanism": mech.name, "law": args.law, "options": mech.options, "t_end": t_end,
-                     "samples": args.n, "units": "N for prismatic drives, N m for revolute"})
+                     "samples": args.n, "units": "N for prismatic drives, N m for revolute",
+                     "versions": provenance()})
         safeio.write_text(out / "peaks.json", json.dumps(summ, indent=2))
         plot(res, out / "drive_forces.png",
              f"{mech.name} {args.law or 'platform.motion'} limbs={'on' if args.limbs else 'off'}")

@@ -33,7 +33,44 @@ def check_run_mechanism(traj, mech, file):
     traj.check_mechanism(mech, str(file))
 
 
-def load_run(npz, mech_path=None, trust=None, prog=None):
+def _same_value(a, b) -> bool:
+    """A recorded value and the user's spelling of it: equal as data, or as numbers (YAML reads
+    2e-4 as a string, the run recorded 0.0002)."""
+    if a == b:
+        return True
+    if isinstance(a, bool) or isinstance(b, bool):
+        return False
+    try:
+        return float(a) == float(b)
+    except (TypeError, ValueError):
+        return str(a) == str(b)
+
+
+def _given_load_args(recorded: dict, given: dict, npz) -> dict:
+    """The run's recorded load arguments with the entries the user repeated on the command line
+    (``given``: {"overrides": {...} from --set, "options": {...} from --option}) taken as the
+    user's: a recorded entry that adds code or a file is refused (check_recorded_args) unless the
+    user names it with the same value (then it is the user's word, under --trust like the file).
+    A --set the run was made without, or with another value, would show another mechanism than
+    the run's: refused, one line."""
+    from pinclear.core.errors import InputError
+    from pinclear.core.jsonsafe import jsonable
+
+    kept = dict(recorded)
+    for part, flag in (("overrides", "--set"), ("options", "--option")):
+        rec = dict(recorded.get(part) or {})
+        for k, v in (given.get(part) or {}).items():
+            if k not in rec:
+                raise InputError(f"{flag} {k}={v}: the run {npz} was made without it (its recorded {part}: "
+                                 f"{', '.join(sorted(map(str, rec))) or 'none'}); {flag} here only repeats the run's own")
+            if not _same_value(jsonable(rec[k]), jsonable(v)):
+                raise InputError(f"{flag} {k}={v}: the run {npz} was made with {k} = {rec[k]!r}")
+            del rec[k]
+        kept[part] = rec or None
+    return kept
+
+
+def load_run(npz, mech_path=None, trust=None, prog=None, overrides=None, options=None, clearances=None):
     """A saved trajectory and the mechanism it was run on (same options and active clearances
     as recorded in its metadata), checked to be that mechanism (:func:`check_run_mechanism`).
 
@@ -41,7 +78,9 @@ def load_run(npz, mech_path=None, trust=None, prog=None):
     records: a path recorded in a results file is never opened. ``trust`` covers the file at
     ``mech_path`` (named by the user) only; the recorded options and overrides never add code
     or files (pinclear.core.trust.check_recorded_args; docs/security.md). ``prog``: the
-    subcommand asking, whose --help the error of a run without ``mech_path`` points to."""
+    subcommand asking, whose --help the error of a run without ``mech_path`` points to.
+    ``overrides`` / ``options`` (--set / --option): recorded entries the user repeats, taken as
+    the user's (:func:`_given_load_args`)."""
     from pinclear.core.errors import ModelFileError, PinclearError
     from pinclear.core.trust import check_recorded_args, recorded_mechanism
     from pinclear.dynamics.trajectory import Trajectory
@@ -57,7 +96,17 @@ def load_run(npz, mech_path=None, trust=None, prog=None):
         raise ModelFileError(str(npz), "npz", f"not a pinclear trajectory ({why})") from None
     # recorded options and overrides never add code or files (with --trust neither), and a
     # recorded path is never opened: the user names the file, or the run's is a bundled one
-    la = check_recorded_args(_recorded_load_args(traj), npz)
+    given = {"overrides": overrides or {}, "options": options or {}}
+    la = check_recorded_args(_given_load_args(_recorded_load_args(traj), given, npz), npz)
+    for part in ("overrides", "options"):
+        la[part] = {**(la.get(part) or {}), **given[part]} or None
+    if clearances:          # the user's list: for a run saved before pinclear recorded its load arguments
+        if la.get("clearances") and sorted(la["clearances"]) != sorted(clearances):
+            from pinclear.core.errors import InputError
+
+            raise InputError(f"--clearance {', '.join(clearances)}: the run {npz} was made with the clearances "
+                             f"{', '.join(la['clearances'])} active")
+        la["clearances"] = list(clearances)
     if mech_path is None:
         mech_path, trust = recorded_mechanism(traj.meta, npz, prog=prog), False
     mech = load(mech_path, **la, trust=trust)
@@ -142,7 +191,8 @@ def build_view_parser():
     add_mech_option(ap, MECH_HELP + "; with a trajectory .npz only")
     ap.add_argument("--clearance", action="append", default=[], metavar="NAME", help="activate a clearance joint")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                    help="NAME.key=value (clearance key) or option=value (scene option)")
+                    help="NAME.key=value (clearance key) or option=value (scene option); with a run, repeat an "
+                         "override the run recorded that a results file may not apply itself (code or a file)")
     ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE", help="set a scene option")
     ap.add_argument("--trust", action="store_true",
                     help="trust the mechanism file named on the command line (FILE or --mech): allow its "
@@ -174,8 +224,15 @@ def view_main(argv: list[str]) -> int:
         size = _checked_scene_args(a)
         traj = None
         if a.file.lower().endswith(".npz"):
-            traj, mech = load_run(a.file, a.mech, trust=trust, prog="pinclear view")
+            traj, mech = load_run(a.file, a.mech, trust=trust, prog="pinclear view",
+                                  overrides=parse_assignments(a.set, "--set"),
+                                  options=parse_assignments(a.option, "--option"))
         else:
+            if a.mech is not None and Path(a.mech).resolve() != Path(a.file).resolve():
+                from pinclear.core.errors import InputError
+
+                raise InputError(f"view {a.file}: FILE is the mechanism, --mech {a.mech} names a second one; "
+                                 "--mech goes with a trajectory .npz (give one mechanism)")
             mech = load(a.file, options=parse_assignments(a.option, "--option") or None,
                                  overrides=parse_assignments(a.set, "--set") or None,
                                  clearances=a.clearance or None, trust=trust)
@@ -247,6 +304,11 @@ def build_plot_parser():
     ap.add_argument("--frame", default=None,
                     help="frame plotted as the platform (default: the sidecar's platform frame)")
     ap.add_argument("--format", default="png", choices=["png", "pdf", "svg"], help="image format")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                    help="repeat an override the run recorded (NAME.key=value) that a results file may not apply "
+                         "itself (code or a file): your word for it, with --trust (docs/security.md)")
+    ap.add_argument("--option", action="append", default=[], metavar="KEY=VALUE",
+                    help="repeat a scene option the run recorded, as --set")
     ap.add_argument("--trust", action="store_true",
                     help="trust the mechanism file given with --mech (allow its Python functions outside "
                          "pinclear); a run's recorded file and arguments are never trusted (docs/security.md)")
@@ -268,12 +330,19 @@ def plot_main(argv: list[str]) -> int:
         for f in (a.file, a.ref):
             if f is not None:               # a FIFO or a device would block or never end
                 check_regular(f, "path", "trajectory")
-        traj, mech = load_run(a.file, a.mech, trust=_trust(a.trust), prog="pinclear plot")
+        from pinclear.io.sidecar import parse_assignments
+
+        given = {"overrides": parse_assignments(a.set, "--set"), "options": parse_assignments(a.option, "--option")}
+        traj, mech = load_run(a.file, a.mech, trust=_trust(a.trust), prog="pinclear plot", **given)
         ref = None
         if a.ref:
             ref, ref_mech = load_run(a.ref, a.mech, trust=_trust(a.trust), prog="pinclear plot")
             check_same_tree(mech, ref_mech, a.file, a.ref)
         written, skipped = save_all(traj, a.out, mech=mech, ref=ref, fmt=a.format, frame=a.frame)
+        from pinclear.core.version import write_provenance
+
+        write_provenance(a.out, command="plot", run=str(a.file), ref=a.ref, mech=a.mech,
+                         run_versions=traj.meta.get("versions"))
     except PinclearError as exc:
         print(f"pinclear: error: {exc}", file=sys.stderr)
         return 2

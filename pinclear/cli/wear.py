@@ -9,6 +9,7 @@ from pathlib import Path
 from pinclear.analysis.wear_life import SCHEMES, WearSettings, _tables, block_length, converged, plot, worn_joint
 from pinclear.core import safeio
 from pinclear.core.errors import InputError
+from pinclear.core.version import provenance
 
 
 def build_parser():
@@ -79,7 +80,7 @@ def cli_main(argv=None) -> int:
                    "update_factor": [min(fac), max(fac)], "updates": len(fac), "block": block,
                    "max_depth_m": {n: float(d.max()) for n, d in res["depth"].items()},
                    "cpu_sim_s": float(sum(res["history"]["cpu_sim"])),
-                   "cpu_update_s": float(sum(res["history"]["cpu_update"]))}
+                   "cpu_update_s": float(sum(res["history"]["cpu_update"])), "versions": provenance()}
         safeio.write_text(out / "summary.json", json.dumps(summary, indent=1) + "\n")
     print(json.dumps(summary))
     return 0 if res["converged"] else 1

@@ -126,8 +126,9 @@ def _refuse_code(key, value, run_file, where, depth=0):
         bad = "a function name"
     if bad is not None:
         raise ModelFileError(str(run_file), where, f"a saved run may not set {bad!r} (code or a file): a results "
-                             "file never adds code, laws or files to a mechanism, with --trust neither; give the "
-                             "mechanism file and its options on the command line (--mech FILE, --set KEY=VALUE)")
+                             "file never adds code, laws or files to a mechanism, with --trust neither; repeat it on "
+                             "the command line as your own (plot, view, analyse poincare: --mech FILE --set "
+                             "KEY=VALUE, with --trust for code outside pinclear)")
     if depth > 32:
         raise ModelFileError(str(run_file), where, "nested too deeply")
     if isinstance(value, dict):

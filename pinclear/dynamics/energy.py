@@ -94,16 +94,20 @@ def _quadrature_error(y, t):
 def energy_balance(traj) -> dict:
     """The energy balance of a run (see the module doc), a mapping:
 
-    ``error``: max_t |B(t) - B(0)| / scale; ``t``: where; ``bound``: the error the run's
-    tolerances allow (relative to scale); ``ok``: error <= bound; ``scale`` (J): the energy that
-    moved in the run,
+    ``error_rel``: max_t |B(t) - B(0)| / scale_J (``error_J``: the same in joules); ``t`` (s): where;
+    ``bound_rel``: the error the run's tolerances allow, relative to scale_J (``bound_J`` in
+    joules); ``ok``: error <= bound; ``scale_J``: the energy that moved in the run,
 
         max T + max |V_g - V_g(0)| + max V_el + E_diss(end) + max |W_drives| + max |W_closures|
         + max |W_applied|,
 
-    zero only when nothing moved (then error = 0); ``terms``: each term of B at the run's last
-    sample, the time ``terms_t`` (J; gravity as the change from t0); ``terms_at_error``: the same
-    at ``t``, the time of the largest error; ``bound_terms``: the parts of the bound.
+    zero only when nothing moved (then error = 0); each term of B at the run's last sample, the
+    time ``terms_t`` (s), in joules, split into ``terms_absolute_J`` (kinetic T and elastic V_el:
+    values at that time) and ``terms_change_J`` (gravity V_g - V_g(t0), the dissipated energy
+    and the works: changes since t0); ``terms_at_error_absolute_J`` / ``_change_J``: the same at
+    ``t``, the time of the largest error; ``bound_terms_rel``: the parts of the bound. The
+    names before summary schema 2 (``error``, ``bound``, ``scale``, ``terms``,
+    ``terms_at_error``, ``bound_terms``: :data:`ALIASES`) are kept with the same values.
 
     The bound, written down here and not fitted to any run:
 
@@ -132,7 +136,8 @@ def energy_balance(traj) -> dict:
     """
     S = balance_series(traj)
     if "message" in S:
-        return {"error": None, "t": None, "ok": None, "bound": None, "scale": None, "message": S["message"]}
+        return {"error_rel": None, "error_J": None, "t": None, "ok": None, "bound_rel": None, "bound_J": None,
+                "scale_J": None, "error": None, "bound": None, "scale": None, "message": S["message"]}
     t, n = S["t"], len(S["t"])
     T, Vg, Vel, D, Wd, Wc, Wa = (S[k] for k in SERIES)
     dev = np.abs(S["balance"])
@@ -158,10 +163,32 @@ def energy_balance(traj) -> dict:
     else:
         terms["closure_drift"] = terms["quadrature"] = 0.0
     bound = float(sum(terms.values()))
-    return {"error": error, "t": float(t[k]), "ok": bool(error <= bound), "bound": bound, "scale": scale,
-            "terms": {key: float(S[key][-1]) for key in SERIES}, "terms_t": float(t[-1]),
-            "terms_at_error": {key: float(S[key][k]) for key in SERIES},
-            "bound_terms": terms, "steps": steps, "samples": n}
+    res = {"error_rel": error, "error_J": float(dev[k]), "t": float(t[k]), "ok": bool(error <= bound),
+           "bound_rel": bound, "bound_J": bound * scale, "scale_J": scale,
+           "terms_absolute_J": _split_terms(S, -1, ABSOLUTE), "terms_change_J": _split_terms(S, -1, CHANGES),
+           "terms_t": float(t[-1]),
+           "terms_at_error_absolute_J": _split_terms(S, k, ABSOLUTE), "terms_at_error_change_J": _split_terms(S, k, CHANGES),
+           "bound_terms_rel": terms, "steps": steps, "samples": n}
+    # the names before summary schema 2 (ALIASES), kept for readers of older summaries
+    res.update({"error": error, "bound": bound, "scale": scale, "terms": {key: float(S[key][-1]) for key in SERIES},
+                "terms_at_error": {key: float(S[key][k]) for key in SERIES}, "bound_terms": terms})
+    return res
+
+
+#: the balance's terms that are values at a time (J): kinetic T and elastic V_el, zero at rest
+ABSOLUTE = ("kinetic", "elastic")
+#: the terms that are changes since the run's start t0 (J): V_g - V_g(t0), the energy dissipated
+#: and the work done since t0
+CHANGES = ("gravity", "dissipated", "work_drives", "work_closures", "work_applied")
+#: energy_balance's keys before summary schema 2 -> the key that now holds the value (the old
+#: keys stay, with the same values): relative to ``scale_J``, or joules
+ALIASES = {"error": "error_rel", "bound": "bound_rel", "scale": "scale_J", "bound_terms": "bound_terms_rel",
+           "terms": "terms_absolute_J + terms_change_J", "terms_at_error": "terms_at_error_absolute_J + "
+           "terms_at_error_change_J"}
+
+
+def _split_terms(S, k, keys) -> dict:
+    return {key: float(S[key][k]) for key in keys}
 
 
 #: the balance's terms: balance_series' series and energy_balance's ``terms``, by the same names

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import json
-import platform
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -15,12 +14,22 @@ from pinclear.model import kinematics
 
 
 def _versions():
-    import scipy
+    """The run's provenance (pinclear.core.version.provenance): pinclear's version and commit, the
+    versions of Pinocchio, NumPy, SciPy, Numba and Python."""
+    from pinclear.core.version import provenance
 
-    from pinclear.core.version import __version__
+    return provenance()
 
-    return {"pinclear": __version__, "pinocchio": pin.__version__, "numpy": np.__version__,
-            "scipy": scipy.__version__, "python": platform.python_version()}
+
+def _digest(mech):
+    """The mechanism's identity (pinclear.dynamics.validate.mechanism_digest: its description with
+    parameters, inertias and joint placements), None if it cannot be formed."""
+    from pinclear.dynamics.validate import mechanism_digest
+
+    try:
+        return mechanism_digest(mech)
+    except (AttributeError, TypeError, ValueError):
+        return None
 
 
 #: one implementation (pinclear.core.jsonsafe), under its old names here too
@@ -111,6 +120,18 @@ def atomic_write_text(path, text: str, root=None):
     return write_text(path, text, root)
 
 
+#: the version of summary.json's layout (Trajectory.summary): 2 named the energy audit's units
+#: (error_rel, error_J, terms_absolute_J / terms_change_J; the older keys kept, ``aliases``) and
+#: added ``versions``, ``units`` and ``peaks_after``
+SUMMARY_SCHEMA = 2
+#: the units of the summary's numbers whose key does not say them (summary["units"])
+SUMMARY_UNITS = {"t_end": "s", "cpu_s": "s", "max_closure_residual": "m or rad (closure rows' |Phi|_inf)",
+                 "drive_force_peaks": "N (prismatic drive) or N m (revolute drive)", "drive_force_peak_times": "s",
+                 "contact_force_peaks": "N", "contact_force_peak_times": "s",
+                 "acceleration_peaks": "m/s^2 or rad/s^2 per dof; t in s", "energy_drift_rel": "1 (of the run's energy)",
+                 "energy_balance.t": "s", "energy_balance.terms_t": "s", "peaks_after.t_from": "s",
+                 "tracking_error": "m (positions), rad (rotations)", "rtol": "1"}
+
 #: the energy channels every saved run holds
 ENERGY_KEYS = ("kinetic", "potential", "spring", "dissipated_power")
 #: the statuses a run can end with
@@ -169,7 +190,8 @@ class Trajectory:
         tr.meta = {"mechanism": mech.describe(), "method": form.describe(), "integrator": integrator,
                    "rtol": rtol, "atol": atol if np.isscalar(atol) else list(np.ravel(atol)),
                    "t_requested": [float(t_eval[0]), float(t_eval[-1]), len(t_eval)],
-                   "options": mech.options, "versions": _versions()}
+                   "options": mech.options, "versions": _versions(),
+                   "mechanism_digest": _digest(mech)}
         return tr
 
     def fill_states(self, samples):
@@ -267,8 +289,14 @@ class Trajectory:
             res["platform_rotation"] = er
         return res
 
-    def summary(self) -> dict:
-        s = {"status": self.status, "message": self.message, "failure": self._failure_record(),
+    def summary(self, peaks_after=None) -> dict:
+        """The run's summary (summary.json). ``peaks_after`` (s; default: the run's recorded
+        ``meta["peaks_after"]``, set by ``simulate --peaks-after``): also the peaks from that time on,
+        under ``peaks_after`` (:meth:`window_peaks`); the whole run's peaks stay where they were."""
+        from pinclear.dynamics.energy import ALIASES
+
+        s = {"schema_version": SUMMARY_SCHEMA, "status": self.status, "message": self.message,
+             "failure": self._failure_record(),
              "t_end": float(self.t[-1]) if len(self.t) else None,
              "samples": len(self.t),
              "max_closure_residual": float(np.max(self.residual)) if len(self.residual) else None,
@@ -291,7 +319,68 @@ class Trajectory:
                 s["tracking_error"] = te
         s["energy_balance"] = self.energy_balance()
         s.update(self.peak_summary())
+        s["versions"] = self.meta.get("versions")
+        s["aliases"] = {f"energy_balance.{k}": f"energy_balance.{v}" for k, v in ALIASES.items()}
+        s["units"] = SUMMARY_UNITS
+        if peaks_after is None:
+            peaks_after = self.meta.get("peaks_after")
+        if peaks_after is not None:
+            from pinclear.core.errors import InputError
+
+            try:
+                s["peaks_after"] = self.window_peaks(peaks_after)
+            except InputError as exc:     # e.g. a failed run that ended before T: said, the rest kept
+                s["peaks_after"] = {"t_from": peaks_after, "message": str(exc)}
         return _jsonable(s)
+
+    def window_peaks(self, t_from) -> dict:
+        """The peaks from ``t_from`` (s) to the end, the steady regime after a start-up transient:
+        ``{"t_from", "drive_force_peaks", "drive_force_peak_times", "contact_force_peaks",
+        "contact_force_peak_times", "acceleration_peaks", "peaks_from"}`` in the units of
+        :meth:`peak_summary`. Where the whole run's peak from the integration lies at or after
+        ``t_from`` it is the window's peak too (the largest of the run, inside the window) and is
+        taken ("integration"); else the window's peak over the output samples
+        (pinclear.dynamics.stepping.peaks.window_peak: a lower bound, resolved by the output step;
+        "samples"). ``peaks_from`` names the source per channel, ``{"drive_force_peaks.A1": ...}``."""
+        from pinclear.core.errors import InputError
+        from pinclear.dynamics.stepping.peaks import window_peak
+
+        if isinstance(t_from, bool) or not isinstance(t_from, (int, float)) or not np.isfinite(t_from):
+            raise InputError(f"peaks_after: expected a time in seconds, got {t_from!r}")
+        t_from = float(t_from)
+        if len(self.t) and t_from > self.t[-1]:
+            raise InputError(f"peaks_after = {t_from:g} s lies after the run's end (t = {self.t[-1]:.6g} s): no "
+                             "sample to take a peak from")
+        pk = self.stats.get("peaks") if isinstance(self.stats.get("peaks"), dict) else {}
+        res = {"t_from": t_from, "drive_force_peaks": {}, "drive_force_peak_times": {}, "contact_force_peaks": {},
+               "contact_force_peak_times": {}, "acceleration_peaks": {}, "peaks_from": {}}
+
+        def pick(family, name, samples):
+            rec = (pk.get(family) or {}).get(name)
+            if isinstance(rec, dict) and rec.get("t") is not None and rec["t"] >= t_from:
+                return rec["value"], rec["t"], "integration"
+            value, t = window_peak(self.t, samples, t_from=t_from) if samples is not None else (None, None)
+            return (None, None, None) if value is None or not np.isfinite(value) else (value, t, "samples")
+
+        drives = list(pk.get("drive_forces") or {}) or [
+            d["name"] for d in (self.meta.get("mechanism") or {}).get("drives", []) if isinstance(d, dict)]
+        for name in drives:
+            value, t, src = pick("drive_forces", name, self.lam.get(name))
+            res["drive_force_peaks"][name], res["drive_force_peak_times"][name] = value, t
+            res["peaks_from"][f"drive_force_peaks.{name}"] = src
+        contacts = list(pk.get("contact_forces") or {}) or [c.get("name") for c in self.stats.get("clearances", [])
+                                                             if isinstance(c, dict)]
+        for name in contacts:
+            fn = self.outputs.get(f"{name}.fn")     # the total normal force, the contact peaks' quantity
+            value, t, src = pick("contact_forces", name, None if fn is None else np.ravel(fn))
+            res["contact_force_peaks"][name], res["contact_force_peak_times"][name] = value, t
+            res["peaks_from"][f"contact_force_peaks.{name}"] = src
+        for j, name in enumerate(pk.get("accelerations") or {}):
+            col = self.a[:, j] if self.a.ndim == 2 and j < self.a.shape[1] else None
+            value, t, src = pick("accelerations", name, col)
+            res["acceleration_peaks"][name] = None if value is None else {"value": value, "t": t}
+            res["peaks_from"][f"acceleration_peaks.{name}"] = src
+        return res
 
     def peak_summary(self) -> dict:
         """The run's peaks as summary.json and :meth:`summary` give them (one function for both):
@@ -356,6 +445,21 @@ class Trajectory:
         arrays["meta"] = np.array(json.dumps(_jsonable(meta)))
         return atomic_savez(path, arrays)
 
+    def to_csv(self, path):
+        """The samples as CSV for other programs (pinclear.dynamics.export_run: one column per
+        scalar channel, t, q.NAME, v.NAME, a.NAME, lam.NAME, out.*, energy.*, SI units, shortest
+        round-trip decimals); returns the path."""
+        from pinclear.dynamics.export_run import write_csv
+
+        return write_csv(self, path)
+
+    def to_mat(self, path):
+        """The samples as a MATLAB .mat file (scipy.io.savemat; matrices t, q, v, a, z, lam,
+        outputs, energies with their column names, and the metadata as JSON text); returns the path."""
+        from pinclear.dynamics.export_run import write_mat
+
+        return write_mat(self, path)
+
     @classmethod
     def load(cls, path, mech=None):
         """A saved run (NPZ + JSON metadata). Loading never imports code; ``mech`` (optional) is
@@ -378,7 +482,8 @@ class Trajectory:
             raise V.file_error(path, "metadata 'mech_path': expected a path")
         for k, types in (("mechanism", dict), ("load_args", dict), ("method", dict), ("options", dict),
                          ("versions", dict), ("summary", dict), ("integrator", str), ("rtol", (int, float)),
-                         ("atol", (int, float, list)), ("t_requested", list), ("parameters", list)):
+                         ("atol", (int, float, list)), ("t_requested", list), ("parameters", list),
+                         ("peaks_after", (int, float)), ("mechanism_digest", str)):
             if not isinstance(meta.get(k), (types, type(None))) or isinstance(meta.get(k), bool):
                 raise V.file_error(path, f"metadata {k!r}: expected {getattr(types, '__name__', 'a number')}, "
                                    f"got {type(meta.get(k)).__name__}")
@@ -439,6 +544,13 @@ class Trajectory:
             if a != b:
                 raise InputError(f"{path}: the run was made with mechanism {rec.get('name')!r} "
                                  f"({rec.get('path')}); {mech.path or mech.name} differs in {key!r}")
+        rec_digest = self.meta.get("mechanism_digest")
+        if isinstance(rec_digest, str) and rec_digest != _digest(mech):
+            # the same joints and elements, other parameters (a clearance, a mass, a law's coefficient)
+            raise InputError(f"{path}: the run was made with another version of mechanism {rec.get('name')!r}: "
+                             f"{mech.path or mech.name} (loaded with the run's recorded options) has other "
+                             "parameters, inertias or joint placements (mechanism digest differs); give the file "
+                             "and options the run was made with")
         if self.q.ndim == 2 and self.q.shape[1] != mech.nq:
             raise InputError(f"{path}: q has {self.q.shape[1]} columns, mechanism {mech.name!r} has nq = {mech.nq}")
         for k, n in (("v", mech.nv), ("a", mech.nv), ("z", mech.nz)):

@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from pinclear.core import safeio
+from pinclear.core.version import provenance
 
 #: the study's wear law: k for mild wear of lubricated-free steel on steel, hardness of a through-
 #: hardened pin (both stated, not from paper 002, which gives none)
@@ -114,7 +115,7 @@ def paper002(out, quick=False, smoke=False):
                      "spread_worn_um": {k: 1e6 * v for k, v in sp_worn.items()},
                      "cpu_wear_s": c2 - c1, "cpu_chaos_s": time.process_time() - c2})
     cpu = time.process_time() - cpu0
-    safeio.write_text(out / "results.json", json.dumps({"settings": s, "rows": rows, "cpu_s": cpu}, indent=1) + "\n")
+    safeio.write_text(out / "results.json", json.dumps({"settings": s, "rows": rows, "cpu_s": cpu, "versions": provenance()}, indent=1) + "\n")
     safeio.write_text(out / "README.md", _report(s, rows, cpu, out))
     return rows
 

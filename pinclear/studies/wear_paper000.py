@@ -29,6 +29,7 @@ import numpy as np
 from pinclear import analysis
 from pinclear.core import safeio
 from pinclear.core.models import model_path
+from pinclear.core.version import provenance
 from pinclear.dynamics.simulate import simulate
 from pinclear.io.sidecar import load
 from pinclear.mechanisms import four_ups_upu as mod
@@ -122,7 +123,7 @@ def paper000(out, quick=False, smoke=False):
     safeio.make_dirs(out)
     rows.append(worn_case(s, out))
     cpu = time.process_time() - t0
-    safeio.write_text(out / "results.json", json.dumps({"settings": s, "rows": rows, "cpu_s": cpu}, indent=1) + "\n")
+    safeio.write_text(out / "results.json", json.dumps({"settings": s, "rows": rows, "cpu_s": cpu, "versions": provenance()}, indent=1) + "\n")
     safeio.write_text(out / "README.md", _report(s, rows, cpu))
     return rows
 

@@ -6,15 +6,16 @@ from (no smoothing, no resampling), so tests can check the data rather than the 
 returns None when the run has nothing to show for it (no platform, no clearance, ...).
 
 * ``platform``  position, velocity and acceleration of the platform frame (world
-  components that move), with clearance (solid) and, if given, the ideal run (dashed) on the
-  same axes;
-* ``contact_force``  normal and friction force magnitudes of each clearance joint;
+  components that move) and its orientation when it turns, with clearance (solid) and, if
+  given, the ideal run (dashed) on the same axes, and then the deviation from the ideal run;
+* ``contact_force``  normal and friction force magnitudes of each clearance joint, the peak
+  from the integration steps marked (the curves are samples: they may miss an impact's top);
 * ``journal``  eccentricity (journal/ball centre in the bearing/socket frame) inside the
   clearance circle of radius c;
 * ``residual``  closure residual |Phi|_inf;
 * ``energy``  kinetic, potential, spring and total energy, and the dissipated energy of
   the clearance joints when recorded;
-* ``drives``  drive forces/torques (the drive rows' multipliers).
+* ``drives``  drive forces/torques (the drive rows' multipliers), peaks marked, the ideal run dashed.
 """
 from __future__ import annotations
 
@@ -42,6 +43,46 @@ def _frame_pva(model: pin.Model, fid: int, traj):
     """World position, velocity and classical acceleration of frame ``fid`` along a run."""
     fm = frame_motion(model, [fid], traj.q, traj.v, traj.a)
     return fm.p[:, 0], fm.v[:, 0], fm.a[:, 0]
+
+
+def _frame_rotations(model: pin.Model, fid: int, traj) -> np.ndarray:
+    """World rotation matrices of frame ``fid`` at the run's samples, (n, 3, 3)."""
+    return frame_motion(model, [fid], traj.q).R[:, 0]
+
+
+def _on_times(t, t_ref, Y_ref):
+    """A reference run's samples Y_ref(t_ref) at the times t: the samples themselves when both runs
+    share their output grid (the usual case: one --dt-out), else linear interpolation per
+    component (NaN outside the reference's time span)."""
+    Y_ref = np.asarray(Y_ref, float)
+    if len(t) == len(t_ref) and np.array_equal(t, t_ref):
+        return Y_ref
+    cols = Y_ref.reshape(len(t_ref), -1)
+    out = np.column_stack([np.interp(t, t_ref, c, left=np.nan, right=np.nan) for c in cols.T])
+    return out.reshape((len(t),) + Y_ref.shape[1:])
+
+
+def rotation_vectors(R, R0) -> np.ndarray:
+    """log3(R0^T R) per sample (rad, (n, 3)): the rotation from R0 to R as a rotation vector in R0's
+    axes; R0 one matrix or one per sample."""
+    R0 = np.broadcast_to(R0, R.shape)
+    return np.array([pin.log3(a.T @ b) for a, b in zip(R0, R)]).reshape(len(R), 3)
+
+
+def _sample_note(traj) -> str:
+    """What a curve of output samples resolves: the output step, said on the figure."""
+    dt = np.diff(traj.t)
+    return f"curves: output samples (Δt = {np.median(dt):.3g} s)" if len(dt) else "curves: output samples"
+
+
+def _step_peak(traj, family, name):
+    """(value, t) of a run's peak from the integration (its summary's, Trajectory.peak_summary;
+    over the accepted steps, independent of the output grid), or None (a run saved without)."""
+    ps = traj.peak_summary()
+    if ps.get("peaks_from") != "integration":
+        return None
+    value, t = (ps.get(f"{family}_peaks") or {}).get(name), (ps.get(f"{family}_peak_times") or {}).get(name)
+    return None if value is None or t is None else (float(value), float(t))
 
 
 def _moving(X: np.ndarray, rel: float = 1e-3) -> list[int]:
@@ -90,12 +131,26 @@ def clearance_size(traj, name: str):
 # ------------------------------------------------------------------------------ figures
 def fig_platform(traj, model: pin.Model, fid: int, ref=None, label=None,
                  ref_label="ideal joints"):
+    """Position, velocity, acceleration (world components that move) of the platform frame; its
+    orientation (rotation vector from the start, log3(R(0)^T R), rad) when it turns; with ``ref``
+    (the ideal run) dashed on the same axes, and below the deviations from it, which a clearance of
+    0.1 mm on signals of 0.1 m hides on the panels above: position P - P_ref (mm) and orientation
+    log3(R_ref^T R) (mrad), the reference taken at the run's sample times (gids
+    ``deviation.position.x``, ``deviation.orientation.x``)."""
     P, V, A = _frame_pva(model, fid, traj)
     comps = _moving(P)
     if label is None:
         label = "with clearance" if clearance_names(traj) else "run"
-    fig, axs = _subplots(3, 1, sharex=True, figsize=(8, 8))
+    Rot = _frame_rotations(model, fid, traj)
+    theta = rotation_vectors(Rot, Rot[0]) if len(Rot) else np.zeros((0, 3))
+    turns = len(theta) and np.max(np.abs(theta)) > 1e-9
+    rcomps = _moving(theta) if turns else []
+    panels = ["position", "velocity", "acceleration"] + (["orientation"] if turns else [])
+    if ref is not None:
+        panels.append("deviation")
     colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig, axs = _subplots(len(panels), 1, sharex=True, figsize=(8, 2.4 * len(panels) + 1), squeeze=False)
+    axs = axs[:, 0]
     R = _frame_pva(model, fid, ref) if ref is not None else None
     for ax, X, k, unit, title in zip(axs, (P, V, A), range(3), ("m", "m/s", "m/s²"),
                                      ("position", "velocity", "acceleration")):
@@ -107,11 +162,52 @@ def fig_platform(traj, model: pin.Model, fid: int, ref=None, label=None,
                         label=f"{AXES[c]} {ref_label}", gid=f"{title}.{AXES[c]}.ref")
         ax.set_ylabel(f"{title} [{unit}]")
         ax.grid(alpha=0.3)
+    Rot_ref = _frame_rotations(model, fid, ref) if ref is not None else None
+    if turns:
+        ax = axs[3]
+        for c in rcomps:
+            ax.plot(traj.t, theta[:, c], color=colors[c], lw=1.2, label=f"θ{AXES[c]} {label}",
+                    gid=f"orientation.{AXES[c]}")
+            if Rot_ref is not None and len(Rot_ref):
+                th_ref = rotation_vectors(Rot_ref, Rot_ref[0])
+                ax.plot(ref.t, th_ref[:, c], color=colors[c], lw=1.0, ls="--", label=f"θ{AXES[c]} {ref_label}",
+                        gid=f"orientation.{AXES[c]}.ref")
+        ax.set_ylabel("orientation log3(R(0)^T R) [rad]", fontsize=8)
+        ax.grid(alpha=0.3)
+    if ref is not None:
+        ax = axs[-1]
+        dP = P - _on_times(traj.t, ref.t, R[0])
+        for c in comps:
+            ax.plot(traj.t, dP[:, c] * 1e3, color=colors[c], lw=1.2, label=f"Δ{AXES[c]} [mm]",
+                    gid=f"deviation.position.{AXES[c]}")
+        if turns:
+            Rr = _on_times(traj.t, ref.t, Rot_ref)
+            ok = np.all(np.isfinite(Rr.reshape(len(Rr), -1)), axis=1)
+            dth = np.full((len(traj.t), 3), np.nan)
+            if ok.any():
+                dth[ok] = rotation_vectors(Rot[ok], _nearest_rotations(Rr[ok]))
+            for c in rcomps:
+                ax.plot(traj.t, dth[:, c] * 1e3, color=colors[c], lw=1.0, ls=":", label=f"Δθ{AXES[c]} [mrad]",
+                        gid=f"deviation.orientation.{AXES[c]}")
+        ax.set_ylabel(f"run − {ref_label}\n[mm]" + (" / [mrad]" if turns else ""), fontsize=8)
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.legend(fontsize=7, ncol=3)
+        ax.grid(alpha=0.3)
     axs[0].legend(fontsize=8, ncol=2)
     axs[-1].set_xlabel("t [s]")
     fig.suptitle(f"platform frame '{model.frames[fid].name}' (world components)")
     fig.tight_layout()
     return fig
+
+
+def _nearest_rotations(M):
+    """The rotation matrices nearest to M (per sample, by SVD): an interpolated rotation matrix is
+    not orthogonal; on a shared output grid M is a rotation already and is returned unchanged
+    up to rounding."""
+    U, _, Vt = np.linalg.svd(M)
+    d = np.sign(np.linalg.det(U @ Vt))
+    U[:, :, 2] *= d[:, None]
+    return U @ Vt
 
 
 def fig_contact_force(traj):
@@ -121,19 +217,35 @@ def fig_contact_force(traj):
         return None
     fig, axs = _subplots(len(names), 1, sharex=True, figsize=(8, 3 * len(names)), squeeze=False)
     for ax, n in zip(axs[:, 0], names):
-        fn = traj.outputs.get(f"{n}.normal_force")
-        Fn = np.linalg.norm(fn, axis=1) if fn is not None and np.ndim(fn) == 2 else np.ravel(traj.outputs[f"{n}.fn"])
-        ax.plot(traj.t, Fn, lw=1.0, label="normal |Fn|", gid=f"{n}.normal")
+        # the total normal force (the ``fn`` output) is the quantity of the summary's contact peak
+        if f"{n}.fn" in traj.outputs:
+            Fn, what = np.ravel(traj.outputs[f"{n}.fn"]), "normal ΣFn"
+        else:
+            Fn, what = np.linalg.norm(traj.outputs[f"{n}.normal_force"], axis=1), "normal |Fn|"
+        ax.plot(traj.t, Fn, lw=1.0, label=what, gid=f"{n}.normal")
         ft = traj.outputs.get(f"{n}.friction_force")
         if ft is not None and np.ndim(ft) == 2:
             ax.plot(traj.t, np.linalg.norm(ft, axis=1), lw=1.0, label="friction |Ft|", gid=f"{n}.friction")
+        pk = _step_peak(traj, "contact_force", n)
+        if pk is not None:
+            _mark_peak(ax, pk, f"{n}.peak", "N")
         ax.set_ylabel(f"{n} force [N]")
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
     axs[-1, 0].set_xlabel("t [s]")
-    fig.suptitle("clearance contact forces")
+    fig.suptitle(f"clearance contact forces ({_sample_note(traj)}; ▼ peak over the integration steps, "
+                 "as in summary.json)", fontsize=9)
     fig.tight_layout()
     return fig
+
+
+def _mark_peak(ax, pk, gid, unit, sign=1.0, color="r"):
+    """A marker at a peak from the integration (value, t), labelled with its value: the samples
+    drawn may miss a short impact's top (they are spaced by the output step, the peak is over
+    the accepted steps)."""
+    value, t = pk
+    ax.plot([t], [sign * value], marker="v" if sign > 0 else "^", color=color, ls="none", ms=7,
+            label=f"peak {value:.4g} {unit} at t = {t:.4g} s (steps)", gid=gid)
 
 
 def fig_journal(traj):
@@ -153,7 +265,15 @@ def fig_journal(traj):
             # a ball moves in 3-D: show the two directions it explores most
             span = E.max(axis=0) - E.min(axis=0)
             i, j = (sorted(np.argsort(span)[-2:]) if E.shape[1] >= 2 else (0, 0))
+        hidden = [k for k in range(E.shape[1]) if k not in (i, j)]
         ax.plot(E[:, i] * 1e3, E[:, j] * 1e3, lw=0.8, gid=f"{n}.path")
+        if hidden and not (plot is not None and plot.across_axis):
+            # a projection: say onto which plane, and how much of the motion it leaves out
+            k = hidden[0]
+            ax.text(0.01, 0.01, f"projection onto the e_{AXES[i]}-e_{AXES[j]} plane of the socket frame (the two "
+                    f"directions of largest spread);\ne_{AXES[k]} not shown: spread "
+                    f"{(E[:, k].max() - E[:, k].min()) * 1e3:.3g} mm", transform=ax.transAxes, fontsize=7,
+                    va="bottom", gid=f"{n}.projection")
         c = clearance_size(traj, n)
         if isinstance(c, tuple) and (i, j) == (0, 1):
             # slider centre in its guide: free within +-c1 x +-c2 (untilted slider)
@@ -247,16 +367,28 @@ def drive_names(traj) -> list[str]:
     return [k for k in traj.lam if "." not in k]
 
 
-def fig_drives(traj):
+def fig_drives(traj, ref=None, ref_label="ideal joints"):
+    """The drive rows' multipliers (forces N, torques N m) over the samples, each drive's peak from
+    the integration marked (summary.json's ``drive_force_peaks``, on the side of the sampled
+    curve's sign there), and ``ref``'s (the ideal run) dashed."""
     names = [n for n in drive_names(traj) if n in traj.lam]
     if not names:
         return None
-    fig, ax = _subplots(figsize=(8, 4))
-    for n in names:
-        ax.plot(traj.t, traj.lam[n], lw=1.0, label=n, gid=f"drive.{n}")
+    fig, ax = _subplots(figsize=(8, 4.5))
+    colors = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
+    for i, n in enumerate(names):
+        col = colors[i % len(colors)]
+        ax.plot(traj.t, traj.lam[n], lw=1.0, color=col, label=n, gid=f"drive.{n}")
+        if ref is not None and n in ref.lam:
+            ax.plot(ref.t, ref.lam[n], lw=1.0, ls="--", color=col, label=f"{n} {ref_label}", gid=f"drive.{n}.ref")
+        pk = _step_peak(traj, "drive_force", n)
+        if pk is not None and len(traj.t):
+            near = traj.lam[n][int(np.argmin(np.abs(traj.t - pk[1])))]
+            _mark_peak(ax, pk, f"drive.{n}.peak", "N (m)", sign=-1.0 if near < 0 else 1.0, color=col)
     ax.set_xlabel("t [s]")
     ax.set_ylabel("drive force [N] / torque [N m]")
-    ax.legend(fontsize=8)
+    ax.set_title(f"{_sample_note(traj)}; markers: peaks over the integration steps (summary.json)", fontsize=9)
+    ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
     fig.tight_layout()
     return fig
@@ -279,7 +411,7 @@ def make_figures(traj, mech=None, ref=None, frame: str | None = None) -> dict:
                           ("journal", fig_journal, "no clearance eccentricity recorded"),
                           ("residual", fig_residual, "no closure rows (or no samples)"),
                           ("energy", fig_energy, "no energies recorded"),
-                          ("drives", fig_drives, "no drives")):
+                          ("drives", lambda tr: fig_drives(tr, ref=ref), "no drives")):
         f = fn(traj)
         figs[name] = f if f is not None else why
     return figs

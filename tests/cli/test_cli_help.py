@@ -21,7 +21,7 @@ from pinclear.dynamics.stepping import INTEGRATORS
 
 ROOT = Path(__file__).resolve().parents[2]
 COMMANDS = ["simulate", "sweep", "info", "bench", "warmup", "view", "plot", "inverse-dynamics", "analyse",
-            "reproduce", "import", "export", "wear", "study"]
+            "reproduce", "import", "export", "export-run", "wear", "study"]
 
 
 def _main(argv):
@@ -42,9 +42,10 @@ def _parsers():
     out += [("analyse", an)] + [(f"analyse {n}", p) for n, p in an_sub.choices.items()]
     out += [("view", viz_cli.build_view_parser()), ("plot", viz_cli.build_plot_parser()),
             ("inverse-dynamics", screw_cli.build_parser()), ("reproduce", reproduce_parser())]
-    from pinclear.cli import export, importing, study, wear
+    from pinclear.cli import export, export_run, importing, study, wear
 
-    out += [("import", importing.build_parser()), ("export", export.build_parser())]
+    out += [("import", importing.build_parser()), ("export", export.build_parser()),
+            ("export-run", export_run.build_parser())]
     out += [("wear", wear.build_parser()), ("study", study.build_parser())]
     return out
 

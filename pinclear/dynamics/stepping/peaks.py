@@ -19,6 +19,8 @@ state: their steps whose last evaluation is elsewhere add no drive-force or acce
 """
 from __future__ import annotations
 
+import numpy as np
+
 from pinclear.core.jit import njit
 from pinclear.dynamics.stepping.state import PK_MAX, PK_NOW, PK_T
 
@@ -48,3 +50,22 @@ def forces_at(sys, pk, t):
     """stage_forces then fold: the peaks of the evaluation just made at the state of time t."""
     stage_forces(sys, pk)
     fold(pk, 0, sys.drows.shape[0] + sys.a.shape[0], t)
+
+
+def window_peak(t, y, t_from=None, t_to=None):
+    """(largest |y|, its time) over the samples with t_from <= t <= t_to (either bound None:
+    open); (nan, nan) when no finite sample lies in the window. The one definition of a peak
+    over a window of samples: a run's summary after a transient (Trajectory.summary(peaks_after=
+    T)) and the reproductions' steady-regime peaks both use it. Over samples, it is a lower
+    bound of the peak between them (the accepted steps' peaks above do not depend on the grid)."""
+    t = np.asarray(t, float)
+    y = np.abs(np.asarray(y, float))
+    keep = np.isfinite(y)
+    if t_from is not None:
+        keep &= t >= t_from
+    if t_to is not None:
+        keep &= t <= t_to
+    if not keep.any():
+        return float("nan"), float("nan")
+    i = int(np.argmax(np.where(keep, y, -np.inf)))
+    return float(y[i]), float(t[i])

@@ -24,6 +24,7 @@ from pinclear.analysis.classify import CLEARANCE_FRACTION, classify_state
 from pinclear.analysis.sweeps import make_executor, sweep
 from pinclear.core import safeio
 from pinclear.core.models import model_path
+from pinclear.dynamics.stepping.peaks import window_peak
 from pinclear.studies.reproduce import chaos
 from pinclear.studies.reproduce.bands import design, reconstructed_inputs, spread, within_budget
 from pinclear.studies.reproduce.verdicts import row
@@ -154,11 +155,13 @@ def _slider(tr):
 
 def _peak(t, y, t_max=None):
     """(largest |y|, its time) up to t_max; (nan, nan) without samples (a run shorter than a window)."""
-    if not len(t):
-        return float("nan"), float("nan")
-    keep = np.ones(len(t), bool) if t_max is None else t <= t_max + 1e-12
-    i = int(np.argmax(np.abs(np.where(keep, y, 0.0))))
-    return float(abs(y[i])), float(t[i])
+    return window_peak(t, y, t_to=None if t_max is None else t_max + 1e-12)
+
+
+def _steady_peak(t, y):
+    """(largest |y|, its time) in the steady regime, t >= STEADY (the summary's peaks_after's
+    function)."""
+    return window_peak(t, y, t_from=STEADY)
 
 
 def _response_table(runs, s):
@@ -178,19 +181,18 @@ def _response_table(runs, s):
             continue
         x, v, a = _slider(tr)
         n = min(len(x), len(xi))
-        late = tr.t >= STEADY
         row_ = {"displacement at the ideal peak [m]": float(abs(x[i_d])),
                 "velocity at the ideal peak [m/s]": float(abs(v[i_v])),
                 "displacement shift at the ideal peak [m]": float(x[i_d] - xi[i_d]),
                 "velocity shift at the ideal peak [m/s]": float(abs(v[i_v]) - abs(vi[i_v])),
                 "max |x - x_ideal| [m]": float(np.max(np.abs(x[:n] - xi[:n]))),
-                "steady acceleration peak [m/s^2]": _peak(tr.t[late], a[late])[0]}
+                "steady acceleration peak [m/s^2]": _steady_peak(tr.t, a)[0]}
         row_["acceleration peak [m/s^2]"], row_["at (a) [s]"] = _peak(tr.t, a)
         for j in JOINTS:
             if f"{j}.fn" in tr.outputs:
                 fn = tr.outputs[f"{j}.fn"]
                 row_[f"{j} impact force peak [N]"], row_[f"{j} at [s]"] = _peak(tr.t, fn)
-                row_[f"{j} steady impact force peak [N]"] = _peak(tr.t[late], fn[late])[0]
+                row_[f"{j} steady impact force peak [N]"] = _steady_peak(tr.t, fn)[0]
                 e = tr.outputs[f"{j}.eccentricity"]
                 row_[f"{j} max eccentricity [m]"] = float(np.max(np.hypot(e[:, 0], e[:, 1])))
                 row_[f"{j} max penetration [m]"] = float(np.max(tr.outputs[f"{j}.penetration"]))
@@ -802,10 +804,9 @@ def _run002(job):
                            q0=job["q0"], v0=job["v0"])
     x, v, a = _slider(tr)
     i_d, i_v = job["i_d"], job["i_v"]
-    late = tr.t >= STEADY
     return {"A shift d": 1e3 * float(x[i_d] - job["x_ideal"]), "A shift v": 1e3 * float(abs(v[i_v]) - job["v_ideal"]),
             "A 0.5 mm impact force peak": _peak(tr.t, tr.outputs["A.fn"])[0],
-            "A 0.5 mm acceleration peak steady": _peak(tr.t[late], a[late])[0],
+            "A 0.5 mm acceleration peak steady": _steady_peak(tr.t, a)[0],
             "status": tr.status, "cpu": tr.stats.get("cpu_s")}
 
 

@@ -23,6 +23,7 @@ from pinclear.core import safeio
 from pinclear.core.errors import InputError
 from pinclear.core.models import model_path
 from pinclear.dynamics.simulate import simulate
+from pinclear.dynamics.stepping.peaks import window_peak
 from pinclear.io.sidecar import load
 from pinclear.mechanisms import three_upru_up as mod
 from pinclear.studies.reproduce.paper000 import executor_for, worst_condition
@@ -102,11 +103,11 @@ def response(tr, mech, settle):
     grid), the contact force peak (all, and after ``settle``)."""
     se = analysis.series(tr, "platform.z", mech)
     F = np.linalg.norm(tr.outputs["P_UP.normal_force"] + tr.outputs["P_UP.friction_force"], axis=1)
-    late = tr.t >= settle
     az = np.gradient(se.xdot, tr.t) if len(tr.t) > 1 else np.zeros(len(tr.t))
+    # after the landing: the summary's peaks_after's function (pinclear.dynamics.stepping.peaks)
     return {"z_dev": float(np.abs(se.x - mod.Z0).max()), "vz_amp": float(np.abs(se.xdot).max()),
-            "az_amp": float(np.abs(az[late]).max()) if late.any() else float("nan"),
-            "F_max": float(F.max()), "F_max_settled": float(F[late].max()) if late.any() else float("nan"),
+            "az_amp": window_peak(tr.t, az, t_from=settle)[0],
+            "F_max": float(F.max()), "F_max_settled": window_peak(tr.t, F, t_from=settle)[0],
             "t": tr.t, "z": se.x - mod.Z0, "vz": se.xdot, "F": F}
 
 

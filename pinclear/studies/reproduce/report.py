@@ -145,7 +145,9 @@ def write_report(rep, out):
     fig = bands_figure(rep, out)
     if fig and fig not in rep["figures"]:
         rep["figures"] = list(rep["figures"]) + [fig]
-    rep = dict(rep, counts=counts(rep["results"]))
+    from pinclear.core.version import provenance
+
+    rep = dict(rep, counts=counts(rep["results"]), versions=provenance())
     atomic_write_text(out / "report.json", json.dumps(jsonable(rep), indent=1))
     atomic_write_text(out / "report.md", markdown(rep))
     body = [f"<h1>{html.escape(rep['title'])}</h1>", f"<p>{html.escape(SOURCES.format(paper=rep['paper']))}</p>",
