@@ -115,6 +115,10 @@ CASES = [
     ("mjcf-generated-name", "xml", [('name="jb" type="hinge"', 'name="jb" pos="0.2 0 0" type="hinge"'),
                                     ('<site name="anchor" pos="2 0 0"/>', '<site name="anchor" pos="2 0 0"/><body name="b__ref"/>')],
      "is also the name of body 'b__ref'"),
+    ("mjcf-no-body", "xml", [('<body name="a" pos="0 0 0">', '<site name="a"/><x>'), ("</body>\n    </body>",
+                                                                                      "</body>\n    </x>"),
+                                ('<connect name="C" site1="tip" site2="anchor"/>', "")],
+     "bodies: the file holds no body to import"),
     # the pinclear annotation (items 1 and 9)
     ("ann-list", "xml", [_ann("[1, 2]")], "the pinclear annotation is a JSON list, not a mapping"),
     ("ann-deep", "xml", [_ann('{&quot;parameters&quot;: ' + "[" * 40 + "]" * 40 + "}")], "nested more than 20 levels"),

@@ -30,8 +30,9 @@ MAX_ANNOTATION_BYTES = 1_000_000
 MAX_ANNOTATION_DEPTH = 20
 #: keys whose value must be a function pinclear offers to data files
 FUNCTION_KEYS = ("function", "hook", "ik")
-#: keys whose strings are prose, never looked up (a path in them names nothing)
-FREE_TEXT = ("description", "doc", "note", "source", "unit", "why")
+#: keys whose strings are prose, never looked up (a path in them names nothing); the
+#: ``parameters`` table is documentation as a whole (pinclear.io.sidecar.TOP)
+FREE_TEXT = ("description", "doc", "note", "notes", "source", "unit", "why", "parameters")
 _STRING = re.compile(r'"(?:[^"\\]|\\.)*"', re.DOTALL)
 
 

@@ -154,6 +154,8 @@ def validate(g):
     from pinclear.core.errors import ModelFileError
 
     file = g.file
+    if not g.bodies:
+        raise ModelFileError(file, "bodies", "the file holds no body to import")
     if len(g.bodies) > MAX_BODIES:
         b = list(g.bodies.values())[MAX_BODIES]
         raise ModelFileError(file, f"body {b.name!r} (line {b.line})", f"{len(g.bodies)} bodies: more than pinclear "

@@ -269,6 +269,14 @@ def _geometry(el, file, g):
     return None
 
 
+def _utf8(text) -> bool:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
 def _mesh_file(uri, file, g, where):
     """A mesh named by a file path (relative to the SDF's folder, absolute, ``file://``) as the
     absolute path the written URDF names (it is written into --out, not beside the SDF); a file
@@ -287,6 +295,8 @@ def _mesh_file(uri, file, g, where):
             why = f"it lies outside the SDF's folder {str(here)!r} (a data file names no file elsewhere)"
         elif not target.is_file():
             why = "no such file"
+        elif not _utf8(str(target)):
+            why = f"its path {str(target).encode('utf-8', 'surrogateescape')!r} is not UTF-8: a URDF cannot name it"
     if why is not None:
         g.skip("mesh", where, f"mesh {uri!r}: {why}")
         g.warnings.append(f"{where}: mesh {uri!r} not imported: {why}")
