@@ -186,3 +186,14 @@ def test_a_refused_mesh_is_a_warning_line_not_a_python_warning(tmp_path):
     assert err.startswith("pinclear: warning: <mesh> (line ") and "mesh '/etc/passwd' not imported: it lies outside " \
         "the SDF's folder" in err and err.count("\n") == 1, err
     assert "passwd" not in (tmp_path / "out" / "four_bar.urdf").read_text()
+
+
+def test_export_notes_never_break_their_xml_comment():
+    """A note naming a closure 'a--b' (a valid URDF name) was written into an XML comment as it
+    is: '--' inside a comment makes the MJCF malformed for MuJoCo and for the importer."""
+    from pinclear.io.export_mjcf import _comment
+
+    for note in ("closure 'a--b' (universal): not written", "ends in a dash -", "x---y\nz"):
+        body = _comment(note)
+        ET.fromstring(f"<r><!-- pinclear: {body} --></r>")
+        assert "--" not in body and not body.endswith("-") and "\n" not in body

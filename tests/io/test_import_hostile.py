@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+from pathlib import Path
 
 import pytest
 
@@ -253,3 +254,20 @@ def test_every_reader_has_cases():
 
     fmts = {f for _, f, _, _ in CASES}
     assert {s.lstrip(".") for s in READERS} - {"mjcf"} <= fmts
+
+
+@pytest.mark.slow
+def test_pinclear_import_processes_exit_2_on_a_member_of_each_class(tmp_path):
+    """The installed command itself (a separate process, as a user runs it): a degenerate value,
+    a broken structure and a refused annotation, one per reader, each exit 2 with one line."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    picks = ["mjcf-quat-zero", "mjcf-unknown-site", "ann-code", "sdf-frame-cycle", "urdf-cycle", "urdf-lower-nan"]
+    for case, fmt, edits, expect in (c for c in CASES if c[0] in picks):
+        path = _write(tmp_path, fmt, edits, case)
+        r = subprocess.run([sys.executable, "-m", "pinclear.cli", "import", str(path), "--out", str(tmp_path / "o")],
+                           capture_output=True, text=True, cwd=root, timeout=600, check=False,
+                           env={"PYTHONPATH": str(root), "PATH": "/usr/bin:/bin", "NUMBA_NUM_THREADS": "1"})
+        assert r.returncode == 2 and r.stderr.count("\n") == 1 and expect in r.stderr, (case, r.stderr)

@@ -221,6 +221,12 @@ def couplings_of(g, tree) -> list:
             ratio = c.ratio * s1 * s2          # s2 q2 = ratio s1 q1
         else:
             j1, j2, ratio = c.joint1, c.joint2, c.ratio
+        kept = {j.name for j, _ in tree.edges}
+        for jn in (j1, j2):
+            if jn not in kept:
+                raise ModelFileError(g.file, f"coupling {c.name!r} (line {c.line})", f"couples {jn!r}, a cut joint "
+                                     "(no coordinate of the tree): cut another joint of its loop (--cut)",
+                                     choices=sorted(kept))
         out.append({"name": c.name, "type": "coupling", "joint1": j1, "joint2": j2, "ratio": float(ratio),
                     "offset": float(c.offset)})
     return out
