@@ -71,15 +71,18 @@ def frames_of(g, tree):
 
 
 def comment_text(text) -> str:
-    """``text`` (a file path: any bytes but NUL) as the body of an XML or YAML comment: ``%``,
-    ``-`` (``--`` ends an XML comment), control characters, characters XML cannot hold and bytes
-    that are not UTF-8 (surrogate escapes) are written as %XX; the rest is kept as it is."""
+    """``text`` (a file path: any bytes but NUL) as the body of an XML or YAML comment: ``%``, a
+    ``-`` followed by another or ending the text (``--`` ends an XML comment), control
+    characters, characters XML cannot hold and bytes that are not UTF-8 (surrogate escapes) are
+    written as %XX; the rest is kept as it is (``example-robot-data`` stays readable)."""
     out = []
-    for ch in str(text):
+    text = str(text)
+    for k, ch in enumerate(text):
         o = ord(ch)
+        dash = ch == "-" and (k + 1 == len(text) or text[k + 1] == "-")
         if 0xDC80 <= o <= 0xDCFF:                      # an undecodable byte of the file system
             out.append(f"%{o - 0xDC00:02X}")
-        elif ch in "%-" or o < 0x20 or o == 0x7F or 0xD800 <= o <= 0xDFFF or o in (0xFFFE, 0xFFFF):
+        elif dash or ch == "%" or o < 0x20 or o == 0x7F or 0xD800 <= o <= 0xDFFF or o in (0xFFFE, 0xFFFF):
             out.append("".join(f"%{b:02X}" for b in ch.encode("utf-8", "surrogatepass")))
         else:
             out.append(ch)
