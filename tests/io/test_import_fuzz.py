@@ -24,6 +24,8 @@ from tests.io.test_import_hostile import BASE
 CASE_LIMIT = 20
 FAST = settings(max_examples=40, deadline=5000, derandomize=True, database=None,
                 suppress_health_check=list(HealthCheck))
+#: a random graph converts in ~0.02 s: more examples in the same few seconds
+GRAPHS = settings(FAST, max_examples=150)
 
 JUNK = st.sampled_from(["", "nan", "-inf", "1e400", "-1", "0", "0 0 0", "0 0 0 0", "1 2", "abc", "1e-300", "x y z",
                         "world", "a", "b", "zz", "../x", "os:system", "1 0 0 0 0 0 0", "&amp;", "true", "ball",
@@ -117,7 +119,7 @@ def _graph_text(fmt, n, joints):
 def test_random_joint_graphs_import_or_fail_in_one_line(fmt, tmp_path_factory):
     folder = tmp_path_factory.mktemp(f"graph_{fmt}")
 
-    @FAST
+    @GRAPHS
     @given(graph=GRAPH)
     def run(graph):
         path = folder / f"g.{fmt}"
