@@ -183,6 +183,7 @@ def import_file(path, out, cut=(), fix=None, name=None) -> dict:
     mechanism that loads is moved into OUT (a refused one leaves OUT as it was: no file of it
     stays behind to be loaded, or trusted, later). A load-back refusal names the source file
     (and the annotation's element when the annotation supplied the refused key)."""
+    import contextlib
     import shutil
     import stat
     import tempfile
@@ -204,6 +205,7 @@ def import_file(path, out, cut=(), fix=None, name=None) -> dict:
             raise ModelFileError(str(t), "--out", f"cannot be written ({exc.strerror})") from None
         if not (stat.S_ISREG(st.st_mode) or stat.S_ISLNK(st.st_mode)):
             raise ModelFileError(str(t), "--out", "is a folder or a special file, not a file the import may replace")
+    created = not out.exists()
     try:
         out.mkdir(parents=True, exist_ok=True)
         work = Path(tempfile.mkdtemp(prefix=".pinclear-import-", dir=out))
@@ -229,9 +231,13 @@ def import_file(path, out, cut=(), fix=None, name=None) -> dict:
         safeio.write_text(work / f"{name}.import.json", json.dumps(report, indent=2) + "\n", root=out)
         for t in targets:
             os.replace(work / t.name, t)
+        created = False
     except OSError as exc:
         target = exc.filename if exc.filename and str(work) not in str(exc.filename) else str(out)
         raise ModelFileError(str(target), "--out", f"cannot be written ({exc.strerror or exc})") from None
     finally:
         shutil.rmtree(work, ignore_errors=True)
+        if created:                        # a refused import leaves no folder it made
+            with contextlib.suppress(OSError):
+                out.rmdir()
     return report
