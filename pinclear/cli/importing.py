@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 
 from pinclear.io.importers import import_file
 
@@ -29,4 +30,7 @@ def cli_main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     report = import_file(args.file, args.out, args.cut, args.fix, args.name)
     print(json.dumps(report, indent=2))
+    # what the import replaced or left out that changes the mechanism: one line each on stderr
+    for line in report.get("warnings", ()):
+        print(f"pinclear: warning: {' '.join(str(line).split())}", file=sys.stderr)
     return 0

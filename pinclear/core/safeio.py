@@ -112,9 +112,12 @@ def write_atomic(path, write, root=None, binary=True) -> Path:
             with os.fdopen(fd, "wb" if binary else "w", **({} if binary else {"encoding": "utf-8", "newline": ""})) as fh:
                 write(fh)
             os.replace(tmp, name, src_dir_fd=dfd, dst_dir_fd=dfd)
-        except BaseException:
+        except BaseException as exc:
             with contextlib.suppress(OSError):
                 os.unlink(tmp, dir_fd=dfd)
+            if isinstance(exc, OSError) and exc.filename == tmp:
+                # the error names the target, never the temporary name (which no longer exists)
+                raise OSError(exc.errno, exc.strerror, str(path)) from None
             raise
     return path
 

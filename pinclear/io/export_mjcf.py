@@ -43,6 +43,15 @@ ANNOTATION = "pinclear:sidecar"
 LINK = "pinclear:link:"  # <custom><text name="pinclear:link:JOINT" data="LINK">: the link a merged joint moves
 
 
+def _comment(text) -> str:
+    """A note as an XML comment's body: one line, no ``--`` (which would end the comment early or
+    make the file malformed, whatever a joint or closure name holds)."""
+    text = " ".join(str(text).split())
+    while "--" in text:
+        text = text.replace("--", "- -")
+    return text + " " if text.endswith("-") else text
+
+
 def vec(x):
     return " ".join(f"{float(v):.17g}" for v in np.asarray(x, float).ravel())
 
@@ -153,7 +162,7 @@ def mjcf(mech, q0, h, tc, integrator="RK4", drives="clock", strict=True, annotat
         texts.append(f"<text name={quoteattr(ANNOTATION)} data={quoteattr(annotation)}/>")
     xml = "\n".join([
         f'<mujoco model="{mech.name}">',
-        *[f"  <!-- pinclear: {n} -->" for n in notes],
+        *[f"  <!-- pinclear: {_comment(n)} -->" for n in notes],
         '  <compiler angle="radian" autolimits="true" inertiafromgeom="false"/>',
         f'  <option timestep="{h:.17g}" integrator="{integrator}" gravity="{vec(g)}" solver="Newton" '
         'iterations="50" tolerance="1e-12" jacobian="dense">',

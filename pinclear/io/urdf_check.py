@@ -50,6 +50,13 @@ def _refuse_doctype(data: bytes, file):
                              f"column {exc.offset}") from None
 
 
+def _at(el, key) -> str:
+    """``key`` with the element's line when the parser recorded one (the importers' expat reader,
+    pinclear.io.importers.xml, does; ElementTree does not)."""
+    line = getattr(el, "line", 0)
+    return f"{key} (line {line})" if line else key
+
+
 def _numbers(el, attr, n, file, key, default=None):
     """``n`` finite numbers from the attribute ``attr`` of ``el`` (None when absent and no default)."""
     text = el.get(attr)
@@ -61,9 +68,9 @@ def _numbers(el, attr, n, file, key, default=None):
     except ValueError:
         vals = None
     if vals is None or len(vals) != n:
-        raise ModelFileError(file, key, f"expected {n} number(s), got {text!r}")
+        raise ModelFileError(file, _at(el, key), f"expected {n} number(s), got {text!r}")
     if not all(math.isfinite(v) for v in vals):
-        raise ModelFileError(file, key, f"{text!r} is not finite (nan and inf are not accepted)")
+        raise ModelFileError(file, _at(el, key), f"{text!r} is not finite (nan and inf are not accepted)")
     return vals
 
 
@@ -88,14 +95,14 @@ def _check_link(link, file):
     if mass is not None:
         (m,) = _numbers(mass, "value", 1, file, f"{key}.inertial.mass", default=[0.0])
         if m < 0:
-            raise ModelFileError(file, f"{key}.inertial.mass", f"{m} kg: a mass is >= 0")
+            raise ModelFileError(file, _at(mass, f"{key}.inertial.mass"), f"{m} kg: a mass is >= 0")
     inertia = inertial.find("inertia")
     if inertia is not None:
         for a in _INERTIA:
             _numbers(inertia, a, 1, file, f"{key}.inertial.inertia.{a}")
 
 
-def _check_joint(joint, links, file):
+def _check_joint(joint, links, file, mimic_ok=False):
     name = joint.get("name")
     key = f"joint {name!r}"
     ends = []
@@ -103,14 +110,14 @@ def _check_joint(joint, links, file):
         el = joint.find(end)
         link = el.get("link") if el is not None else None
         if link is None:
-            raise ModelFileError(file, f"{key}.{end}", "missing (a joint names its parent and child links)")
+            raise ModelFileError(file, _at(joint, f"{key}.{end}"), "missing (a joint names its parent and child links)")
         if link not in links:
-            raise ModelFileError(file, f"{key}.{end}", f"unknown link {link!r}", choices=links)
+            raise ModelFileError(file, _at(el, f"{key}.{end}"), f"unknown link {link!r}", choices=links)
         ends.append(link)
     if ends[0] == ends[1]:
-        raise ModelFileError(file, key, f"joins link {ends[0]!r} to itself")
+        raise ModelFileError(file, _at(joint, key), f"joins link {ends[0]!r} to itself")
     mimic = joint.find("mimic")
-    if mimic is not None:
+    if mimic is not None and not mimic_ok:
         # Pinocchio's URDF parser builds a mimic joint as an independent one: info and simulate
         # would describe another mechanism (one more degree of freedom)
         raise ModelFileError(file, f"{key}.mimic", f"couples the joint to {mimic.get('joint')!r}, which pinclear does "
@@ -121,7 +128,8 @@ def _check_joint(joint, links, file):
     if axis is not None:
         xyz = _numbers(axis, "xyz", 3, file, f"{key}.axis.xyz")
         if xyz is not None and joint.get("type") in _MOVING and not any(xyz):
-            raise ModelFileError(file, f"{key}.axis.xyz", "is the zero vector: a joint axis needs a direction")
+            raise ModelFileError(file, _at(axis, f"{key}.axis.xyz"), "is the zero vector: a joint axis needs a "
+                                 "direction")
     for tag, attrs in (("limit", ("lower", "upper", "effort", "velocity")), ("dynamics", ("damping", "friction"))):
         el = joint.find(tag)
         if el is not None:
@@ -130,10 +138,12 @@ def _check_joint(joint, links, file):
     return ends
 
 
-def check_urdf_tree(root, file):
+def check_urdf_tree(root, file, mimic_ok=False):
     """Refuse what Pinocchio's parser would crash on or silently misread: more than
     MAX_URDF_LINKS links or joints, a chain deeper than MAX_URDF_DEPTH, a link with two parents,
-    joints forming a cycle, a non-finite or negative number where a number is read."""
+    joints forming a cycle, two joints of one name, a non-finite or negative number where a
+    number is read. ``mimic_ok``: a ``<mimic>`` is read by the caller (the closing-frame
+    importer makes it a coupling), not refused."""
     if root.tag != "robot":
         raise ModelFileError(file, "urdf", f"the root element is <{root.tag}>, not <robot>")
     links = [el for el in root.findall("link")]
@@ -146,12 +156,18 @@ def check_urdf_tree(root, file):
     for el in links:
         n = el.get("name")
         if not n:
-            raise ModelFileError(file, "link", "a <link> without a name")
+            raise ModelFileError(file, _at(el, "link"), "a <link> without a name")
         names.append(n)
-    if len(set(names)) != len(names):
-        seen = set()
-        dup = next(n for n in names if n in seen or seen.add(n))
-        raise ModelFileError(file, f"link {dup!r}", "defined twice")
+    for what, els in (("link", links), ("joint", joints)):
+        seen = {}
+        for el in els:
+            n = el.get("name")
+            if what == "joint" and not n:
+                raise ModelFileError(file, _at(el, "joint"), "a <joint> without a name")
+            if n in seen:
+                raise ModelFileError(file, _at(el, f"{what} {n!r}"), "defined twice"
+                                     f"{' (first on line ' + str(seen[n]) + ')' if seen[n] else ''}")
+            seen[n] = getattr(el, "line", 0)
     known = set(names)
     for el in links:
         _check_link(el, file)
@@ -159,7 +175,7 @@ def check_urdf_tree(root, file):
     children: dict = {}
     joined: dict = {}
     for j in joints:
-        p, c = _check_joint(j, known, file)
+        p, c = _check_joint(j, known, file, mimic_ok)
         joined.setdefault(c, []).append(j.get("name"))
         parent[c] = (p, j.get("name"))
         children.setdefault(p, []).append(c)

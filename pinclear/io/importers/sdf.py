@@ -15,7 +15,18 @@ import pinocchio as pin
 
 from pinclear.core.errors import ModelFileError
 from pinclear.io.importers import xml
-from pinclear.io.importers.graph import WORLD, Body, Coupling, Graph, Joint, se3, unit
+from pinclear.io.importers.graph import (
+    MAX_BODIES,
+    MAX_FRAME_CHAIN,
+    MAX_JOINTS,
+    WORLD,
+    Body,
+    Coupling,
+    Graph,
+    Joint,
+    se3,
+    unit,
+)
 
 MODEL_TAGS = {"link", "joint", "frame", "pose", "static", "self_collide", "allow_auto_disable", "plugin",
               "include", "model", "enable_wind", "gripper"}
@@ -55,6 +66,12 @@ def read(path) -> Graph:
     g = Graph(model.get("name", "model"), file, "sdf")
     for extra in models[1:]:
         g.skip("model", xml.where(extra), "only the first model of a file is imported")
+    # bounded before anything is built (the writer's limits, pinclear.io.importers.graph)
+    for tag, limit in (("link", MAX_BODIES), ("joint", MAX_JOINTS), ("frame", MAX_JOINTS)):
+        els = model.findall(tag)
+        if len(els) > limit:
+            raise ModelFileError(file, xml.where(els[limit]), f"{len(els)} <{tag}> elements: more than pinclear "
+                                 f"imports from one model (at most {limit})")
     _frames = _Frames(model, file)
     X_model = _frames.pose_of(model.find("pose"), None, model) if model.find("pose") is not None else pin.SE3.Identity()
     _frames.world = X_model
@@ -72,6 +89,10 @@ def read(path) -> Graph:
         g.bodies[body.name] = body
     if not g.bodies:
         raise ModelFileError(file, xml.where(model), "the model has no <link>")
+    for el in model.findall("frame"):          # every frame resolves (no cycle, no unknown name)
+        if not el.get("name"):
+            raise ModelFileError(file, xml.where(el), "a frame needs a name")
+        _frames.frame(el.get("name"), el)
     for el in model.findall("joint"):
         _joint(el, _frames, g, file)
     g.root = model.findall("link")[0].get("name")       # SDF's canonical link: the first one
@@ -81,7 +102,9 @@ def read(path) -> Graph:
 
 
 class _Frames:
-    """Named frames of a model and their poses in the world (resolved on demand, cycles refused)."""
+    """Named frames of a model and their poses in the world, resolved on demand by a loop (not
+    a recursion): a chain of relative_to / frame / attached_to references longer than
+    MAX_FRAME_CHAIN, or one that comes back to itself, is refused."""
 
     def __init__(self, model, file):
         self.file, self.model = file, model
@@ -89,8 +112,13 @@ class _Frames:
         self.elements = {}
         for tag in ("link", "joint", "frame"):
             for el in model.findall(tag):
-                self.elements[el.get("name")] = el
-        self.done, self.busy = {}, set()
+                name = el.get("name")
+                if name in self.elements:
+                    raise ModelFileError(file, xml.where(el), f"the name {name!r} is also "
+                                         f"{xml.where(self.elements[name])}: links, joints and frames of a model "
+                                         "share one namespace (SDF)")
+                self.elements[name] = el
+        self.done, self.depth = {}, {}
 
     def default_base(self, el):
         """The frame an element's pose is relative to when its pose names none."""
@@ -101,43 +129,83 @@ class _Frames:
             return el.get("attached_to") or None
         return None                                          # link: the model frame
 
-    def frame(self, name, el):
-        """World placement of the frame ``name`` (a link, joint, <frame>, __model__, world)."""
+    def _base(self, name):
+        """The placement of a frame that needs no element: the model frame, the world, or one
+        already resolved (None otherwise)."""
         if name in (None, "", "__model__"):
             return self.world
         if name == WORLD:
             return pin.SE3.Identity()
-        if name in self.done:
-            return self.done[name]
-        if name not in self.elements:
-            raise ModelFileError(self.file, xml.where(el), f"names the frame {name!r}, which the model does not "
-                                 "define", choices=sorted(self.elements))
-        if name in self.busy:
-            raise ModelFileError(self.file, xml.where(el), f"the pose of {name!r} is relative to itself (a cycle "
-                                 "of relative_to / frame attributes)")
-        self.busy.add(name)
-        src = self.elements[name]
-        X = self.pose_of(src.find("pose"), self.default_base(src), src)
-        self.busy.discard(name)
-        self.done[name] = X
+        return self.done.get(name)
+
+    def frame(self, name, el):
+        """World placement of the frame ``name`` (a link, joint, <frame>, __model__, world)."""
+        chain, n, asker = [], name, el
+        while (X := self._base(n)) is None:
+            if len(chain) >= MAX_FRAME_CHAIN:
+                raise ModelFileError(self.file, xml.where(asker), f"a chain of more than {MAX_FRAME_CHAIN} frames, "
+                                     "each relative to the next: deeper than pinclear resolves")
+            if n not in self.elements:
+                raise ModelFileError(self.file, xml.where(asker), f"names the frame {n!r}, which the model does not "
+                                     "define", choices=sorted(self.elements))
+            if n in chain:
+                raise ModelFileError(self.file, xml.where(asker), f"the pose of {n!r} is relative to itself (a cycle "
+                                     f"of relative_to / frame attributes: {' -> '.join(chain[chain.index(n):] + [n])})")
+            chain.append(n)
+            src = self.elements[n]
+            pose = src.find("pose")
+            n = self._pose_base(pose, self.default_base(src))
+            asker = pose if pose is not None else src
+        # the chain's length from the model frame, whatever order the file lists the frames in
+        depth = self.depth.get(n, 0) + len(chain)
+        if depth > MAX_FRAME_CHAIN:
+            raise ModelFileError(self.file, xml.where(self.elements[chain[0]]), f"a chain of {depth} frames, each "
+                                 f"relative to the next: deeper than pinclear resolves (at most {MAX_FRAME_CHAIN})")
+        for k, n in enumerate(reversed(chain)):
+            pose = self.elements[n].find("pose")
+            X = X * self._local(pose) if pose is not None else X
+            self.done[n] = X
+            self.depth[n] = depth - len(chain) + k + 1
         return X
+
+    def _pose_base(self, pose, default_base):
+        if pose is None:
+            return default_base
+        return pose.get("relative_to") or pose.get("frame") or default_base
+
+    def _local(self, pose) -> pin.SE3:
+        """A <pose>'s own transform: x y z roll pitch yaw (``degrees="true"``: the angles in
+        degrees, SDF 1.9), or x y z and a quaternion x y z w (``rotation_format="quat_xyzw"``)."""
+        fmt = pose.get("rotation_format", "euler_rpy")
+        if fmt == "quat_xyzw":
+            v = xml.numbers(pose.text, 7, self.file, pose)
+            n = float(np.linalg.norm(v[3:]))
+            if not n > 1e-12:
+                raise ModelFileError(self.file, xml.where(pose), "the quaternion is zero")
+            return pin.SE3(pin.Quaternion(v[6] / n, v[3] / n, v[4] / n, v[5] / n).toRotationMatrix(), np.array(v[:3]))
+        if fmt != "euler_rpy":
+            raise ModelFileError(self.file, xml.where(pose), f"rotation_format {fmt!r}",
+                                 choices=["euler_rpy", "quat_xyzw"])
+        v = xml.numbers(pose.text, 6, self.file, pose)
+        deg = (pose.get("degrees") or "false").strip()
+        if deg not in ("true", "false", "1", "0"):
+            raise ModelFileError(self.file, xml.where(pose), f"degrees {deg!r}", choices=["true", "false"])
+        k = np.pi / 180 if deg in ("true", "1") else 1.0
+        return se3(v[:3], [a * k for a in v[3:]])
 
     def pose_of(self, pose, default_base, owner):
         """World placement of a <pose> (its base frame: relative_to, 1.6's frame, or the default)."""
         if pose is None:
             return self.frame(default_base, owner)
-        vals = xml.numbers(pose.text, 6, self.file, pose)
-        base = pose.get("relative_to") or pose.get("frame") or default_base
-        return self.frame(base, pose) * se3(vals[:3], vals[3:])
+        return self.frame(self._pose_base(pose, default_base), pose) * self._local(pose)
 
     def local(self, pose, base_X):
         """A <pose> of a child element relative to its owner placed at base_X (relative_to wins)."""
         if pose is None:
             return base_X
-        vals = xml.numbers(pose.text, 6, self.file, pose)
         base = pose.get("relative_to") or pose.get("frame")
         X0 = self.frame(base, pose) if base else base_X
-        return X0 * se3(vals[:3], vals[3:])
+        return X0 * self._local(pose)
 
 
 def _link(el, frames, g, file) -> Body:
@@ -160,7 +228,8 @@ def _link(el, frames, g, file) -> Body:
         if body.mass < 0:
             raise ModelFileError(file, xml.where(inertial.find("mass")), f"{body.mass} kg: a mass is >= 0")
         ine = inertial.find("inertia")
-        I = np.eye(3) if ine is None else np.zeros((3, 3))   # SDF's default inertia is identity
+        # SDF's default inertia is identity; a massless link that gives none has none
+        I = np.zeros((3, 3)) if ine is not None or body.mass == 0 else np.eye(3)
         if ine is not None:
             for (i, j), key, default in (((0, 0), "ixx", 1.0), ((1, 1), "iyy", 1.0), ((2, 2), "izz", 1.0),
                                          ((0, 1), "ixy", 0.0), ((0, 2), "ixz", 0.0), ((1, 2), "iyz", 0.0)):
@@ -193,9 +262,46 @@ def _geometry(el, file, g):
         # and ROS's package path name the same folders for the robots of example-robot-data)
         if uri.startswith("model://"):
             uri = "package://" + uri[len("model://"):]
-        return {"mesh": uri, "scale": s}
+        if not uri.startswith("package://"):
+            uri = _mesh_file(uri, file, g, xml.where(shape))
+        return {"mesh": uri, "scale": s} if uri else None
     g.skip(shape.tag, xml.where(shape), "visual geometry of this kind is not imported")
     return None
+
+
+def _utf8(text) -> bool:
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError:
+        return False
+    return True
+
+
+def _mesh_file(uri, file, g, where):
+    """A mesh named by a file path (relative to the SDF's folder, absolute, ``file://``) as the
+    absolute path the written URDF names (it is written into --out, not beside the SDF); a file
+    outside the SDF's folder, a missing one or another URI scheme is not imported: named in the
+    report and printed as a warning, never opened."""
+    from pathlib import Path
+
+    path = uri.removeprefix("file://")
+    here = Path(file).resolve().parent
+    why = None
+    if not path or "://" in path or "\x00" in path:
+        why = "only package://, model:// and files in the SDF's folder are imported"
+    else:
+        target = (here / path).resolve()
+        if not target.is_relative_to(here):
+            why = f"it lies outside the SDF's folder {str(here)!r} (a data file names no file elsewhere)"
+        elif not target.is_file():
+            why = "no such file"
+        elif not _utf8(str(target)):
+            why = f"its path {str(target).encode('utf-8', 'surrogateescape')!r} is not UTF-8: a URDF cannot name it"
+    if why is not None:
+        g.skip("mesh", where, f"mesh {uri!r}: {why}")
+        g.warnings.append(f"{where}: mesh {uri!r} not imported: {why}")
+        return None
+    return str(target)
 
 
 def _axis(el, joint_X, frames, file, tag="axis"):
@@ -257,7 +363,9 @@ def _joint(el, frames, g, file):
                 g.skip(c.tag, xml.where(c), LEFT_OUT[c.tag])
     if limit is not None:
         j.lower, j.upper = xml.child_number(limit, "lower", file), xml.child_number(limit, "upper", file)
-        j.effort, j.velocity = xml.child_number(limit, "effort", file), xml.child_number(limit, "velocity", file)
+        # SDF: a negative effort or velocity (the default, -1) is no limit
+        j.effort, j.velocity = (v if v is not None and v >= 0 else None
+                                for v in (xml.child_number(limit, k, file) for k in ("effort", "velocity")))
         for c in limit:
             if c.tag in ("stiffness", "dissipation"):
                 g.skip(f"limit/{c.tag}", xml.where(c), "joint-limit contacts are not modelled")

@@ -18,6 +18,7 @@ import pinocchio as pin
 from pinclear.core.errors import ModelFileError
 from pinclear.io.importers import xml
 from pinclear.io.importers.graph import WORLD, Body, Closing, Coupling, Graph, Joint, se3, unit
+from pinclear.io.urdf_check import check_urdf_tree
 
 CLOSING = re.compile(r"^closing_(.+)_([12])$")
 TYPES = {"revolute": "revolute", "continuous": "revolute", "prismatic": "prismatic", "fixed": "fixed"}
@@ -34,29 +35,26 @@ def _origin(el, file):
 def read(path) -> Graph:
     file = str(path)
     root = xml.parse_root(path, "robot", "a URDF file")
+    # the checks every URDF meets before Pinocchio reads it (counts, one tree without cycles or
+    # a link with two parents, the depth, finite numbers, masses >= 0, non-zero axes, unique
+    # names), each naming the element's line; <mimic> is read below as a coupling
+    check_urdf_tree(root, file, mimic_ok=True)
     g = Graph(root.get("name", "robot"), file, "urdf")
     g.gravity_source = "the default (a URDF holds no gravity)"
     links = {el.get("name"): el for el in root.findall("link")}
     joints = root.findall("joint")
-    child_of = {}
+    child_of = {j.find("child").get("link"): j for j in joints}
+    children = {}
     for j in joints:
-        c = j.find("child")
-        if c is None or c.get("link") not in links:
-            raise ModelFileError(file, xml.where(j), "<child link=...> missing or unknown", choices=sorted(links))
-        child_of[c.get("link")] = j
-    roots = [n for n in links if n not in child_of]
-    if len(roots) != 1:
-        raise ModelFileError(file, xml.where(root), f"{len(roots)} root links ({', '.join(roots[:5])}): a URDF is one "
-                             "tree")
+        children.setdefault(j.find("parent").get("link"), []).append(j)
+    roots = [n for n in links if n not in child_of]          # one, check_urdf_tree says
     X = {roots[0]: pin.SE3.Identity()}
     order = [roots[0]]
-    for n in order:                          # breadth-first over the file's tree
-        for j in joints:
-            p = j.find("parent")
-            if p is not None and p.get("link") == n:
-                c = j.find("child").get("link")
-                X[c] = X[n] * _origin(j, file)
-                order.append(c)
+    for n in order:                          # breadth-first over the file's tree (a tree: checked)
+        for j in children.get(n, ()):
+            c = j.find("child").get("link")
+            X[c] = X[n] * _origin(j, file)
+            order.append(c)
     for n in order:
         if n != WORLD:                       # a root link named "world" is the world itself
             g.bodies[n] = _body(links[n], X[n], file, g)
@@ -100,17 +98,19 @@ def _joint(j, X, g, file):
     jt = Joint(j.get("name"), TYPES[jtype], p, c, Xj, unit(Xj.rotation @ axis, file, xml.where(j)), line=j.line)
     lim = j.find("limit")
     if lim is not None and jtype != "continuous":
-        jt.lower, jt.upper = (float(lim.get(k)) if lim.get(k) is not None else None for k in ("lower", "upper"))
-        jt.effort, jt.velocity = (float(lim.get(k)) if lim.get(k) is not None else None for k in ("effort", "velocity"))
+        jt.lower, jt.upper = (xml.number(lim, k, file) for k in ("lower", "upper"))
+        jt.effort, jt.velocity = (xml.number(lim, k, file) for k in ("effort", "velocity"))
     dyn = j.find("dynamics")
     if dyn is not None:
-        jt.damping = float(dyn.get("damping", 0.0))
-        if float(dyn.get("friction", 0.0)):
+        jt.damping = xml.number(dyn, "damping", file, 0.0)
+        if xml.number(dyn, "friction", file, 0.0):
             g.skip("dynamics friction", xml.where(dyn), "Coulomb joint friction is not modelled by an ideal joint")
     mim = j.find("mimic")
     if mim is not None:
-        g.couplings.append(Coupling(f"{jt.name}.mimic", float(mim.get("multiplier", 1.0)),
-                                    float(mim.get("offset", 0.0)),
+        if mim.get("joint") is None:
+            raise ModelFileError(file, xml.where(mim), "a <mimic> names the joint it follows (joint=...)")
+        g.couplings.append(Coupling(f"{jt.name}.mimic", xml.number(mim, "multiplier", file, 1.0),
+                                    xml.number(mim, "offset", file, 0.0),
                                     joint1=mim.get("joint"), joint2=jt.name, line=mim.line))
     g.joints.append(jt)
 

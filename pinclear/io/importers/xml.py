@@ -106,6 +106,14 @@ def numbers(text, n, file, el, what=None):
     return vals
 
 
+def number(el, attr, file, default=None):
+    """The one finite number of the attribute ``attr`` of ``el`` (``default`` when absent)."""
+    text = el.get(attr)
+    if text is None:
+        return default
+    return numbers(text, 1, file, el, attr)[0]
+
+
 def child_number(el, tag, file, default=None):
     """The number in the child element ``tag`` of ``el`` (``default`` when absent)."""
     c = el.find(tag)
