@@ -455,15 +455,17 @@ def cmd_bench(args):
 
 
 def _bench_restitution(args):
+    from pinclear.cli.args import OneLineParser
     from pinclear.studies.bench import restitution as cbench
 
-    return cbench.restitution_main(args.rest)
+    return cbench.restitution_main(args.rest, parser=OneLineParser)
 
 
 def _bench_contact_laws(args):
+    from pinclear.cli.args import OneLineParser
     from pinclear.studies.bench import restitution as cbench
 
-    return cbench.contact_laws_main(args.rest)
+    return cbench.contact_laws_main(args.rest, parser=OneLineParser)
 
 
 def _bench_atlas(args):

@@ -17,6 +17,8 @@ WEAR = ["wear", "nine_bar", "--clearance", "A", "--period", "1", "--out", "OUT"]
     (["wear", "nine_bar", "--period", "1", "--out", "OUT"], "--cycles"),
     (["study", "no_such_study"], "name"),
     (["study", "paper002", "--quick", "--colour"], "--colour"),
+    (["bench", "restitution", "--ce", "x"], "--ce"),
+    (["bench", "contact-laws", "--v", "x"], "--v"),
 ])
 def test_bad_argument_is_one_line(argv, names, capsys, tmp_path):
     argv = [str(tmp_path / a) if a == "OUT" else a for a in argv]

@@ -43,9 +43,11 @@ def restitution_table(ces=(0.3, 0.6, 0.9), v0=0.1, m=1.0, rtol=1e-12):
     return table
 
 
-def restitution_main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="pinclear bench restitution",
-                                description="Effective restitution of each normal-force law (1-DOF impact).")
+def restitution_main(argv=None, parser=argparse.ArgumentParser) -> int:
+    """`pinclear bench restitution`; ``parser``: the command line's parser class (its one-line
+    errors, pinclear.cli.args.OneLineParser)."""
+    p = parser(prog="pinclear bench restitution",
+               description="Effective restitution of each normal-force law (1-DOF impact).")
     p.add_argument("--ce", type=float, nargs="+", default=[0.3, 0.6, 0.9], help="nominal restitution values")
     p.add_argument("--v0", type=float, default=0.1, help="impact speed, m/s (line/plane laws only)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
@@ -158,9 +160,10 @@ def contact_laws_table(rtols=(1e-6, 1e-8, 1e-10), v=0.2):
     return [(c, float(a), float(b), abs(a - b) / abs(b)) for c, a, b in rows]
 
 
-def contact_laws_main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="pinclear bench contact-laws",
-                                description="Contact physics against closed forms (Hertz impact, Winkler foundation).")
+def contact_laws_main(argv=None, parser=argparse.ArgumentParser) -> int:
+    """`pinclear bench contact-laws`; ``parser`` as for :func:`restitution_main`."""
+    p = parser(prog="pinclear bench contact-laws",
+               description="Contact physics against closed forms (Hertz impact, Winkler foundation).")
     p.add_argument("--v", type=float, default=0.2, help="impact speed, m/s")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     a = p.parse_args(argv)
