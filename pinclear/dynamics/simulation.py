@@ -100,8 +100,9 @@ class Simulation:
                                   optional=True, check=lambda x: math.isfinite(x) and x >= 0)
         self.max_cpu = real(max_cpu, "max_cpu", "a positive number of CPU seconds (None: no budget)",
                             optional=True, check=_positive)
-        self.checkpoint_every = real(checkpoint_every, "checkpoint_every", "a positive number of CPU seconds",
-                                     optional=True, check=_positive)
+        # 0: a checkpoint after every compiled chunk (the command line asks for a positive interval)
+        self.checkpoint_every = real(checkpoint_every, "checkpoint_every", "a number of CPU seconds >= 0",
+                                     optional=True, check=lambda x: math.isfinite(x) and x >= 0)
         tol = real(fixed_step_tol, "fixed_step_tol", "a number >= 0 (0 or None: no check)", optional=True,
                    check=lambda x: math.isfinite(x) and x >= 0)
         self.fixed_step_tol = tol or None
@@ -118,7 +119,7 @@ class Simulation:
         if resume is not None:
             t0 = validate.number(resume.t0, "<checkpoint>", "t0")
         self.t0, self.t_end = t0, self.check_span(t0, t_end, t_eval, dt_out)
-        self.t_eval = output_times(t0, t_end, dt_out) if t_eval is None else np.asarray(t_eval, float)
+        self.t_eval = output_times(t0, self.t_end, dt_out) if t_eval is None else np.asarray(t_eval, float)
         self.form = self.formulation()
 
     # ------------------------------------------------------------------ checks
