@@ -82,6 +82,14 @@ def test_atol_of_the_state_length_is_accepted_and_scalar_0d_t_end(four_bar):
     assert tr.meta["atol"] == [1e-10] * n
 
 
+def test_zero_means_every_chunk_or_no_check(four_bar):
+    """checkpoint_every=0: a checkpoint after every chunk; fixed_step_tol=0: no check (as the
+    command line's --fixed-step-tol 0); min_mean_step=0: no stall test."""
+    sim = simulation.Simulation(four_bar, 0.05, checkpoint=[].append, checkpoint_every=0.0, min_mean_step=0.0,
+                                integrator="RK4", h=1e-3, fixed_step_tol=0)
+    assert sim.checkpoint_every == 0.0 and sim.fixed_step_tol is None and sim.h_stall(0.0, 0.05) == 0.0
+
+
 def test_the_one_atol_rule():
     assert simulation.default_atol(1e-6) == pytest.approx(1e-8, rel=1e-15)
     assert simulation.default_atol(1e-6, 3e-7) == 3e-7
