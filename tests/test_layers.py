@@ -29,13 +29,10 @@ ALLOWED_UP = {
 
 #: modules that import a module whose name is computed at run time, and why
 DYNAMIC_IMPORTS = {
-    "pinclear.core.registry": "a plug-in record named as 'module:NAME' in a registry line",
+    "pinclear.core.registry": "a plug-in record named as 'module:NAME' in a registry line (every kind's, "
+                              "commands, readers and studies included: pinclear.core.registry.KINDS)",
     "pinclear.core.trust": "a data file's 'module:function', through the trust gate",
     "pinclear.core.aliases": "the old module names (a fixed table in that file)",
-    "pinclear.cli.commands": "the delegated commands' modules (a fixed table in that file)",
-    "pinclear.cli.study": "the wear studies' table (STUDIES, 'module:function' in pinclear.studies.wear)",
-    "pinclear.io.importers": "the importers' table (READERS: one reader module per file suffix)",
-    "pinclear.io.sidecar": "the closure readers' table (CLOSURE_READERS: 'module:function')",
     "pinclear": "the face's lazy old submodule names (pinclear.core.aliases)",
 }
 
@@ -216,3 +213,44 @@ def test_tests_sit_by_layer_and_every_module_keeps_fast_tests():
         if funcs and not fast and "pytestmark" not in p.read_text():
             only_slow.append(p.relative_to(tests).as_posix())
     assert not only_slow, only_slow
+
+
+#: the longest a function's code may be (lines, its docstring not counted: a numpydoc parameter
+#: list documents, it does not add logic)
+MAX_FUNCTION_LINES = 80
+#: functions over MAX_FUNCTION_LINES, each with its reason (none may be added)
+LONG_FUNCTIONS: dict = {}
+
+
+def function_lengths(path: Path) -> dict:
+    """{qualified name: lines of code} of every function in ``path`` (docstrings left out)."""
+    tree = ast.parse(path.read_text())
+    out = {}
+
+    def visit(node, prefix):
+        for n in ast.iter_child_nodes(node):
+            if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                lines = n.end_lineno - n.lineno + 1
+                first = n.body[0]
+                if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) \
+                        and isinstance(first.value.value, str):
+                    lines -= first.end_lineno - first.lineno + 1
+                out[prefix + n.name] = lines
+                visit(n, prefix + n.name + ".")
+            elif isinstance(n, ast.ClassDef):
+                visit(n, prefix + n.name + ".")
+    visit(tree, "")
+    return out
+
+
+def test_no_function_over_80_lines():
+    long = {f"{m}:{f}": n for m, p in MODULES.items() for f, n in function_lengths(p).items()
+            if n > MAX_FUNCTION_LINES}
+    assert set(long) <= set(LONG_FUNCTIONS), {k: v for k, v in long.items() if k not in LONG_FUNCTIONS}
+
+
+def test_function_lengths_count_code_not_docstrings(tmp_path):
+    p = tmp_path / "m.py"
+    p.write_text('def f():\n    """Doc\n    on two lines."""\n    a = 1\n    return a\n\n\n'
+                 'class C:\n    def g(self):\n        return 2\n')
+    assert function_lengths(p) == {"f": 3, "C.g": 2}

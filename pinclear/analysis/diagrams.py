@@ -367,44 +367,9 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     Every value yields a BifurcationRun: a run that stops early is 'failed' with its message and
     partial samples, one that cannot start (bad value, assembly error) is 'error'.
     """
-    # plain Python scalars: they go into YAML and pickles, and print readably
-    values = [v.item() if isinstance(v, np.generic) else v for v in values]
-    if not values:
-        raise InputError("bifurcation: no parameter values given")
-    if len(values) > MAX_SWEEP_POINTS:
-        raise InputError(f"bifurcation: {len(values)} parameter values, more than one diagram may have (at most "
-                         f"{MAX_SWEEP_POINTS}); split the range")
-    sim_kw = dict(sim_options or {})
-    for k in ("t_end", "t_eval", "dt_out", "t0", "strict"):
-        if k in sim_kw:
-            raise InputError(f"sim_options may not set {k!r}: the bifurcation run chooses it")
-    load_kw = dict(load_options or {})
-    bad = set(load_kw) - {"options", "overrides", "clearances"}
-    if bad:
-        raise InputError(f"unknown load option {sorted(bad)[0]!r} (valid: clearances, options, overrides)")
-    signals = list(signal) if isinstance(signal, list) else [signal]
-    keys = [signal_key(sg) for sg in signals]
-    if len(set(keys)) != len(keys):
-        raise InputError(f"signals recorded twice: {keys}")
-    if int(transient) < 0 or int(cycles) < 1:
-        raise InputError(f"need transient >= 0 and cycles >= 1, got {transient}, {cycles}")
-    lyapunov_at = sorted({int(n) for n in lyapunov_at}) if lyapunov_at else []
-    if lyapunov_at and not (lyapunov and 1 <= lyapunov_at[0] and lyapunov_at[-1] <= int(cycles)):
-        raise InputError(f"lyapunov_at needs lyapunov=True and recorded-cycle counts in 1..{int(cycles)}, got "
-                         f"{lyapunov_at}")
-    periods, bad_period = [], {}
-    for i, v in enumerate(values):
-        try:
-            T = float(period(v)) if callable(period) else float(period)
-        except Exception as exc:              # this value's fault: reported with its run
-            periods.append(float("nan"))
-            bad_period[i] = f"period({v!r}) failed: {type(exc).__name__}: {exc}"
-            continue
-        if not T > 0 or not math.isfinite(T):
-            if not callable(period):
-                raise InputError(f"period must be a positive number of seconds, got {period!r}")
-            bad_period[i] = f"period({v!r}) = {T!r}: must be a positive number of seconds"
-        periods.append(T)
+    values, sim_kw, load_kw, signals, keys, lyapunov_at = _checked(values, signal, transient, cycles, sim_options,
+                                                                   load_options, lyapunov, lyapunov_at)
+    periods, bad_period = _periods(values, period)
     base = dict(factory=None, path=None, patches=None, overrides=None, load_kw=load_kw, phase=float(phase),
                 t0=float(t0), transient=int(transient), cycles=int(cycles), per_period=int(per_period),
                 signals=signals, sim_kw=sim_kw, keep_portrait=bool(keep_portrait), lyapunov=bool(lyapunov),
@@ -439,7 +404,66 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
 
     for i, msg in bad_period.items():
         finish(BifurcationRun(i, values[i], "error", msg))
+    _execute(jobs, executor, max_workers, finish)
+    _classify_runs(runs, keys, sim_kw, classify_options, int(transient) + int(cycles))
+    numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
+    return BifurcationResult(parameter, np.asarray(values, dtype=float if numeric else object), runs, keys,
+                             np.asarray(periods))
 
+
+def _checked(values, signal, transient, cycles, sim_options, load_options, lyapunov, lyapunov_at):
+    """bifurcation()'s arguments checked: (values as plain scalars, sim_kw, load_kw, signals, their
+    keys, lyapunov_at sorted)."""
+    # plain Python scalars: they go into YAML and pickles, and print readably
+    values = [v.item() if isinstance(v, np.generic) else v for v in values]
+    if not values:
+        raise InputError("bifurcation: no parameter values given")
+    if len(values) > MAX_SWEEP_POINTS:
+        raise InputError(f"bifurcation: {len(values)} parameter values, more than one diagram may have (at most "
+                         f"{MAX_SWEEP_POINTS}); split the range")
+    sim_kw = dict(sim_options or {})
+    for k in ("t_end", "t_eval", "dt_out", "t0", "strict"):
+        if k in sim_kw:
+            raise InputError(f"sim_options may not set {k!r}: the bifurcation run chooses it")
+    load_kw = dict(load_options or {})
+    bad = set(load_kw) - {"options", "overrides", "clearances"}
+    if bad:
+        raise InputError(f"unknown load option {sorted(bad)[0]!r} (valid: clearances, options, overrides)")
+    signals = list(signal) if isinstance(signal, list) else [signal]
+    keys = [signal_key(sg) for sg in signals]
+    if len(set(keys)) != len(keys):
+        raise InputError(f"signals recorded twice: {keys}")
+    if int(transient) < 0 or int(cycles) < 1:
+        raise InputError(f"need transient >= 0 and cycles >= 1, got {transient}, {cycles}")
+    lyapunov_at = sorted({int(n) for n in lyapunov_at}) if lyapunov_at else []
+    if lyapunov_at and not (lyapunov and 1 <= lyapunov_at[0] and lyapunov_at[-1] <= int(cycles)):
+        raise InputError(f"lyapunov_at needs lyapunov=True and recorded-cycle counts in 1..{int(cycles)}, got "
+                         f"{lyapunov_at}")
+    return values, sim_kw, load_kw, signals, keys, lyapunov_at
+
+
+def _periods(values, period):
+    """(each value's period, {index: why its period is unusable}): a callable period's failure is
+    that value's, reported with its run; a bad fixed period is an InputError."""
+    periods, bad_period = [], {}
+    for i, v in enumerate(values):
+        try:
+            T = float(period(v)) if callable(period) else float(period)
+        except Exception as exc:              # this value's fault: reported with its run
+            periods.append(float("nan"))
+            bad_period[i] = f"period({v!r}) failed: {type(exc).__name__}: {exc}"
+            continue
+        if not T > 0 or not math.isfinite(T):
+            if not callable(period):
+                raise InputError(f"period must be a positive number of seconds, got {period!r}")
+            bad_period[i] = f"period({v!r}) = {T!r}: must be a positive number of seconds"
+        periods.append(T)
+    return periods, bad_period
+
+
+def _execute(jobs, executor, max_workers, finish):
+    """Every job through _run_one on ``executor`` (None: a process pool made and shut down here),
+    ``finish(run)`` called with each BifurcationRun as it ends."""
     if executor is not None and executor != "serial" and not isinstance(executor, Executor):
         raise InputError(f"executor must be None, 'serial' or a concurrent.futures.Executor, got {executor!r}")
     try:
@@ -464,6 +488,11 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     finally:
         if close is not None:
             close()
+
+
+def _classify_runs(runs, keys, sim_kw, classify_options, periods_run):
+    """Each run's sections classified (pinclear.analysis.classify), each signal apart;
+    ``periods_run``: transient + cycles."""
     copt = dict(classify_options or {})
     fixed_scale = copt.pop("scale", None)
     # "the same point" within the run's own error bound (classify.integration_rtol) unless the
@@ -476,14 +505,11 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
         opts = dict(copt)
         if derive and r.stats.get("steps"):
             opts.update(sim_rtol=float(sim_kw.get("rtol", rtol_default)),
-                        steps_per_period=r.stats["steps"] / (int(transient) + int(cycles)))
+                        steps_per_period=r.stats["steps"] / periods_run)
         for key in keys:
             sec = r.sections.get(key)
             r.classifications[key] = classify(sec if sec is not None else np.zeros((0, 2)),
                                               scale=fixed_scale, **opts)
-    numeric = all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in values)
-    return BifurcationResult(parameter, np.asarray(values, dtype=float if numeric else object), runs, keys,
-                             np.asarray(periods))
 
 def _label(parameter, value):
     """The point in the user's terms: ``A.clearance = 1e-05, B.clearance = 1e-05`` for a mapping

@@ -430,8 +430,35 @@ def _write_point(folder, job, res):
 
 
 def sweep(model, vary, t_end, out, **kw) -> SweepResult:
-    """See :func:`_sweep_in_folder`; the sweep folder is held locked (``OUT/.lock``, as a
-    simulate run's folder) for the whole call, so two sweeps into one folder never both compute."""
+    """One run per point of a parameter grid, each written into ``out`` as it finishes; resumable.
+
+    The folder is held locked (``OUT/.lock``, as a simulate run's folder) for the whole call, so
+    two sweeps into one folder never both compute; points already in ``out`` from an earlier,
+    interrupted call of the same sweep are not computed again.
+
+    Parameters
+    ----------
+    model : str or Path
+        A sidecar path or a bundled mechanism's name.
+    vary : dict
+        ``{key: values}``: load()'s override keys (``"S2.mu"``, ``"forces[spring].k"``) or scene
+        options; the grid is every combination.
+    t_end : float
+        Simulated seconds per point.
+    out : str or Path
+        The sweep folder (``sweep.json``, ``points/``, ``table.csv``).
+    **kw
+        ``sim_options`` (keyword arguments of :func:`pinclear.simulate`), ``load_options`` (of
+        :func:`pinclear.load`: clearances, options, fixed overrides, trust), ``workers`` (local
+        processes, default one per CPU), ``scheduler`` (a Dask scheduler address instead),
+        ``executor`` (a concurrent.futures.Executor or ``"serial"``), ``progress`` (True: a bar
+        on stderr; None; or ``f(done, total, point)``): see :func:`_sweep_in_folder`.
+
+    Returns
+    -------
+    SweepResult
+        The folder, the keys, every point's status and the number computed by this call.
+    """
     folder = Path(out)
     if folder.exists() and not folder.is_dir():
         raise InputError(f"--out {str(folder)!r} is an existing file; give a folder")
@@ -461,50 +488,12 @@ def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=
     ``get_executor()``) or 'serial'. progress: a progress bar with ETA on stderr (True), None,
     or f(done, total, point).
     """
-    from pinclear.core.models import model_path
-
-    path = model_path(model)
-    if not path.exists():
-        raise InputError(f"sweep: no such mechanism file {str(path)!r}")
-    if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0):
-        raise InputError(f"sweep: t_end must be a positive number of seconds, got {t_end!r}")
-    sim_kw = dict(sim_options or {})
-    for k in ("t_end", "t0", "strict", "resume", "checkpoint", "progress"):
-        if k in sim_kw:
-            raise InputError(f"sweep: sim_options may not set {k!r}")
-    pa = sim_kw.get("peaks_after")
-    if pa is not None and not (isinstance(pa, (int, float)) and not isinstance(pa, bool) and 0 <= pa < t_end):
-        raise InputError(f"sweep: peaks_after = {pa!r}: expected a time in [0, t_end = {t_end:g}) s")
-    load_kw = dict(load_options or {})
-    bad = set(load_kw) - {"options", "overrides", "clearances", "trust"}
-    if bad:
-        raise InputError(f"sweep: unknown load option {sorted(bad)[0]!r} (valid: clearances, options, overrides, trust)")
-    fixed = dict(load_kw.pop("overrides", None) or {})
-    points = grid(vary)
-    keys = list(points[0])
-    # check every key once, at the first point, before any work: an unknown key names the valid ones
-    from pinclear.io.sidecar import load
-    load(path, **{**load_kw, "overrides": {**fixed, **points[0]}})
-
+    path, sim_kw, load_kw, fixed, points, keys = _checked(model, vary, t_end, sim_options, load_options)
     folder = Path(out)
     spec = jsonable({"format": FORMAT, "model": str(path.resolve()), "keys": keys, "points": points,
                      "t_end": float(t_end), "sim_options": sim_kw, "load_options": load_kw, "fixed": fixed})
     index_path = folder / "sweep.json"
-    if index_path.exists():
-        from pinclear.core.bounded import read_text_bounded
-
-        try:
-            old = json.loads(read_text_bounded(index_path, MAX_INDEX_BYTES, "sweep.json", "sweep index"))
-        except json.JSONDecodeError as exc:
-            raise InputError(f"{index_path}: not a readable sweep index ({exc})") from None
-        if not isinstance(old, dict):
-            raise InputError(f"{index_path}: not a sweep index (a JSON object)")
-        diff = [k for k in spec if old.get(k) != spec[k]]
-        if diff:
-            raise InputError(f"{folder} holds a different sweep (it differs in {', '.join(diff)}); "
-                             "give another --out folder or delete this one")
-    elif folder.exists() and not folder.is_dir():
-        raise InputError(f"--out {str(folder)!r} is an existing file; give a folder")
+    _check_folder(folder, index_path, spec)
     safeio.make_dirs(folder / "points", folder)
     ids = _point_identities(spec, path)
 
@@ -555,6 +544,67 @@ def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=
         if bar is not None:
             bar.update(1)
 
+    try:
+        _run_points(jobs, executor, workers, scheduler, on_result, on_error)
+    finally:
+        if bar is not None:
+            bar.close()
+    write_table(folder, keys, state)
+    return SweepResult(folder, keys, state, len(jobs))
+
+
+def _checked(model, vary, t_end, sim_options, load_options):
+    """The sweep's arguments checked, every key once at the first point before any work (an
+    unknown key names the valid ones): (path, sim_kw, load_kw, fixed overrides, points, keys)."""
+    from pinclear.core.models import model_path
+
+    path = model_path(model)
+    if not path.exists():
+        raise InputError(f"sweep: no such mechanism file {str(path)!r}")
+    if not (isinstance(t_end, (int, float)) and math.isfinite(t_end) and t_end > 0):
+        raise InputError(f"sweep: t_end must be a positive number of seconds, got {t_end!r}")
+    sim_kw = dict(sim_options or {})
+    for k in ("t_end", "t0", "strict", "resume", "checkpoint", "progress"):
+        if k in sim_kw:
+            raise InputError(f"sweep: sim_options may not set {k!r}")
+    pa = sim_kw.get("peaks_after")
+    if pa is not None and not (isinstance(pa, (int, float)) and not isinstance(pa, bool) and 0 <= pa < t_end):
+        raise InputError(f"sweep: peaks_after = {pa!r}: expected a time in [0, t_end = {t_end:g}) s")
+    load_kw = dict(load_options or {})
+    bad = set(load_kw) - {"options", "overrides", "clearances", "trust"}
+    if bad:
+        raise InputError(f"sweep: unknown load option {sorted(bad)[0]!r} (valid: clearances, options, overrides, trust)")
+    fixed = dict(load_kw.pop("overrides", None) or {})
+    points = grid(vary)
+    keys = list(points[0])
+    # check every key once, at the first point, before any work: an unknown key names the valid ones
+    from pinclear.io.sidecar import load
+    load(path, **{**load_kw, "overrides": {**fixed, **points[0]}})
+    return path, sim_kw, load_kw, fixed, points, keys
+
+
+def _check_folder(folder, index_path, spec):
+    """A folder that holds another sweep (or is a file) is refused; the same sweep's is resumed."""
+    if index_path.exists():
+        from pinclear.core.bounded import read_text_bounded
+
+        try:
+            old = json.loads(read_text_bounded(index_path, MAX_INDEX_BYTES, "sweep.json", "sweep index"))
+        except json.JSONDecodeError as exc:
+            raise InputError(f"{index_path}: not a readable sweep index ({exc})") from None
+        if not isinstance(old, dict):
+            raise InputError(f"{index_path}: not a sweep index (a JSON object)")
+        diff = [k for k in spec if old.get(k) != spec[k]]
+        if diff:
+            raise InputError(f"{folder} holds a different sweep (it differs in {', '.join(diff)}); "
+                             "give another --out folder or delete this one")
+    elif folder.exists() and not folder.is_dir():
+        raise InputError(f"--out {str(folder)!r} is an existing file; give a folder")
+
+
+def _run_points(jobs, executor, workers, scheduler, on_result, on_error):
+    """The jobs through _run_point on ``executor`` (None: local processes or the Dask scheduler,
+    made and shut down here; an interrupt ends the workers at once)."""
     close = None
     try:
         if jobs:
@@ -570,10 +620,6 @@ def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=
     finally:
         if close is not None:
             close()
-        if bar is not None:
-            bar.close()
-    write_table(folder, keys, state)
-    return SweepResult(folder, keys, state, len(jobs))
 
 
 # ------------------------------------------------------------------------------- the table

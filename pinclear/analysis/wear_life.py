@@ -367,6 +367,9 @@ def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, pro
     (False after max_rounds, or when a trial stopped at max_updates: every trial's numbers are in
     rounds)."""
     rounds, prev = [], None
+    if s.scheme == "factor" and s.cycles < s.updates * s.block_periods:
+        raise InputError(f"{s.cycles:g} cycles are fewer than updates x block periods = {s.updates} x "
+                         f"{s.block_periods}: give more cycles or fewer updates", key="cycles")
     for k in range(max_rounds):
         si = _trial(s, k)
         if si.scheme == "factor" and si.cycles < si.updates * si.block_periods:

@@ -19,6 +19,7 @@ import numpy as np
 
 from pinclear.cli.args import HelpFormatter, count, number
 from pinclear.core.errors import InputError, PinclearError
+from pinclear.core.registry import Entry, Registry
 from pinclear.io.sidecar import parse_assignments as parse_kv
 
 
@@ -314,8 +315,11 @@ def _save_run(args, mech, traj, out: Path, stop):
         summary = {"status": traj.status, "message": traj.message, "t_end": float(traj.t[-1]) if len(traj.t) else None,
                    "samples": len(traj.t), "summary_error": f"{type(exc).__name__}: {exc}"}
         summary.update(traj.peak_summary())          # reads the run's stats only, never user code
+    from pinclear.dynamics.trajectory import SUMMARY_SCHEMA
+
     summary["mechanism"] = mech.name
     summary["file"] = str(args.file)
+    summary.setdefault("schema_version", SUMMARY_SCHEMA)
     _, problem = write_or_fallback(lambda p, root: atomic_write_text(p, json.dumps(summary, indent=2, default=str),
                                                                      root), out / "summary.json")
     if problem:
@@ -453,75 +457,96 @@ def _split_names(text, default):
 
 
 def cmd_bench(args):
-    from pinclear.dynamics import formulations
-    from pinclear.studies.bench import rhs as bench
-
+    """bench WHAT: the benchmark's own function (_BENCH) after the checks every benchmark shares."""
     runs_only = [o for o, v in (("--integrators", args.integrators), ("--max-cpu", args.max_cpu)) if v is not None]
     if runs_only and args.what != "runs":
         raise InputError(f"bench {args.what}: {runs_only[0]} applies to bench runs only")
-    if args.what == "restitution":
-        from pinclear.studies.bench import restitution as cbench
-
-        return cbench.restitution_main(args.rest)
-    if args.what == "contact-laws":
-        from pinclear.studies.bench import restitution as cbench
-
-        return cbench.contact_laws_main(args.rest)
-    if args.what == "atlas":
-        from pinclear.studies.bench import atlas
-
-        # the shared --out default names the benchmarks folder: the atlas gets its own sub-folder
-        out = Path("benchmarks/atlas" if args.out == "benchmarks" else args.out)
-        check_out_dir(out)
-        files = [args.file] + list(args.rest or []) if args.file else None
-        res = atlas.run_atlas(files, out=out, quick=args.quick, budget=args.budget,
-                              methods=args.methods.split(",") if args.methods else None,
-                              progress=lambda s: print(f"bench atlas: {s}", file=sys.stderr, flush=True))
-        fails = sum(r["status"] != "success" for r in res["rows"])
-        print(f"atlas: {len(res['rows'])} cells over {len(res['scenes'])} scenes, {fails} failed; "
-              f"{out / 'atlas.json'}, {out / 'atlas.csv'}, heatmap_*.png, work_precision_*.png")
-        return 0
-    if args.what == "outputs":
-        from pinclear.dynamics.trajectory import atomic_write_text
-
-        out = Path(args.out)
-        check_out_dir(out)
-        res = bench.bench_outputs(t_end=2.0 if args.t_end is None else args.t_end,
-                                  progress=lambda s: print(f"bench outputs: {s}", file=sys.stderr, flush=True))
-        atomic_write_text(out / "bench_outputs.json", json.dumps(res, indent=2, default=str))
-        print(bench.outputs_table(res))
-        return 0
-    if args.what == "runs":
-        from pinclear.dynamics.trajectory import atomic_write_text
-
-        # names first: a typo is refused before the folder is made or anything runs
-        methods, integrators = bench.check_run_names(_split_names(args.methods, "lagrange"),
-                                                     _split_names(args.integrators, "RK45"),
-                                                     keys=("--methods", "--integrators"))
-        out = Path(args.out)
-        check_out_dir(out)
-        files = [args.file] + list(args.rest or []) if args.file else None
-        kw = {} if args.max_cpu is None else {"max_cpu": args.max_cpu}
-        res = bench.bench_runs(files, t_end=0.5 if args.t_end is None else args.t_end, methods=methods,
-                               integrators=integrators,
-                               progress=lambda s: print(f"bench runs: {s}", file=sys.stderr, flush=True), **kw)
-        atomic_write_text(out / "bench_runs.json", json.dumps(res, indent=2, default=str))
-        table = bench.runs_table(res)
-        atomic_write_text(out / "bench_runs.md", table + "\n")
-        print(table)
-        if len(methods) > 1 or len(integrators) > 1:
-            matrix = bench.runs_matrix_table(res)
-            atomic_write_text(out / "bench_runs_matrix.md", matrix + "\n")
-            print()
-            print(matrix)
-        return 0
+    if args.what in _BENCH:
+        return _BENCH[args.what](args)
     if args.rest:
         raise InputError(f"bench {args.what}: unrecognized arguments: {' '.join(args.rest)}")
     if args.file is None:
         raise InputError(f"bench {args.what} needs a mechanism file")
     if args.t_end is None:
         args.t_end = 2.0
-    mech = _load(args)
+    return _bench_one_mechanism(args, _load(args))
+
+
+def _bench_restitution(args):
+    from pinclear.cli.args import OneLineParser
+    from pinclear.studies.bench import restitution as cbench
+
+    return cbench.restitution_main(args.rest, parser=OneLineParser)
+
+
+def _bench_contact_laws(args):
+    from pinclear.cli.args import OneLineParser
+    from pinclear.studies.bench import restitution as cbench
+
+    return cbench.contact_laws_main(args.rest, parser=OneLineParser)
+
+
+def _bench_atlas(args):
+    from pinclear.studies.bench import atlas
+
+    # the shared --out default names the benchmarks folder: the atlas gets its own sub-folder
+    out = Path("benchmarks/atlas" if args.out == "benchmarks" else args.out)
+    check_out_dir(out)
+    files = [args.file] + list(args.rest or []) if args.file else None
+    res = atlas.run_atlas(files, out=out, quick=args.quick, budget=args.budget,
+                          methods=args.methods.split(",") if args.methods else None,
+                          progress=lambda s: print(f"bench atlas: {s}", file=sys.stderr, flush=True))
+    fails = sum(r["status"] != "success" for r in res["rows"])
+    print(f"atlas: {len(res['rows'])} cells over {len(res['scenes'])} scenes, {fails} failed; "
+          f"{out / 'atlas.json'}, {out / 'atlas.csv'}, heatmap_*.png, work_precision_*.png")
+    return 0
+
+
+def _bench_outputs(args):
+    from pinclear.dynamics.trajectory import atomic_write_text
+    from pinclear.studies.bench import rhs as bench
+
+    out = Path(args.out)
+    check_out_dir(out)
+    res = bench.bench_outputs(t_end=2.0 if args.t_end is None else args.t_end,
+                              progress=lambda s: print(f"bench outputs: {s}", file=sys.stderr, flush=True))
+    atomic_write_text(out / "bench_outputs.json", json.dumps(res, indent=2, default=str))
+    print(bench.outputs_table(res))
+    return 0
+
+
+def _bench_runs(args):
+    from pinclear.dynamics.trajectory import atomic_write_text
+    from pinclear.studies.bench import rhs as bench
+
+    # names first: a typo is refused before the folder is made or anything runs
+    methods, integrators = bench.check_run_names(_split_names(args.methods, "lagrange"),
+                                                 _split_names(args.integrators, "RK45"),
+                                                 keys=("--methods", "--integrators"))
+    out = Path(args.out)
+    check_out_dir(out)
+    files = [args.file] + list(args.rest or []) if args.file else None
+    kw = {} if args.max_cpu is None else {"max_cpu": args.max_cpu}
+    res = bench.bench_runs(files, t_end=0.5 if args.t_end is None else args.t_end, methods=methods,
+                           integrators=integrators,
+                           progress=lambda s: print(f"bench runs: {s}", file=sys.stderr, flush=True), **kw)
+    atomic_write_text(out / "bench_runs.json", json.dumps(res, indent=2, default=str))
+    table = bench.runs_table(res)
+    atomic_write_text(out / "bench_runs.md", table + "\n")
+    print(table)
+    if len(methods) > 1 or len(integrators) > 1:
+        matrix = bench.runs_matrix_table(res)
+        atomic_write_text(out / "bench_runs_matrix.md", matrix + "\n")
+        print()
+        print(matrix)
+    return 0
+
+
+def _bench_one_mechanism(args, mech):
+    """bench rhs FILE and bench work-precision FILE."""
+    from pinclear.dynamics import formulations
+    from pinclear.studies.bench import rhs as bench
+
     if args.what == "rhs":
         methods = args.methods.split(",") if args.methods else None
         for m in methods or []:
@@ -537,6 +562,11 @@ def cmd_bench(args):
         res.pop("rows")
     print(json.dumps(res, indent=2, default=str))
     return 0
+
+
+#: the benchmarks that take no single mechanism (or several): bench WHAT -> its function
+_BENCH = {"restitution": _bench_restitution, "contact-laws": _bench_contact_laws, "atlas": _bench_atlas,
+          "outputs": _bench_outputs, "runs": _bench_runs}
 
 
 def cmd_sweep(args):
@@ -592,25 +622,21 @@ def _bare(parser):
     return 2
 
 
-def _delegate(module, func):
-    def run(args):
-        import importlib
-
-        return importlib.import_module(module).__getattribute__(func)(args.rest)
-    return run
-
-
-#: subcommands that parse their own arguments: (name, module, function, one-line help)
-DELEGATED = (("view", "pinclear.cli.view", "view_main", "meshcat viewer / standalone HTML of a mechanism or a run"),
-             ("plot", "pinclear.cli.view", "plot_main", "standard figures of a saved trajectory"),
-             ("inverse-dynamics", "pinclear.cli.inverse_dynamics", "cli_main", "screw-theory inverse dynamics (paper 004)"),
-             ("analyse", "pinclear.cli.analyse", "cli_main", "phase portraits, Poincare maps, bifurcation diagrams"),
-             ("reproduce", "pinclear.cli.reproduce", "cli_main", "a source paper's study with its numbers beside ours"),
-             ("import", "pinclear.cli.importing", "cli_main", "a mechanism from SDF, MJCF or a closing-frame URDF as a URDF tree + sidecar"),
-             ("export", "pinclear.cli.export", "cli_main", "a mechanism as MuJoCo MJCF (--mjcf OUT.xml)"),
-             ("export-run", "pinclear.cli.export_run", "cli_main", "a saved run's samples as CSV / MATLAB .mat"),
-             ("wear", "pinclear.cli.wear", "cli_main", "Archard wear of revolute clearances over a service life"),
-             ("study", "pinclear.cli.study", "cli_main", "the wear studies (paper 002's linkage worn at A and B)"))
+#: subcommands that parse their own arguments (a pinclear.cli.args.OneLineParser each): an Entry
+#: each, its function called with the arguments after the command's name, its doc the one-line help
+COMMANDS = Registry("command", {e.name: e for e in (
+    Entry("view", "pinclear.cli.view:view_main", "meshcat viewer / standalone HTML of a mechanism or a run"),
+    Entry("plot", "pinclear.cli.view:plot_main", "standard figures of a saved trajectory"),
+    Entry("inverse-dynamics", "pinclear.cli.inverse_dynamics:cli_main", "screw-theory inverse dynamics (paper 004)"),
+    Entry("analyse", "pinclear.cli.analyse:cli_main", "phase portraits, Poincare maps, bifurcation diagrams"),
+    Entry("reproduce", "pinclear.cli.reproduce:cli_main", "a source paper's study with its numbers beside ours"),
+    Entry("import", "pinclear.cli.importing:cli_main",
+          "a mechanism from SDF, MJCF or a closing-frame URDF as a URDF tree + sidecar"),
+    Entry("export", "pinclear.cli.export:cli_main", "a mechanism as MuJoCo MJCF (--mjcf OUT.xml)"),
+    Entry("export-run", "pinclear.cli.export_run:cli_main", "a saved run's samples as CSV / MATLAB .mat"),
+    Entry("wear", "pinclear.cli.wear:cli_main", "Archard wear of revolute clearances over a service life"),
+    Entry("study", "pinclear.cli.study:cli_main", "the wear studies (paper 002's linkage worn at A and B)"))},
+    record=Entry)
 
 
 def _version() -> str:
@@ -668,6 +694,21 @@ def build_parser():
     p.set_defaults(func=lambda args: _bare(p))
     sub = p.add_subparsers(dest="cmd", metavar="COMMAND", parser_class=_OneLineParser)
 
+    _add_simulate_parser(sub)
+    _add_sweep_parser(sub)
+    _add_info_parser(sub)
+    _add_bench_parser(sub)
+    _add_warmup_parser(sub)
+
+    for name, entry in COMMANDS.items():
+        # everything after the name, --help included, goes to the subcommand's own parser
+        s = sub.add_parser(name, help=entry.doc, add_help=False, passthrough=True)
+        s.set_defaults(func=lambda args, entry=entry: entry(args.rest))
+    return p
+
+
+def _add_simulate_parser(sub):
+    """`pinclear simulate`'s arguments."""
     s = sub.add_parser("simulate", help="forward dynamics; writes OUT/trajectory.npz and OUT/summary.json",
                        formatter_class=HelpFormatter)
     s.add_argument("file", nargs="?", help="mechanism sidecar (urdf/NAME.yaml) or a bundled mechanism's name")
@@ -713,6 +754,9 @@ def build_parser():
                    help="progress bar (auto: on an interactive terminal outside CI)")
     s.set_defaults(func=cmd_simulate)
 
+
+def _add_sweep_parser(sub):
+    """`pinclear sweep`'s arguments."""
     s = sub.add_parser("sweep", help="one run per point of a parameter grid, resumable, local or on Dask",
                        formatter_class=HelpFormatter)
     _add_model_args(s)
@@ -734,6 +778,9 @@ def build_parser():
                    help="progress bar (auto: on an interactive terminal outside CI)")
     s.set_defaults(func=cmd_sweep)
 
+
+def _add_info_parser(sub):
+    """`pinclear info`'s arguments."""
     s = sub.add_parser("info", help="assemble and print the mechanism: mobility, redundancy, parameters",
                        formatter_class=HelpFormatter)
     _add_model_args(s)
@@ -745,6 +792,9 @@ def build_parser():
                    help="print every field as JSON (the economy report included) instead of the summary")
     s.set_defaults(func=cmd_info)
 
+
+def _add_bench_parser(sub):
+    """`pinclear bench`'s arguments."""
     s = sub.add_parser("bench", help="bench rhs FILE | bench runs [FILES] | bench work-precision FILE | "
                        "bench restitution | bench contact-laws | bench atlas [FILES] [--quick] | bench outputs",
                        formatter_class=HelpFormatter)
@@ -769,17 +819,14 @@ def build_parser():
     s.add_argument("rest", nargs="*", help=argparse.SUPPRESS)
     s.set_defaults(func=cmd_bench)
 
+
+def _add_warmup_parser(sub):
+    """`pinclear warmup`'s arguments."""
     s = sub.add_parser("warmup", help="compile pinclear's kernels now (once per machine, cached), not in a first run",
                        formatter_class=HelpFormatter)
     s.add_argument("files", nargs="*", metavar="FILE",
                    help="mechanism sidecars or bundled names to prepare (default: every bundled mechanism)")
     s.set_defaults(func=cmd_warmup)
-
-    for name, module, func, helptext in DELEGATED:
-        # everything after the name, --help included, goes to the subcommand's own parser
-        s = sub.add_parser(name, help=helptext, add_help=False, passthrough=True)
-        s.set_defaults(func=_delegate(module, func))
-    return p
 
 
 class _OneLineParser(argparse.ArgumentParser):

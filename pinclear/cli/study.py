@@ -2,7 +2,6 @@
 """
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
@@ -10,7 +9,9 @@ from pinclear.studies.wear import STUDIES
 
 
 def build_parser():
-    p = argparse.ArgumentParser(prog="pinclear study", description="wear and lubrication studies the seed papers "
+    from pinclear.cli.args import OneLineParser
+
+    p = OneLineParser(prog="pinclear study", description="wear and lubrication studies the seed papers "
                                 "name as their next step (docs/wear_lubrication.md); each writes OUT/README.md with "
                                 "its findings")
     p.add_argument("name", choices=sorted(STUDIES), help="the study")
@@ -22,14 +23,11 @@ def build_parser():
 
 
 def cli_main(argv=None) -> int:
-    import importlib
-
     from pinclear.cli.commands import check_out_dir
     from pinclear.core import safeio
 
     args = build_parser().parse_args(argv)
-    module, func = STUDIES[args.name].split(":")
-    run = getattr(importlib.import_module(module), func)
+    run = STUDIES[args.name]
     out = Path(args.out or Path("docs") / "study" / args.name)
     # as simulate does: an unwritable OUT fails before minutes of computing, and a second study into
     # the same folder is refused while the first runs

@@ -13,12 +13,10 @@ from pinclear.core.version import provenance
 
 
 def build_parser():
-    import argparse
-
-    from pinclear.cli.args import count, number
+    from pinclear.cli.args import OneLineParser, count, number
     from pinclear.cli.commands import _add_model_args
 
-    p = argparse.ArgumentParser(prog="pinclear wear", description="Archard wear of revolute clearances over a "
+    p = OneLineParser(prog="pinclear wear", description="Archard wear of revolute clearances over a "
                                 "service life: the iterative scheme with the update factor chosen by a convergence "
                                 "test (docs/wear_lubrication.md). Writes OUT/history.csv, OUT/profile.csv, "
                                 "OUT/depth_vs_angle.png, OUT/growth.png, OUT/summary.json; rerun to resume.")
@@ -58,6 +56,10 @@ def cli_main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     if not args.clearance:
         raise InputError("name the worn clearance(s) with --clearance NAME", key="--clearance")
+    if args.scheme == "factor" and args.cycles < args.updates * args.block_periods:
+        # checked before the mechanism is loaded and any block is simulated
+        raise InputError(f"{args.cycles:g} cycles are fewer than --updates x --block-periods = {args.updates} x "
+                         f"{args.block_periods}: give more --cycles or fewer --updates", key="--cycles")
     mech = _load(args)
     s = WearSettings(cycles=float(args.cycles), period=float(args.period), updates=args.updates,
                      block_periods=args.block_periods, transient_periods=args.transient_periods, rtol=args.rtol,

@@ -64,20 +64,24 @@ from pinclear.core.jit import njit
 from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
 from pinclear.model.forces import add_wrenches, place_frames, relative_velocity
 
-#: normal-force models of the ``model`` key; the first is the default
-MODELS = ("energy", "paper003")
+#: normal-force models of the ``model`` key; the first is the default. ``mode_laws``: each
+#: contact mode's own law (corner points, edge lines, face planes; not conservative)
+MODELS = ("energy", "mode_laws")
+#: older names of the models, still accepted
+MODEL_ALIASES = {"paper003": "mode_laws"}
 _KEYS = (
     Key("section", "number or [a, b]", "m", [0.05, 0.05], "> 0", "paper 003 eq. 1", "slider section a x b"),
     Key("length", "number", "m", 0.1, "> 0", "paper 003 eq. 1", "slider length L along the guide"),
     Key("edge_radius", "number", "m", 1e-3, "> 0", "paper 003 eq. 7", "corner radius of the point and line laws"),
     Key("model", "string", "-", MODELS[0], " | ".join(MODELS), "docs/contact_models.md", "energy: a Winkler "
-        "foundation on each face (conservative); paper003: the paper's per-mode laws (not conservative)"),
+        "foundation on each face (conservative); mode_laws: each contact mode's own law, corners, edges or "
+        "faces (not conservative; paper003 is an alias)"),
     Key("point_law", "law name or mapping", "-", "lankarani_nikravesh", "a normal law", "paper 003 eq. 7",
-        "paper003 model: corner contacts"),
+        "mode_laws model: corner contacts"),
     Key("line_law", "law name or mapping", "-", "line", "a normal law", "paper 003 eqs. 5-6",
-        "paper003 model: edge contacts"),
+        "mode_laws model: edge contacts"),
     Key("plane_law", "law name or mapping", "-", "plane", "a normal law", "paper 003 eq. 4",
-        "paper003 model: face contacts"),
+        "mode_laws model: face contacts"),
 )
 KEYS = key_names(_KEYS)
 
@@ -371,7 +375,8 @@ def from_spec(sp, mech, closure):
     E = min(E1, E2)                                   # the softer body sets the plane compliance
     laws["plane_x"] = sp.normal_law("plane_law", default["plane_law"], plane=(E, L * b, a))
     laws["plane_y"] = sp.normal_law("plane_law", default["plane_law"], plane=(E, L * a, b))
-    model = sp.choice("model", MODELS)
+    model = sp.choice("model", MODELS + tuple(MODEL_ALIASES))
+    model = MODEL_ALIASES.get(model, model)
     # energy model: the foundation modulus E / l of paper 003 eq. 4's plane law, the damping of
     # normal_law's hysteresis (point_law, line_law and plane_law are paper003's)
     return PrismaticClearance(sp.name, mech.model, closure.f1, closure.f2, (a, b), (c1, c2), L, laws,

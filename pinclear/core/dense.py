@@ -289,9 +289,8 @@ def _gram(A, rows, cols, ncols, G, indirect):
     and the others come in the dense sum's order, so either support gives the same bits. Which:
     the later row's (r) for every c, or the earlier row's (c) for every r, whichever needs fewer
     products in all (an O(m) count): supports that grow along the rows (A02's chain, each loop
-    one coupler deeper) cost half with the earlier's (80 rows: 22 us against 53, 2026-11-27). Four sums that
-    share the support at a time: independent chains of additions the processor overlaps (30% less
-    than one at a time at 16 rows)."""
+    one coupler deeper) cost half with the earlier's (benchmarks/kernel_choices.md). Four sums
+    that share the support at a time: independent chains of additions the processor overlaps."""
     m = rows.shape[0]
     later = earlier = 0
     for r in range(m):

@@ -34,18 +34,6 @@ def available() -> list[str]:
     return sorted(p.stem for p in models_dir().glob("*.yaml"))
 
 
-#: bundled mechanisms imported from other packages' robot files (``pinclear import``): the
-#: benchmarks that sweep "every scene" (``bench runs``, ``bench atlas``) leave them out unless
-#: named, since Cassie's five variants are robots, not clearance studies, and cost the quick atlas
-#: ~7 CPU min on their own; benchmarks/bench_cassie.py measures them
-IMPORTED_ROBOTS = ("cassie", "cassie_reduced", "cassie_simple", "cassie_v2", "cassie_wo_gearbox_spring")
-
-
-def bench_scenes() -> list[str]:
-    """The bundled mechanisms the whole-catalogue benchmarks run by default."""
-    return [n for n in available() if n not in IMPORTED_ROBOTS]
-
-
 def model_path(name) -> Path:
     """A sidecar (or URDF) path from a bundled mechanism's name (``"four_bar"``) or any path.
 

@@ -1,5 +1,8 @@
-"""Registries of the plug-in kinds: clearance types and force element types (the sidecar's),
-and integrators.
+"""Registries of the plug-in kinds, all of one style (:class:`Registry`): clearance types and
+force element types (the sidecar's), formulations and integrators (below); closure readers
+(pinclear.io.sidecar), importers (pinclear.io.importers), paper reproductions
+(pinclear.studies.reproduce), studies (pinclear.studies.wear) and commands (pinclear.cli.commands)
+in the module of their kind (:data:`KINDS` lists where each is).
 
 Each type declares, in its own module, one :class:`PluginType` record: its sidecar ``type``
 name, its keys (:class:`Key`: type, unit, default, range, source equation), its parser (the
@@ -9,6 +12,9 @@ the plots (pinclear.viz) and the key reference (docs/keys.md, pinclear.io.keyref
 records and nothing else, so a new type is one new module plus one line in its registry below
 (``"name": "module:ATTRIBUTE"``), or, for a type defined outside pinclear, one
 ``REGISTRY.add(record)`` call before loading.
+
+A kind whose plug-ins are functions (a reader, a study, a command) registers :class:`Entry`
+records: a name, its ``"module:function"`` (imported on first call) and one line of doc.
 
 Entries are imported when first used, so a registry lists its names without importing the
 modules behind them (the sidecar checks a type name without loading the contact kernels).
@@ -104,16 +110,41 @@ def _resolve(ref: str):
     return getattr(importlib.import_module(module), attr)
 
 
+@dataclass(frozen=True)
+class Entry:
+    """A registered function: ``name``, ``target`` (``"module:function"``, imported on first
+    use, or the function itself) and one line of ``doc`` (a command's help, a study's title)."""
+
+    name: str
+    target: Any
+    doc: str = ""
+
+    def load(self) -> Callable:
+        """The function itself (its module imported now if named as text)."""
+        return _resolve(self.target) if isinstance(self.target, str) else self.target
+
+    def __call__(self, *args, **kwargs):
+        return self.load()(*args, **kwargs)
+
+
 class Registry:
     """name -> record (a PluginType, or the ``record`` class given: an integrator is a
-    pinclear.dynamics.stepping.base.Method), each entry given as a record or as "module:attribute"
-    (imported on first use). Iterating gives the names in registration order."""
+    pinclear.dynamics.stepping.base.Method, a function an :class:`Entry`), each entry given as a
+    record or as "module:attribute" (imported on first use). ``classes=True``: the records are
+    subclasses of ``record`` (a formulation is its class). Iterating gives the names in
+    registration order."""
 
-    def __init__(self, what: str, entries: dict, common=(), record=PluginType):
+    def __init__(self, what: str, entries: dict, common=(), record=PluginType, classes=False):
         self.what = what
         self._common = common
         self._record = record
+        self._classes = classes
         self._entries = dict(entries)
+
+    def _is_record(self, entry) -> bool:
+        if self._classes:
+            return isinstance(entry, type) and issubclass(entry, self.record)
+        return isinstance(entry, self.record)
 
     @property
     def record(self) -> type:
@@ -145,7 +176,7 @@ class Registry:
         entry = self._entries[name]
         if isinstance(entry, str):
             entry = _resolve(entry)
-            if not isinstance(entry, self.record) or entry.name != name:
+            if not self._is_record(entry) or entry.name != name:
                 raise TypeError(f"{self.what} {name!r}: {self._entries[name]} is not its {self.record.__name__} "
                                 "record")
             self._entries[name] = entry
@@ -166,7 +197,7 @@ class Registry:
 
     def add(self, record):
         """Register a type defined outside pinclear (the one line of a user's plug-in)."""
-        if not isinstance(record, self.record):
+        if not self._is_record(record):
             raise TypeError(f"a {self.what} is registered as a {self.record.__name__} record, got "
                             f"{type(record).__name__}")
         if record.name in self._entries:
@@ -177,7 +208,7 @@ class Registry:
         """Put ``record`` in place of the one registered under its name, keeping the order (a
         benchmark trying variants of a type); returns the one replaced."""
         old = self.get(record.name)
-        if not isinstance(record, self.record):
+        if not self._is_record(record):
             raise TypeError(f"a {self.what} is registered as a {self.record.__name__} record")
         self._entries[record.name] = record
         return old
@@ -217,3 +248,32 @@ INTEGRATORS = Registry("integrator", {
     "LSODA": "pinclear.dynamics.stepping.external:LSODA",
     "RK4": "pinclear.dynamics.stepping.rk:RK4",
 }, record="pinclear.dynamics.stepping.base:Method")
+
+#: forward-dynamics formulations (``simulate(..., method=NAME)``, ``--method``): each a subclass of
+#: pinclear.dynamics.formulations.base.Formulation in its module (its contract there)
+FORMULATIONS = Registry("formulation", {
+    "lagrange": "pinclear.dynamics.formulations.lagrange:Lagrange",
+    "projection": "pinclear.dynamics.formulations.projection:Projection",
+    "pinocchio": "pinclear.dynamics.formulations.pinocchio_cd:PinocchioCD",
+    "proximal": "pinclear.dynamics.formulations.proximal:Proximal",
+    "manifold": "pinclear.dynamics.formulations.manifold:Manifold",
+}, record="pinclear.dynamics.formulations.base:Formulation", classes=True)
+
+#: every plug-in kind: its registry, as "module:NAME" (tests/core/test_registry.py checks each is a
+#: Registry)
+KINDS = {
+    "clearance type": "pinclear.core.registry:CLEARANCE_TYPES",
+    "force element type": "pinclear.core.registry:FORCE_TYPES",
+    "integrator": "pinclear.core.registry:INTEGRATORS",
+    "formulation": "pinclear.core.registry:FORMULATIONS",
+    "closure reader": "pinclear.io.sidecar:CLOSURE_READERS",
+    "importer": "pinclear.io.importers:READERS",
+    "paper reproduction": "pinclear.studies.reproduce:PAPERS",
+    "study": "pinclear.studies.wear:STUDIES",
+    "command": "pinclear.cli.commands:COMMANDS",
+}
+
+
+def kinds() -> dict:
+    """{kind: its Registry} (each registry's module imported)."""
+    return {k: _resolve(ref) for k, ref in KINDS.items()}

@@ -117,8 +117,8 @@ def ltl_solve(L, parent, y):
 def scaled_rows(Lm, parent, J, rows, Y):
     """Y[r] = L^-T J[rows[r]] (row-wise: Y = B = J L^-1 over the selected rows), M = L^T L.
     ltl_solve_t on every row at once: each row sees the same operations in the same order. One
-    walk of the tree for all rows: a walk per row over its support alone took 0.94x (A02 N = 10)
-    to 1.48x (3-UPRU+UP) its time, measured 2026-11-27. At dof k only the rows from the first to
+    walk of the tree for all rows: a walk per row over its support alone is no faster and often
+    slower (benchmarks/kernel_choices.md). At dof k only the rows from the first to
     the last whose Y[r, k] is non-zero are updated: the others would subtract exact zeros (no bit
     changes). Y is zero outside the rows' supports (pinclear.model.kinematics.row_support), so on
     A02 N = 40, whose rows reach one coupler deeper each, that is a third of the products (30 us

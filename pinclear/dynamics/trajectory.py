@@ -120,7 +120,8 @@ def atomic_write_text(path, text: str, root=None):
     return write_text(path, text, root)
 
 
-#: the version of summary.json's layout (Trajectory.summary): 2 named the energy audit's units
+#: the version of the layout of summary.json and of a saved run's metadata (``schema_version``),
+#: raised when a key is renamed or changes meaning so a reader can tell which layout it holds: 2 named the energy audit's units
 #: (error_rel, error_J, terms_absolute_J / terms_change_J; the older keys kept, ``aliases``) and
 #: added ``versions``, ``units`` and ``peaks_after``
 SUMMARY_SCHEMA = 2

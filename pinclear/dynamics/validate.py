@@ -22,6 +22,7 @@ import numpy as np
 from pinclear.core.errors import InputError
 from pinclear.core.failures import Failure, FailureKind
 from pinclear.core.jsonsafe import jsonable
+from pinclear.dynamics.tolerances import RTOL_DEFAULT, default_atol
 
 #: bound on one array's declared size: a saved run of MAX_SAMPLES samples of a 60-coordinate
 #: tree is ~1 GB, so an array declaring more is not one pinclear wrote
@@ -284,9 +285,8 @@ def _check_on_manifold(ck, mech, path, ws, identity):
 
     ws = ws if ws is not None else mech.workspace()
     mc = mech.compiled.m
-    rtol = (identity or {}).get("rtol") or 1e-8
-    atol = (identity or {}).get("atol")
-    atol = rtol * 1e-2 if atol is None else atol
+    rtol = (identity or {}).get("rtol") or RTOL_DEFAULT
+    atol = default_atol(rtol, (identity or {}).get("atol"))
     steps = int(ck.stats.get("steps", 0) or 0)
     bound = max(residual_bound(mech, rtol, atol, steps, q_scale=float(np.max(np.abs(ck.q_now), initial=1.0))),
                 1e-6 * mechanism_length(mech))

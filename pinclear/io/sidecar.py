@@ -12,7 +12,7 @@ import yaml
 from pinclear.core.errors import ModelFileError, PinclearError
 from pinclear.core.registry import CLEARANCE_TYPES as CLEARANCE_REGISTRY
 from pinclear.core.registry import FORCE_TYPES as FORCE_REGISTRY
-from pinclear.core.registry import Key, key_names
+from pinclear.core.registry import Entry, Key, Registry, key_names
 from pinclear.core.values import check_keys as _check_keys
 from pinclear.core.values import joint as _joint
 from pinclear.core.values import number as _number
@@ -142,7 +142,8 @@ _TOP_DEFAULT = {k.name: k.default for k in TOP}
 MAX_SIDECAR_BYTES = 1_000_000
 CLOSURE_KEYS = set(key_names(CLOSURE_ENTRY_KEYS))
 #: closure types read by their own module (no frames): type -> "module:function(ctx, entry, name)"
-CLOSURE_READERS = {"coupling": "pinclear.model.closures:coupling_closure"}
+CLOSURE_READERS = Registry("closure reader",
+                           {"coupling": Entry("coupling", "pinclear.model.closures:coupling_closure")}, record=Entry)
 FRAME = (Key("parent", "link or frame name", doc="what the new frame is fixed to"),
          Key("xyz", "[x, y, z]", "m", [0, 0, 0], "finite", doc="origin in the parent's axes"),
          Key("rpy", "[r, p, y]", "rad", [0, 0, 0], "finite; not with axis", doc="orientation (roll, pitch, yaw)"),
@@ -449,17 +450,32 @@ def check_disjoint(first: dict, second: dict, what1: str, what2: str):
 
 
 def load(path, options=None, overrides=None, clearances=None, trust=None) -> Mechanism:
-    """Load ``urdf/<name>.yaml`` (sidecar) and the URDF it names; a bare name (``"four_bar"``)
-    loads a bundled model.
+    """Load a mechanism: a sidecar (``urdf/<name>.yaml``) and the URDF it names.
 
-    trust: a mechanism file may name Python functions (drive laws, platform motions, hooks);
-    unless ``trust=True`` (or the environment variable PINCLEAR_TRUST=1) only the functions
-    pinclear offers to data files (``pinclear.core.trust.OFFERED``) resolve: importing a module runs
-    its code (docs/security.md).
+    Every key and name is checked; a bad one is one ModelFileError naming the file, the key and
+    the valid choices.
 
-    options: scene switches declared under ``options:`` (e.g. {"limbs": False}).
-    overrides: {"S2.clearance": 5e-4, "limbs": False, ...}: clearance keys (NAME.key) or options.
-    clearances: names of clearance joints to activate (besides those with ``active: true``).
+    Parameters
+    ----------
+    path : str or Path
+        The sidecar, or a bundled mechanism's name (``"four_bar"``).
+    options : dict, optional
+        Scene switches declared under the sidecar's ``options:`` (e.g. ``{"limbs": False}``).
+    overrides : dict, optional
+        ``{"S2.clearance": 5e-4, "limbs": False, ...}``: clearance keys (``NAME.key``), key
+        paths (``"forces[spring].k"``) or options.
+    clearances : list of str, optional
+        Clearance joints to activate, besides those with ``active: true``.
+    trust : bool, optional
+        A mechanism file may name Python functions (drive laws, platform motions, hooks); unless
+        ``trust=True`` (or the environment variable PINCLEAR_TRUST=1) only the functions pinclear
+        offers to data files (``pinclear.core.trust.OFFERED``) resolve, since importing a module
+        runs its code (docs/security.md).
+
+    Returns
+    -------
+    Mechanism
+        The immutable description (``mech.replace(...)`` derives variants).
     """
     try:
         return _load(path, options, overrides, clearances, trust)
@@ -648,14 +664,11 @@ def _closures(ctx, entries):
         key = f"closures[{i}]"
         ctype = c.get("type") if isinstance(c, dict) else None
         if ctype in CLOSURE_READERS:
-            import importlib
-
-            module, func = CLOSURE_READERS[ctype].split(":")
             cname = c.get("name", f"loop{i}")
             if cname in seen:
                 raise ModelFileError(file, f"{key}.name", f"duplicate closure name {cname!r}")
             seen.add(cname)
-            closures.append(getattr(importlib.import_module(module), func)(model, c, file, key, cname))
+            closures.append(CLOSURE_READERS[ctype](model, c, file, key, cname))
             continue
         _check_keys(c, CLOSURE_KEYS, file, key)
         cname = c.get("name", f"loop{i}")

@@ -6,7 +6,7 @@
   end to end, 2N + 1 bars of 1 m and 1 kg (uniform thin rods), gravity 9.81 m/s^2 along -y.
   Published start: the cranks at 45 deg, point B0 (tip of the first crank) moving at 1 m/s
   along +x, hence crank rate -1 / (L sin 45 deg) = -sqrt(2) rad/s. The library runs N = 40 for
-  20 s; issue 12 asks N = 1, 2, 10 for 10 s. In the flat position (cranks horizontal) the
+  20 s; the bundled scenes take N = 1, 2, 10 for 10 s. In the flat position (cranks horizontal) the
   closure Jacobian loses N rows of rank: the mobility jumps from 1 to N + 1 (the spec's words),
   so a method must keep the parallelogram branch through a bifurcation twice per swing.
 

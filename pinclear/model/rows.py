@@ -51,9 +51,8 @@ class Rows(NamedTuple):
 def closure_positions(table, E, L, H, Jv, Jw, phi, Jc, dphi):
     """Residual and Jacobian of every closure primitive (see pinclear.model.closures), J v = 0 (the
     rows at rest). table rows: (code, i1, i2, row0, a, b); E (n, 2, 3) plane bases; L lengths.
-    The rows' loops run over every dof, contiguous (measured 2026-11-27, all the rows at one
-    state: 0.57 us on 3-UPRU+UP, against 0.69 for a walk of each row's support, half the dofs;
-    on A02 N = 10, a third of the dofs, the walk took 1.4 us against 1.6)."""
+    The rows' loops run over every dof, contiguous: within 20 % of a walk of each row's support
+    either way (benchmarks/kernel_choices.md)."""
     nv = Jc.shape[1]
     for p in range(table.shape[0]):
         code, i1, i2, r = table[p, 0], table[p, 1], table[p, 2], table[p, 3]

@@ -18,13 +18,17 @@ from pathlib import Path
 import numpy as np
 
 from pinclear.core import safeio
+from pinclear.core.registry import Entry, Registry
 from pinclear.core.version import provenance
 
 #: the study's wear law: k for mild wear of lubricated-free steel on steel, hardness of a through-
 #: hardened pin (both stated, not from paper 002, which gives none)
 WEAR = {"model": "archard", "k": 1e-5, "hardness": 2e9, "nodes": 360}
 #: name -> "module:function" of each study (function(out, quick=False, smoke=False) -> rows)
-STUDIES = {"paper002": "pinclear.studies.wear:paper002", "paper000": "pinclear.studies.wear_paper000:paper000"}
+STUDIES = Registry("study", {e.name: e for e in (
+    Entry("paper002", "pinclear.studies.wear:paper002", "the nine-bar linkage worn at A and B"),
+    Entry("paper000", "pinclear.studies.wear_paper000:paper000", "the 4UPS-UPU's spherical joint S2 worn"))},
+    record=Entry)
 
 
 def _settings(quick, smoke=False):

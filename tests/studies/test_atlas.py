@@ -18,6 +18,7 @@ from scipy.optimize import brentq
 
 import pinclear
 from pinclear.cli import commands as cli
+from pinclear.mechanisms import bench_scenes
 from pinclear.mechanisms import benchmarks as B
 from pinclear.model import kinematics
 from pinclear.studies.bench import atlas
@@ -55,10 +56,10 @@ def _flat_time_by_quadrature(mech):
 
 def test_flat_time_quadrature_agrees_with_the_branch_ode():
     """The two independent singular times: quadrature of the energy integral and the event of the
-    1-dof branch ODE (pinclear.studies.bench.atlas.parallelogram_flat_times) agree to 1e-9 s."""
+    1-dof branch ODE (pinclear.mechanisms.bench_scenes.parallelogram_flat_times) agree to 1e-9 s."""
     mech = pinclear.load(URDF_DIR / "parallelogram.yaml")
     tq = _flat_time_by_quadrature(mech)
-    te = atlas.parallelogram_flat_times(mech, 1.0)
+    te = bench_scenes.parallelogram_flat_times(mech, 1.0)
     assert len(te) == 2 and 0.2 < tq < 0.4
     assert te[0] == pytest.approx(tq, abs=1e-9)
 

@@ -34,7 +34,7 @@ def _check_files(rep, out):
 
 def test_both_papers_are_registered_and_take_workers_and_scheduler():
     for p in ("000", "003"):
-        params = inspect.signature(PAPERS[p].run).parameters
+        params = inspect.signature(PAPERS[p].load()).parameters
         assert {"out", "quick", "workers", "scheduler"} <= set(params)
 
 

@@ -1,5 +1,7 @@
-"""Forward-dynamics formulations, chosen by name (one file each, one interface)."""
+"""Forward-dynamics formulations, chosen by name (one file each, one interface), registered in
+pinclear.core.registry.FORMULATIONS (one module and one line each)."""
 from pinclear.core.errors import InputError
+from pinclear.core.registry import FORMULATIONS
 from pinclear.dynamics.formulations.base import Formulation
 from pinclear.dynamics.formulations.lagrange import Lagrange
 from pinclear.dynamics.formulations.manifold import Manifold
@@ -9,11 +11,13 @@ from pinclear.dynamics.formulations.proximal import Proximal
 
 __all__ = ["Formulation", "Lagrange", "Projection", "PinocchioCD", "Proximal", "Manifold", "METHODS", "get"]
 
-METHODS = {cls.name: cls for cls in (Lagrange, Projection, PinocchioCD, Proximal, Manifold)}
+#: the registry itself (added formulations included)
+METHODS = FORMULATIONS
 
 
 def get(name: str):
+    """The formulation class registered as ``name``."""
     try:
         return METHODS[name]
-    except KeyError:
+    except (KeyError, TypeError):
         raise InputError(f"unknown method {name!r}", choices=METHODS) from None

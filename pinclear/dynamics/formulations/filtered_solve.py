@@ -46,8 +46,8 @@ def series_filtered(Lc, pc, dsh, r, w, t, u, y):
     which converges where the spectral radius rho^2 of T is below 1: far from a flat
     configuration, where D = mu^2 Lam is far below S's smallest eigenvalue (A02 N = 40:
     rho = 2e-4 .. 1e-2 at 90 % of its states, 3 terms to rounding). Two Cholesky solves (2 m^2)
-    per term against the factor's m^3 / 6 complex products: at 80 rows 3 terms (7 solves) took
-    20-45 us against 100-130 for shifted_factor and its solve (2026-11-27). Terms are added
+    per term against the factor's m^3 / 6 complex products: a few terms cost a fraction of
+    shifted_factor and its solve (benchmarks/kernel_choices.md). Terms are added
     until one is below eps of w (max norms): w is then g(S) r to rounding, as the factor's (both
     ~ eps cond(S)). False when a term is above
     SERIES_RATIO of the one before or SERIES_TERMS pass (near flat; w is then not g(S) r and the
@@ -123,9 +123,9 @@ def shifted_factor(S, mu, grp, gcnt, gsum, Fr, Fi):
     * none on the drives: eliminating their rows first is exact, so g is the filter of the
       closures' own system with the driven joints locked (the Schur complement C), and the drive
       rows hold exactly (on a row with Lam_ii = 0 the real part of (S + i mu^2 Lam) z = r is
-      (S w)_i = r_i). With one shift mu^2 mean(diag S) on every row (before 2026-11-25) the
-      spread a drive adds to S was taken for a flat closure: accelerations off by 5 % on the
-      nine-bar linkage at regular configurations (4.1e-5 now);
+      (S w)_i = r_i). One shift mu^2 mean(diag S) on every row would take the spread a drive
+      adds to S for a flat closure: accelerations off by 5 % on the nine-bar linkage at regular
+      configurations (4.1e-5 with the shifts per row);
     * per group: Lam = D^-2 makes g(S) = D g1(D S D) D with g1 on the scaled eigenvalues, so
       B^T g(S) r does not change when a group's rows change unit (angles against lengths in mm,
       a heavy platform): 3-UPRU+UP's angle rows have 5000 times the diagonal of its length rows,

@@ -236,8 +236,8 @@ def min_norm_step_gram(Jc, phi, rows, cols, ncols, G, Lg, pg, dg, yg, Qr, piv, h
     pivot of G stays above GRAM_GATE times the first (pinclear.core.dense.chol_pivoted), the
     pivoted QR below it (near rank loss, where it is the minimum-norm step the QR's truncation
     defines). The two differ by rounding: at most ~eps / GRAM_GATE relative to |dq|, which is
-    O(d) at a point d off the manifold; at 16 x 16 the Gram matrix and its factor took 1.5-2.6 us
-    against the QR's 2.2-3.6 (three runs, 2026-11-27)."""
+    O(d) at a point d off the manifold; the Gram matrix and its factor cost less than the QR
+    (benchmarks/kernel_choices.md)."""
     m = rows.shape[0]
     gram_rows(Jc, rows, cols, ncols, G)
     if chol_pivoted(G, pg, Lg, dg, GRAM_GATE) > 0.0:

@@ -550,7 +550,7 @@ class Rosenbrock(Method):
 
     def saved_state(self, own):
         """The Jacobian (its rows, its time column, whether it was made at the current state and
-        its age), reused across steps (issue 42). The LU is not kept: it is made again from the
+        its age), reused across steps, so a resumed run takes the same steps. The LU is not kept: it is made again from the
         same matrix and step size, which gives the same factors."""
         W = own.W
         flat, n = W.reshape(-1), W.shape[1]

@@ -458,7 +458,8 @@ class Run:
 # ----------------------------------------------------------------- the method's state in checkpoints
 def method_state(run) -> dict:
     """What the integrator carries from one step to the next beyond the state and the step size,
-    for checkpoints (issue 42; Method.saved_state: ROS34PW2's Jacobian)."""
+    for checkpoints, so a resumed run takes the same steps (Method.saved_state: ROS34PW2's
+    Jacobian)."""
     return run.method.saved_state(run.own)
 
 

@@ -16,22 +16,22 @@ import yaml
 
 from pinclear.core import safeio
 from pinclear.core.errors import ModelFileError
+from pinclear.core.registry import Entry, Registry
 
-#: file suffix -> (module, reader) of each format
-READERS = {".sdf": ("pinclear.io.importers.sdf", "read"), ".xml": ("pinclear.io.importers.mjcf", "read"),
-           ".mjcf": ("pinclear.io.importers.mjcf", "read"), ".urdf": ("pinclear.io.importers.urdf_closing", "read")}
+#: file suffix -> the reader of each format (an Entry: "module:function")
+READERS = Registry("importer", {e.name: e for e in (
+    Entry(".sdf", "pinclear.io.importers.sdf:read"), Entry(".xml", "pinclear.io.importers.mjcf:read"),
+    Entry(".mjcf", "pinclear.io.importers.mjcf:read"), Entry(".urdf", "pinclear.io.importers.urdf_closing:read"))},
+    record=Entry)
 
 
 def read_graph(path):
     """The Graph of a mechanism file, by its suffix."""
-    import importlib
-
     suffix = Path(path).suffix.lower()
     if suffix not in READERS:
         raise ModelFileError(str(path), "path", f"no importer for {suffix or 'files without a suffix'!r}",
                              choices=sorted(READERS))
-    module, func = READERS[suffix]
-    return getattr(importlib.import_module(module), func)(path)
+    return READERS[suffix](path)
 
 
 def convert(path, cut=(), fix=None, name=None):

@@ -151,6 +151,16 @@ def validate(g):
     (I <= m r^2 for every mass element: no mass, no inertia), limits that are not finite or out
     of order, a negative effort, velocity, damping or stiffness, a coupling naming no 1-dof
     joint. Every reader's Graph passes here before anything is written."""
+    _check_counts(g)
+    _check_bodies(g)
+    _check_names(g)
+    ends = set(g.bodies) | {WORLD}
+    _check_joints(g, ends)
+    _check_couplings_closings_frames(g, ends)
+
+
+def _check_counts(g):
+    """The file has bodies, and no more bodies, joints or frames than the limits."""
     from pinclear.core.errors import ModelFileError
 
     file = g.file
@@ -167,6 +177,13 @@ def validate(g):
     if len(g.frames) > MAX_FRAMES:
         raise ModelFileError(file, "frames", f"{len(g.frames)} named frames: more than pinclear keeps (at most "
                              f"{MAX_FRAMES})")
+
+
+def _check_bodies(g):
+    """Each body's pose, mass and inertia."""
+    from pinclear.core.errors import ModelFileError
+
+    file = g.file
     for b in g.bodies.values():
         where = f"body {b.name!r} (line {b.line})"
         if not (_se3_ok(b.X) and _se3_ok(b.C)):
@@ -179,6 +196,13 @@ def validate(g):
         if b.mass == 0 and np.any(I != 0):
             raise ModelFileError(file, where, "mass 0 with a non-zero inertia: a body without mass has no rotational "
                                  "inertia (every mass element adds m r^2); give its mass, or leave the inertia out")
+
+
+def _check_names(g):
+    """Joint, coupling and closure names: present and unique."""
+    from pinclear.core.errors import ModelFileError
+
+    file = g.file
     seen = {}
     items = [("joint", j.name, j.line) for j in g.joints] + [("coupling", c.name, c.line) for c in g.couplings]
     items += [("closure", c.name, c.line) for c in g.closings]
@@ -190,7 +214,13 @@ def validate(g):
                                  f"{seen[name][0]} on line {seen[name][1]}): joint, coupling and closure names are "
                                  "unique")
         seen[name] = (kind, line)
-    ends = set(g.bodies) | {WORLD}
+
+
+def _check_joints(g, ends):
+    """Each joint's type, ends, pose, axes and limits."""
+    from pinclear.core.errors import ModelFileError
+
+    file = g.file
     for j in g.joints:
         where = f"joint {j.name!r} (line {j.line})"
         if j.type not in ROWS:
@@ -218,6 +248,13 @@ def validate(g):
                 raise ModelFileError(file, where, f"{attr} {v!r}: finite and >= 0")
         if not np.isfinite(j.reference):
             raise ModelFileError(file, where, f"spring reference {j.reference!r} is not finite")
+
+
+def _check_couplings_closings_frames(g, ends):
+    """Couplings name 1-dof joints or known bodies; closures and frames known bodies and finite poses."""
+    from pinclear.core.errors import ModelFileError
+
+    file = g.file
     one_dof = {j.name for j in g.joints if j.type in ("revolute", "prismatic")}
     for c in g.couplings:
         where = f"coupling {c.name!r} (line {c.line})"

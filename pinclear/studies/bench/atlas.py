@@ -16,8 +16,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import pinocchio as pin
-from scipy.integrate import simpson, solve_ivp
+from scipy.integrate import simpson
 
 from pinclear.core import safeio
 from pinclear.core.errors import InputError, PinclearError
@@ -25,6 +24,7 @@ from pinclear.core.failures import FailureKind
 from pinclear.dynamics import formulations
 from pinclear.dynamics import stepping as integrators
 from pinclear.dynamics.stepping.run import run_clock as _run_clock
+from pinclear.mechanisms import bench_scenes as scenes
 from pinclear.model import kinematics
 from pinclear.studies.bench import rhs as bench
 
@@ -45,24 +45,11 @@ DEFAULT_METHODS = tuple(m for m in formulations.METHODS if m != "manifold")
 CLEARANCE_TOLS = (1e-4, 1e-6, 1e-8)
 QUICK_TOLS = (1e-5, 1e-8)
 
-#: rigid scenes: simulated seconds (full atlas); the parallelogram and A02 scenes pass their flat
-#: configuration at least twice in it
-T_END = {"parallelogram": 1.0, "a02_nfourbar_1": 3.0, "a02_nfourbar_2": 3.0, "a02_nfourbar_10": 2.0,
-         # python drive laws (inverse kinematics per evaluation): ~10x the cost of a sines law
-         "four_ups_upr": 0.5,
-         # 5000 rpm: 4 crank revolutions
-         "slider_crank_clearance": 0.05,
-         # the Test Set's interval: beta turns 2.5 revolutions and reaches ~1100 rad/s in it
-         "squeezer": 0.03}
+#: simulated seconds of each bundled scene (full atlas, clearance scenes, quick atlas), their
+#: references and branches: the scenes' own settings (pinclear.mechanisms.bench_scenes)
+T_END, T_END_CLEARANCE, QUICK_T_END = scenes.ATLAS_T_END, scenes.ATLAS_T_END_CLEARANCE, scenes.ATLAS_QUICK_T_END
 T_END_RIGID = 2.0
-#: clearance scenes cost 1-70 CPU s per simulated s (benchmarks/bench_runs.md, RK45 rtol 1e-6):
-#: windows sized so that one RK45 rtol-1e-6 cell costs about 0.3 s
-T_END_CLEARANCE = {"clr_hinge+R": 0.04, "clr_pendulum+S": 0.05, "clr_planar_pendulum+A": 0.05,
-                   "clr_slider+P": 0.015, "four_ups_upu+S2": 0.2, "nine_bar+A": 0.1, "nine_bar+B": 0.1,
-                   "slider_crank_clearance+P": 0.01, "three_upru_up+P_UP": 0.005}
 T_END_CLEARANCE_DEFAULT = 0.02
-QUICK_T_END = {"parallelogram": 0.5, "a02_nfourbar_1": 1.0, "a02_nfourbar_2": 1.0, "a02_nfourbar_10": 1.0,
-               "squeezer": 0.03}
 QUICK_T_END_RIGID = 0.5
 QUICK_CLEARANCE_FACTOR = 0.25
 
@@ -84,23 +71,14 @@ BRANCH_TOL = 1e-2
 
 
 # ------------------------------------------------------------------------------------ branch
-def branch_joints(mech):
-    """Joints that stay parallel on the parallelogram branch (cranks), or None for other scenes.
-
-    parallelogram: crank and rocker; IFToMM A02: crank0..crankN."""
-    names = [mech.model.names[j] for j in range(1, mech.model.njoints)]
-    cranks = sorted((n for n in names if re.fullmatch(r"crank\d+_joint", n)), key=lambda n: int(n[5:-6]))
-    if len(cranks) >= 2:
-        return cranks
-    if "crank_joint" in names and "rocker_joint" in names and mech.name.startswith("parallelogram"):
-        return ["crank_joint", "rocker_joint"]
-    return None
+#: joints that stay parallel on a scene's branch of parallel cranks (None: the scene has none)
+branch_joints = scenes.branch_joints
 
 
 def branch_spread(mech, q):
     """Per sample, the largest angle between a crank and the first one (wrapped to (-pi, pi]):
-    0 on the parallelogram branch, O(1) on the anti-parallelogram branch. None if the scene has no
-    parallelogram branch. ``q``: (n, nq) or (nq,)."""
+    0 on the branch of parallel cranks, O(1) on the other branch. None if the scene has no such
+    branch (:func:`branch_joints`). ``q``: (n, nq) or (nq,)."""
     joints = branch_joints(mech)
     if joints is None:
         return None
@@ -112,66 +90,16 @@ def branch_spread(mech, q):
 
 
 # ------------------------------------------------------------------------------------ references
-def _a02_reference(mech, n, t_end):
-    """IFToMM A02 on its parallelogram branch is a 1-dof pendulum with closed-form inertia and
-    gravity (pinclear.mechanisms.benchmarks.a02_branch_rhs), integrated by SciPy at rtol 1e-13."""
-    from pinclear.mechanisms import benchmarks as B
-
-    sol = solve_ivp(B.a02_branch_rhs(n), (0.0, t_end), [B.A02_THETA0, B.a02_initial_rate()], method="DOP853",
-                    rtol=1e-13, atol=1e-14, t_eval=[t_end])
-    qd, _ = B.a02_branch_state(n, sol.y[0, -1], sol.y[1, -1])
-    q = np.zeros(mech.model.nq)
-    for name, val in qd.items():
-        q[mech.model.joints[mech.model.getJointId(name)].idx_q] = val
-    return q, "analytic: 1-dof branch pendulum, I = (N+1)/3 + N, V = ((N+1)/2 + N) g sin th (SciPy DOP853, rtol 1e-13)"
-
-
-def _parallelogram_branch(mech, t_end, **kw):
-    """The parallelogram branch q = (th, -th, th) as a 1-dof system: kinetic energy I(th) th'^2 / 2
-    with I = u^T M u, u = (1, -1, 1), generalized gravity u^T g (Pinocchio's M and g only, no
-    closure or multiplier), integrated by SciPy at rtol 1e-12."""
-    model, data = mech.model, mech.model.createData()
-    u = np.array([1.0, -1.0, 1.0])
-
-    def inertia(th):
-        M = pin.crba(model, data, th * u)           # upper triangle only: symmetrise
-        M = np.triu(M) + np.triu(M, 1).T
-        return u @ M @ u
-
-    def f(t, y):
-        th, thd = y
-        dI = (inertia(th + 1e-6) - inertia(th - 1e-6)) / 2e-6
-        G = u @ pin.computeGeneralizedGravity(model, data, th * u)
-        return [thd, (-G - 0.5 * dI * thd * thd) / inertia(th)]
-
-    return solve_ivp(f, (0.0, t_end), [float(mech.q0[0]), float(mech.v0[0])], method="DOP853", rtol=1e-12,
-                     atol=1e-14, **kw), u
-
-
-def _parallelogram_reference(mech, t_end):
-    sol, u = _parallelogram_branch(mech, t_end, t_eval=[t_end])
-    return sol.y[0, -1] * u, "1-dof reduction on the parallelogram branch (Pinocchio M and g, SciPy DOP853, rtol 1e-12)"
-
-
-def parallelogram_flat_times(mech, t_end):
-    """Times at which the parallelogram passes its flat (singular) configuration, th = 0 mod pi,
-    from the 1-dof branch motion (the same reduction as the reference)."""
-    sol, _ = _parallelogram_branch(mech, t_end, events=lambda t, y: math.sin(y[0]))
-    return sol.t_events[0]
-
-
 def reference(mech, label, t_end, max_cpu=BUDGET_REFERENCE):
-    """(q_ref at t_end, description, CPU s) from a path independent of the cells where one exists
-    (A02, parallelogram: their 1-dof branch motion); else projection + DOP853 at rtol 1e-13 as
+    """(q_ref at t_end, description, CPU s) from a path independent of the cells where the scene
+    declares one (pinclear.mechanisms.bench_scenes.reference: a closed form or a reduced model);
+    else projection + DOP853 at rtol 1e-13 as
     pinclear.studies.bench.rhs.work_precision, falling back to a given first step, projection + Radau at rtol
     1e-12, then proximal + DOP853; the description says which. q_ref is None if all fail."""
     t0 = _run_clock()
-    m = re.fullmatch(r"a02_nfourbar_(\d+)", label)
-    if m:
-        q, what = _a02_reference(mech, int(m.group(1)), t_end)
-        return q, what, _run_clock() - t0
-    if label == "parallelogram":
-        q, what = _parallelogram_reference(mech, t_end)
+    known = scenes.reference(mech, label, t_end)
+    if known is not None:
+        q, what = known
         return q, what, _run_clock() - t0
     notes = []
     # SciPy's initial-step selection can divide by zero at rtol 1e-13 on a stiff contact (retry
@@ -277,7 +205,7 @@ def run_cell(mech, label, t_end, method, integrator, tol, h, q_ref, max_cpu):
         t_sw = float(tr.t[np.argmax(spread > BRANCH_TOL)])
         if t_failed is None or t_sw < t_failed:
             reason, t_failed = "branch switch", t_sw
-            row["message"] = (f"left the parallelogram branch by t = {t_sw:.6g} s (crank angles differ by "
+            row["message"] = (f"left its branch of parallel cranks by t = {t_sw:.6g} s (crank angles differ by "
                               f"{np.max(spread):.3g} rad > {BRANCH_TOL:g}); " + tr.message)
     ok = reason == ""
     row.update(status="success" if ok else "failed", reason=reason, t_failed=t_failed)

@@ -20,6 +20,7 @@ import numpy as np
 
 from pinclear.contact.laws import HYSTERESIS, effective_modulus, make_normal_law, restitution_1dof
 from pinclear.core.errors import InputError
+from pinclear.mechanisms import bench_scenes as scenes
 
 DAMPED = [n for n in HYSTERESIS if n != "hertz"]
 
@@ -42,9 +43,11 @@ def restitution_table(ces=(0.3, 0.6, 0.9), v0=0.1, m=1.0, rtol=1e-12):
     return table
 
 
-def restitution_main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="pinclear bench restitution",
-                                description="Effective restitution of each normal-force law (1-DOF impact).")
+def restitution_main(argv=None, parser=argparse.ArgumentParser) -> int:
+    """`pinclear bench restitution`; ``parser``: the command line's parser class (its one-line
+    errors, pinclear.cli.args.OneLineParser)."""
+    p = parser(prog="pinclear bench restitution",
+               description="Effective restitution of each normal-force law (1-DOF impact).")
     p.add_argument("--ce", type=float, nargs="+", default=[0.3, 0.6, 0.9], help="nominal restitution values")
     p.add_argument("--v0", type=float, default=0.1, help="impact speed, m/s (line/plane laws only)")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
@@ -78,9 +81,9 @@ def hertz_impact(m, K, v):
     return dmax, K * dmax ** 1.5, 2.0 * dmax / v * 0.4 * beta
 
 
-#: the two impacts: (model, clearance, mass of the moving body [kg], velocity direction (q-space), clearance gap)
-IMPACTS = {"ball in a socket (spherical, clr_ball)": ("clr_ball", "S", 6, 0),
-           "journal in a bearing (planar revolute, clr_planar_pendulum)": ("clr_planar_pendulum", "A", 3, 1)}
+#: the two impacts: {what they test: (scene, clearance, mass of the moving body [kg], velocity
+#: direction (q-space), clearance gap)}, the bundled scenes' (pinclear.mechanisms.bench_scenes)
+IMPACTS = scenes.IMPACTS
 
 
 def measured_impact(model, name, nv, axis, v=0.2, rtol=1e-10):
@@ -139,7 +142,8 @@ def winkler_rows(hx=0.025, hy=0.05, kf=4e12, g=2e-4, s=1e-7):
             ("prismatic energy model: edge energy", edge[1], kf * hy * s ** 3 / (3 * g)),
             ("prismatic energy model: corner force (Winkler triangle)", corner[0], kf * s ** 3 / (6 * g * g)),
             ("prismatic energy model: corner energy", corner[1], kf * s ** 4 / (24 * g * g)),
-            ("prismatic energy model: flat face, E A d / l (paper 003 eq. 4)", flat[0], kf * 4 * hx * hy * s)]
+            ("prismatic energy model: flat face, E A d / l (Winkler plane law, docs/contact_models.md)", flat[0],
+             kf * 4 * hx * hy * s)]
 
 
 def contact_laws_table(rtols=(1e-6, 1e-8, 1e-10), v=0.2):
@@ -156,9 +160,10 @@ def contact_laws_table(rtols=(1e-6, 1e-8, 1e-10), v=0.2):
     return [(c, float(a), float(b), abs(a - b) / abs(b)) for c, a, b in rows]
 
 
-def contact_laws_main(argv=None) -> int:
-    p = argparse.ArgumentParser(prog="pinclear bench contact-laws",
-                                description="Contact physics against closed forms (Hertz impact, Winkler foundation).")
+def contact_laws_main(argv=None, parser=argparse.ArgumentParser) -> int:
+    """`pinclear bench contact-laws`; ``parser`` as for :func:`restitution_main`."""
+    p = parser(prog="pinclear bench contact-laws",
+               description="Contact physics against closed forms (Hertz impact, Winkler foundation).")
     p.add_argument("--v", type=float, default=0.2, help="impact speed, m/s")
     p.add_argument("--json", action="store_true", help="print JSON instead of a table")
     a = p.parse_args(argv)

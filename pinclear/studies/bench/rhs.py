@@ -14,9 +14,10 @@ from pinclear.core import safeio
 from pinclear.core.errors import InputError, PinclearError
 from pinclear.core.jit import njit
 from pinclear.dynamics import formulations
-from pinclear.dynamics.simulate import simulate
+from pinclear.dynamics.simulate import default_atol, simulate
 from pinclear.dynamics.stepping.build import Evaluation
 from pinclear.dynamics.stepping.system import evaluate as evaluate_rhs
+from pinclear.mechanisms import bench_scenes
 from pinclear.model.closures import PINOCCHIO_TYPES
 
 
@@ -159,7 +160,7 @@ def reference_run(mech, t_end, rtol=1e-13, method="projection", integrator="DOP8
     """The tight reference of the work-precision chart and the atlas: a formulation that keeps q on
     the manifold (projection), DOP853 at rtol 1e-13, atol 1e-2 rtol."""
     kw.setdefault("t_eval", [0.0, t_end])
-    return simulate(mech, t_end, method=method, integrator=integrator, rtol=rtol, atol=rtol * 1e-2, **kw)
+    return simulate(mech, t_end, method=method, integrator=integrator, rtol=rtol, atol=default_atol(rtol), **kw)
 
 
 def run_cell(mech, t_end, method, integrator, tol, **kw):
@@ -167,7 +168,7 @@ def run_cell(mech, t_end, method, integrator, tol, **kw):
     and the fixed step h for RK4. A failed run is returned (status 'failed'), never raised."""
     import warnings
 
-    kw = dict(kw, **({"h": tol, "rtol": 1e-6} if integrator == "RK4" else {"rtol": tol, "atol": tol * 1e-2}))
+    kw = dict(kw, **({"h": tol, "rtol": 1e-6} if integrator == "RK4" else {"rtol": tol, "atol": default_atol(tol)}))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return simulate(mech, t_end, method=method, integrator=integrator, **kw)
@@ -218,14 +219,14 @@ def draw_chart(rows, path, title, ax=None):
 
 # ---------------------------------------------------------------------- real runs
 def scenes(files=None):
-    """(label, sidecar path, clearances) of every scene (default: models.bench_scenes(), the
+    """(label, sidecar path, clearances) of every scene (default: bench_scenes.catalogue(), the
     bundled mechanisms less the imported robots): each sidecar with ideal joints, and once more
     per clearance joint it declares, that joint active."""
-    from pinclear.core.models import bench_scenes, model_path
+    from pinclear.core.models import model_path
     from pinclear.io.sidecar import read_yaml
 
     out = []
-    for f in files or bench_scenes():
+    for f in files or bench_scenes.catalogue():
         path = model_path(f)
         doc = read_yaml(path) if path.suffix == ".yaml" else {}
         clr = [c["name"] for c in doc.get("clearances") or [] if isinstance(c, dict) and "name" in c]
@@ -443,8 +444,9 @@ if __name__ == "__main__":  # pragma: no cover
 
 
 # ---------------------------------------------------------------------- outputs
-#: the runs of the output benchmark: (bundled name, active clearances, method), as issue 40 set it
-OUTPUT_CASES = (("four_ups_upu", ("S2",), "lagrange"), ("a02_nfourbar_2", (), "manifold"))
+#: the runs of the output benchmark: (bundled name, active clearances, method), the bundled scenes'
+#: (pinclear.mechanisms.bench_scenes)
+OUTPUT_CASES = bench_scenes.OUTPUT_CASES
 
 
 @njit(cache=True)
@@ -457,8 +459,7 @@ def evaluate_all(system, T, X):
 
 def bench_outputs(cases=OUTPUT_CASES, samples=(501, 5001, 20001), t_end=2.0, rtol=1e-6, repeat=3,
                   reference=(501, 5001), progress=None):
-    """What a run costs outside its integration against its number of output samples (issue 40
-    item 1), beside one evaluation's cost, all in this process: per case and sample count the
+    """What a run costs outside its integration against its number of output samples, beside one evaluation's cost, all in this process: per case and sample count the
     best of ``repeat`` runs' CPU outside the integration (a whole simulate() less its cpu_s);
     the slope (per sample) and intercept (fixed cost) of a least-squares line through them, the
     slope in evaluations; the same for the per-sample Python path (outputs="python", the

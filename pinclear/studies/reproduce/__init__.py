@@ -14,11 +14,17 @@ from __future__ import annotations
 from pathlib import Path
 
 from pinclear.core.errors import InputError
-from pinclear.studies.reproduce import paper000, paper002, paper003, paper004
+from pinclear.core.registry import Entry, Registry
 from pinclear.studies.reproduce.report import write_report
 from pinclear.studies.reproduce.verdicts import summary
 
-PAPERS = {"000": paper000, "002": paper002, "003": paper003, "004": paper004}
+#: a paper's study: its module's ``run`` (one module and one line here each)
+PAPERS = Registry("paper reproduction", {e.name: e for e in (
+    Entry("000", "pinclear.studies.reproduce.paper000:run", "4UPS-UPU, spherical clearance at S2"),
+    Entry("002", "pinclear.studies.reproduce.paper002:run", "nine-bar, revolute clearances at A and B"),
+    Entry("003", "pinclear.studies.reproduce.paper003:run", "3-UPRU+UP, prismatic clearance"),
+    Entry("004", "pinclear.studies.reproduce.paper004:run", "4-UPS/UPR screw-theory inverse dynamics"))},
+    record=Entry)
 
 
 def reproduce(paper, out, quick=False, workers=None, scheduler=None, bands=False, budget=None) -> dict:
@@ -27,12 +33,11 @@ def reproduce(paper, out, quick=False, workers=None, scheduler=None, bands=False
     workers: local processes for the study's simulations (default: one per CPU); scheduler: a Dask
     scheduler address (``tcp://HOST:8786``) instead. bands: also measure each row's band over the
     reconstructed inputs (pinclear.studies.reproduce.bands), within ``budget`` CPU seconds if given."""
-    mod = PAPERS.get(str(paper))
-    if mod is None:
+    if str(paper) not in PAPERS:
         raise InputError(f"reproduce: no study for paper {paper!r}", choices=sorted(PAPERS))
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     extra = {"bands": True, "budget": budget} if bands else {}
-    report = mod.run(out, quick=quick, workers=workers, scheduler=scheduler, **extra)
+    report = PAPERS[str(paper)](out, quick=quick, workers=workers, scheduler=scheduler, **extra)
     write_report(report, out)
     return report
