@@ -134,12 +134,19 @@ def _commit():
 
 def versions():
     """{package: version} of the libraries a result depends on."""
+    from importlib import metadata
+
     out = {"python": platform.python_version()}
-    for name, mod in (("pinocchio", "pinocchio"), ("numpy", "numpy"), ("scipy", "scipy"), ("numba", "numba")):
-        try:
-            out[name] = __import__(mod).__version__
-        except Exception:                         # noqa: BLE001 - a missing library is recorded, not fatal
-            out[name] = "not installed"
+    # pinocchio's distribution is 'pin' on PyPI, 'pinocchio' from conda / robotpkg
+    for name, dists in (("pinocchio", ("pin", "pinocchio")), ("numpy", ("numpy",)), ("scipy", ("scipy",)),
+                        ("numba", ("numba",))):
+        out[name] = "not installed"
+        for d in dists:
+            try:
+                out[name] = metadata.version(d)
+                break
+            except metadata.PackageNotFoundError:
+                continue
     return out
 
 
