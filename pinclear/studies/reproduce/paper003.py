@@ -78,9 +78,9 @@ GROUPS = {
             "measured geometry band times any guideway gap up to {gap:g} mm: the paper's millimetres would need a "
             "gap several times that (the row's 'needed' value). The velocity and acceleration amplitudes have no such "
             "scaling: at sizes the paper does not print they compare nothing (not comparable)",
-    "trend": "an ordering over mu 0.02 / 0.05 / 0.08 at 0.1 mm: 'rises' when each step grows by more than the "
-             "quantity's tolerance, 'falls' when each falls by more, 'flat' when every step is within it, else "
-             "'mixed'",
+    "trend": "an ordering over mu 0.02 / 0.05 / 0.08 at 0.1 mm: 'rises' / 'falls' when the last value differs "
+             "from the first by more than the quantity's tolerance and no step goes against it by more, 'flat' "
+             "when no step exceeds the tolerance, else 'mixed'",
     "dev": "rigid bodies: with the three drives holding the limb lengths the platform can leave Z0 only as far as the "
            "slider's gap lets the UP branch tilt, so the deviation is proportional to the clearance, about "
            "0.15 c a / l (slider length l, guide place a on the branch). The band is ours over the measured slider "
@@ -418,15 +418,18 @@ def fig9_rows(rc, s, factors, models, ours):
 
 def trend(values, rel):
     """'rises' / 'falls' / 'flat' / 'mixed': the ordering of ``values`` (in the order of the swept
-    parameter) with steps within ``rel`` (relative) counted as no change."""
-    steps = [0 if abs(b - a) <= rel * max(abs(a), abs(b)) else (1 if b > a else -1) for a, b in itertools.pairwise(values)]
-    if all(x == 0 for x in steps):
-        return "flat"
-    if all(x == 1 for x in steps):
-        return "rises"
-    if all(x == -1 for x in steps):
-        return "falls"
-    return "mixed"
+    parameter). The direction is that of the change from first to last beyond ``rel`` (relative);
+    a step against it beyond ``rel`` makes it 'mixed'; no change beyond ``rel`` anywhere is 'flat'."""
+    def sign(a, b):
+        return 0 if abs(b - a) <= rel * max(abs(a), abs(b)) else (1 if b > a else -1)
+
+    steps = [sign(a, b) for a, b in itertools.pairwise(values)]
+    d = sign(values[0], values[-1])
+    if d == 0:
+        return "flat" if not any(steps) else "mixed"
+    if any(x == -d for x in steps):
+        return "mixed"
+    return "rises" if d > 0 else "falls"
 
 
 def trend_rows(got, s):
