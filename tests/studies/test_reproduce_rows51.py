@@ -134,3 +134,34 @@ def test_000_platform_rows_say_what_the_paper_says_and_the_window_is_one_row():
     claims = {c["key"]: c for c in paper000.claims(list(rows.values()))}
     assert set(claims) == set(paper000.CLAIMS)
     assert claims["000-clearance-chaos"]["verdict"] == "contradicted"
+
+
+def test_needed_value_follows_the_power_law_and_says_when_it_extrapolates():
+    # k = 0.045 / l (deviation / clearance against the slider length, the kinematic bound's form)
+    ls = [0.15, 0.3, 0.6]
+    ks = [0.045 / x for x in ls]
+    x, how = paper003.needed_value(ls, ks, 0.2)
+    assert x == pytest.approx(0.225) and how == "interpolated"
+    x, how = paper003.needed_value(ls, ks, 10.0)
+    assert x == pytest.approx(0.0045) and how == "extrapolated"
+    assert paper003.needed_value(ls, [0.15, 0.15, 0.15], 10.0) is None      # an input that moves nothing
+
+
+def test_lever_form_draws_the_tornado_and_names_the_needed_values(tmp_path):
+    zg = paper003.mod.GUIDE_Z0 + paper003.mod.GUIDE_LEN / 2
+    length = {"title": "slider length (reconstructed; sidecar 0.3 m) ...", "columns": [
+        "slider length [m]", "Z deviation [um]", "deviation / clearance", "v", "F"],
+        "rows": [[L, 15.0 * 0.3 / L, 0.15 * 0.3 / L, 0.0, 0.0] for L in (0.15, 0.3, 0.6)]}
+    lever = {"title": "lever arm: ...", "columns": ["guide", "Z deviation [um]", "deviation / clearance", "v"],
+             "rows": [[zg + sh, 0.0, 0.15 * (zg + sh) / zg, 0.0] for sh in (-0.15, 0.0, 0.45)]}
+    models = {"columns": ["run", "model", "Z deviation [um]", "deviation / clearance"],
+              "rows": [["clearance 0.1 mm, mu_d 0.16", m, 0.0, k] for m, k in (("energy", 0.15), ("paper003", 0.12))]}
+    got = paper003.lever_form([length, lever], models, tmp_path)
+    assert (tmp_path / "levers.png").stat().st_size > 5_000
+    by = {(r[0], r[3]): r for r in got["levers"]}
+    # Fig. 8's 10 clearances need a slider 0.045 / 10 = 4.5 mm long: far outside 0.15-0.6 m
+    r = by[("slider length [m]", "Fig. 8")]
+    assert r[5] == "0.0045 (extrapolated)" and r[6] == "0.15-0.6"
+    # and a lever arm 10 / 0.15 = 67 times the reconstructed one
+    r = by[("guide centre above the base U joint [m]", "Fig. 8")]
+    assert float(r[5].split()[0]) == pytest.approx(zg * 10.0 / 0.15, rel=1e-6) and "extrapolated" in r[5]

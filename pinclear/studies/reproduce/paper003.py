@@ -171,6 +171,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     sens = [model_table(got, s)]
     geo = geometry_tables(sw, got, s, path, ideal, notes)
     sens += geo["tables"]
+    lever = lever_form(geo["tables"], sens[0], out)
+    if lever:
+        sens.append(lever["table"])
     results = deviation_rows(got, s, geo["factors"]) + trend_rows(got, s) + force_rows(got, s, notes)
     checks.append(growth_check(got, s))
     notes += paper_notes(checks, ideal, ti)
@@ -181,8 +184,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
                          "Fig. 8 clearance (m)": s["fig8_clearance"],
                          "friction coefficients": list(s["mus"]), "contact models": list(s["models"]),
                          "slider lengths (m)": list(s["lengths"]), "lever shifts (m)": list(s["lever_shifts"])},
-            "claims": claims(results), "results": results,
-            "groups": {k: v.format(gap=1e3 * GAP_MAX) for k, v in GROUPS.items()}, "notes": notes, "checks": checks, "figures": ["responses.png"],
+            "claims": claims(results, lever), "results": results,
+            "groups": {k: v.format(gap=1e3 * GAP_MAX) for k, v in GROUPS.items()}, "notes": notes, "checks": checks,
+            "figures": ["responses.png"] + (["levers.png"] if lever else []),
             "sensitivity": sens}
 
 
@@ -196,7 +200,86 @@ CLAIMS = {
 }
 
 
-def claims(results):
+#: the paper's deviation / clearance (mm per mm) the levers are asked to reach: Fig. 8 (0.1 mm at
+#: 0.01 mm) and Fig. 10 (2.2-5.4 mm at 0.1 mm)
+LEVER_TARGETS = {"Fig. 8": 10.0, "Fig. 10, mu 0.02": 22.0, "Fig. 10, mu 0.08": 54.0}
+
+
+def needed_value(xs, ks, target):
+    """(x, 'interpolated' / 'extrapolated'): the input at which the deviation / clearance ``ks``
+    (sampled at ``xs``) reaches ``target``, on a straight line through the samples in log-log
+    (the kinematic bound is a power law: k ~ a / l); None if the samples do not move k."""
+    xs, ks = np.asarray(xs, float), np.asarray(ks, float)
+    ok = (xs > 0) & (ks > 0)
+    if ok.sum() < 2:
+        return None
+    b, a = np.polyfit(np.log(xs[ok]), np.log(ks[ok]), 1)
+    if abs(b) < 1e-6:
+        return None
+    x = float(np.exp((np.log(target) - a) / b))
+    return x, ("interpolated" if xs[ok].min() <= x <= xs[ok].max() else "extrapolated")
+
+
+def lever_form(tables, model_tb, out):
+    """The tornado of the one-at-a-time runs (deviation / clearance at each end of each reconstructed
+    input, at 0.1 mm and mu_d 0.16) and the value each input would need to reach the paper
+    (:func:`needed_value`), beside its plausible range (reconstructed.yaml). Returns {"table",
+    "levers"} or None when the sweeps did not run."""
+    import matplotlib.pyplot as plt
+
+    levers = []
+    for tb in tables:
+        col = tb["columns"].index("deviation / clearance")
+        pts = sorted((float(r[0]), float(r[col])) for r in tb["rows"])
+        if tb["title"].startswith("slider length"):
+            levers.append(("slider length [m]", pts, 0.3, (0.15, 0.6)))
+        elif tb["title"].startswith("lever arm"):
+            nominal = mod.GUIDE_Z0 + mod.GUIDE_LEN / 2
+            levers.append(("guide centre above the base U joint [m]", pts, nominal,
+                           (nominal + LEVER_SHIFTS[0], nominal + LEVER_SHIFTS[1])))
+    if not levers:
+        return None
+    base = next(k for _, pts, nom, _ in levers for x, k in pts if abs(x - nom) < 1e-9)
+    dcol = model_tb["columns"].index("deviation / clearance")
+    per_model = [float(r[dcol]) for r in model_tb["rows"] if r[0] == "clearance 0.1 mm, mu_d 0.16"]
+    rows = []
+    for name, pts, nom, rng in levers:
+        xs, ks = [x for x, _ in pts], [k for _, k in pts]
+        for target_name, target in LEVER_TARGETS.items():
+            got = needed_value(xs, ks, target)
+            rows.append([name, f"{min(xs):g}-{max(xs):g}", f"{min(ks):.3g}-{max(ks):.3g}", target_name, target,
+                         "no effect" if got is None else f"{got[0]:.3g} ({got[1]})", f"{rng[0]:g}-{rng[1]:g}"])
+    fig, ax = plt.subplots(figsize=(9, 1.2 + 0.7 * (len(levers) + 1)))
+    bars = [(name, min(k for _, k in pts), max(k for _, k in pts)) for name, pts, _, _ in levers]
+    if per_model:
+        bars.append(("contact model (energy / paper 003's)", min(per_model), max(per_model)))
+    bars.sort(key=lambda b: b[2] / b[1])
+    for i, (name, lo, hi) in enumerate(bars):
+        ax.barh(i, hi - lo, left=lo, color="C0", height=0.5)
+    for j, (t_name, t) in enumerate(LEVER_TARGETS.items()):
+        ax.axvline(t, color="k", ls=(":", "--", "-.")[j % 3], lw=1.0, label=f"paper, {t_name}: {t:g}")
+    ax.axvline(base, color="C3", lw=1.0, label=f"ours, reconstructed geometry: {base:.3g}")
+    ax.set_xscale("log")
+    ax.set_yticks(range(len(bars)))
+    ax.set_yticklabels([b[0] for b in bars], fontsize=8)
+    ax.set_xlabel("platform Z deviation / clearance [-] (0.1 mm gap, mu_d 0.16): each input at the ends of its "
+                  "plausible range", fontsize=8)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    safeio.savefig(fig, out / "levers.png", dpi=90)
+    plt.close(fig)
+    table = {"title": "levers: the value each reconstructed input would need to reach the paper's deviation / "
+                      "clearance (one-at-a-time runs; the tornado is levers.png)",
+             "columns": ["input", "sampled", "deviation / clearance over it", "paper", "paper's deviation / "
+                         "clearance", "needed value", "plausible range"],
+             "rows": rows,
+             "note": "needed value: on a straight line through the samples in log-log (the kinematic bound is a "
+                     "power law in the slider length and the lever arm); 'extrapolated' when it lies outside the "
+                     "sampled range"}
+    return {"table": table, "levers": rows}
+
+
+def claims(results, lever=None):
     from pinclear.studies.reproduce.report import claim
 
     def pick_(*prefixes):
@@ -214,7 +297,9 @@ def claims(results):
     return [claim("003-fig8", *CLAIMS["003-fig8"], "0.1 mm read off Fig. 8", said(f8), f8),
             claim("003-size", *CLAIMS["003-size"], "Fig. 9 at sizes the text does not print",
                   said(f9) + "; " + "; ".join(r["why"] for r in f9), f9),
-            claim("003-mu", *CLAIMS["003-mu"], "Figs. 10-11", said(mu), mu),
+            claim("003-mu", *CLAIMS["003-mu"], "Figs. 10-11", said(mu) + "".join(
+                f"; {r[0]} needed for {r[3]}: {r[5]} (plausible {r[6]})" for r in (lever or {}).get("levers", [])
+                if r[3] == "Fig. 10, mu 0.02"), mu),
             claim("003-force", *CLAIMS["003-force"], "Fig. 11", said(fo, "{:.4g}"), fo)]
 
 
