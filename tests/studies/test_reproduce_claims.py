@@ -53,3 +53,16 @@ def test_docs_claims_lists_every_papers_claims_with_a_verdict_and_the_readme_lin
             assert verdict and verdict.group(1) in ("reproduced", "contradicted", "undecided", "not measured",
                                                     "not comparable", "new finding"), key
     assert "(docs/claims.md)" in (ROOT / "README.md").read_text()
+
+
+def test_bands_figure_draws_every_banded_row_even_a_paper_value_of_zero(tmp_path):
+    from pinclear.studies.reproduce.report import bands_figure
+
+    rows = [row("G worst entry", "influence coefficient", 1.1, 0.0, "tau", band=(0.02, 22.8), band_from="box",
+                reading=1.0),
+            row("a peak", "impact peak", 120.0, 100.0, "N", band=(118.0, 125.0), band_from="inputs"),
+            row("unbanded", "impact peak", 120.0, 100.0, "N"),
+            row("calib", "impact peak", 120.0, 100.0, "N", band=(1.0, 2.0), band_from="x", status="calibration")]
+    assert bands_figure({"results": rows}, tmp_path) == "bands.png"
+    assert (tmp_path / "bands.png").stat().st_size > 5_000
+    assert bands_figure({"results": rows[2:]}, tmp_path, name="none.png") is None

@@ -211,7 +211,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     figures = [response_figure(out, runs, s, t_eval, t_end), force_figure(out, runs, s, t_eval, lam_mag)]
     load = (float(lam_mag.min()), 0.5 * float(lam_mag.max() - lam_mag.min()))
     results += chaos_rows(bif, kinds, s, bands_, load)
-    figures += portrait_figure(out, bif["mu"], kinds) + bifurcation_figures(out, bif)
+    figures += portrait_figure(out, bif["mu"], kinds, s["clearance"]) + bifurcation_figures(out, bif)
     notes += chaos_notes(bif, kinds, quick) + lyap_notes
     notes.append("every result used K as printed in paper 000 (eq. 17, 4/(3(s1+s2)) sqrt(R1R2/(R1+R2))); the "
                  "conformal radius R1R2/(R_socket - R_ball) is reported beside it for the contact force")
@@ -662,8 +662,12 @@ def chaos_notes(bif, kinds, quick):
     return notes
 
 
-def portrait_figure(out, bmu, kinds):
+def portrait_figure(out, bmu, kinds, clearance=None):
+    """phase_poincare_mu.png: portraits and Poincaré maps at mu 0.01 / 0.05 / 0.10; on each map the
+    resolution disc (pinclear.analysis.classify: CLEARANCE_FRACTION x the clearance in position, that
+    times the driving frequency in velocity): points inside it are 'below resolution'."""
     import matplotlib.pyplot as plt
+    from matplotlib.patches import Ellipse
 
     portraits = [r for r in bmu.runs if any(abs(float(r.value) - m) < 1e-9 for m in (0.01, 0.05, 0.10))]
     if not portraits:
@@ -685,6 +689,11 @@ def portrait_figure(out, bmu, kinds):
             ax_row[2 * k + 1].plot(1e6 * (sx - sx.mean()), 1e6 * (sv - sv.mean()), ".", ms=3, color="C3")
             ax_row[2 * k + 1].set_title(f"Poincaré map: {kinds['mu'][r.value][sig].kind}\nabout "
                                         f"{1e3 * sx.mean():.4g} mm, {1e3 * sv.mean():.4g} mm/s", fontsize=8.5)
+            if clearance:
+                res = analysis.CLEARANCE_FRACTION * clearance
+                ax_row[2 * k + 1].add_patch(Ellipse((0.0, 0.0), 2e6 * res, 2e6 * res * 2.0 * np.pi / T, fill=False,
+                                                    ls="--", color="k", lw=0.8, label="resolution"))
+                ax_row[2 * k + 1].autoscale_view()
             ax_row[2 * k + 1].set_xlabel(f"{sig} - mean [um]")
             ax_row[2 * k + 1].set_ylabel("velocity - mean [um/s]")
             for a in ax_row[2 * k:2 * k + 2]:

@@ -447,7 +447,8 @@ def _chaos(s, out, executor, plt):
         ev = (f" ({r.stats['events'] / (s['cycles'] + s['transient cycles']):.3g} contact or separation events "
               "per turn)") if r is not None and r.stats.get("events") is not None else ""
         notes.append(f"clearance {1e3 * c:g} mm, mu 0.3: paper {said}; ours {ours}{ev}")
-    figs.append(_portraits(res, list(PAPER_CHAOS), "chaos_clearance.png", lambda v: f"c = {1e3 * v:g} mm", plt, out))
+    figs.append(_portraits(res, list(PAPER_CHAOS), "chaos_clearance.png", lambda v: f"c = {1e3 * v:g} mm", plt, out,
+                           clearance=lambda v: v, omega=lambda v: 2 * math.pi))
     figs.append(_diagrams(res, "bifurcation_clearance.png", "clearance c [m]", plt, out))
     notes.append(_spread_note(res, "clearance"))
     # --- against the driving speed (sec. 4.2, Figs. 25-29), 0.1 mm
@@ -475,7 +476,8 @@ def _chaos(s, out, executor, plt):
         notes.append(f"driving speed {w / math.pi:g} pi rad/s, 0.1 mm: paper {said}; ours "
                      + ", ".join(f"{j}: {_kind_text(k.get(j))}" for j in JOINTS))
     figs.append(_portraits(res_w, [2 * math.pi, 3 * math.pi], "chaos_speed.png",
-                           lambda v: f"w = {v / math.pi:g} pi rad/s", plt, out))
+                           lambda v: f"w = {v / math.pi:g} pi rad/s", plt, out, clearance=lambda v: 0.1e-3,
+                           omega=lambda v: v))
     figs.append(_diagrams(res_w, "bifurcation_speed.png", "driving speed w [rad/s]", plt, out))
     notes.append(_spread_note(res_w, "speed"))
     fails = res.failures + res_w.failures
@@ -622,7 +624,12 @@ def _spread_note(res, what):
             f"{b['A']:.3g} m/s, B {a['B']:.3g} vs {b['B']:.3g} m/s (paper 4.2: the points spread wider at 3 pi)")
 
 
-def _portraits(res, values, name, title, plt, out):
+def _portraits(res, values, name, title, plt, out, clearance=None, omega=None):
+    """Phase portraits with their Poincaré points; the resolution disc (CLEARANCE_FRACTION x the
+    clearance, times the driving frequency in velocity) drawn at the points' mean. clearance(v),
+    omega(v): the run's clearance (m) and driving frequency (rad/s)."""
+    from matplotlib.patches import Ellipse
+
     fig, ax = plt.subplots(2, len(values), figsize=(5 * len(values), 8), squeeze=False)
     for col, v in enumerate(values):
         r = next((r for r in res.runs if abs(float(r.value) - v) <= 1e-12 * max(1.0, abs(v))), None)
@@ -634,7 +641,12 @@ def _portraits(res, values, name, title, plt, out):
                 continue
             _, x, xd = r.portraits[sig]
             an.plot_phase_portrait(x, xd, section=r.sections[sig], label=sig, ax=a)
-            a.set_xlabel(f"{sig} [m]")
+            if clearance is not None and len(r.sections[sig]):
+                rad = CLEARANCE_FRACTION * clearance(v)
+                sec = r.sections[sig]
+                a.add_patch(Ellipse((float(np.mean(sec.x)), float(np.mean(sec.xdot))), 2 * rad, 2 * rad * omega(v),
+                                    fill=False, ls="--", color="k", lw=0.8))
+            a.set_xlabel(f"{sig} [m] (dashed: the resolution)")
             a.set_ylabel(f"d/dt {sig} [m/s]")
             a.ticklabel_format(axis="both", style="sci", scilimits=(0, 0), useOffset=False)
             a.set_title(f"{title(v)}, joint {j}", fontsize=9)

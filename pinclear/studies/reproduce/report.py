@@ -238,10 +238,12 @@ def _html_table(columns, rows):
 
 
 def bands_figure(rep, out, name="bands.png"):
-    """Each numeric row with a measured band, as a ratio to the paper's value (log scale): the band
-    as a bar, ours as a dot, the paper at 1 with its tolerance tau shaded; None if there is none."""
-    rows = [r for r in rep["results"] if isinstance(r["ours"], float) and r["band_from"] and r.get("paper")
-            and r["verdict"] not in ("calibration", "not comparable") and min(r["band"]) * r["paper"] > 0]
+    """Every numeric row with a measured band, as its distance from the paper in units of the row's
+    tau, (value - paper) / tau on a symmetric-log axis (so a paper value of 0, as G's worst entry,
+    and signed values fit one axis): the band as a bar, ours as a dot, the paper's +- tau shaded
+    at [-1, 1]; None if there is none."""
+    rows = [r for r in rep["results"] if isinstance(r["ours"], float) and r["band_from"] and r["tau"] > 0
+            and r["verdict"] not in ("calibration", "not comparable")]
     if not rows:
         return None
     import matplotlib
@@ -250,20 +252,20 @@ def bands_figure(rep, out, name="bands.png"):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(12, 0.32 * len(rows) + 1.4))
+    ax.axvspan(-1.0, 1.0, color="0.85", lw=0)
     for i, r in enumerate(rows):
-        p, (lo, hi) = r["paper"], r["band"]
+        p, t, (lo, hi) = r["paper"], r["tau"], r["band"]
         colour = {"contradicted": "C3", "reproduced": "C2"}.get(r["verdict"], "C0")
-        ax.fill_betweenx([i - 0.4, i + 0.4], 1 - r["tau"] / abs(p), 1 + r["tau"] / abs(p), color="0.85", lw=0)
-        ax.plot([lo / p, hi / p], [i, i], color=colour, lw=4, solid_capstyle="butt")
-        ax.plot([r["ours"] / p], [i], "o", ms=4, color=colour, mec="k", mew=0.6)
-    ax.axvline(1.0, color="k", lw=0.8)
-    ax.set_xscale("log")
+        ax.plot([(lo - p) / t, (hi - p) / t], [i, i], color=colour, lw=4, solid_capstyle="butt")
+        ax.plot([(r["ours"] - p) / t], [i], "o", ms=4, color=colour, mec="k", mew=0.6)
+    ax.axvline(0.0, color="k", lw=0.8)
+    ax.set_xscale("symlog", linthresh=1.0)
     ax.set_yticks(range(len(rows)))
     ax.set_yticklabels([r["name"][:80] for r in rows], fontsize=7)
     ax.invert_yaxis()
     fig.subplots_adjust(left=0.42, right=0.98, bottom=1.0 / (0.32 * len(rows) + 1.4), top=0.98)
-    ax.set_xlabel("ours / paper. Bar: our band over the varied inputs (red contradicted, green reproduced, blue "
-                  "undecided);\ndot: ours at the nominal inputs; grey: the paper's value +- tau", fontsize=8)
+    ax.set_xlabel("(ours - paper) / tau. Bar: our band over the varied inputs (red contradicted, green reproduced, "
+                  "blue undecided);\ndot: ours at the nominal inputs; grey: the paper's value +- tau", fontsize=8)
     safeio.savefig(fig, Path(out) / name, dpi=90)
     plt.close(fig)
     return name
