@@ -303,7 +303,8 @@ def _lyapunov_only(job, mech, t_end, t_start):
     longest span gives every shorter span's exponent as its running estimate there
     (analysis.lyapunov.benettin's ends, bit for bit), so the recorded-cycle counts
     share one loop instead of one ordinary run and one loop each. stats['lyapunov_at'] = {n:
-    exponent over transient + n periods}, stats['lyapunov'] the longest's; a loop that stops
+    exponent over transient + n periods}, stats['lyapunov_bounds_at'] = {n: (lo, hi)} their 95 %
+    intervals, stats['lyapunov'] the longest's; a loop that stops
     keeps the exponents of the spans it finished ('failed', with the reason)."""
     from pinclear.analysis.lyapunov import LyapunovFailed
 
@@ -317,6 +318,9 @@ def _lyapunov_only(job, mech, t_end, t_start):
         res, status, message = exc.partial, "failed", f"{type(exc.cause).__name__}: {exc.cause}"
         stats["lyapunov_error"] = message
     stats["lyapunov_at"] = {n: res.ends.get(e, float("nan")) for n, e in ends.items()}
+    # each span's 95 % batch-means interval (analysis.lyapunov.batch_means_bound): chaos is decided by its sign
+    stats["lyapunov_bounds_at"] = {n: tuple(res.end_bounds.get(e, (float("nan"), float("nan"))))
+                                   for n, e in ends.items()}
     if status == "success":
         stats["lyapunov"] = res.exponent
     stats.update(wall_s=time.perf_counter() - t_start, pid=os.getpid())
