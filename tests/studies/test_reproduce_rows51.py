@@ -126,7 +126,7 @@ def test_000_platform_rows_say_what_the_paper_says_and_the_window_is_one_row():
     rows = {r["name"]: r for r in paper000.chaos_rows(bif, kinds, {}, None, load=(91.0, 13.0))}
     (window,) = [r for n, r in rows.items() if "chaos window" in n]
     assert window["ours"] == "below resolution, period-1" and window["verdict"] == "contradicted"
-    assert "at least 91 N against +-13 N" in window["why"] and "mu 0.01, 0.02" in window["why"]
+    assert "stays above 91 N (response windows) against +-13 N" in window["why"] and "mu 0.01, 0.02" in window["why"]
     (small,) = [r for n, r in rows.items() if n.startswith("platform Z motion at mu 0.01")]
     assert small["paper"] == "quasi-periodic" and small["nominal_verdict"] == "contradicted"
     (rest,) = [r for n, r in rows.items() if n.startswith("platform Z motion, mu above")]
@@ -165,3 +165,15 @@ def test_lever_form_draws_the_tornado_and_names_the_needed_values(tmp_path):
     # and a lever arm 10 / 0.15 = 67 times the reconstructed one
     r = by[("guide centre above the base U joint [m]", "Fig. 8")]
     assert float(r[5].split()[0]) == pytest.approx(zg * 10.0 / 0.15, rel=1e-6) and "extrapolated" in r[5]
+
+
+def test_000_x_offset_is_undecided_when_the_papers_reading_decides():
+    from pinclear.studies.reproduce.verdicts import row
+
+    base = row("x", "platform deviation", 0.086, 0.1, "mm", printed="0.1")
+    # mean -14 % (0.3 tau) but max +70 % (1.4 tau): the unstated reading decides
+    r = paper000.offset_reading(base, 0.17)
+    assert r["verdict"] == "undecided" and "decides" in r["why"] and "+70 %, 1.4 tau" in r["why"]
+    # both readings within tau: the row keeps its class (not measured without a band)
+    r = paper000.offset_reading(base, 0.12)
+    assert r["verdict"] == "not measured" and "decides" not in r["why"]
