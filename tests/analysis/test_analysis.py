@@ -457,5 +457,8 @@ def test_one_lyapunov_run_gives_every_recorded_length_exactly():
     for n in (3, 5):
         alone = an.bifurcation(DW, par, [1.4], cycles=n, **kw).runs[0]
         assert one.stats["lyapunov_at"][n] == alone.stats["lyapunov"]
+        # each length's 95 % batch-means interval (issue 51) is centred on its exponent
+        lo, hi = one.stats["lyapunov_bounds_at"][n]
+        assert lo < one.stats["lyapunov_at"][n] < hi
     with pytest.raises(InputError, match="lyapunov_at"):
         an.bifurcation(DW, par, [1.4], cycles=5, lyapunov_at=[3, 6], **kw)
