@@ -234,7 +234,7 @@ def test_batch_means_interval_covers_the_mean_of_a_correlated_sequence():
     process (coefficient 0.6, a correlation time of 2 chunks) around mu = 1. Over 400
     replications of 400 chunks the 95 % interval must hold mu in 95 % of them: a binomial 3-sigma
     band at n = 400 is +- 3.3 %, so [0.91, 0.99]. A per-chunk standard error (ignoring the
-    correlation) covers ~75 % and would fail."""
+    correlation, too narrow by sqrt((1 + 0.6) / (1 - 0.6)) = 2) covers ~67 % and would fail."""
     from pinclear.analysis.lyapunov import batch_means_bound
 
     rng = np.random.default_rng(1)
