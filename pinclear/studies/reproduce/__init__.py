@@ -11,12 +11,11 @@ of a study go through pinclear.sweep / pinclear.analysis.bifurcation on one exec
 """
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 from pinclear.core.errors import InputError
 from pinclear.studies.reproduce import paper000, paper002, paper003, paper004
-from pinclear.studies.reproduce.report import cpu_now, run_record, write_report
+from pinclear.studies.reproduce.report import run_record, started_now, write_report
 from pinclear.studies.reproduce.verdicts import summary
 
 PAPERS = {"000": paper000, "002": paper002, "003": paper003, "004": paper004}
@@ -34,7 +33,7 @@ def reproduce(paper, out, quick=False, workers=None, scheduler=None, bands=False
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     extra = {"bands": True, "budget": budget} if bands else {}
-    started = (time.perf_counter(), cpu_now())
+    started = started_now()
     report = mod.run(out, quick=quick, workers=workers, scheduler=scheduler, **extra)
     report["run"] = run_record(paper, started, quick=quick, bands=bands, out=out)
     write_report(report, out)

@@ -156,15 +156,21 @@ def cpu_now():
     return me.ru_utime + me.ru_stime, ch.ru_utime + ch.ru_stime
 
 
+def started_now():
+    """What :func:`run_record` needs from before the study: (wall clock, CPU, the commit then)."""
+    return time.perf_counter(), cpu_now(), _commit()
+
+
 def run_record(paper, started, quick=False, bands=False, out=None):
-    """The report's 'how it was made': ``started`` = (time.perf_counter(), cpu_now()) taken
-    before the study. Children's CPU counts the worker processes that have been waited for
-    (a Dask cluster's workers are not children: their CPU is not in it)."""
-    wall0, (self0, child0) = started
+    """The report's 'how it was made': ``started`` from :func:`started_now` before the study (the
+    commit is the one the study began with). Children's CPU counts the worker processes that have
+    been waited for (a Dask cluster's workers are not children: their CPU is not in it)."""
+    wall0, (self0, child0) = started[:2]
+    commit = started[2] if len(started) > 2 else _commit()
     self1, child1 = cpu_now()
     flags = (" --quick" if quick else "") + (" --bands" if bands else "")
     return {"cpu_self_s": self1 - self0, "cpu_children_s": child1 - child0, "wall_s": time.perf_counter() - wall0,
-            "cpus": os.cpu_count(), "commit": _commit(), "versions": versions(),
+            "cpus": os.cpu_count(), "commit": commit, "versions": versions(),
             "commands": [[f"pinclear reproduce {paper}{flags} --out {out or f'reproduce_{paper}'}", "this report"],
                          [f"pinclear reproduce {paper} --bands --out docs/reproduce/{paper}", "the committed report"]],
             "argv": " ".join(sys.argv)}
@@ -311,4 +317,4 @@ def write_report(rep, out):
 
 
 __all__ = ["CLAIM_VERDICTS", "CLASSES", "claim", "claim_verdict", "claims_markdown", "header", "markdown", "run_record",
-           "sensitivity_markdown", "versions", "write_report"]
+           "sensitivity_markdown", "started_now", "versions", "write_report"]
