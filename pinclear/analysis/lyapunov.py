@@ -334,7 +334,7 @@ def confirm_chaos(estimate, rtols, lengths, rel=0.25, level=0.95) -> ChaosEviden
             return ChaosEvidence(est, False, f"a Lyapunov confidence bound could not be formed (too few "
                                              f"renormalisations; exponents {text} 1/s)", level=level, failed=True)
         lo, hi = float(los.min()), float(his.max())
-        pct = f"{level:.0%}"
+        pct = f"{100 * level:.0f} %"
         if lo > 0:
             return ChaosEvidence(est, True, f"largest Lyapunov exponent {mean:.3g} 1/s, {pct} lower bound {lo:.3g} "
                                             f"1/s > 0 (least over rtol x length; estimates {text}, {spread})",

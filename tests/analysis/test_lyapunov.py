@@ -207,7 +207,7 @@ def test_damped_oscillator_exponent_is_minus_zeta_omega_with_a_negative_upper_bo
     times a bounded rotation, so lambda = -zeta w = -0.2 1/s; the finite-time estimate carries
     the rotation's bounded log-ratio / T. The interval must hold -0.2 and lie below 0."""
     z, w = 0.1, 2.0
-    f = lambda y: np.array([y[1], -2 * z * w * y[1] - w * w * y[0]])    # noqa: E731
+    f = lambda y: np.array([y[1], -2 * z * w * y[1] - w * w * y[0]])
     res = _loop(f, [1.0, 0.0], 82.0, 0.3, 2.0, 0.01)
     lo, hi = res.bound()
     assert lo < -z * w < hi and hi < 0
@@ -220,7 +220,7 @@ def test_damped_oscillator_exponent_is_minus_zeta_omega_with_a_negative_upper_bo
 def test_a_neutral_motion_straddles_zero_and_decides_nothing():
     """Two undamped oscillators at incommensurate frequencies (a quasi-periodic torus): lambda = 0;
     the interval holds 0, so the motion is neither chaotic nor a stable attractor."""
-    f = lambda y: np.array([y[1], -y[0], y[3], -2.0 * y[2]])           # noqa: E731
+    f = lambda y: np.array([y[1], -y[0], y[3], -2.0 * y[2]])
     res = _loop(f, [1.0, 0.0, 0.5, 0.0], 60.0, 0.37, 1.0, 0.02)
     lo, hi = res.bound()
     assert lo < 0.0 < hi

@@ -1,7 +1,10 @@
 """pinclear.studies.reproduce.chaos: the studies' 'irregular' runs become 'chaotic' only with a positive
 Lyapunov exponent that agrees over both tolerances and both run lengths (analysis.lyapunov's rule),
 the paper's named values are checked first, and the limit is kept and reported."""
+from pathlib import Path
 from types import SimpleNamespace
+
+import pytest
 
 from pinclear.analysis.classify import Classification
 from pinclear.studies.reproduce import chaos
@@ -128,7 +131,7 @@ def test_a_lower_bound_at_or_below_zero_anywhere_keeps_it_irregular():
     """The minimum over tolerances and lengths decides: one estimate whose interval reaches 0
     (the short run at the fine tolerance) is enough to leave chaos unconfirmed."""
     kinds = {0.3: {"A": irregular(0.9)}}
-    table = lambda v, r, n: (0.8, -0.1, 1.7) if (r < 1e-8 and n == 25) else (1.0, 0.4, 1.6)   # noqa: E731
+    table = lambda v, r, n: (0.8, -0.1, 1.7) if (r < 1e-8 and n == 25) else (1.0, 0.4, 1.6)
     chaos.confirm_irregular(kinds, fake_bounded_rerun(table, []), 1e-8, 100, lambda v: 1.0, limit=1)
     assert kinds[0.3]["A"].kind == "irregular" and "contain 0" in kinds[0.3]["A"].note
     # a bound the loop could not form (too few renormalisations) decides nothing
@@ -142,7 +145,7 @@ def test_a_regular_row_gets_its_negative_exponent_and_upper_bound():
     """lyapunov_evidence serves any value (a period-1 row contradicting a paper's chaos): a
     negative exponent whose every upper bound is below 0 is a stable attractor."""
     calls = []
-    table = lambda v, r, n: (-0.52, -0.7, -0.31) if v == 0.01 else (0.02, -0.2, 0.25)   # noqa: E731
+    table = lambda v, r, n: (-0.52, -0.7, -0.31) if v == 0.01 else (0.02, -0.2, 0.25)
     ev = chaos.lyapunov_evidence([0.01, 0.05], fake_bounded_rerun(table, calls), 1e-8, 100)
     assert ev[0.01].regular and ev[0.01].verdict == "regular" and ev[0.01].upper == -0.31
     assert chaos.exponent_text(ev[0.01]) == "λ1 = -0.52 1/s (95 % upper bound -0.31 1/s)"
@@ -151,3 +154,27 @@ def test_a_regular_row_gets_its_negative_exponent_and_upper_bound():
     # the same reruns as confirm_irregular: one per tolerance, each giving both lengths
     assert sorted((r, n) for _, r, n in calls) == sorted((1e-8 * f, (25, 50)) for f in chaos.RTOL_FACTORS)
     assert chaos.lyapunov_evidence([], None, 1e-8, 100) == {}
+
+
+@pytest.mark.slow
+def test_the_double_well_decides_by_its_bounds_end_to_end():
+    """The whole path on a real model (analysis.bifurcation's lyapunov_at runs -> their bounds ->
+    lyapunov_evidence): the forced double well of tests/data carries an undamped, uncoupled second
+    oscillator, so its regular motion at F = 0.2 N has exponent 0 exactly (a neutral direction):
+    the interval must hold 0 (undecided, neither chaos nor a stable attractor); its cross-well
+    chaos at F = 1.4 N must have a positive least lower bound. About 4 s of CPU."""
+    import numpy as np
+
+    import pinclear.analysis as an
+
+    dw = Path(__file__).parents[1] / "data" / "analysis_double_well.yaml"
+    Tw = 2 * np.pi / 1.2
+
+    def rerun(vals, rtol, lengths):
+        return an.bifurcation(dw, "forces[push].law.terms[0].amp", vals, period=Tw, signal="slide",
+                              cycles=max(lengths), transient=10, per_period=4, executor="serial",
+                              sim_options={"integrator": "DOP853", "rtol": rtol}, lyapunov=True, lyapunov_at=lengths)
+
+    ev = chaos.lyapunov_evidence([0.2, 1.4], rerun, 1e-8, 80)
+    assert ev[0.2].lower < 0.0 < ev[0.2].upper and ev[0.2].verdict == "undecided"
+    assert ev[1.4].lower > 0.0 and ev[1.4].verdict == "chaotic"

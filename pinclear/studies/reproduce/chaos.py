@@ -127,7 +127,7 @@ def exponent_text(ev):
         return "no exponent computed"
     if ev.failed:
         return "Lyapunov estimate failed"
-    lam, pct = f"λ1 = {ev.exponent:.3g} 1/s", f"{ev.level:.0%}".replace("%", " %")
+    lam, pct = f"λ1 = {ev.exponent:.3g} 1/s", f"{100 * ev.level:.0f} %"
     if ev.lower != ev.lower:                   # plain exponents, no bounds
         return lam
     if ev.confirmed:
