@@ -210,7 +210,7 @@ def test_damped_oscillator_exponent_is_minus_zeta_omega_with_a_negative_upper_bo
     f = lambda y: np.array([y[1], -2 * z * w * y[1] - w * w * y[0]])
     res = _loop(f, [1.0, 0.0], 82.0, 0.3, 2.0, 0.01)
     lo, hi = res.bound()
-    assert lo < -z * w < hi and hi < 0
+    assert lo < -z * w < hi < 0
     assert res.exponent == pytest.approx(-z * w, abs=0.03)
     from pinclear.analysis.lyapunov import confirm_chaos
     ev = confirm_chaos(lambda r, t: (res.exponent, lo, hi), [1e-8], [82.0])
