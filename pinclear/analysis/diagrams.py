@@ -260,7 +260,9 @@ def _run_one(job):
         if job["lyapunov"] and traj.status == "success":
             # the same run's time span, the companion renormalised four times per period
             try:
-                stats["lyapunov"] = _lyapunov(job, mech, float(t_eval[-1])).exponent
+                lres = _lyapunov(job, mech, float(t_eval[-1]))
+                # its 95 % batch-means interval (analysis.lyapunov.batch_means_bound) beside it
+                stats["lyapunov"], stats["lyapunov_bound"] = lres.exponent, tuple(lres.bound())
             except Exception as exc:              # reported with the run, the sections are kept
                 stats["lyapunov_error"] = f"{type(exc).__name__}: {exc}"
         stats["events"] = len(traj.stats.get("events", []))
@@ -362,7 +364,8 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     lyapunov: also estimate the largest Lyapunov exponent of each value's motion over the same
         span (analysis.mechanism_lyapunov, companion renormalised 4 times per period, the
         transient left out; it costs about two more runs): ``run.stats["lyapunov"]`` (1/s),
-        drawn by plot_bifurcation beside the samples.
+        drawn by plot_bifurcation beside the samples, and ``run.stats["lyapunov_bound"]`` its
+        95 % interval (lo, hi).
     lyapunov_at: recorded-cycle counts (each <= cycles): the runs then estimate only the
         exponents, without the ordinary run and its samples: one loop over transient + cycles
         periods gives ``run.stats["lyapunov_at"][n]``, the exponent a run of transient + n
