@@ -177,3 +177,33 @@ def test_000_x_offset_is_undecided_when_the_papers_reading_decides():
     # both readings within tau: the row keeps its class (not measured without a band)
     r = paper000.offset_reading(base, 0.12)
     assert r["verdict"] == "not measured" and "decides" not in r["why"]
+
+
+def test_transient_notes_check_every_finished_run_of_both_signals():
+    """Each finished run's clearance Y and platform Z sections are classified again with half the
+    recorded cycles (at most 20) more transient left out; failed runs and sections too short for
+    that are not counted. A start-up the classifier already recognises keeps its class."""
+    import numpy as np
+
+    from pinclear.analysis.poincare import PoincareSection
+
+    def section(x):
+        x = np.asarray(x, float)
+        k = np.arange(len(x))
+        return PoincareSection(k=k, t=2.0 * k, x=x, xdot=np.zeros_like(x), period=2.0, phase=0.0, label="y",
+                               interpolated=np.zeros(len(x), bool))
+
+    n = 10
+    clean = 1e-3 + np.zeros(n)
+    start = 1e-3 + np.r_[np.array([4e-5, -3e-5, 2e-5, -1e-5, 5e-6]), np.zeros(n - 5)]
+    runs = [SimpleNamespace(ok=True, value=v, stats={}, sections={"S2.eccentricity[1]": section(x),
+                                                                  "platform.z": section(clean)})
+            for v, x in ((0.01, clean), (0.05, start))]
+    runs.append(SimpleNamespace(ok=False, value=0.1, stats={}, sections={}))
+    runs.append(SimpleNamespace(ok=True, value=0.2, stats={}, sections={"platform.z": section(clean[:4])}))
+    bif = {"mu": SimpleNamespace(runs=runs), "clearance": SimpleNamespace(runs=[])}
+    s = {"cycles": n, "transient": 3, "clearance": 5e-4}
+    mu_note, c_note = paper000.transient_notes(bif, s)
+    assert mu_note.startswith("transient check, mu diagram (3 vs 8 transient periods)")
+    assert mu_note.endswith("4 of 4 keep their class")
+    assert c_note.endswith("no transient check")

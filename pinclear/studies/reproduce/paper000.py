@@ -213,7 +213,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     load = (min(raw) if raw else float(lam_mag.min()), 0.5 * float(lam_mag.max() - lam_mag.min()))
     results += chaos_rows(bif, kinds, s, bands_, load)
     figures += portrait_figure(out, bif["mu"], kinds, s["clearance"]) + bifurcation_figures(out, bif)
-    notes += chaos_notes(bif, kinds, quick) + lyap_notes
+    notes += chaos_notes(bif, kinds, quick) + lyap_notes + transient_notes(bif, s)
     notes.append("every result used K as printed in paper 000 (eq. 17, 4/(3(s1+s2)) sqrt(R1R2/(R1+R2))); the "
                  "conformal radius R1R2/(R_socket - R_ball) is reported beside it for the contact force")
     notes.append("independent check: " + "; ".join(f"{c['name']}: {100 * c['relative_difference']:.2f} %"
@@ -538,21 +538,53 @@ def reusing(known, study, values, s, run):
 def motion_kinds(bif, s):
     """{study: {value: {signal: Classification}}}: every run classified again with the
     clearance's resolution (CLEARANCE_FRACTION x the run's clearance)."""
-    from pinclear.dynamics.simulate import RTOL_DEFAULT
-
     kinds = {}
     for study, res in bif.items():
-        per = s["transient"] + s["cycles"]
-        rtol = SENS_RTOL if study == "sens_rtol" else RTOL_DEFAULT
         kinds[study] = {}
         for r in res.runs:
-            c = float(r.value) if study == "clearance" else s["clearance"]
-            opts = dict(resolution=analysis.CLEARANCE_FRACTION * c)
-            if r.stats.get("steps"):
-                opts.update(sim_rtol=rtol, steps_per_period=r.stats["steps"] / per)
+            opts = _classify_options(study, r, s)
             kinds[study][r.value] = {sig: analysis.classify(r.sections[sig], **opts) for sig in SIGNALS
                                      if r.ok and sig in r.sections}
     return kinds
+
+
+def _classify_options(study, r, s):
+    from pinclear.dynamics.simulate import RTOL_DEFAULT
+
+    per = s["transient"] + s["cycles"]
+    rtol = SENS_RTOL if study == "sens_rtol" else RTOL_DEFAULT
+    c = float(r.value) if study == "clearance" else s["clearance"]
+    opts = {"resolution": analysis.CLEARANCE_FRACTION * c}
+    if r.stats.get("steps"):
+        opts.update(sim_rtol=rtol, steps_per_period=r.stats["steps"] / per)
+    return opts
+
+
+#: the transient-length check: each diagram's runs classified again with this many more periods of
+#: transient left out (the full study: 20 transient + 100 recorded, judged again after 40)
+TRANSIENT_EXTRA = 20
+
+
+def transient_notes(bif, s):
+    """One note per diagram: does each run's class (clearance Y, platform Z) survive leaving
+    TRANSIENT_EXTRA more periods out (at most half the recorded cycles)? No new run
+    (pinclear.analysis.convergence.transient_check)."""
+    from pinclear.analysis.convergence import transient_check, transient_summary
+
+    extra = max(1, min(TRANSIENT_EXTRA, s["cycles"] // 2))
+    notes = []
+    for study in ("mu", "clearance"):
+        checks = {}
+        for r in bif[study].runs:
+            if not r.ok:
+                continue
+            for sig in ("S2.eccentricity[1]", "platform.z"):
+                if sig in r.sections and len(r.sections[sig]) > extra:
+                    checks[f"{study} {float(r.value):.4g}, {sig}"] = transient_check(
+                        r.sections[sig], extra=extra, **_classify_options(study, r, s))
+        notes.append(f"transient check, {study} diagram ({s['transient']} vs {s['transient'] + extra} transient "
+                     f"periods): " + transient_summary(checks))
+    return notes
 
 
 def lyapunov_checks(kinds, s, ex):

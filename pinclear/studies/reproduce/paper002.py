@@ -389,6 +389,28 @@ def _joint_kinds(res, s, clearance=None):
     return out
 
 
+def _transient_note(res, s, what, clearance=None):
+    """Does each run's class survive leaving 20 more periods of transient out (at most half the
+    recorded cycles)? No new run (pinclear.analysis.convergence.transient_check)."""
+    from pinclear.analysis.convergence import transient_check, transient_summary
+
+    extra = max(1, min(20, s["cycles"] // 2))
+    per = s["cycles"] + s["transient cycles"]
+    checks = {}
+    for r in res.runs:
+        if not (r.ok and r.stats.get("steps")):
+            continue
+        c = float(r.value) if clearance is None else clearance
+        for j in JOINTS:
+            secs = [r.sections.get(f"{j}.eccentricity[{k}]") for k in (0, 1)]
+            if all(x is not None and len(x) > extra for x in secs):
+                checks[f"{float(r.value):.4g}, {j}"] = transient_check(
+                    secs, extra=extra, sim_rtol=RTOL, steps_per_period=r.stats["steps"] / per,
+                    resolution=CLEARANCE_FRACTION * c)
+    return (f"transient check, {what} diagram ({s['transient cycles']} vs {s['transient cycles'] + extra} transient "
+            "periods): " + transient_summary(checks))
+
+
 def _bifurcation(parameter, values, period, s, executor, overrides, rtol=RTOL, cycles=None, lyapunov_at=None):
     return an.bifurcation(model_path("nine_bar"), parameter, values, period=period, signal=SIGNALS,
                           cycles=cycles or s["cycles"], transient=s["transient cycles"], per_period=100,
@@ -451,6 +473,7 @@ def _chaos(s, out, executor, plt):
                            clearance=lambda v: v, omega=lambda v: 2 * math.pi))
     figs.append(_diagrams(res, "bifurcation_clearance.png", "clearance c [m]", plt, out))
     notes.append(_spread_note(res, "clearance"))
+    notes.append(_transient_note(res, s, "clearance"))
     # --- against the driving speed (sec. 4.2, Figs. 25-29), 0.1 mm
     # exact multiples of pi (2 pi is then the same drive law as the clearance study's)
     speeds = sorted({float(v) * math.pi for v in s["speeds [pi rad/s]"]} | {2 * math.pi, 3 * math.pi})
@@ -480,6 +503,7 @@ def _chaos(s, out, executor, plt):
                            omega=lambda v: v))
     figs.append(_diagrams(res_w, "bifurcation_speed.png", "driving speed w [rad/s]", plt, out))
     notes.append(_spread_note(res_w, "speed"))
+    notes.append(_transient_note(res_w, s, "speed", clearance=0.1e-3))
     fails = res.failures + res_w.failures
     if fails:
         notes.append("runs that did not finish (kept in the diagrams' npz files): "
