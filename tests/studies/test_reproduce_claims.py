@@ -23,6 +23,8 @@ def test_a_claims_verdict_is_its_worst_deciding_row():
     assert claim_verdict([_r("reproduced"), _r("reproduced")]) == "reproduced"
     assert claim_verdict([_r("reproduced"), _r("not measured", "")]) == "not measured"
     assert claim_verdict([_r("reproduced"), _r("undecided")]) == "undecided"
+    # a row undecided by something other than its band (000's offset: the paper's reading) stays undecided
+    assert claim_verdict([_r("undecided", ""), _r("undecided", "")]) == "undecided"
     # calibration and not-comparable rows never decide a claim
     assert claim_verdict([_r("calibration"), _r("reproduced")]) == "reproduced"
     assert claim_verdict([_r("calibration"), _r("not comparable")]) == "not comparable"

@@ -90,7 +90,7 @@ def claim_verdict(rows):
         return "contradicted"
     if all(x == "reproduced" for x in v):
         return "reproduced"
-    if "not measured" in v or any(r["verdict"] == "undecided" and not r.get("band_from") for r in rows):
+    if "not measured" in v:
         return "not measured"
     return "undecided"
 
