@@ -68,3 +68,17 @@ def test_bands_figure_draws_every_banded_row_even_a_paper_value_of_zero(tmp_path
     assert bands_figure({"results": rows}, tmp_path) == "bands.png"
     assert (tmp_path / "bands.png").stat().st_size > 5_000
     assert bands_figure({"results": rows[2:]}, tmp_path, name="none.png") is None
+
+
+def test_run_record_counts_the_worker_processes_cpu():
+    """CPU of the process and of its children apart: a child that burns CPU shows in the children's part."""
+    import subprocess
+    import sys
+
+    from pinclear.studies.reproduce.report import started_now
+
+    st = started_now()
+    subprocess.run([sys.executable, "-c", "sum(i * i for i in range(4_000_000))"], check=True)
+    run = run_record("004", st, quick=True, out="o")
+    assert run["cpu_children_s"] > 0.05 and run["cpu_self_s"] >= 0.0 and run["wall_s"] >= run["cpu_children_s"] * 0.5
+    assert run["commit"] and run["commands"][0] == ["pinclear reproduce 004 --quick --out o", "this report"]

@@ -20,7 +20,6 @@ import html
 import json
 import os
 import platform
-import resource
 import subprocess
 import sys
 import time
@@ -151,9 +150,10 @@ def versions():
 
 
 def cpu_now():
-    """(CPU s of this process, CPU s of its finished children): user + system."""
-    me, ch = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return me.ru_utime + me.ru_stime, ch.ru_utime + ch.ru_stime
+    """(CPU s of this process, CPU s of its waited-for children): user + system (os.times; the
+    children's part is 0 where the platform does not count it)."""
+    t = os.times()
+    return t.user + t.system, t.children_user + t.children_system
 
 
 def started_now():
