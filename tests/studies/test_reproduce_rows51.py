@@ -204,6 +204,6 @@ def test_transient_notes_check_every_finished_run_of_both_signals():
     bif = {"mu": SimpleNamespace(runs=runs), "clearance": SimpleNamespace(runs=[])}
     s = {"cycles": n, "transient": 3, "clearance": 5e-4}
     mu_note, c_note = paper000.transient_notes(bif, s)
-    assert mu_note.startswith("transient check, mu diagram (3 vs 8 transient periods)")
+    assert mu_note.startswith("mu diagram, 3 vs 8 transient periods: transient check (+5 periods)")
     assert mu_note.endswith("4 of 4 keep their class")
     assert c_note.endswith("no transient check")

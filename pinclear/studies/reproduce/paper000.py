@@ -582,8 +582,8 @@ def transient_notes(bif, s):
                 if sig in r.sections and len(r.sections[sig]) > extra:
                     checks[f"{study} {float(r.value):.4g}, {sig}"] = transient_check(
                         r.sections[sig], extra=extra, **_classify_options(study, r, s))
-        notes.append(f"transient check, {study} diagram ({s['transient']} vs {s['transient'] + extra} transient "
-                     f"periods): " + transient_summary(checks))
+        notes.append(f"{study} diagram, {s['transient']} vs {s['transient'] + extra} transient periods: "
+                     + transient_summary(checks))
     return notes
 
 

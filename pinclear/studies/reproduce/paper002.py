@@ -407,8 +407,8 @@ def _transient_note(res, s, what, clearance=None):
                 checks[f"{float(r.value):.4g}, {j}"] = transient_check(
                     secs, extra=extra, sim_rtol=RTOL, steps_per_period=r.stats["steps"] / per,
                     resolution=CLEARANCE_FRACTION * c)
-    return (f"transient check, {what} diagram ({s['transient cycles']} vs {s['transient cycles'] + extra} transient "
-            "periods): " + transient_summary(checks))
+    return (f"{what} diagram, {s['transient cycles']} vs {s['transient cycles'] + extra} transient periods: "
+            + transient_summary(checks))
 
 
 def _bifurcation(parameter, values, period, s, executor, overrides, rtol=RTOL, cycles=None, lyapunov_at=None):
