@@ -270,8 +270,8 @@ def lever_form(tables, model_tb, out):
     plt.close(fig)
     table = {"title": "levers: the value each reconstructed input would need to reach the paper's deviation / "
                       "clearance (one-at-a-time runs; the tornado is levers.png)",
-             "columns": ["input", "sampled", "deviation / clearance over it", "paper", "paper's deviation / "
-                         "clearance", "needed value", "plausible range"],
+             "columns": ["input", "sampled", "deviation / clearance over it", "paper",
+                         "paper's deviation / clearance", "needed value", "plausible range"],
              "rows": rows,
              "note": "needed value: on a straight line through the samples in log-log (the kinematic bound is a "
                      "power law in the slider length and the lever arm); 'extrapolated' when it lies outside the "
