@@ -51,10 +51,12 @@ from pinclear.analysis.classify import (
                                         integration_rtol,
                                         settled_period,
 )
+from pinclear.analysis.convergence import StepConvergence, TransientCheck, step_convergence, transient_check
 from pinclear.analysis.diagrams import BifurcationResult, BifurcationRun, bifurcation, signal_key
 from pinclear.analysis.lyapunov import (
                                         ChaosEvidence,
                                         LyapunovResult,
+                                        batch_means_bound,
                                         confirm_chaos,
                                         largest_lyapunov,
                                         mechanism_lyapunov,
@@ -68,4 +70,5 @@ __all__ = ["CHAOS_THRESHOLD", "Classification", "chaos_01", "classify", "classif
            "plot_bifurcation", "plot_phase_portrait", "plot_poincare", "PoincareSection", "poincare",
            "section_times", "Series", "phase_portrait", "relative_rate", "series", "BifurcationResult",
            "BifurcationRun", "bifurcation", "signal_key", "LyapunovResult", "largest_lyapunov",
-           "mechanism_lyapunov", "ChaosEvidence", "confirm_chaos", "CLEARANCE_FRACTION"]
+           "mechanism_lyapunov", "ChaosEvidence", "confirm_chaos", "CLEARANCE_FRACTION",
+           "batch_means_bound", "transient_check", "TransientCheck", "step_convergence", "StepConvergence"]

@@ -1,12 +1,14 @@
 """Classification of a Poincaré sequence: period-k detection, the physical resolution, the 0-1
-test, and chaos only where a positive, converged largest Lyapunov exponent confirms it.
+test, and chaos only where a largest Lyapunov exponent positive with confidence confirms it.
 
 Kinds: ``period-k``; ``below resolution`` (no period-1, but the points spread less than the
-stated resolution, e.g. a fraction of the joint's clearance: a wobble too small to call a motion
-of its own, never reported as chaos); ``quasi-periodic`` (0-1 test K <= threshold);
+stated resolution, e.g. a fraction of the joint's clearance, and their rates less than the rate
+that resolution makes at the driving frequency: a wobble too small to call a motion of its own,
+never reported as chaos); ``quasi-periodic`` (0-1 test K <= threshold);
 ``irregular`` (K above the threshold, chaos not confirmed: no Lyapunov exponent given, or it is
-not positive or does not converge); ``chaotic`` (K above the threshold AND a positive largest
-Lyapunov exponent that converges with tolerance and run length, :func:`pinclear.analysis.lyapunov.confirm_chaos`);
+not positive with confidence); ``chaotic`` (K above the threshold AND a largest Lyapunov exponent
+whose 95 % lower bound, the least over integration tolerances and run lengths, is positive,
+:func:`pinclear.analysis.lyapunov.confirm_chaos`);
 ``unresolved`` (too few samples); ``empty``."""
 from __future__ import annotations
 
@@ -154,10 +156,14 @@ class Classification:
     K: float | None           # 0-1 test result (None when a period was found or too few samples)
     n: int
     note: str = ""
+    evidence: object = None   # the Lyapunov evidence (analysis.lyapunov.ChaosEvidence) that decided it, if any
 
     def as_dict(self):
-        return {"kind": self.kind, "period": self.period, "clusters": self.clusters, "K": self.K, "n": self.n,
-                "note": self.note}
+        out = {"kind": self.kind, "period": self.period, "clusters": self.clusters, "K": self.K, "n": self.n,
+               "note": self.note}
+        if self.evidence is not None:
+            out["lyapunov"] = self.evidence.as_dict()
+        return out
 
 
 #: the default resolution of a clearance joint's response: Poincaré spreads below this fraction of
@@ -168,7 +174,7 @@ CLEARANCE_FRACTION = 0.01
 
 
 def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_samples_01=40, chaos_threshold=None,
-             sim_rtol=None, steps_per_period=None, resolution=None, lyapunov=None):
+             sim_rtol=None, steps_per_period=None, resolution=None, lyapunov=None, rate_resolution=None):
     """Classify a Poincaré section (PoincareSection or an (n,) / (n, d) array).
 
     First the period (:func:`detect_period` with settle=True): "period-k" if the sequence
@@ -191,9 +197,13 @@ def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_sample
     A section whose rate is not exact (spline-differentiated output) is judged by x alone.
 
     resolution: the physical resolution of the positions (same unit; e.g. CLEARANCE_FRACTION x
-    the clearance): a sequence that is not period-1 but whose position coordinates spread (max -
-    min) less than it is "below resolution". For a PoincareSection it applies to x; for an array,
-    to every column (give an array with inf for columns it does not apply to).
+    the clearance): a sequence that is not period-1 but whose coordinates all spread (max - min)
+    less than their resolution is "below resolution". For a PoincareSection it applies to x, and
+    ``rate_resolution`` (default omega x resolution, omega = 2 pi / the section's period: the
+    rate of a wobble of the resolution's size at the driving frequency) to an exact rate: the
+    papers' diagrams plot velocities, and a motion whose positions hardly move while its rates
+    spread (a second frequency above the driving one) is a motion, not a wobble. For an array
+    it applies to every column (give an array with inf for columns it does not apply to).
     lyapunov: a :class:`pinclear.analysis.lyapunov.ChaosEvidence` (or None): K above the threshold
     is "chaotic" only when it confirms chaos, else "irregular".
     """
@@ -223,11 +233,12 @@ def classify(section, rtol=None, atol=0.0, scale=None, max_period=16, min_sample
         return Classification("empty", None, 0, None, 0, "no Poincaré samples")
     period, clusters, i0 = settled_period(P, rtol=rtol, atol=atol, scale=scale, max_period=max_period)
     if period != 1 and resolution is not None:
-        small = _below(P[i0:] if period else P, resolution, section)
+        small = _below(P[i0:] if period else P, resolution, section, rate_resolution)
         if small is not None:
             what = f"period-{period} at the integration tolerance, " if period else ""
             return Classification("below resolution", period, clusters, None, n,
-                                  f"{what}Poincaré spread {small[0]:.3g} below the resolution {small[1]:.3g}")
+                                  f"{what}Poincaré spread {small[0]:.3g} below the resolution {small[1]:.3g}"
+                                  + small[2])
     if period is not None:
         note = f"after a transient of {i0} section points" if i0 else ""
         if clusters < period:
@@ -260,24 +271,40 @@ def beyond_threshold(clusters, K, n, note, lyapunov):
     """The class of a section whose 0-1 test K exceeds the threshold: 'chaotic' only when the
     Lyapunov evidence confirms it, else 'irregular' with the reason in the note."""
     if lyapunov is not None and lyapunov.confirmed:
-        return Classification("chaotic", None, clusters, K, n, "; ".join(x for x in (note, lyapunov.note) if x))
+        return Classification("chaotic", None, clusters, K, n, "; ".join(x for x in (note, lyapunov.note) if x),
+                              lyapunov)
     why = lyapunov.note if lyapunov is not None else "no largest Lyapunov exponent computed"
-    return Classification("irregular", None, clusters, K, n, "; ".join(x for x in (note, NOT_CONFIRMED + why) if x))
+    return Classification("irregular", None, clusters, K, n, "; ".join(x for x in (note, NOT_CONFIRMED + why) if x),
+                          lyapunov)
 
 
-def _below(P, resolution, section):
-    """(spread, resolution) when every position coordinate of P spreads less than the resolution,
-    else None. A PoincareSection's positions are its first column."""
+def _below(P, resolution, section, rate_resolution=None):
+    """(spread, resolution, rate text) when every coordinate of P with a finite resolution spreads
+    less than it, else None. A PoincareSection's positions are its first column; its exact rate
+    (second column) is judged against ``rate_resolution``, default omega x resolution."""
     res = np.asarray(resolution, float)
+    rate_text = ""
     if isinstance(section, PoincareSection):
-        res = np.concatenate([np.broadcast_to(res, (1,)), np.full(P.shape[1] - 1, np.inf)])
+        x_res = float(np.broadcast_to(res, (1,))[0])
+        extra = np.full(P.shape[1] - 1, np.inf)
+        if P.shape[1] > 1:
+            r_res = (2.0 * math.pi / section.period * x_res) if rate_resolution is None else float(rate_resolution)
+            extra[0] = r_res
+            r_spread = float(np.ptp(P[:, 1])) if len(P) else 0.0
+            rate_text = f"; rate spread {r_spread:.3g} below {r_res:.3g}"
+        res = np.concatenate([[x_res], extra])
+    elif rate_resolution is not None:
+        raise InputError("classify: rate_resolution applies to a PoincareSection; for an array give each column's "
+                         "resolution in ``resolution``")
     res = np.broadcast_to(res, (P.shape[1],))
     cols = np.isfinite(res)
     if not cols.any() or not len(P):
         return None
     spread = np.ptp(P[:, cols], axis=0)
     if np.all(spread < res[cols]):
-        return float(np.max(spread)), float(np.min(res[cols]))
+        if isinstance(section, PoincareSection):
+            return float(spread[0]), float(res[0]), rate_text
+        return float(np.max(spread)), float(np.min(res[cols])), rate_text
     return None
 
 
@@ -316,7 +343,9 @@ def classify_state(sections, **options):
     pressed against one side of its bearing) cannot make a drifting run look periodic. Points
     are stacked coordinate by coordinate with each section's own scale; ``options`` as for
     :func:`classify`. The 0-1 test's K is the largest over all coordinates. A scalar
-    ``resolution`` applies to each section's position column (not to its rate)."""
+    ``resolution`` applies to each section's position column and omega x resolution (omega =
+    2 pi / the section's period) to its exact rate, as :func:`classify` does for one section
+    (``rate_resolution`` overrides the latter)."""
     secs = [s for s in sections if s is not None and len(s)]
     if not secs:
         return classify(np.zeros((0, 2)), **options)
@@ -331,6 +360,11 @@ def classify_state(sections, **options):
         raise InputError("classify_state takes each section's own scale; do not pass scale")
     options.pop("scale", None)
     res = options.pop("resolution", None)
+    rate_res = options.pop("rate_resolution", None)
     if res is not None and np.ndim(res) == 0:
-        res = np.concatenate([[float(res)] + [np.inf] * (c.shape[1] - 1) for c in cols])
+        res = np.concatenate([[float(res)] + [(2.0 * math.pi / s.period * float(res)) if rate_res is None
+                                              else float(rate_res)] * (c.shape[1] - 1)
+                              for s, c in zip(secs, cols)])
+    elif rate_res is not None:
+        raise InputError("classify_state: rate_resolution goes with a scalar resolution")
     return classify(np.hstack(cols), scale=np.concatenate(scales), resolution=res, **options)

@@ -260,7 +260,9 @@ def _run_one(job):
         if job["lyapunov"] and traj.status == "success":
             # the same run's time span, the companion renormalised four times per period
             try:
-                stats["lyapunov"] = _lyapunov(job, mech, float(t_eval[-1])).exponent
+                lres = _lyapunov(job, mech, float(t_eval[-1]))
+                # its 95 % batch-means interval (analysis.lyapunov.batch_means_bound) beside it
+                stats["lyapunov"], stats["lyapunov_bound"] = lres.exponent, tuple(lres.bound())
             except Exception as exc:              # reported with the run, the sections are kept
                 stats["lyapunov_error"] = f"{type(exc).__name__}: {exc}"
         stats["events"] = len(traj.stats.get("events", []))
@@ -303,7 +305,8 @@ def _lyapunov_only(job, mech, t_end, t_start):
     longest span gives every shorter span's exponent as its running estimate there
     (analysis.lyapunov.benettin's ends, bit for bit), so the recorded-cycle counts
     share one loop instead of one ordinary run and one loop each. stats['lyapunov_at'] = {n:
-    exponent over transient + n periods}, stats['lyapunov'] the longest's; a loop that stops
+    exponent over transient + n periods}, stats['lyapunov_bounds_at'] = {n: (lo, hi)} their 95 %
+    intervals, stats['lyapunov'] the longest's; a loop that stops
     keeps the exponents of the spans it finished ('failed', with the reason)."""
     from pinclear.analysis.lyapunov import LyapunovFailed
 
@@ -317,6 +320,9 @@ def _lyapunov_only(job, mech, t_end, t_start):
         res, status, message = exc.partial, "failed", f"{type(exc.cause).__name__}: {exc.cause}"
         stats["lyapunov_error"] = message
     stats["lyapunov_at"] = {n: res.ends.get(e, float("nan")) for n, e in ends.items()}
+    # each span's 95 % batch-means interval (analysis.lyapunov.batch_means_bound): chaos is decided by its sign
+    stats["lyapunov_bounds_at"] = {n: tuple(res.end_bounds.get(e, (float("nan"), float("nan"))))
+                                   for n, e in ends.items()}
     if status == "success":
         stats["lyapunov"] = res.exponent
     stats.update(wall_s=time.perf_counter() - t_start, pid=os.getpid())
@@ -358,7 +364,8 @@ def bifurcation(model, parameter, values, period, signal, cycles=100, transient=
     lyapunov: also estimate the largest Lyapunov exponent of each value's motion over the same
         span (analysis.mechanism_lyapunov, companion renormalised 4 times per period, the
         transient left out; it costs about two more runs): ``run.stats["lyapunov"]`` (1/s),
-        drawn by plot_bifurcation beside the samples.
+        drawn by plot_bifurcation beside the samples, and ``run.stats["lyapunov_bound"]`` its
+        95 % interval (lo, hi).
     lyapunov_at: recorded-cycle counts (each <= cycles): the runs then estimate only the
         exponents, without the ordinary run and its samples: one loop over transient + cycles
         periods gives ``run.stats["lyapunov_at"][n]``, the exponent a run of transient + n

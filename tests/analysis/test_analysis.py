@@ -334,6 +334,9 @@ def test_bifurcation_draws_the_largest_lyapunov_exponent(tmp_path):
                          max_workers=2, lyapunov=True)
     regular, chaotic = (r.stats["lyapunov"] for r in res.runs)
     assert abs(regular) < 0.03 and chaotic > 0.03
+    # each exponent's 95 % interval beside it (issue 51): the neutral one holds 0
+    (lo0, hi0), (lo1, hi1) = (r.stats["lyapunov_bound"] for r in res.runs)
+    assert lo0 < regular < hi0 and lo0 < 0.0 < hi0 and lo1 < chaotic < hi1
     assert [row["lyapunov"] for row in res.table()] == [regular, chaotic]
     _, drawn = an.plot_bifurcation(res, path=tmp_path / "b.png")
     np.testing.assert_array_equal(drawn["lyapunov"][1], [regular, chaotic])
@@ -457,5 +460,8 @@ def test_one_lyapunov_run_gives_every_recorded_length_exactly():
     for n in (3, 5):
         alone = an.bifurcation(DW, par, [1.4], cycles=n, **kw).runs[0]
         assert one.stats["lyapunov_at"][n] == alone.stats["lyapunov"]
+        # each length's 95 % batch-means interval (issue 51) is centred on its exponent
+        lo, hi = one.stats["lyapunov_bounds_at"][n]
+        assert lo < one.stats["lyapunov_at"][n] < hi
     with pytest.raises(InputError, match="lyapunov_at"):
         an.bifurcation(DW, par, [1.4], cycles=5, lyapunov_at=[3, 6], **kw)

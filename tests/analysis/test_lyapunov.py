@@ -150,3 +150,116 @@ def test_restarts_runs_equal_resumed_simulate_runs_when_the_rows_change(method):
         assert status == ["success", "failed", "failed", "success"]
     else:
         assert not r.keep and status == ["success"] * 4
+
+
+# --------------------------------------------------------------------------------------------
+# Confidence bounds (issue 51, item 4): the exponent's 95 % interval from the batch means of the
+# chunks' local exponents decides chaos (lower bound > 0) and a stable attractor (upper bound < 0).
+
+def _rk4_advance(f, h):
+    """advance(y, t, dt) by classical RK4 with steps of at most h (a fixed-step integrator, cheap
+    enough for a fast test; its error at h = 0.005 on Lorenz moves the exponent by < 1e-3)."""
+    def advance(y, t, dt):
+        n = max(1, int(np.ceil(dt / h - 1e-9)))
+        s = dt / n
+        for _ in range(n):
+            k1 = f(y)
+            k2 = f(y + 0.5 * s * k1)
+            k3 = f(y + 0.5 * s * k2)
+            k4 = f(y + s * k3)
+            y = y + s / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+            t += s
+        return y
+    return advance
+
+
+def _loop(f, y0, t_end, renorm, transient, h, ends=()):
+    from pinclear.analysis.lyapunov import benettin
+
+    y0 = np.asarray(y0, float)
+    u = np.ones_like(y0) / np.sqrt(len(y0))
+    return benettin(_rk4_advance(f, h), lambda a, b: float(np.linalg.norm(b - a)), lambda a, b, f_, t: a + f_ * (b - a),
+                    y0, y0 + 1e-8 * u, 0.0, t_end, renorm, 1e-8, transient, ends)
+
+
+def test_lorenz_lower_bound_is_positive_and_the_interval_holds_the_published_value():
+    """Lorenz (sigma 10, rho 28, beta 8/3), lambda1 = 0.9056 (Sprott 2003). Over 60 time units
+    after a transient of 10 the batch-means interval (10 batches of 6 time units) must hold the
+    published value and its lower bound must be positive by a wide margin (a 6-unit exponent of
+    Lorenz scatters by ~0.15, so the half-width is ~2.26 x 0.15 / sqrt(10) ~ 0.11; 0.5 leaves
+    4 of them). RK4 at h = 0.02 (a tenth of the fastest time scale, 1/(sigma + 1))."""
+    def lorenz(y):
+        return np.array([10.0 * (y[1] - y[0]), y[0] * (28.0 - y[2]) - y[1], y[0] * y[1] - 8.0 / 3.0 * y[2]])
+    res = _loop(lorenz, [1.0, 1.0, 20.0], 70.0, 0.5, 10.0, 0.02, ends=(30.0,))
+    lo, hi = res.bound()
+    assert lo < 0.9056 < hi and lo > 0.5 and hi - lo < 0.5
+    assert len(res.local) == len(res.dt) == res.renormalisations == 120
+    # the loop's exponent is the dt-weighted mean of its local exponents
+    assert float(np.sum(res.local * res.dt) / np.sum(res.dt)) == pytest.approx(res.exponent, rel=1e-12)
+    # the shorter run's bound is the bound a loop ending there computes on its own chunks
+    alone = _loop(lorenz, [1.0, 1.0, 20.0], 30.0, 0.5, 10.0, 0.02)
+    assert res.end_bounds[30.0] == pytest.approx(alone.bound(), rel=1e-12)
+    assert res.ends[30.0] == alone.exponent
+
+
+def test_damped_oscillator_exponent_is_minus_zeta_omega_with_a_negative_upper_bound():
+    """x'' + 2 zeta w x' + w^2 x = 0 (zeta 0.1, w 2): every separation decays as exp(-zeta w t)
+    times a bounded rotation, so lambda = -zeta w = -0.2 1/s; the finite-time estimate carries
+    the rotation's bounded log-ratio / T. The interval must hold -0.2 and lie below 0."""
+    z, w = 0.1, 2.0
+    f = lambda y: np.array([y[1], -2 * z * w * y[1] - w * w * y[0]])
+    res = _loop(f, [1.0, 0.0], 82.0, 0.3, 2.0, 0.01)
+    lo, hi = res.bound()
+    assert lo < -z * w < hi < 0
+    assert res.exponent == pytest.approx(-z * w, abs=0.03)
+    from pinclear.analysis.lyapunov import confirm_chaos
+    ev = confirm_chaos(lambda r, t: (res.exponent, lo, hi), [1e-8], [82.0])
+    assert ev.regular and ev.verdict == "regular" and not ev.confirmed and "upper bound" in ev.note
+
+
+def test_a_neutral_motion_straddles_zero_and_decides_nothing():
+    """Two undamped oscillators at incommensurate frequencies (a quasi-periodic torus): lambda = 0;
+    the interval holds 0, so the motion is neither chaotic nor a stable attractor."""
+    f = lambda y: np.array([y[1], -y[0], y[3], -2.0 * y[2]])
+    res = _loop(f, [1.0, 0.0, 0.5, 0.0], 60.0, 0.37, 1.0, 0.02)
+    lo, hi = res.bound()
+    assert lo < 0.0 < hi
+    from pinclear.analysis.lyapunov import confirm_chaos
+    ev = confirm_chaos(lambda r, t: (res.exponent, lo, hi), [1e-8], [60.0])
+    assert ev.verdict == "undecided" and "contain 0" in ev.note
+
+
+def test_batch_means_interval_covers_the_mean_of_a_correlated_sequence():
+    """Coverage on a sequence with a known mean and correlation: local 'exponents' an AR(1)
+    process (coefficient 0.6, a correlation time of 2 chunks) around mu = 1. Over 400
+    replications of 400 chunks the 95 % interval must hold mu in 95 % of them: a binomial 3-sigma
+    band at n = 400 is +- 3.3 %, so [0.91, 0.99]. A per-chunk standard error (ignoring the
+    correlation, too narrow by sqrt((1 + 0.6) / (1 - 0.6)) = 2) covers ~67 % and would fail."""
+    from pinclear.analysis.lyapunov import batch_means_bound
+
+    rng = np.random.default_rng(1)
+    n, reps, phi = 400, 400, 0.6
+    e = rng.standard_normal((reps, n))
+    x = np.empty_like(e)
+    x[:, 0] = e[:, 0] / np.sqrt(1 - phi ** 2)
+    for i in range(1, n):
+        x[:, i] = phi * x[:, i - 1] + e[:, i]
+    hit = 0
+    for row in 1.0 + x:
+        lam, lo, hi = batch_means_bound(row, np.full(n, 0.25))
+        assert lam == pytest.approx(row.mean(), rel=1e-12)
+        hit += lo < 1.0 < hi
+    assert 0.91 <= hit / reps <= 0.99
+
+
+def test_too_few_chunks_give_no_bound_and_bad_input_is_refused():
+    from pinclear.analysis.lyapunov import batch_means_bound
+    from pinclear.core.errors import InputError
+
+    lam, lo, hi = batch_means_bound([1.0, 2.0, 3.0], [1.0, 1.0, 1.0])      # 3 chunks: 1 batch of 2
+    assert lam == pytest.approx(2.0) and np.isnan(lo) and np.isnan(hi)
+    assert np.isfinite(batch_means_bound([1.0, 2.0, 3.0, 4.0], [1.0] * 4)[1])   # 2 batches of 2
+    with pytest.raises(InputError):
+        batch_means_bound([1.0, 2.0], [1.0])
+    with pytest.raises(InputError):
+        batch_means_bound([1.0, 2.0], [1.0, 1.0], level=1.5)

@@ -75,6 +75,12 @@ def test_report_files_and_keys(report):
         (1e3 * a, k) for a in p002.SENS_RADII for k in p002.SENS_K)
     assert all(r[2] == "success" and r[3] > 0 for r in radius["rows"])
     assert [r[0] for r in long["rows"]] == ["A", "B"] and "## Sensitivity" in md and "docs/papers.md" in md
+    # the claims table opens the report, one line per claim of paper002.CLAIMS; the one-vs-two claim is
+    # decided by its ordering row
+    assert [c["key"] for c in doc["claims"]] == list(p002.CLAIMS) and md.index("## The paper's claims") < md.index(
+        "## Compared numbers")
+    number = next(c for c in doc["claims"] if c["key"] == "002-number")
+    assert number["rows"] == ["impact at B, one (B) vs two clearances (paper: 581 -> 330 N)"]
 
 
 def test_ideal_slider_matches_the_closed_form_position_analysis(report):

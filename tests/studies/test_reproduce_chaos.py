@@ -1,7 +1,10 @@
 """pinclear.studies.reproduce.chaos: the studies' 'irregular' runs become 'chaotic' only with a positive
 Lyapunov exponent that agrees over both tolerances and both run lengths (analysis.lyapunov's rule),
 the paper's named values are checked first, and the limit is kept and reported."""
+from pathlib import Path
 from types import SimpleNamespace
+
+import pytest
 
 from pinclear.analysis.classify import Classification
 from pinclear.studies.reproduce import chaos
@@ -86,3 +89,92 @@ def test_a_length_the_run_did_not_reach_is_a_failed_estimate():
             lengths[0]: 1.0, lengths[1]: float("nan")}}) for v in values])
     notes = chaos.confirm_irregular(kinds, rerun, 1e-8, 100, lambda v: 1.0, limit=1)
     assert kinds[0.5]["A"].kind == "irregular" and "failed" in kinds[0.5]["A"].note and "not confirmed" in notes[0]
+
+
+def fake_bounded_rerun(table, calls):
+    """A rerun as analysis.bifurcation gives it since issue 51: stats['lyapunov_bounds_at'] =
+    {n: (lo, hi)} beside the exponents. table(value, rtol, n) -> (exponent, lo, hi)."""
+    def rerun(values, rtol, lengths):
+        calls.append((tuple(values), rtol, tuple(lengths)))
+        runs = []
+        for v in values:
+            got = {n: table(v, rtol, n) for n in lengths}
+            runs.append(SimpleNamespace(value=v, ok=True, stats={"lyapunov_at": {n: e[0] for n, e in got.items()},
+                                                                 "lyapunov_bounds_at": {n: e[1:] for n, e in
+                                                                                        got.items()}}))
+        return SimpleNamespace(runs=runs)
+    return rerun
+
+
+def test_positive_exponents_34_percent_apart_are_chaos_by_their_lower_bound():
+    """Paper 002 at 0.8 mm (issue 51): the four estimates 4.57 / 4.72 / 3.85 / 3.33 1/s over two
+    tolerances x two lengths differ by 34 % of their mean. By the old convergence rule (25 %) the
+    row stayed 'irregular'; positivity is the question, and with every 95 % lower bound above 0
+    (least 1.9 1/s) it is chaotic. The same exponents without bounds keep the old rule."""
+    est = {(1e-8, 25): (4.57, 3.1, 6.0), (1e-8, 50): (4.72, 3.8, 5.6),
+           (1e-9, 25): (3.85, 1.9, 5.8), (1e-9, 50): (3.33, 2.4, 4.3)}
+    kinds = {0.8: {"A": irregular(0.97)}}
+    notes = chaos.confirm_irregular(kinds, fake_bounded_rerun(lambda v, r, n: est[(round(r, 12), n)], []), 1e-8,
+                                    100, lambda v: 1.0, limit=1)
+    c = kinds[0.8]["A"]
+    assert c.kind == "chaotic" and "lower bound 1.9" in c.note and "chaotic" in notes[0]
+    assert c.evidence.lower == 1.9 and c.evidence.upper == 6.0 and c.evidence.verdict == "chaotic"
+    assert c.as_dict()["lyapunov"]["lower"] == 1.9
+    assert chaos.exponent_text(c.evidence) == "λ1 = 4.12 1/s (95 % lower bound 1.9 1/s)"
+    plain = {0.8: {"A": irregular(0.97)}}
+    chaos.confirm_irregular(plain, fake_rerun(lambda v, r, n: est[(round(r, 12), n)][0], []), 1e-8, 100,
+                            lambda v: 1.0, limit=1)
+    assert plain[0.8]["A"].kind == "irregular" and "does not converge" in plain[0.8]["A"].note
+
+
+def test_a_lower_bound_at_or_below_zero_anywhere_keeps_it_irregular():
+    """The minimum over tolerances and lengths decides: one estimate whose interval reaches 0
+    (the short run at the fine tolerance) is enough to leave chaos unconfirmed."""
+    kinds = {0.3: {"A": irregular(0.9)}}
+    table = lambda v, r, n: (0.8, -0.1, 1.7) if (r < 1e-8 and n == 25) else (1.0, 0.4, 1.6)
+    chaos.confirm_irregular(kinds, fake_bounded_rerun(table, []), 1e-8, 100, lambda v: 1.0, limit=1)
+    assert kinds[0.3]["A"].kind == "irregular" and "contain 0" in kinds[0.3]["A"].note
+    # a bound the loop could not form (too few renormalisations) decides nothing
+    kinds = {0.3: {"A": irregular(0.9)}}
+    chaos.confirm_irregular(kinds, fake_bounded_rerun(lambda v, r, n: (1.0, float("nan"), float("nan")), []), 1e-8,
+                            100, lambda v: 1.0, limit=1)
+    assert kinds[0.3]["A"].kind == "irregular" and "could not be formed" in kinds[0.3]["A"].note
+
+
+def test_a_regular_row_gets_its_negative_exponent_and_upper_bound():
+    """lyapunov_evidence serves any value (a period-1 row contradicting a paper's chaos): a
+    negative exponent whose every upper bound is below 0 is a stable attractor."""
+    calls = []
+    table = lambda v, r, n: (-0.52, -0.7, -0.31) if v == 0.01 else (0.02, -0.2, 0.25)
+    ev = chaos.lyapunov_evidence([0.01, 0.05], fake_bounded_rerun(table, calls), 1e-8, 100)
+    assert ev[0.01].regular and ev[0.01].verdict == "regular" and ev[0.01].upper == -0.31
+    assert chaos.exponent_text(ev[0.01]) == "λ1 = -0.52 1/s (95 % upper bound -0.31 1/s)"
+    assert ev[0.05].verdict == "undecided" and not ev[0.05].regular
+    assert chaos.exponent_text(ev[0.05]) == "λ1 = 0.02 1/s (95 % bounds -0.2 to 0.25 1/s)"
+    # the same reruns as confirm_irregular: one per tolerance, each giving both lengths
+    assert sorted((r, n) for _, r, n in calls) == sorted((1e-8 * f, (25, 50)) for f in chaos.RTOL_FACTORS)
+    assert chaos.lyapunov_evidence([], None, 1e-8, 100) == {}
+
+
+@pytest.mark.slow
+def test_the_double_well_decides_by_its_bounds_end_to_end():
+    """The whole path on a real model (analysis.bifurcation's lyapunov_at runs -> their bounds ->
+    lyapunov_evidence): the forced double well of tests/data carries an undamped, uncoupled second
+    oscillator, so its regular motion at F = 0.2 N has exponent 0 exactly (a neutral direction):
+    the interval must hold 0 (undecided, neither chaos nor a stable attractor); its cross-well
+    chaos at F = 1.4 N must have a positive least lower bound. About 4 s of CPU."""
+    import numpy as np
+
+    import pinclear.analysis as an
+
+    dw = Path(__file__).parents[1] / "data" / "analysis_double_well.yaml"
+    Tw = 2 * np.pi / 1.2
+
+    def rerun(vals, rtol, lengths):
+        return an.bifurcation(dw, "forces[push].law.terms[0].amp", vals, period=Tw, signal="slide",
+                              cycles=max(lengths), transient=10, per_period=4, executor="serial",
+                              sim_options={"integrator": "DOP853", "rtol": rtol}, lyapunov=True, lyapunov_at=lengths)
+
+    ev = chaos.lyapunov_evidence([0.2, 1.4], rerun, 1e-8, 80)
+    assert ev[0.2].lower < 0.0 < ev[0.2].upper and ev[0.2].verdict == "undecided"
+    assert ev[1.4].lower > 0.0 and ev[1.4].verdict == "chaotic"

@@ -21,8 +21,8 @@ def test_each_class_on_a_hand_made_case():
 
 def test_an_unmeasured_band_neither_reproduces_nor_contradicts():
     r = v.row("x", "load force", 100.0, 100.0, "N")              # exact agreement, nothing varied
-    assert r["verdict"] == "undecided" and "band not measured" in r["why"]
-    assert v.row("y", "load force", 300.0, 100.0, "N")["verdict"] == "undecided"
+    assert r["verdict"] == "not measured" and "band not measured" in r["why"]
+    assert v.row("y", "load force", 300.0, 100.0, "N")["verdict"] == "not measured"
 
 
 def test_reading_precision_widens_tau():
@@ -49,7 +49,7 @@ def test_counts_list_every_class_and_the_table_is_checked():
     rows = [v.row("a", "load force", 100.0, 100.0, band=(99, 101), band_from="x"),
             v.row("b", "load force", 100.0, 100.0, status="calibration")]
     assert v.counts(rows) == {"calibration": 1, "not comparable": 0, "contradicted": 0, "reproduced": 1,
-                              "undecided": 0}
+                              "undecided": 0, "not measured": 0}
     assert v.summary(rows).startswith("1 calibration, 1 reproduced")
     with pytest.raises(InputError, match="load force"):
         v.row("z", "load forces", 1.0, 1.0)
@@ -57,3 +57,36 @@ def test_counts_list_every_class_and_the_table_is_checked():
         v.row("z", "load force", 1.0, 1.0, status="reproduced")
     # every tolerance states its reason
     assert all(len(why) > 20 and 0 <= tol < 1 for tol, why in v.TOLERANCES.values())
+
+
+def test_an_unmeasured_band_is_not_measured_and_states_its_cost():
+    """Issue 51: 'not measured' is a class of its own, apart from 'undecided' (a measured band too
+    wide to decide); it says what measuring would cost."""
+    r = v.row("x", "load force", 100.0, 100.0, "N", cpu_s=5400.0)
+    assert r["verdict"] == "not measured" and r["cpu_needed_s"] == 5400.0
+    assert r["why"].startswith("band not measured (about 90 min CPU, pinclear reproduce --bands)")
+    k = v.row("k", "motion kind", "period-1", "chaotic")
+    assert k["verdict"] == "not measured" and k["nominal_verdict"] == "contradicted"
+    assert v.classify_numeric((1.0, 1.0), 1.0, 0.1, False) == "not measured"
+    assert v.classify_kind(["chaotic"], "chaotic", False) == "not measured"
+    # a measured band too wide stays undecided
+    assert v.row("w", "load force", 100.0, 100.0, band=(50.0, 150.0), band_from="x")["verdict"] == "undecided"
+    assert v.counts([r, k])["not measured"] == 2 and v.CLASSES[-1] == "not measured"
+
+
+def test_every_row_prints_its_nominal_verdict():
+    # ours 313 vs 100: +213 %; tau = 10 % of 100 = 10 -> 21 tau
+    r = v.row("p", "impact peak", 313.0, 100.0, "N")
+    assert r["nominal"] == "+213 %, 21 τ at nominal" and r["nominal_verdict"] == "contradicted"
+    # within tau at nominal, whatever the (wide) band says: 102 vs 100 with tau 5
+    r = v.row("q", "load force", 102.0, 100.0, "N", band=(60.0, 140.0), band_from="x")
+    assert r["nominal"] == "+2.0 %, 0.4 τ at nominal" and r["nominal_verdict"] == "reproduced"
+    assert r["verdict"] == "undecided"
+    # calibration rows carry it too (it is never counted)
+    r = v.row("c", "load force", 90.0, 100.0, "N", status="calibration")
+    assert r["nominal"] == "-10 %, 2.0 τ at nominal" and r["verdict"] == "calibration"
+    # a zero paper value: the difference in the row's unit
+    r = v.row("z", "platform deviation", 3.2, 0.0, "mm", reading=2.0)
+    assert r["nominal"] == "Δ = 3.2 mm, 1.6 τ at nominal"
+    assert v.row("k", "motion kind", ["chaotic", "period-1"], "chaotic", band_from="v")["nominal"] == \
+        "chaotic, period-1 at nominal"

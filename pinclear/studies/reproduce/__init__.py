@@ -15,7 +15,7 @@ from pathlib import Path
 
 from pinclear.core.errors import InputError
 from pinclear.core.registry import Entry, Registry
-from pinclear.studies.reproduce.report import write_report
+from pinclear.studies.reproduce.report import run_record, started_now, write_report
 from pinclear.studies.reproduce.verdicts import summary
 
 #: a paper's study: its module's ``run`` (one module and one line here each)
@@ -38,6 +38,8 @@ def reproduce(paper, out, quick=False, workers=None, scheduler=None, bands=False
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     extra = {"bands": True, "budget": budget} if bands else {}
+    started = started_now()
     report = PAPERS[str(paper)](out, quick=quick, workers=workers, scheduler=scheduler, **extra)
+    report["run"] = run_record(paper, started, quick=quick, bands=bands, out=out)
     write_report(report, out)
     return report

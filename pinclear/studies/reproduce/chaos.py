@@ -5,7 +5,8 @@ more. Each study hands the values it classified 'irregular' to :func:`confirm_ir
 runs them again with the largest Lyapunov exponent estimated (analysis.bifurcation(...,
 lyapunov=True, lyapunov_at=lengths): the companion renormalised four times per period, the
 transient left out) at two integration tolerances and two run lengths, and asks
-analysis.lyapunov.confirm_chaos whether the exponents are positive and agree. Confirmed runs
+analysis.lyapunov.confirm_chaos whether the exponent is positive: its least 95 % lower bound
+(batch means of the chunks' local exponents) over the tolerances and lengths above zero. Confirmed runs
 become 'chaotic', the rest stay 'irregular' with the exponents in their note. One loop per
 tolerance gives both lengths (the shorter one's exponent is the running estimate at its end), at
 about two ordinary runs of the longer length, so a study confirms at most ``limit`` values, the
@@ -61,7 +62,9 @@ def confirm_irregular(kinds, rerun, rtol, cycles, period, limit, priority=()):
     kinds: {value: {signal: Classification}} (the study's own classification); rerun(values,
     rtol, lengths) -> BifurcationResult of those values run again with lyapunov=True,
     lyapunov_at=lengths at that tolerance (cycles = max(lengths), the study's own transient),
-    whose runs carry stats['lyapunov_at'] = {n: exponent}; rtol: the study's;
+    whose runs carry stats['lyapunov_at'] = {n: exponent} and, from analysis.bifurcation,
+    stats['lyapunov_bounds_at'] = {n: (lo, hi)} (the batch-means 95 % interval: chaos is then
+    decided by the least lower bound, analysis.lyapunov.confirm_chaos); rtol: the study's;
     cycles: its recorded cycles; period(value) -> s. Returns notes (one per value looked at,
     and one naming the values left unconfirmed for the limit)."""
     todo = irregular_values(kinds, priority)
@@ -72,20 +75,10 @@ def confirm_irregular(kinds, rerun, rtol, cycles, period, limit, priority=()):
     todo = todo[:limit]
     if not todo:
         return notes
-    exps = {}                                  # (value, rtol, recorded cycles) -> exponent (1/s)
-    lengths = [max(1, round(f * cycles)) for f in LENGTH_FRACTIONS]
-    for fac in RTOL_FACTORS:
-        # one run per tolerance serves every length: the shorter lengths' exponents are the
-        # running estimate at their end (analysis.lyapunov.LyapunovResult.at)
-        res = rerun(todo, rtol * fac, lengths)
-        for r in res.runs:
-            at = r.stats.get("lyapunov_at") or {}
-            for n in lengths:
-                lam = at.get(n)
-                exps[(_key(r.value), rtol * fac, n)] = float("nan") if lam is None else float(lam)
+    evidence = lyapunov_evidence(todo, rerun, rtol, cycles)
+    lengths = _lengths(cycles)
     for v in todo:
-        ev = confirm_chaos(lambda r, n: exps.get((_key(v), r, int(n)), float("nan")),
-                           [rtol * f for f in RTOL_FACTORS], lengths)
+        ev = evidence[v]
         for sig, c in kinds[v].items():
             if c is not None and c.kind == "irregular":
                 kinds[v][sig] = with_evidence(c, ev)
@@ -93,6 +86,55 @@ def confirm_irregular(kinds, rerun, rtol, cycles, period, limit, priority=()):
                      f"{' and '.join(str(n) for n in lengths)} recorded periods ({period(v):.4g} s each): "
                      f"{'chaotic' if ev.confirmed else 'not confirmed'}: {ev.note}")
     return notes
+
+
+def _lengths(cycles):
+    return [max(1, round(f * cycles)) for f in LENGTH_FRACTIONS]
+
+
+def lyapunov_evidence(values, rerun, rtol, cycles):
+    """{value: ChaosEvidence} for any ``values`` (regular ones too: a row whose regular motion
+    contradicts a paper's chaos states its negative exponent and upper bound, ev.regular), from
+    the same reruns as :func:`confirm_irregular` (``rerun`` as there): one run per tolerance of
+    RTOL_FACTORS, each giving every length of LENGTH_FRACTIONS x ``cycles``."""
+    values = list(values)
+    if not values:
+        return {}
+    exps = {}                                  # (value, rtol, recorded cycles) -> exponent or (exponent, lo, hi)
+    lengths = _lengths(cycles)
+    for fac in RTOL_FACTORS:
+        # one run per tolerance serves every length: the shorter lengths' exponents are the
+        # running estimate at their end (analysis.lyapunov.LyapunovResult.ends)
+        res = rerun(values, rtol * fac, lengths)
+        for r in res.runs:
+            at = r.stats.get("lyapunov_at") or {}
+            bounds = r.stats.get("lyapunov_bounds_at")
+            for n in lengths:
+                lam = at.get(n)
+                lam = float("nan") if lam is None else float(lam)
+                if bounds is not None:
+                    lo, hi = bounds.get(n) or (float("nan"), float("nan"))
+                    lam = (lam, float(lo), float(hi))
+                exps[(_key(r.value), rtol * fac, n)] = lam
+    return {v: confirm_chaos(lambda r, n, v=v: exps.get((_key(v), r, int(n)), float("nan")),
+                             [rtol * f for f in RTOL_FACTORS], lengths) for v in values}
+
+
+def exponent_text(ev):
+    """A report cell for Lyapunov evidence: 'λ1 = 4.1 1/s (95 % lower bound 2.9 1/s)' when chaotic,
+    'λ1 = -0.52 1/s (95 % upper bound -0.31 1/s)' when regular, both bounds otherwise."""
+    if ev is None:
+        return "no exponent computed"
+    if ev.failed:
+        return "Lyapunov estimate failed"
+    lam, pct = f"λ1 = {ev.exponent:.3g} 1/s", f"{100 * ev.level:.0f} %"
+    if ev.lower != ev.lower:                   # plain exponents, no bounds
+        return lam
+    if ev.confirmed:
+        return f"{lam} ({pct} lower bound {ev.lower:.3g} 1/s)"
+    if ev.regular:
+        return f"{lam} ({pct} upper bound {ev.upper:.3g} 1/s)"
+    return f"{lam} ({pct} bounds {ev.lower:.3g} to {ev.upper:.3g} 1/s)"
 
 
 def with_evidence(c, evidence):

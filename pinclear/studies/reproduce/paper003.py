@@ -15,6 +15,8 @@ processes (``workers``) or a Dask cluster (``scheduler``).
 """
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from pinclear import analysis
@@ -36,6 +38,18 @@ PAPER_CLEARANCE = {"z_dev_mm": (1.6, 3.3, 5.4), "vz_amp": (0.15, 0.19, 0.26)}
 PAPER_FRICTION = {"mu": (0.02, 0.05, 0.08), "z_dev_mm": (2.2, 3.3, 5.4), "vz_amp": (0.08, 0.13, 0.20),
                   "az_amp": (0.19, 0.32, 0.42)}
 PAPER_FORCE_MAX = 408.0          # N, Fig. 11
+#: paper 003 sec. 4, Fig. 9g-i: 'the amplitude of the sudden change in acceleration in the Z direction
+#: is 0.21, 0.32, and 0.61 m/s^2'
+PAPER_CLEARANCE_ACC = (0.21, 0.32, 0.61)
+#: the largest guideway gap taken as plausible for Fig. 9's unprinted sizes (m): a worn precision
+#: guide; Figs. 8 and 10 use 0.01 and 0.1 mm (reconstructed.yaml, 'Fig. 9 clearance sizes')
+GAP_MAX = 1e-3
+#: sec. 4, Figs. 10-11: with the friction coefficient the deviation (2.2 / 3.3 / 5.4 mm), the
+#: vibration (0.08 / 0.13 / 0.20 m/s) and the contact force ('increases with increasing coefficient
+#: of friction') rise
+PAPER_MU_TRENDS = {"Z deviation": ("z_dev", "platform deviation"), "Z vibration (velocity amplitude)":
+                   ("vz_amp", "velocity amplitude"), "contact force after the first landing":
+                   ("F_max_settled", "contact force peak")}
 #: reconstructed: the paper does not print its Fig. 9 sizes. Its friction study is at 0.1 mm, so the
 #: smallest is taken as 0.1 mm and the others as 0.2 / 0.3 mm. Any kinematic offset is
 #: proportional to the clearance, so the ratios of our deviations follow from these choices and
@@ -60,9 +74,14 @@ SETTINGS = {"full": {"t_end": 0.3, "dt_out": 1e-4, "settle": 0.05, "max_cpu": 60
             "quick": {"t_end": 0.1, "dt_out": 2e-4, "settle": 0.05, "max_cpu": 60.0, "fig8_clearance": FIG8[0]}}
 LISTS = ("clearances", "mus", "models", "lengths", "lever_shifts")
 GROUPS = {
-    "fig9": "the paper does not print its Fig. 9 clearance sizes; ours (0.1 / 0.2 / 0.3 mm) are chosen, so these "
-            "rows compare nothing (not comparable): the deviation is proportional to the clearance, and its ratios "
-            "follow from our choice",
+    "fig9": "the paper does not print its Fig. 9 clearance sizes; ours (0.1 / 0.2 / 0.3 mm) are chosen. The "
+            "deviation is proportional to the clearance, so its rows are compared as deviation / clearance over the "
+            "measured geometry band times any guideway gap up to {gap:g} mm: the paper's millimetres would need a "
+            "gap several times that (the row's 'needed' value). The velocity and acceleration amplitudes have no such "
+            "scaling: at sizes the paper does not print they compare nothing (not comparable)",
+    "trend": "an ordering over mu 0.02 / 0.05 / 0.08 at 0.1 mm: 'rises' / 'falls' when the last value differs "
+             "from the first by more than the quantity's tolerance and no step goes against it by more, 'flat' "
+             "when no step exceeds the tolerance, else 'mixed'",
     "dev": "rigid bodies: with the three drives holding the limb lengths the platform can leave Z0 only as far as the "
            "slider's gap lets the UP branch tilt, so the deviation is proportional to the clearance, about "
            "0.15 c a / l (slider length l, guide place a on the branch). The band is ours over the measured slider "
@@ -153,7 +172,10 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     sens = [model_table(got, s)]
     geo = geometry_tables(sw, got, s, path, ideal, notes)
     sens += geo["tables"]
-    results = deviation_rows(got, s, geo["factors"]) + force_rows(got, s, notes)
+    lever = lever_form(geo["tables"], sens[0], out)
+    if lever:
+        sens.append(lever["table"])
+    results = deviation_rows(got, s, geo["factors"]) + trend_rows(got, s) + force_rows(got, s, notes)
     checks.append(growth_check(got, s))
     notes += paper_notes(checks, ideal, ti)
     responses_figure(out, got, s)
@@ -163,8 +185,123 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
                          "Fig. 8 clearance (m)": s["fig8_clearance"],
                          "friction coefficients": list(s["mus"]), "contact models": list(s["models"]),
                          "slider lengths (m)": list(s["lengths"]), "lever shifts (m)": list(s["lever_shifts"])},
-            "results": results, "groups": GROUPS, "notes": notes, "checks": checks, "figures": ["responses.png"],
+            "claims": claims(results, lever), "results": results,
+            "groups": {k: v.format(gap=1e3 * GAP_MAX) for k, v in GROUPS.items()}, "notes": notes, "checks": checks,
+            "figures": ["responses.png"] + (["levers.png"] if lever else []),
             "sensitivity": sens}
+
+
+#: the paper's central claims (docs/claims.md lists each key with its verdict)
+CLAIMS = {
+    "003-fig8": ("a 0.01 mm clearance gives a 0.1 mm displacement error of the platform", "sec. 4, Fig. 8"),
+    "003-size": ("the Z deviation grows with the clearance size: 1.6 / 3.3 / 5.4 mm", "sec. 4, Fig. 9"),
+    "003-mu": (("with the friction coefficient (0.02 / 0.05 / 0.08 at 0.1 mm) the Z deviation (2.2 / 3.3 / 5.4 mm), "
+                "the vibration and the contact force rise"), "sec. 4, Figs. 10-11"),
+    "003-force": ("the contact force in the prismatic joint reaches 408 N", "sec. 4, Fig. 11"),
+}
+
+
+#: the paper's deviation / clearance (mm per mm) the levers are asked to reach: Fig. 8 (0.1 mm at
+#: 0.01 mm) and Fig. 10 (2.2-5.4 mm at 0.1 mm)
+LEVER_TARGETS = {"Fig. 8": 10.0, "Fig. 10, mu 0.02": 22.0, "Fig. 10, mu 0.08": 54.0}
+
+
+def needed_value(xs, ks, target):
+    """(x, 'interpolated' / 'extrapolated'): the input at which the deviation / clearance ``ks``
+    (sampled at ``xs``) reaches ``target``, on a straight line through the samples in log-log
+    (the kinematic bound is a power law: k ~ a / l); None if the samples do not move k."""
+    xs, ks = np.asarray(xs, float), np.asarray(ks, float)
+    ok = (xs > 0) & (ks > 0)
+    if ok.sum() < 2:
+        return None
+    b, a = np.polyfit(np.log(xs[ok]), np.log(ks[ok]), 1)
+    if abs(b) < 1e-6:
+        return None
+    x = float(np.exp((np.log(target) - a) / b))
+    return x, ("interpolated" if xs[ok].min() <= x <= xs[ok].max() else "extrapolated")
+
+
+def lever_form(tables, model_tb, out):
+    """The tornado of the one-at-a-time runs (deviation / clearance at each end of each reconstructed
+    input, at 0.1 mm and mu_d 0.16) and the value each input would need to reach the paper
+    (:func:`needed_value`), beside its plausible range (reconstructed.yaml). Returns {"table",
+    "levers"} or None when the sweeps did not run."""
+    import matplotlib.pyplot as plt
+
+    levers = []
+    for tb in tables:
+        col = tb["columns"].index("deviation / clearance")
+        pts = sorted((float(r[0]), float(r[col])) for r in tb["rows"])
+        if tb["title"].startswith("slider length"):
+            levers.append(("slider length [m]", pts, 0.3, (0.15, 0.6)))
+        elif tb["title"].startswith("lever arm"):
+            nominal = mod.GUIDE_Z0 + mod.GUIDE_LEN / 2
+            levers.append(("guide centre above the base U joint [m]", pts, nominal,
+                           (nominal + LEVER_SHIFTS[0], nominal + LEVER_SHIFTS[1])))
+    if not levers:
+        return None
+    base = next(k for _, pts, nom, _ in levers for x, k in pts if abs(x - nom) < 1e-9)
+    dcol = model_tb["columns"].index("deviation / clearance")
+    per_model = [float(r[dcol]) for r in model_tb["rows"] if r[0] == "clearance 0.1 mm, mu_d 0.16"]
+    rows = []
+    for name, pts, nom, rng in levers:
+        xs, ks = [x for x, _ in pts], [k for _, k in pts]
+        for target_name, target in LEVER_TARGETS.items():
+            got = needed_value(xs, ks, target)
+            rows.append([name, f"{min(xs):g}-{max(xs):g}", f"{min(ks):.3g}-{max(ks):.3g}", target_name, target,
+                         "no effect" if got is None else f"{got[0]:.3g} ({got[1]})", f"{rng[0]:g}-{rng[1]:g}"])
+    fig, ax = plt.subplots(figsize=(9, 1.2 + 0.7 * (len(levers) + 1)))
+    bars = [(name, min(k for _, k in pts), max(k for _, k in pts)) for name, pts, _, _ in levers]
+    if per_model:
+        bars.append(("contact model (energy / paper 003's)", min(per_model), max(per_model)))
+    bars.sort(key=lambda b: b[2] / b[1])
+    for i, (name, lo, hi) in enumerate(bars):
+        ax.barh(i, hi - lo, left=lo, color="C0", height=0.5)
+    for j, (t_name, t) in enumerate(LEVER_TARGETS.items()):
+        ax.axvline(t, color="k", ls=(":", "--", "-.")[j % 3], lw=1.0, label=f"paper, {t_name}: {t:g}")
+    ax.axvline(base, color="C3", lw=1.0, label=f"ours, reconstructed geometry: {base:.3g}")
+    ax.set_xscale("log")
+    ax.set_yticks(range(len(bars)))
+    ax.set_yticklabels([b[0] for b in bars], fontsize=8)
+    ax.set_xlabel("platform Z deviation / clearance [-] (0.1 mm gap, mu_d 0.16): each input at the ends of its "
+                  "plausible range", fontsize=8)
+    ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    safeio.savefig(fig, out / "levers.png", dpi=90)
+    plt.close(fig)
+    table = {"title": "levers: the value each reconstructed input would need to reach the paper's deviation / "
+                      "clearance (one-at-a-time runs; the tornado is levers.png)",
+             "columns": ["input", "sampled", "deviation / clearance over it", "paper",
+                         "paper's deviation / clearance", "needed value", "plausible range"],
+             "rows": rows,
+             "note": "needed value: on a straight line through the samples in log-log (the kinematic bound is a "
+                     "power law in the slider length and the lever arm); 'extrapolated' when it lies outside the "
+                     "sampled range"}
+    return {"table": table, "levers": rows}
+
+
+def claims(results, lever=None):
+    from pinclear.studies.reproduce.report import claim
+
+    def pick_(*prefixes):
+        return [r for r in results if r["name"].startswith(prefixes)]
+
+    def said(rows, fmt="{:.3g}"):
+        return "; ".join(f"{r['name'].split(' (')[0]}: " + (fmt.format(r["ours"]) if isinstance(r["ours"], float)
+                                                             else str(r["ours"])) + (f" {r['unit']}" if r["unit"] else "")
+                         for r in rows) or "not run"
+
+    f8 = pick_("platform Z deviation, clearance 0.01 mm")
+    f9 = pick_("platform Z deviation, Fig. 9")
+    mu = pick_("platform Z deviation, mu", "Z deviation against", "Z vibration", "contact force after the first")
+    fo = pick_("largest contact force")
+    return [claim("003-fig8", *CLAIMS["003-fig8"], "0.1 mm read off Fig. 8", said(f8), f8),
+            claim("003-size", *CLAIMS["003-size"], "Fig. 9 at sizes the text does not print",
+                  said(f9) + "; " + "; ".join(r["why"] for r in f9), f9),
+            claim("003-mu", *CLAIMS["003-mu"], "Figs. 10-11", said(mu) + "".join(
+                f"; {r[0]} needed for {r[3]}: {r[5]} (plausible {r[6]})" for r in (lever or {}).get("levers", [])
+                if r[3] == "Fig. 10, mu 0.02"), mu),
+            claim("003-force", *CLAIMS["003-force"], "Fig. 11", said(fo, "{:.4g}"), fo)]
 
 
 def study_sweeps(out, s, quick, workers, scheduler):
@@ -322,14 +459,90 @@ def deviation_rows(got, s, factors):
         c = s["fig8_clearance"]
         add(f"clearance {1e3 * c:g} mm (Fig. 8)", {m: pick(rc, [c, c], m) for m in models}, float(FIG8[1]), None,
             printed_dev=FIG8[1])
-    for k, c in enumerate(list(s["clearances"])[:3]):
-        add(f"clearance {1e3 * c:g} mm (our size for Fig. 9's size {k + 1})", {m: pick(rc, [c, c], m) for m in models},
-            PAPER_CLEARANCE["z_dev_mm"][k], PAPER_CLEARANCE["vz_amp"][k], status="not comparable", group="fig9")
+    rows += fig9_rows(rc, s, factors, models, ours)
     for mu in s["mus"]:
         if mu in PAPER_FRICTION["mu"]:
             j = PAPER_FRICTION["mu"].index(mu)
             add(f"mu {mu} at 0.1 mm (Fig. 10)", {m: pick(rf, friction_law(mu), m) for m in models},
                 PAPER_FRICTION["z_dev_mm"][j], PAPER_FRICTION["vz_amp"][j], paper_acc=PAPER_FRICTION["az_amp"][j])
+    return rows
+
+
+def fig9_rows(rc, s, factors, models, ours):
+    """Fig. 9 at sizes the paper does not print: the deviation per unit clearance over the band
+    (models x measured geometry) times any gap up to GAP_MAX, against the paper's millimetres
+    (with the gap each would need); velocity and acceleration amplitudes at our sizes (not comparable)."""
+    rows = []
+    per_c = []                              # deviation / clearance (mm per mm) of every model at every size
+    for c in list(s["clearances"])[:3]:
+        per_c += [r["z_dev"] / c for r in (pick(rc, [c, c], m) for m in models) if r is not None]
+    if not per_c:
+        return rows
+    f = factors["dev"] if factors else (1.0, 1.0)
+    hi = max(per_c) * f[1]
+    what = "deviation / clearance over " + (factors["what"] if factors else "the contact models") + \
+        f" x a guideway gap up to {1e3 * GAP_MAX:g} mm"
+    for k, c in enumerate(list(s["clearances"])[:3]):
+        rs = {m: pick(rc, [c, c], m) for m in models}
+        if rs.get(ours) is None:
+            continue
+        r = rs[ours]
+        paper = PAPER_CLEARANCE["z_dev_mm"][k]
+        rows.append(row(f"platform Z deviation, Fig. 9 size {k + 1} (any gap up to {1e3 * GAP_MAX:g} mm; ours at "
+                        f"{1e3 * c:g} mm)", "platform deviation", 1e3 * r["z_dev"], paper, "mm",
+                        band=(0.0, hi * 1e3 * GAP_MAX), band_from=what, printed=f"{paper:g}", group="fig9",
+                        why=f"deviation / clearance at most {hi:.3g}: {paper:g} mm needs a gap of at least "
+                            f"{paper / hi:.3g} mm"))
+        rows.append(row(f"platform Z velocity amplitude, clearance {1e3 * c:g} mm (our size for Fig. 9's size {k + 1})",
+                        "velocity amplitude", r["vz_amp"], PAPER_CLEARANCE["vz_amp"][k], "m/s",
+                        printed=f"{PAPER_CLEARANCE['vz_amp'][k]:g}", status="not comparable", group="fig9"))
+        rows.append(row(f"platform Z acceleration amplitude after the first landing, clearance {1e3 * c:g} mm (our size "
+                        f"for Fig. 9's size {k + 1})", "acceleration peak", r["az_amp"], PAPER_CLEARANCE_ACC[k],
+                        "m/s^2", printed=f"{PAPER_CLEARANCE_ACC[k]:g}", status="not comparable", group="fig9"))
+    return rows
+
+
+def trend(values, rel):
+    """'rises' / 'falls' / 'flat' / 'mixed': the ordering of ``values`` (in the order of the swept
+    parameter). The direction is that of the change from first to last beyond ``rel`` (relative);
+    a step against it beyond ``rel`` makes it 'mixed'; no change beyond ``rel`` anywhere is 'flat'."""
+    def sign(a, b):
+        return 0 if abs(b - a) <= rel * max(abs(a), abs(b)) else (1 if b > a else -1)
+
+    steps = [sign(a, b) for a, b in itertools.pairwise(values)]
+    d = sign(values[0], values[-1])
+    if d == 0:
+        return "flat" if not any(steps) else "mixed"
+    if any(x == -d for x in steps):
+        return "mixed"
+    return "rises" if d > 0 else "falls"
+
+
+def trend_rows(got, s):
+    """Sec. 4's three orderings in mu (Figs. 10-11): deviation, vibration and contact force rise with it."""
+    from pinclear.studies.reproduce.verdicts import tolerance
+
+    rows, rf = [], got["friction"]
+    ours_model = "energy" if "energy" in s["models"] else next(iter(s["models"]))
+    mus = [mu for mu in s["mus"] if pick(rf, friction_law(mu), ours_model) is not None]
+    if len(mus) < 2:
+        return rows
+    for label, (key, quantity) in PAPER_MU_TRENDS.items():
+        per_model = {}
+        for m in s["models"]:
+            vals = [pick(rf, friction_law(mu), m) for mu in mus]
+            if all(v is not None and np.isfinite(v[key]) for v in vals):
+                per_model[m] = [v[key] for v in vals]
+        if ours_model not in per_model:
+            continue
+        rel = tolerance(quantity)[0]
+        kinds = sorted({trend(v, rel) for v in per_model.values()})
+        rows.append(row(f"{label} against mu {' / '.join(f'{mu:g}' for mu in mus)} at 0.1 mm (Figs. 10-11)",
+                        "ordering", trend(per_model[ours_model], rel), "rises", band=kinds,
+                        band_from="both contact models" if len(per_model) > 1 else "", group="trend",
+                        why="ours " + "; ".join(f"{m}: " + " / ".join(f"{x:.3g}" for x in v)
+                                                for m, v in per_model.items())
+                            + f" (steps within {100 * rel:g} % count as flat)"))
     return rows
 
 

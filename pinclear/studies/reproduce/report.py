@@ -5,15 +5,28 @@ A report is a dict: title, paper, settings, results (one row per compared number
 verdict, group, why), groups (one paragraph per group of rows: why they differ, said once),
 notes (qualitative findings), figures (file names in the report folder) and optionally
 ``sensitivity``: measured tables of how the results move with the reconstructed quantities, each
-{"title", "columns", "rows", "note"}."""
+{"title", "columns", "rows", "note"}.
+
+Two more parts open the report: ``claims``, the paper's central claims answered one per line
+(:func:`claim`: the claim, where the paper shows it, its evidence, ours, the verdict), and ``run``,
+how the report was made (:func:`run_record`: CPU of the process and its children, wall time, the
+commit, the versions of pinocchio, numpy, scipy and numba, the commands that regenerate it).
+``consistency`` rows (built by :func:`verdicts.row` like the results) are checks that cannot fail
+by the paper's inputs, e.g. an identity or a fit inside a print-precision box: shown, never counted."""
 from __future__ import annotations
 
 import base64
 import html
 import json
+import os
+import platform
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 from pinclear.core import safeio
+from pinclear.core.errors import InputError
 from pinclear.dynamics.trajectory import atomic_write_text, jsonable
 from pinclear.studies.reproduce.verdicts import CLASSES, TOLERANCES, counts, summary
 
@@ -28,8 +41,9 @@ SOURCES = ("What the paper gives, what it leaves out and what was reconstructed 
 LEGEND = ("Classes (pinclear.studies.reproduce.verdicts): calibration = used to choose a reconstruction, does not count; "
           "not comparable = our quantity is not the paper's; contradicted = the paper's value lies further than "
           "tau from our band; reproduced = within tau of a band no wider than 2 tau; undecided = within tau of a "
-          "wider band (the lost inputs decide), or the band was not measured. tau = max(the paper's reading "
-          "precision, the quantity's tolerance).")
+          "wider band (the lost inputs decide); not measured = no band was measured (one run: it can neither "
+          "reproduce nor contradict). Beside each class, the nominal verdict: ours at the nominal inputs against "
+          "the paper, in per cent and in tau. tau = max(the paper's reading precision, the quantity's tolerance).")
 COLUMNS = ("result", "ours", "band (varied inputs)", "paper", "deviation", "tau", "class", "group / why")
 
 
@@ -48,20 +62,142 @@ def cells(r):
         band = (", ".join(r["band"]) + f" ({r['band_from']})") if r["band_from"] else "not measured"
         dev, tau, ours, paper = "", "categorical", str(r["ours"]), str(r["paper"])
     why = " ".join(x for x in (f"[{r['group']}]" if r.get("group") else "", r.get("why") or "") if x)
-    return [r["name"], ours, band, paper, dev, tau, r["verdict"], why]
+    verdict = r["verdict"] + (f" ({r['nominal']})" if r.get("nominal") else "")
+    return [r["name"], ours, band, paper, dev, tau, verdict, why]
 
 
 def header(rep):
     return f"**Verdicts: {summary(rep['results'])}.**"
 
 
+# ------------------------------------------------------------------------------- claims
+#: a claim's verdict: reproduced / contradicted / undecided / not measured as its rows' (the worst
+#: counts: one contradicted row contradicts the claim), 'not comparable' when no row of ours is
+#: the paper's quantity, 'new finding' for what the paper does not report
+CLAIM_VERDICTS = ("reproduced", "contradicted", "undecided", "not measured", "not comparable", "new finding")
+CLAIM_COLUMNS = ("claim", "where the paper shows it", "the paper's evidence", "ours", "verdict")
+
+
+def claim_verdict(rows):
+    """The verdict of a claim from the verdicts of the rows that decide it: calibration and
+    not-comparable rows do not decide; any contradicted row contradicts; all reproduced reproduce;
+    a row whose band was not measured leaves the claim 'not measured'; else undecided."""
+    v = [r["verdict"] for r in rows if r["verdict"] not in ("calibration", "not comparable")]
+    if not v:
+        return "not comparable"
+    if "contradicted" in v:
+        return "contradicted"
+    if all(x == "reproduced" for x in v):
+        return "reproduced"
+    if "not measured" in v:
+        return "not measured"
+    return "undecided"
+
+
+def claim(key, text, where, paper, ours, rows=(), verdict=None):
+    """One line of the claims table. key: the claim's id (docs/claims.md lists every id); rows:
+    the report rows that decide it (their names are listed, their verdicts give the claim's
+    unless ``verdict`` is given, e.g. for a claim checked by a test or a computed fact)."""
+    rows = list(rows)
+    if verdict is None:
+        verdict = claim_verdict(rows)
+    if verdict not in CLAIM_VERDICTS:
+        raise InputError(f"claim {key!r}: unknown verdict {verdict!r}", choices=list(CLAIM_VERDICTS))
+    return {"key": key, "claim": text, "where": where, "paper": paper, "ours": ours, "verdict": verdict,
+            "rows": [r["name"] for r in rows]}
+
+
+def claims_markdown(claims, paper=None):
+    """The claims table (markdown lines); ``paper``: a first column with the paper's number."""
+    cols = (("paper",) if paper else ()) + CLAIM_COLUMNS
+    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    for c in claims:
+        ours = c["ours"] + (f" (rows: {'; '.join(c['rows'])})" if c.get("rows") else "")
+        cells_ = ([paper] if paper else []) + [c["claim"], c["where"], c["paper"], ours, f"**{c['verdict']}**"]
+        lines.append("| " + " | ".join(x.replace("|", "/").replace("\n", " ") for x in cells_) + " |")
+    return lines
+
+
+# ------------------------------------------------------------------------------- how it was made
+def _commit():
+    root = Path(__file__).resolve().parents[3]
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "--short=12", "HEAD"], capture_output=True,
+                              text=True, timeout=10, check=False).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True, timeout=10, check=False).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return "unknown (no git)"
+    return (head + (" + uncommitted changes" if dirty else "")) if head else "unknown (not a git checkout)"
+
+
+def versions():
+    """{package: version} of the libraries a result depends on."""
+    from importlib import metadata
+
+    out = {"python": platform.python_version()}
+    # pinocchio's distribution is 'pin' on PyPI, 'pinocchio' from conda / robotpkg
+    for name, dists in (("pinocchio", ("pin", "pinocchio")), ("numpy", ("numpy",)), ("scipy", ("scipy",)),
+                        ("numba", ("numba",))):
+        out[name] = "not installed"
+        for d in dists:
+            try:
+                out[name] = metadata.version(d)
+                break
+            except metadata.PackageNotFoundError:
+                continue
+    return out
+
+
+def cpu_now():
+    """(CPU s of this process, CPU s of its waited-for children): user + system (os.times; the
+    children's part is 0 where the platform does not count it)."""
+    t = os.times()
+    return t.user + t.system, t.children_user + t.children_system
+
+
+def started_now():
+    """What :func:`run_record` needs from before the study: (wall clock, CPU, the commit then)."""
+    return time.perf_counter(), cpu_now(), _commit()
+
+
+def run_record(paper, started, quick=False, bands=False, out=None):
+    """The report's 'how it was made': ``started`` from :func:`started_now` before the study (the
+    commit is the one the study began with). Children's CPU counts the worker processes that have
+    been waited for (a Dask cluster's workers are not children: their CPU is not in it)."""
+    wall0, (self0, child0) = started[:2]
+    commit = started[2] if len(started) > 2 else _commit()
+    self1, child1 = cpu_now()
+    flags = (" --quick" if quick else "") + (" --bands" if bands else "")
+    return {"cpu_self_s": self1 - self0, "cpu_children_s": child1 - child0, "wall_s": time.perf_counter() - wall0,
+            "cpus": os.cpu_count(), "commit": commit, "versions": versions(),
+            "commands": [[f"pinclear reproduce {paper}{flags} --out {out or f'reproduce_{paper}'}", "this report"],
+                         [f"pinclear reproduce {paper} --bands --out docs/reproduce/{paper}", "the committed report"]],
+            "argv": " ".join(sys.argv)}
+
+
+def run_markdown(run):
+    if not run:
+        return []
+    v = ", ".join(f"{k} {x}" for k, x in run["versions"].items())
+    return [f"Made by commit {run['commit']} ({v}); CPU {run['cpu_self_s']:.1f} s in this process + "
+            f"{run['cpu_children_s']:.1f} s in its worker processes, wall {run['wall_s']:.1f} s on {run['cpus']} CPUs. "
+            "Regenerate: " + "; ".join(f"`{c}` ({what})" for c, what in run["commands"]) + "."]
+
+
 def markdown(rep) -> str:
-    lines = [f"# {rep['title']}", "", f"Paper {rep['paper']}. Settings: "
-             + ", ".join(f"{k} = {_fmt(v)}" for k, v in rep["settings"].items()), "",
-             SOURCES.format(paper=rep["paper"]), "", header(rep), "", LEGEND, "",
-             "| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+    lines = [f"# {rep['title']}", ""] + run_markdown(rep.get("run")) + ["", f"Paper {rep['paper']}. Settings: "
+             + ", ".join(f"{k} = {_fmt(v)}" for k, v in rep["settings"].items()), ""]
+    if rep.get("claims"):
+        lines += ["## The paper's claims", ""] + claims_markdown(rep["claims"]) + [""]
+    lines += ["## Compared numbers", "", SOURCES.format(paper=rep["paper"]), "", header(rep), "", LEGEND, "",
+              "| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
     for r in rep["results"]:
         lines.append("| " + " | ".join(c.replace("|", "/") for c in cells(r)) + " |")
+    if rep.get("consistency"):
+        lines += ["", "### Consistency checks (cannot fail by the lost inputs: shown, not counted)", "",
+                  "| " + " | ".join(COLUMNS) + " |", "|" + "---|" * len(COLUMNS)]
+        lines += ["| " + " | ".join(c.replace("|", "/") for c in cells(r)) + " |" for r in rep["consistency"]]
     lines += _groups_md(rep)
     lines += ["", "## Findings", ""] + [f"- {n}" for n in rep["notes"]]
     if rep.get("sensitivity"):
@@ -108,10 +244,12 @@ def _html_table(columns, rows):
 
 
 def bands_figure(rep, out, name="bands.png"):
-    """Each numeric row with a measured band, as a ratio to the paper's value (log scale): the band
-    as a bar, ours as a dot, the paper at 1 with its tolerance tau shaded; None if there is none."""
-    rows = [r for r in rep["results"] if isinstance(r["ours"], float) and r["band_from"] and r.get("paper")
-            and r["verdict"] not in ("calibration", "not comparable") and min(r["band"]) * r["paper"] > 0]
+    """Every numeric row with a measured band, as its distance from the paper in units of the row's
+    tau, (value - paper) / tau on a symmetric-log axis (so a paper value of 0, as G's worst entry,
+    and signed values fit one axis): the band as a bar, ours as a dot, the paper's +- tau shaded
+    at [-1, 1]; None if there is none."""
+    rows = [r for r in rep["results"] if isinstance(r["ours"], float) and r["band_from"] and r["tau"] > 0
+            and r["verdict"] not in ("calibration", "not comparable")]
     if not rows:
         return None
     import matplotlib
@@ -120,20 +258,20 @@ def bands_figure(rep, out, name="bands.png"):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(12, 0.32 * len(rows) + 1.4))
+    ax.axvspan(-1.0, 1.0, color="0.85", lw=0)
     for i, r in enumerate(rows):
-        p, (lo, hi) = r["paper"], r["band"]
+        p, t, (lo, hi) = r["paper"], r["tau"], r["band"]
         colour = {"contradicted": "C3", "reproduced": "C2"}.get(r["verdict"], "C0")
-        ax.fill_betweenx([i - 0.4, i + 0.4], 1 - r["tau"] / abs(p), 1 + r["tau"] / abs(p), color="0.85", lw=0)
-        ax.plot([lo / p, hi / p], [i, i], color=colour, lw=4, solid_capstyle="butt")
-        ax.plot([r["ours"] / p], [i], "o", ms=4, color=colour, mec="k", mew=0.6)
-    ax.axvline(1.0, color="k", lw=0.8)
-    ax.set_xscale("log")
+        ax.plot([(lo - p) / t, (hi - p) / t], [i, i], color=colour, lw=4, solid_capstyle="butt")
+        ax.plot([(r["ours"] - p) / t], [i], "o", ms=4, color=colour, mec="k", mew=0.6)
+    ax.axvline(0.0, color="k", lw=0.8)
+    ax.set_xscale("symlog", linthresh=1.0)
     ax.set_yticks(range(len(rows)))
     ax.set_yticklabels([r["name"][:80] for r in rows], fontsize=7)
     ax.invert_yaxis()
     fig.subplots_adjust(left=0.42, right=0.98, bottom=1.0 / (0.32 * len(rows) + 1.4), top=0.98)
-    ax.set_xlabel("ours / paper. Bar: our band over the varied inputs (red contradicted, green reproduced, blue "
-                  "undecided);\ndot: ours at the nominal inputs; grey: the paper's value +- tau", fontsize=8)
+    ax.set_xlabel("(ours - paper) / tau. Bar: our band over the varied inputs (red contradicted, green reproduced, "
+                  "blue undecided);\ndot: ours at the nominal inputs; grey: the paper's value +- tau", fontsize=8)
     safeio.savefig(fig, Path(out) / name, dpi=90)
     plt.close(fig)
     return name
@@ -150,9 +288,17 @@ def write_report(rep, out):
     rep = dict(rep, counts=counts(rep["results"]), versions=provenance())
     atomic_write_text(out / "report.json", json.dumps(jsonable(rep), indent=1))
     atomic_write_text(out / "report.md", markdown(rep))
-    body = [f"<h1>{html.escape(rep['title'])}</h1>", f"<p>{html.escape(SOURCES.format(paper=rep['paper']))}</p>",
-            f"<p><b>Verdicts: {html.escape(summary(rep['results']))}.</b></p>", f"<p>{html.escape(LEGEND)}</p>",
-            _html_table(COLUMNS, [cells(r) for r in rep["results"]])]
+    body = [f"<h1>{html.escape(rep['title'])}</h1>"] + [f"<p>{html.escape(x)}</p>" for x in run_markdown(rep.get("run"))]
+    if rep.get("claims"):
+        body.append("<h2>The paper's claims</h2>" + _html_table(CLAIM_COLUMNS, [
+            [c["claim"], c["where"], c["paper"], c["ours"] + (f" (rows: {'; '.join(c['rows'])})" if c["rows"] else ""),
+             c["verdict"]] for c in rep["claims"]]))
+    body += [f"<h2>Compared numbers</h2><p>{html.escape(SOURCES.format(paper=rep['paper']))}</p>",
+             f"<p><b>Verdicts: {html.escape(summary(rep['results']))}.</b></p>", f"<p>{html.escape(LEGEND)}</p>",
+             _html_table(COLUMNS, [cells(r) for r in rep["results"]])]
+    if rep.get("consistency"):
+        body.append("<h3>Consistency checks (shown, not counted)</h3>"
+                    + _html_table(COLUMNS, [cells(r) for r in rep["consistency"]]))
     if rep.get("groups"):
         body.append("<h3>Why, per group of rows</h3><ul>" + "".join(
             f"<li><b>[{html.escape(k)}]</b> {html.escape(v)}</li>" for k, v in rep["groups"].items()) + "</ul>")
@@ -172,4 +318,5 @@ def write_report(rep, out):
                       + "</title>" + "\n".join(body))
 
 
-__all__ = ["CLASSES", "markdown", "write_report", "sensitivity_markdown", "header"]
+__all__ = ["CLAIM_VERDICTS", "CLASSES", "claim", "claim_verdict", "claims_markdown", "header", "markdown", "run_record",
+           "sensitivity_markdown", "started_now", "versions", "write_report"]

@@ -1,4 +1,4 @@
-"""Verdicts that can fail: each compared number of a reproduction gets one of five classes.
+"""Verdicts that can fail: each compared number of a reproduction gets one of six classes.
 
 For a row with our band B = [lo, hi] (the spread of our result over the plausible range of the
 reconstructed inputs, docs/papers.md), the paper's value p and a tolerance tau, the class is the
@@ -8,14 +8,19 @@ first that applies:
 * ``not comparable`` our quantity is not the paper's (another instant, regime or input);
 * ``contradicted``   p lies further than tau from B: no plausible input reaches it;
 * ``reproduced``     p lies within tau of B, and B is no wider than 2 tau;
-* ``undecided``      p lies within tau of B, but B is wider than 2 tau: the lost inputs decide it.
+* ``undecided``      p lies within tau of B, but B is wider than 2 tau: the lost inputs decide it;
+* ``not measured``   B was not measured (one run, nothing varied): the row can neither reproduce nor
+                     contradict; it states the CPU its band would need.
 
 tau = max(the paper's reading precision, the quantity's tolerance in :data:`TOLERANCES`). The
 table of tolerances lives here and only here: a change to it is a visible commit.
 
-A band that was not measured (one run, nothing varied) can neither reproduce nor contradict:
-such a row is ``undecided`` and says so ("band not measured"); ``pinclear reproduce --bands``
-measures the bands (pinclear.studies.reproduce.bands). A categorical row (a kind of motion: period-1,
+A band that was not measured can neither reproduce nor contradict: such a row is
+``not measured``, kept apart from ``undecided`` (a measured band too wide to decide), and says what
+measuring it would cost; ``pinclear reproduce --bands`` measures the bands
+(pinclear.studies.reproduce.bands). Every row also carries its nominal verdict, ours at the
+nominal inputs against the paper ("+213 %, 21 τ at nominal"): what the row would say were the
+band a point, never counted. A categorical row (a kind of motion: period-1,
 quasi-periodic, chaotic) has as band the set of kinds seen over the varied inputs: contradicted
 when the paper's kind is not in it, reproduced when it is the only one, undecided otherwise.
 """
@@ -25,7 +30,7 @@ import math
 
 from pinclear.core.errors import InputError
 
-CLASSES = ("calibration", "not comparable", "contradicted", "reproduced", "undecided")
+CLASSES = ("calibration", "not comparable", "contradicted", "reproduced", "undecided", "not measured")
 
 #: per-quantity tolerance (relative to the paper's value) and its reason, stated before any run.
 #: It is the resolution at which a difference is called a difference: the numerical error of our
@@ -84,7 +89,7 @@ def classify_numeric(band, paper, tau, measured):
         return "undecided"
     gap = max(lo - paper, paper - hi, 0.0)
     if not measured:
-        return "undecided"
+        return "not measured"
     if gap > tau:
         return "contradicted"
     return "reproduced" if hi - lo <= 2.0 * tau else "undecided"
@@ -98,7 +103,9 @@ UNCONFIRMED = {"irregular": "chaotic"}
 def classify_kind(kinds, paper, measured):
     """The class of a categorical row: ``kinds`` the set of our kinds over the band."""
     kinds = set(kinds)
-    if not measured or not kinds:
+    if not measured:
+        return "not measured"
+    if not kinds:
         return "undecided"
     if paper not in kinds:
         maybe = any(UNCONFIRMED.get(k) == paper for k in kinds)
@@ -107,7 +114,7 @@ def classify_kind(kinds, paper, measured):
 
 
 def row(name, quantity, ours, paper, unit="", *, band=None, band_from="", printed=None, reading=None,
-        status=None, group="", why=""):
+        status=None, group="", why="", cpu_s=None):
     """One row of a report.
 
     ours: our central value (a number, or for categorical quantities a kind or a set of kinds);
@@ -115,7 +122,11 @@ def row(name, quantity, ours, paper, unit="", *, band=None, band_from="", printe
     measure it ('' = not measured); printed: the paper's number as printed (its reading precision
     is half a unit of the last digit) or ``reading``: the precision given directly (same unit);
     status: 'calibration' or 'not comparable' (with ``why`` saying why), else None to classify;
-    group: the key of the report's ``groups`` whose paragraph explains this row's differences."""
+    group: the key of the report's ``groups`` whose paragraph explains this row's differences;
+    cpu_s: for a row whose band is not measured, the CPU seconds measuring it would take (the
+    report's estimate: runs x one run's CPU), printed in ``why`` and kept as ``cpu_needed_s``.
+    Every row gets ``nominal`` (:func:`nominal_text`) and ``nominal_verdict`` (the class a band
+    of ours alone would get)."""
     if status not in (None, "calibration", "not comparable"):
         raise InputError(f"verdicts: a row's status is set only for calibration / not comparable, got {status!r}")
     rel, _ = tolerance(quantity)
@@ -126,6 +137,8 @@ def row(name, quantity, ours, paper, unit="", *, band=None, band_from="", printe
         out.update(ours=ours if isinstance(ours, str) else ", ".join(sorted(ours)), paper=paper, band=kinds,
                    tau=0.0, deviation=None)
         out["verdict"] = status or classify_kind(kinds, paper, measured)
+        nominal = [ours] if isinstance(ours, str) else sorted(set(ours))
+        out["nominal_verdict"] = classify_kind(nominal, paper, True)
     else:
         ours, paper = float(ours), float(paper)
         lo, hi = (ours, ours) if band is None else (float(min(band)), float(max(band)))
@@ -134,9 +147,40 @@ def row(name, quantity, ours, paper, unit="", *, band=None, band_from="", printe
         out.update(ours=ours, paper=paper, band=[lo, hi], tau=tau,
                    deviation=(ours - paper) / abs(paper) if paper else None)
         out["verdict"] = status or classify_numeric((lo, hi), paper, tau, measured)
-    if out["verdict"] == "undecided" and not measured and status is None:
-        out["why"] = ("band not measured (pinclear reproduce --bands); " + why).rstrip("; ")
+        out["nominal_verdict"] = classify_numeric((ours, ours), paper, tau, True)
+    out["nominal"] = nominal_text(out)
+    out["cpu_needed_s"] = None if cpu_s is None else float(cpu_s)
+    if out["verdict"] == "not measured":
+        cost = f"about {_cpu(cpu_s)} CPU, " if cpu_s is not None else ""
+        out["why"] = (f"band not measured ({cost}pinclear reproduce --bands); " + why).rstrip("; ")
     return out
+
+
+def _cpu(seconds):
+    """CPU seconds as a reader reads them: '40 s', '12 min', '3.2 h'."""
+    s = float(seconds)
+    if s < 120:
+        return f"{s:.2g} s"
+    return f"{s / 60:.0f} min" if s < 7200 else f"{s / 3600:.2g} h"
+
+
+def nominal_text(r):
+    """The nominal verdict of a row (a dict of :func:`row`): ours at the nominal inputs against the
+    paper: '+213 %, 21 τ at nominal' (the deviation in per cent of the paper's value, |ours -
+    paper| in units of tau; '0 τ' when equal), 'Δ = 3.2 N, 1.5 τ at nominal' when the paper's value
+    is 0, the kinds '... at nominal' for a categorical row."""
+    if isinstance(r["ours"], str):
+        return f"{r['ours']} at nominal"
+    diff = r["ours"] - r["paper"]
+    if r["tau"] > 0:
+        k = abs(diff) / r["tau"]
+        taus = f"{k:.0f} τ" if k >= 10 else f"{k:.1f} τ"
+    else:
+        taus = "τ = 0"
+    if r["paper"]:
+        pct = 100.0 * diff / abs(r["paper"])
+        return f"{pct:+.0f} %, {taus} at nominal" if abs(pct) >= 10 else f"{pct:+.1f} %, {taus} at nominal"
+    return f"Δ = {diff:.3g}{(' ' + r['unit']) if r['unit'] else ''}, {taus} at nominal"
 
 
 def counts(rows):
