@@ -136,7 +136,9 @@ def build_view_parser():
     ap.add_argument("--t", type=number("nonnegative", "s"), default=None,
                     help="simulated time shown in the screenshot (default: the run's start)")
     ap.add_argument("--size", default="960x720", help="screenshot size WxH in pixels")
-    ap.add_argument("--no-block", action="store_true", help="start the server, print its URL and return")
+    ap.add_argument("--no-block", action="store_true",
+                    help="with --zmq-url: push the scene to that server and return (the viewer's own server "
+                         "stops with the command, so without --zmq-url this is refused)")
     ap.add_argument("--open", action="store_true", help="open the viewer in a web browser")
     ap.add_argument("--zmq-url", default=None, help="use a running meshcat server (default: start one on loopback)")
     add_mech_option(ap, MECH_HELP + "; with a trajectory .npz only")
@@ -170,6 +172,11 @@ def view_main(argv: list[str]) -> int:
     from pinclear.viz import build_scene, export_html, screenshot, start_viewer, wait_forever
 
     trust = _trust(a.trust)
+    if a.no_block and a.zmq_url is None and not (a.html or a.screenshot):
+        # the server pinclear starts stops when the command returns: its URL would serve nothing
+        print("pinclear: error: --no-block needs --zmq-url (a meshcat server you run); pinclear's own viewer "
+              "server stops when the command returns, so omit --no-block or use --html", file=sys.stderr)
+        return 2
     try:
         size = _checked_scene_args(a)
         traj = None
