@@ -233,6 +233,7 @@ def simulate(mech, t_end, method="lagrange", integrator="RK45", rtol=RTOL_DEFAUL
     else:
         res = run.integrate(t0, run.pack(q, v, z), first_step, [], True, reference=outputs == "python")
     _record(traj, res)
+    form.check_run(traj)               # a force the method left unapplied: failed (FailureKind.UNAPPLIED)
     if traj.status == "success" and integ.adaptive:
         validate.check_residual(traj, mech, rtol, atol)
     elif traj.status == "success" and fixed_step_tol is not None and resume is None:
