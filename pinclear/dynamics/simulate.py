@@ -392,19 +392,21 @@ def read_state(path, mech=None):
     path = Path(path)
     try:
         if path.suffix == ".json":
-            raw = json.loads(path.read_text(encoding="utf-8"))
+            from pinclear.core.bounded import read_text_bounded     # a FIFO or a device never blocks
+
+            raw = json.loads(read_text_bounded(path, 10_000_000, "start", "state"))
             if not isinstance(raw, dict):
                 raise ValueError("expected a mapping with q and v")
             get = raw.get
         elif path.suffix == ".npz":
-            with np.load(path, allow_pickle=False) as npz:
-                raw = {k: npz[k] for k in ("q", "v") if k in npz.files}
+            arrays = validate.read_npz(path, "state file")             # headers checked before loading
+            raw = {k: arrays[k] for k in ("q", "v") if k in arrays}
             get = raw.get
         else:
             raise InputError(f"{path}: a state file is .npz (arrays q, v) or .json ({{\"q\": [...], \"v\": [...]}})",
                              key="start")
         q, v = (None if get(k) is None else np.asarray(get(k), float) for k in ("q", "v"))
-    except (OSError, ValueError, TypeError) as exc:
+    except (OSError, ValueError, TypeError, OverflowError) as exc:     # Overflow: an integer beyond float
         if isinstance(exc, InputError):
             raise
         raise InputError(f"{path}: not a readable state file ({type(exc).__name__}: {exc})", key="start") from None
