@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from pinclear.viz.server import LocalServer, curve_client_options
+from pinclear.viz.server import LocalServer
 
 WS_KEY = "dGhlIHNhbXBsZSBub25jZQ=="
 
@@ -147,6 +147,8 @@ def _stranger_options(server, kind: str) -> list:
 @pytest.mark.parametrize("kind", ["plain", "own keys, right server key", "own keys, guessed server key"])
 def test_a_zmq_client_without_the_run_keys_can_neither_read_nor_delete_the_scene(server, kind):
     import umsgpack
+
+    from pinclear.viz.server import curve_client_options
 
     good = curve_client_options(server.client)
     path = f"/meshcat/probe-{len(kind)}".encode()
