@@ -389,11 +389,12 @@ def read_state(path, mech=None):
     import json
     from pathlib import Path
 
+    from pinclear.core.bounded import read_text_bounded
+
     path = Path(path)
     try:
         if path.suffix == ".json":
-            from pinclear.core.bounded import read_text_bounded     # a FIFO or a device never blocks
-
+            # bounded regular file: a FIFO or a device never blocks
             raw = json.loads(read_text_bounded(path, 10_000_000, "start", "state"))
             if not isinstance(raw, dict):
                 raise ValueError("expected a mapping with q and v")
