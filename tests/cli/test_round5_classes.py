@@ -187,7 +187,7 @@ def single_sample_failed_run(tmp_path_factory):
     from pinclear.cli import commands
 
     out = tmp_path_factory.mktemp("failed")
-    code = commands.main(["simulate", "four_bar", "--t-end", "1", "--dt-out", "0.5", "--max-cpu", "1e-9",
+    code = commands.main(["simulate", "four_bar", "--t-end", "100", "--dt-out", "50", "--max-cpu", "1e-9",
                           "--out", str(out), "--progress", "off"])
     assert code == 1
     tr = pinclear.Trajectory.load(out / "trajectory.npz") if hasattr(pinclear, "Trajectory") else None
