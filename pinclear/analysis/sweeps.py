@@ -326,7 +326,7 @@ def _status_from_file(npz, err, expected=None):
             why = " ".join(str(exc).split())[:200] or type(exc).__name__
             aside = f.with_name(f.name + (".foreign" if isinstance(exc, ForeignPoint) else ".corrupt"))
             try:
-                safeio.move_aside(f, aside.name)
+                aside = safeio.move_aside(f, aside.name)        # never over an earlier one
                 where = f"moved to {aside.name}"
             except OSError as mv:
                 where = f"could not be moved aside ({mv.strerror}); it is replaced"

@@ -241,7 +241,10 @@ def read_profile(path) -> dict:
     if not path.exists():
         raise ModelFileError(str(path), "path", "no such file (a wear run's OUT/profile.csv)")
     check_regular(path, "path", "wear profile")
-    lines = path.read_text(encoding="utf-8").splitlines()
+    from pinclear.core.bounded import read_text_bounded
+
+    # a 5 GiB profile was read whole: at most 64 MB (a million nodes of a dozen joints)
+    lines = read_text_bounded(path, 64 << 20, "path", "wear profile").splitlines()
     try:
         head = lines[0].lstrip("# ").split(", ")
         # node coordinates first: a bearing's angle, or a socket's (theta, phi) (contact.wear_spherical)

@@ -153,6 +153,22 @@ def _scene_args(ap):
     ap.add_argument("--no-urdf-visuals", action="store_true", help="automatic primitives even if the URDF has visuals")
 
 
+#: absurd but finite display options are refused, not drawn: (lowest, highest, why) per option.
+#: Playback faster than 1000 frames per second or slowed beyond 1e6 shows nothing a screen can;
+#: a scale beyond 1e12 turns millimetre clearances and newton forces into coordinates of 1e9 m
+#: and more, which WebGL's single-precision floats draw as noise or infinity.
+DISPLAY_BOUNDS = {"fps": (1e-3, 1000.0, "frames per playback second a screen can show"),
+                  "slowdown": (1e-6, 1e6, "playback seconds per simulated second"),
+                  "ecc_scale": (1e-12, 1e12, "a magnification WebGL's float32 coordinates can draw"),
+                  "force_scale": (1e-12, 1e12, "metres of arrow per newton WebGL's float32 coordinates can draw"),
+                  "wear_scale": (1e-12, 1e12, "a magnification WebGL's float32 coordinates can draw")}
+#: most animation frames (each holds every body's placement: 20 000 frames of 30 bodies are
+#: about 60 MB of page)
+MAX_FRAMES = 20_000
+#: largest screenshot side in pixels
+MAX_SIDE_PX = 8192
+
+
 def _checked_scene_args(a):
     """Refuse scene options the animation cannot use, as one line, before anything is loaded;
     returns the screenshot size (width, height)."""
@@ -160,15 +176,22 @@ def _checked_scene_args(a):
 
     from pinclear.core.errors import InputError
 
-    for name in ("slowdown", "fps", "ecc_scale", "force_scale"):
-        v = getattr(a, name)
+    for name in ("slowdown", "fps", "ecc_scale", "force_scale", "wear_scale"):
+        v = getattr(a, name, None)
         if v is not None and not (math.isfinite(v) and v > 0):
             raise InputError(f"--{name.replace('_', '-')} must be a positive number, got {v:g}")
-    if a.max_frames < 2:
-        raise InputError(f"--max-frames must be at least 2, got {a.max_frames}")
+        lo, hi, why = DISPLAY_BOUNDS[name]
+        if v is not None and not lo <= v <= hi:
+            raise InputError(f"--{name.replace('_', '-')} {v:g} is outside {lo:g}..{hi:g} ({why})")
+    if a.max_frames < 2 or a.max_frames > MAX_FRAMES:
+        raise InputError(f"--max-frames must be 2..{MAX_FRAMES} (every frame holds every body's placement in the "
+                         f"page), got {a.max_frames}")
     w, x, h = a.size.lower().partition("x")
-    if not (x and w.isdigit() and h.isdigit() and int(w) > 0 and int(h) > 0):
-        raise InputError(f"--size expects WIDTHxHEIGHT in pixels (e.g. 960x720), got {a.size!r}")
+    if not (x and w.isdigit() and h.isdigit() and len(w) <= 6 and len(h) <= 6 and int(w) > 0 and int(h) > 0):
+        raise InputError(f"--size expects WIDTHxHEIGHT in pixels (e.g. 960x720), got {a.size[:40]!r}")
+    if int(w) > MAX_SIDE_PX or int(h) > MAX_SIDE_PX:
+        raise InputError(f"--size {w}x{h}: at most {MAX_SIDE_PX} pixels a side (a {MAX_SIDE_PX}^2 screenshot is "
+                         f"{MAX_SIDE_PX ** 2 * 4 / 2 ** 20:.0f} MiB of pixels in the browser)")
     return int(w), int(h)
 
 
@@ -185,7 +208,9 @@ def build_view_parser():
     ap.add_argument("--t", type=number("nonnegative", "s"), default=None,
                     help="simulated time shown in the screenshot (default: the run's start)")
     ap.add_argument("--size", default="960x720", help="screenshot size WxH in pixels")
-    ap.add_argument("--no-block", action="store_true", help="start the server, print its URL and return")
+    ap.add_argument("--no-block", action="store_true",
+                    help="with --zmq-url: push the scene to that server and return (the viewer's own server "
+                         "stops with the command, so without --zmq-url this is refused)")
     ap.add_argument("--open", action="store_true", help="open the viewer in a web browser")
     ap.add_argument("--zmq-url", default=None, help="use a running meshcat server (default: start one on loopback)")
     add_mech_option(ap, MECH_HELP + "; with a trajectory .npz only")
@@ -220,6 +245,11 @@ def view_main(argv: list[str]) -> int:
     from pinclear.viz import build_scene, export_html, screenshot, start_viewer, wait_forever
 
     trust = _trust(a.trust)
+    if a.no_block and a.zmq_url is None and not (a.html or a.screenshot):
+        # the server pinclear starts stops when the command returns: its URL would serve nothing
+        print("pinclear: error: --no-block needs --zmq-url (a meshcat server you run); pinclear's own viewer "
+              "server stops when the command returns, so omit --no-block or use --html", file=sys.stderr)
+        return 2
     try:
         size = _checked_scene_args(a)
         traj = None

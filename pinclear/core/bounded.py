@@ -18,6 +18,34 @@ _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"), (s
           (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
 
 
+#: the most digits an integer written in a file may have: 2**63 has 19, so no count, index or
+#: seed pinclear uses needs more, and a 5000-digit literal made Python's int() refuse (4300-digit
+#: limit) or float() overflow deep inside a reader, as a traceback
+MAX_INT_DIGITS = 19
+
+
+def shown(x, limit: int = 60) -> str:
+    """``repr(x)`` cut to ``limit`` characters for an error message; never raises (repr of an int
+    with more than 4300 digits does) and never prints a whole huge value."""
+    if isinstance(x, int) and not isinstance(x, bool) and abs(x).bit_length() > 64 * 4:
+        return f"an integer of about {int(abs(x).bit_length() * 0.30103) + 1} digits"
+    try:
+        text = repr(x)
+    except (ValueError, RecursionError):
+        return f"a {type(x).__name__}"
+    return text if len(text) <= limit else text[:limit - 3] + "..."
+
+
+def bounded_int_text(text: str) -> bool:
+    """Whether an integer literal (``+12_345``, ``0x1F``) has at most MAX_INT_DIGITS digits,
+    judged on its text before any conversion."""
+    digits = text.strip().lstrip("+-").replace("_", "")
+    if digits[:2].lower() in ("0x", "0o", "0b"):
+        base = {"x": 16, "o": 8, "b": 2}[digits[1].lower()]
+        return len(digits) - 2 <= {16: 16, 8: 21, 2: 64}[base]
+    return len(digits) <= MAX_INT_DIGITS
+
+
 def _kind(mode) -> str:
     return next((name for test, name in _KINDS if test(mode)), "not a regular file")
 

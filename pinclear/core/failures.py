@@ -20,6 +20,9 @@ class FailureKind(str, Enum):
     INTERRUPTED = "interrupted"
     CONSTRAINT = "constraint violated"
     FIXED_STEP = "fixed step too large"
+    #: a formulation left part of a row's constraint force unapplied beyond the run's tolerance
+    #: (the proximal method with too few iterations): the loops flex while their residual stays small
+    UNAPPLIED = "constraint force unapplied"
 
     def __str__(self):
         return self.value

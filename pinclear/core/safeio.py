@@ -209,12 +209,41 @@ def probe_writable(folder) -> None:
     os.unlink(Path(folder) / f".pinclear-write-test-{os.getpid()}")
 
 
+def _free_name(dfd: int, name: str) -> str:
+    """``name``, or ``name.1``, ``name.2``, ... : the first that does not exist in the folder
+    ``dfd`` (a link counts as existing)."""
+    for i in range(10_000):
+        cand = name if i == 0 else f"{name}.{i}"
+        try:
+            os.stat(cand, dir_fd=dfd, follow_symlinks=False)
+        except FileNotFoundError:
+            return cand
+    raise OSError(errno.EEXIST, f"{name}: 10000 files of that name already kept aside", name)
+
+
 def move_aside(path, new_name: str) -> Path:
-    """Rename ``path`` to ``new_name`` in the same folder (a link is renamed, never followed)."""
+    """Rename ``path`` to ``new_name`` in the same folder (a link is renamed, never followed),
+    never over a file already there: a second file moved aside under the same name becomes
+    ``new_name.1``, ``.2``, ... (what was kept aside is evidence; it is never overwritten).
+    Returns the path it now has."""
     path = Path(path)
     with folder_fd(path) as (dfd, name):
-        os.replace(name, new_name, src_dir_fd=dfd, dst_dir_fd=dfd)
-    return path.with_name(new_name)
+        while True:
+            dest = _free_name(dfd, new_name)
+            try:
+                # link(2) fails when dest exists: no window in which another file could be replaced
+                os.link(name, dest, src_dir_fd=dfd, dst_dir_fd=dfd, follow_symlinks=False)
+            except FileExistsError:
+                continue                      # taken meanwhile: the next free name
+            except OSError as exc:
+                if exc.errno not in (errno.EPERM, errno.EMLINK, errno.ENOTSUP, errno.EXDEV):
+                    raise
+                # a folder (no hard links) or a file system without them: rename to a name just
+                # found free
+                os.rename(name, dest, src_dir_fd=dfd, dst_dir_fd=dfd)
+                return path.with_name(dest)
+            os.unlink(name, dir_fd=dfd)
+            return path.with_name(dest)
 
 
 def fallback_paths(target: Path) -> list[tuple[Path, Path]]:
@@ -225,8 +254,19 @@ def fallback_paths(target: Path) -> list[tuple[Path, Path]]:
     target = Path(target)
     stamp = f"{time.strftime('%Y%m%d-%H%M%S')}-{os.getpid()}"
     cache = cache_dir()
-    return [(target.with_name(f"{target.stem}.fallback-{stamp}{target.suffix}"), target.parent),
-            (cache / "unsaved-runs" / stamp / target.name, cache)]
+    beside = target.with_name(f"{target.stem}.fallback-{stamp}{target.suffix}")
+    # two fallbacks in one second of one process (a run's summary and its trajectory both
+    # failing) must not replace each other: the first free name
+    for i in range(1, 10_000):
+        if not (beside.exists() or beside.is_symlink()):
+            break
+        beside = target.with_name(f"{target.stem}.fallback-{stamp}-{i}{target.suffix}")
+    cached = cache / "unsaved-runs" / stamp / target.name
+    for i in range(1, 10_000):
+        if not (cached.exists() or cached.is_symlink()):
+            break
+        cached = cache / "unsaved-runs" / f"{stamp}-{i}" / target.name
+    return [(beside, target.parent), (cached, cache)]
 
 
 def write_or_fallback(write, target, root=None):

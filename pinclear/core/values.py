@@ -19,14 +19,18 @@ def check_keys(d, allowed, file, key):
 def number(x, file, key, positive=False):
     """A finite number (> 0 with ``positive``) or an error naming the file, the key and what is
     allowed: a NaN or zero reaching the solver fails only later, as a LAPACK error without a key."""
+    from pinclear.core.bounded import shown
+
     if isinstance(x, bool):
         raise ModelFileError(file, key, f"expected a number, got {x!r}")
     try:
         v = float(x)
     except (TypeError, ValueError):
-        raise ModelFileError(file, key, f"expected a number, got {x!r}") from None
+        raise ModelFileError(file, key, f"expected a number, got {shown(x)}") from None
+    except OverflowError:           # an integer beyond the float range
+        raise ModelFileError(file, key, f"{shown(x)} is not finite as a float: give a finite number") from None
     if not np.isfinite(v):
-        raise ModelFileError(file, key, f"{x!r} is not finite: give a finite number{' > 0' if positive else ''}")
+        raise ModelFileError(file, key, f"{shown(x)} is not finite: give a finite number{' > 0' if positive else ''}")
     if positive and not v > 0:
         raise ModelFileError(file, key, f"{v!r}: must be > 0")
     return v

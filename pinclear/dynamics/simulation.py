@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pinclear.core.bounded import read_text_bounded
 from pinclear.core.errors import InputError
 from pinclear.core.jit import compile_cpu
 from pinclear.dynamics import formulations, stepping, validate
@@ -205,9 +206,13 @@ class Simulation:
         traj.meta["schema_version"] = SUMMARY_SCHEMA
         return traj
 
-    def finish(self, traj, res):
-        """A Run's result written into its Trajectory, then the residual check of an adaptive run."""
+    def finish(self, traj, res, check_forces=False):
+        """A Run's result written into its Trajectory, then (``check_forces``) the formulation's check
+        that it applied every constraint force (FailureKind.UNAPPLIED) and the residual check of an
+        adaptive run."""
         record(traj, res)
+        if check_forces:
+            self.form.check_run(traj)
         if traj.status == "success" and self.integ.adaptive:
             validate.check_residual(traj, self.mech, self.rtol, self.atol)
 
@@ -247,7 +252,7 @@ class Simulation:
             run.seed_peaks(resume.stats.get("peaks"))
         stats["loop"] = loop_note(run)
         res = self._integrate(run, stats, q, v, z, cpu0)
-        self.finish(traj, res)
+        self.finish(traj, res, check_forces=True)
         if traj.status == "success" and not self.integ.adaptive and self.fixed_step_tol is not None \
                 and resume is None:
             self._check_fixed_step(traj, q, v)
@@ -356,19 +361,20 @@ def read_state(path, mech=None):
     path = Path(path)
     try:
         if path.suffix == ".json":
-            raw = json.loads(path.read_text(encoding="utf-8"))
+            # bounded regular file: a FIFO or a device never blocks
+            raw = json.loads(read_text_bounded(path, 10_000_000, "start", "state"))
             if not isinstance(raw, dict):
                 raise ValueError("expected a mapping with q and v")
             get = raw.get
         elif path.suffix == ".npz":
-            with np.load(path, allow_pickle=False) as npz:
-                raw = {k: npz[k] for k in ("q", "v") if k in npz.files}
+            arrays = validate.read_npz(path, "state file")             # headers checked before loading
+            raw = {k: arrays[k] for k in ("q", "v") if k in arrays}
             get = raw.get
         else:
             raise InputError(f"{path}: a state file is .npz (arrays q, v) or .json ({{\"q\": [...], \"v\": [...]}})",
                              key="start")
         q, v = (None if get(k) is None else np.asarray(get(k), float) for k in ("q", "v"))
-    except (OSError, ValueError, TypeError) as exc:
+    except (OSError, ValueError, TypeError, OverflowError) as exc:     # Overflow: an integer beyond float
         if isinstance(exc, InputError):
             raise
         raise InputError(f"{path}: not a readable state file ({type(exc).__name__}: {exc})", key="start") from None

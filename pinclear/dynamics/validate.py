@@ -131,14 +131,20 @@ def number(x, path, key, positive=False, allow_none=False, integer=False):
     """A JSON number from a metadata field, checked (bool is not a number here)."""
     if x is None and allow_none:
         return None
-    ok = isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+    from pinclear.core.bounded import shown
+
+    try:            # math.isfinite and float() overflow on an integer beyond the float range
+        ok = isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) \
+            and (isinstance(x, float) or abs(x) < 2 ** 63)
+    except OverflowError:
+        ok = False
     if ok and integer:
         ok = float(x).is_integer() and x >= 0
     if ok and positive:
         ok = x > 0
     if not ok:
         kind = "a positive number" if positive else "a non-negative integer" if integer else "a finite number"
-        raise file_error(path, f"{key}: expected {kind}, got {x!r}")
+        raise file_error(path, f"{key}: expected {kind}, got {shown(x)}")
     return int(x) if integer else float(x)
 
 

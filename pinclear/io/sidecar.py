@@ -60,6 +60,17 @@ class _SidecarLoader(yaml.SafeLoader):
         finally:
             self._depth -= 1
 
+    def construct_yaml_int(self, node):
+        # judged on the text, before int(): a 5000-digit literal made int() raise past the
+        # 4300-digit limit, or float() overflow later inside a reader (pinclear.core.bounded)
+        from pinclear.core.bounded import MAX_INT_DIGITS, bounded_int_text
+
+        text = self.construct_scalar(node)
+        if not bounded_int_text(text):
+            raise _YAMLRefused("yaml", f"line {node.start_mark.line + 1}: an integer of {len(text)} characters; at "
+                               f"most {MAX_INT_DIGITS} digits (write a large value as a float, e.g. 1e30)")
+        return super().construct_yaml_int(node)
+
     def construct_mapping(self, node, deep=False):
         if isinstance(node, yaml.MappingNode):
             seen = {}
@@ -77,6 +88,9 @@ class _SidecarLoader(yaml.SafeLoader):
                                        "in a mapping")
                 seen[key] = line
         return super().construct_mapping(node, deep)
+
+
+_SidecarLoader.add_constructor("tag:yaml.org,2002:int", _SidecarLoader.construct_yaml_int)
 
 
 def yaml_value(text):

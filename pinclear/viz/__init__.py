@@ -74,18 +74,19 @@ def start_viewer(scene: MechanismScene, zmq_url: str | None = None, open_browser
     from meshcat.visualizer import ViewerWindow
 
     from pinclear.core.errors import InputError
+    from pinclear.viz.server import curve_client_options
 
-    server = None
+    server, curve = None, []
     if zmq_url is None:
         server = LocalServer()
-        zmq_url = server.zmq_url
+        zmq_url, curve = server.zmq_url, curve_client_options(server.client)
     # every wait on the server is bounded: meshcat's REQ sockets wait forever by default (a URL
     # nobody answers on blocked `pinclear view --zmq-url tcp://127.0.0.1:1 --no-block` forever)
     ms = int(ZMQ_TIMEOUT_S * 1000)
     for opt, value in ((zmq.RCVTIMEO, ms), (zmq.SNDTIMEO, ms), (zmq.LINGER, 0)):
         ViewerWindow.context.setsockopt(opt, value)
     try:
-        vis = meshcat.Visualizer(zmq_url=zmq_url)
+        vis = meshcat.Visualizer(window=_keyed_window(ViewerWindow, zmq_url, curve))
         scene.push(vis)
     except zmq.ZMQError as exc:
         if server is not None:
@@ -103,6 +104,23 @@ def start_viewer(scene: MechanismScene, zmq_url: str | None = None, open_browser
     if open_browser:
         vis.open()
     return vis
+
+
+def _keyed_window(base, zmq_url: str, curve: list):
+    """meshcat's ViewerWindow whose command sockets are CURVE clients with ``curve``'s keys (the
+    local server admits no other client; an external ``--zmq-url`` server gets plain sockets)."""
+
+    import zmq
+
+    class KeyedWindow(base):
+        def connect_zmq(self):
+            sock = self.context.socket(zmq.REQ)
+            for opt, value in curve:
+                sock.setsockopt(opt, value)
+            sock.connect(self.zmq_url)
+            self.zmq_socket = sock
+
+    return KeyedWindow(zmq_url=zmq_url, start_server=False, server_args=[])
 
 
 def show(mech, traj=None, *, html=None, open_browser: bool = False, block: bool = False,

@@ -195,6 +195,12 @@ class Formulation(abc.ABC):
         (contract 8); True when they changed."""
         return False
 
+    def check_run(self, traj) -> bool:
+        """After the run: a formulation that knows its result is not held to the run's tolerance
+        marks ``traj`` failed (samples kept, a named :class:`~pinclear.core.failures.Failure`) or,
+        where the user opted out, records it in ``traj.stats``. True if it failed the run."""
+        return False
+
     def describe(self) -> dict:
         return {"method": self.name, **self.opts}
 

@@ -19,7 +19,14 @@ force along an eigen-direction s of S, so a mechanism whose independent rows are
 wrong motion (three_upru_up: velocity 4.6e-4 off at rtol 1e-10; cassie.sdf: the shin triangles
 flexed). k is raised until that fraction is <= rtol on every independent direction at the start;
 a direction that would need more than MAX_ITER_AUTO iterations is not held by this method at all,
-and the run is refused, naming its rows."""
+and the run is refused, naming its rows.
+
+With ``max_iter`` given, the user's count is kept; when it leaves more than rtol of a direction's
+force unapplied, the run ends **failed** (``FailureKind.UNAPPLIED``, samples kept): Cassie at
+max_iter = 50, rtol = 1e-6 kept its closure residual at 2e-8 (the projection puts the state
+back) while its knee-shin joints flexed by 1e-3 rad, and reported success. ``unapplied="record"``
+is the explicit opt-out: the run keeps its status and ``stats["unapplied_force"]`` records the
+shortfall."""
 from __future__ import annotations
 
 import math
@@ -51,7 +58,10 @@ from pinclear.model.rows import constraint_rows_all
 class Proximal(Formulation):
     fills_rows = True       # the kernel evaluates every row before the solve
     name = "proximal"
-    options = {"alpha": 5.0, "beta": 5.0, "rho": 1e-4, "max_iter": "auto", "tol": 1e-12, "project": True}
+    options = {"alpha": 5.0, "beta": 5.0, "rho": 1e-4, "max_iter": "auto", "tol": 1e-12, "project": True,
+               "unapplied": "fail"}
+    #: what a run with too few iterations for its rtol does (module doc)
+    UNAPPLIED = ("fail", "record")
     #: fewest iterations (the count used before it was fitted: well-conditioned mechanisms keep it,
     #: and with it their results)
     MIN_ITER = 30
@@ -60,10 +70,15 @@ class Proximal(Formulation):
 
     def __init__(self, mech, **options):
         super().__init__(mech, **options)
-        self.auto = self.opts["max_iter"] == "auto"
+        if self.opts["unapplied"] not in self.UNAPPLIED:
+            raise InputError(f"method 'proximal': option 'unapplied' must be one of {', '.join(self.UNAPPLIED)}, got "
+                             f"{self.opts['unapplied']!r}", key="unapplied", choices=self.UNAPPLIED)
+        self.auto = isinstance(self.opts["max_iter"], str) and self.opts["max_iter"] == "auto"
         self.opts["max_iter"] = self.MIN_ITER if self.auto else iterations(self.name, self.opts["max_iter"])
         #: (smallest independent eigenvalue of S over rho, force fraction left by the filter) at the start
         self.start_filter = None
+        #: the start's shortfall when a given max_iter leaves more than rtol of a force unapplied
+        self.shortfall = None
         nv, m = mech.nv, mech.m
         ws = self.ws
         self.row_buffers = kinematics.row_buffers(mech, ws)
@@ -101,7 +116,11 @@ class Proximal(Formulation):
                 f"{self.start_filter[1]:.3g} of the constraint force unapplied (rtol {rtol:g} needs "
                 f"{min(need, 1e300):.3g} iterations)")
         if not self.auto:
-            warnings.warn(what + "; raise max_iter or use method='manifold'", RuntimeWarning, stacklevel=3)
+            self.shortfall = {"t": float(t), "rows": rows, "max_iter": int(k), "force_left": self.start_filter[1],
+                              "rtol": float(rtol), "iterations_needed": min(need, 1e300),
+                              "message": what + "; raise max_iter or use method='manifold'"}
+            if self.opts["unapplied"] == "record":
+                warnings.warn(self.shortfall["message"], RuntimeWarning, stacklevel=3)
         elif need > self.MAX_ITER_AUTO:
             raise InputError(what + f", more than {self.MAX_ITER_AUTO}: this method does not hold these rows; use "
                              "method='manifold'", key="method")
@@ -154,6 +173,24 @@ class Proximal(Formulation):
             raise np.linalg.LinAlgError(f"{self.mech.name}: the mass matrix is not positive definite at "
                                         f"t = {t:.9g} s (check the URDF inertias)")
         return ws.a.copy()
+
+    def check_run(self, traj) -> bool:
+        """A given max_iter that left more than rtol of a constraint force unapplied at the start
+        (:meth:`fit_start`) fails the run, samples kept, unless ``unapplied="record"``."""
+        from pinclear.core.failures import Failure, FailureKind
+
+        if self.shortfall is None:
+            return False
+        sf = self.shortfall
+        traj.stats["unapplied_force"] = {k: v for k, v in sf.items() if k != "message"}
+        if self.opts["unapplied"] == "record" or traj.status != "success":
+            return False
+        traj.status = "failed"
+        end = f"{traj.t[-1]:.6g}" if len(traj.t) else f"{sf['t']:.6g}"
+        traj.message = (f"constraint force unapplied: {sf['message']} (option unapplied='record' keeps the run and "
+                        f"records this; samples kept up to t = {end} s)")
+        traj.failure = Failure(FailureKind.UNAPPLIED, sf["t"], traj.message)
+        return True
 
     def describe(self) -> dict:
         out = super().describe()
