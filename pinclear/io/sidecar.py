@@ -432,22 +432,23 @@ def set_key_path(doc, toks, value, file, path):
 def parse_assignments(items, what="--set") -> dict:
     """['KEY=VALUE', ...] -> {KEY: value parsed as a YAML scalar}: the command-line spelling of
     load()'s ``options`` / ``overrides`` (the one parameter language of pinclear)."""
+    from pinclear.core.bounded import shown
     from pinclear.core.errors import InputError
 
     out = {}
     for it in items or []:
         if not isinstance(it, str) or "=" not in it:
-            raise InputError(f"{what} expects KEY=VALUE, got {it!r}")
+            raise InputError(f"{what} expects KEY=VALUE, got {shown(it, 120)}")
         k, v = it.split("=", 1)
         try:
             value = yaml_value(v)
         except _YAMLRefused as exc:
-            raise InputError(f"{what} {it!r}: {exc.message}") from None
+            raise InputError(f"{what} {shown(it, 120)}: {exc.message}") from None
         except yaml.YAMLError as exc:
-            raise InputError(f"{what} {it!r}: the value is not a YAML scalar ({' '.join(str(exc).split())})") from None
+            raise InputError(f"{what} {shown(it, 120)}: the value is not a YAML scalar ({' '.join(str(exc).split())})") from None
         k = k.strip()
         if k in out and out[k] != value:          # the last one silently won before
-            raise InputError(f"{what} {k}={out[k]!r} and {what} {it!r} contradict each other: give {k} once")
+            raise InputError(f"{what} {k}={out[k]!r} and {what} {shown(it, 120)} contradict each other: give {k} once")
         out[k] = value
     return out
 
