@@ -17,7 +17,7 @@ import time
 
 import pytest
 
-from pinclear.cli.commands import DELEGATED, build_parser
+from pinclear.cli.commands import COMMANDS, build_parser
 
 #: seconds one refusal may take (the first call of a command imports its modules; under the
 #: shared machine's load that is the bulk)
@@ -51,11 +51,12 @@ READS = {
     ("analyse poincare", "--mech"): "run:poincare",
     ("import", "file"): lambda p, d: ["import", p, "--out", d],
     ("export", "file"): lambda p, d: ["export", p, "--mjcf", os.path.join(d, "o.xml")],
+    ("export-run", "run"): lambda p, d: ["export-run", p, "--csv", os.path.join(d, "o.csv")],
     ("wear", "file"): lambda p, d: ["wear", p, "--clearance", "B", "--cycles", "10", "--period", "0.1",
                                     "--out", d],
 }
 #: options naming what pinclear writes (tests/core/test_security_links.py covers those)
-WRITES = {"--out", "--html", "--screenshot", "--mjcf"}
+WRITES = {"--out", "--html", "--screenshot", "--mjcf", "--csv", "--mat"}
 #: free-string options that are not paths
 NOT_PATHS = {"--clearance", "--set", "--option", "--vary", "--scheduler", "--methods", "--integrators", "rest",
              "--size", "--zmq-url", "--frame", "--law", "--param", "--values", "--signal", "--cut", "--fix",
@@ -64,8 +65,8 @@ NOT_PATHS = {"--clearance", "--set", "--option", "--vary", "--scheduler", "--met
 
 def _parsers():
     yield "", build_parser()
-    for name, module, _, _ in DELEGATED:
-        mod = importlib.import_module(module)
+    for name in COMMANDS:
+        mod = importlib.import_module(COMMANDS[name].target.split(":")[0])
         yield name, getattr(mod, {"view": "build_view_parser", "plot": "build_plot_parser"}.get(name, "build_parser"))()
 
 
