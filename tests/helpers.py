@@ -2,7 +2,9 @@
 files, independent references and the audit check. Fixtures are in tests/conftest.py."""
 from __future__ import annotations
 
+import contextlib
 import importlib.metadata
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -157,3 +159,18 @@ def assert_audit_closes(tr, joint, rel=1e-6):
     n = tr.q.shape[1] + tr.v.shape[1] + tr.z.shape[1]
     interpolation = 2.0 * np.sqrt(n) * (atol + rtol * np.max(np.abs(D)))
     assert np.all(np.diff(D) >= -interpolation), (np.diff(D).min(), interpolation)
+
+
+@contextlib.contextmanager
+def alarm(seconds, what="case"):
+    """Raise TimeoutError in the main thread after ``seconds``: a hang becomes a failure that
+    names itself instead of a stalled suite (the fuzz tests' per-example bound)."""
+    def boom(signum, frame):
+        raise TimeoutError(f"{what} exceeded {seconds} s")
+    old = signal.signal(signal.SIGALRM, boom)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)

@@ -42,14 +42,14 @@ def plot_phase_portrait(x, xdot=None, section=None, label="", ax=None, path=None
     ax.set_xlabel(axis_label(label or "x", unit))
     ax.set_ylabel(axis_label(label or "x", unit, rate=True))
     ax.set_title("phase portrait")
-    _readable_ticks(ax)
+    readable_ticks(ax)
     ax.grid(alpha=0.3)
     if path is not None:
         savefig(fig, path, dpi=120, bbox_inches="tight")
     return fig, data
 
 
-def _readable_ticks(ax):
+def readable_ticks(ax):
     """Ticks that neither run together nor collide with the labels (issue 52): at most 5 per
     axis, no additive offset, and for mm- or um-sized signals the power of ten written into the
     axis label ("[1e-4 m]": ticks in units of 0.1 mm) rather than as matplotlib's offset text,
@@ -75,7 +75,7 @@ def plot_poincare(section: PoincareSection, ax=None, path=None, unit=None):
     ax.plot(section.x, section.xdot, ".", ms=4, color="C3", gid="section")
     ax.set_xlabel(axis_label(section.label, unit))
     ax.set_ylabel(axis_label(section.label, unit, rate=True))
-    _readable_ticks(ax)
+    readable_ticks(ax)
     ax.set_title(f"Poincaré map (T = {section.period:.6g} s, phase {section.phase:.3g} s, {len(section)} points)")
     ax.grid(alpha=0.3)
     if path is not None:

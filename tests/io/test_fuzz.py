@@ -7,7 +7,6 @@ import contextlib
 import copy
 import io
 import math
-import signal
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +19,7 @@ from hypothesis import strategies as st  # noqa: E402
 
 import pinclear  # noqa: E402
 from pinclear.cli import commands as cli  # noqa: E402
+from tests.helpers import alarm  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 BASE = yaml.safe_load((ROOT / "urdf" / "four_bar.yaml").read_text())
@@ -27,17 +27,6 @@ BASE = yaml.safe_load((ROOT / "urdf" / "four_bar.yaml").read_text())
 CASE_LIMIT = 60
 
 
-@contextlib.contextmanager
-def alarm(seconds):
-    def boom(signum, frame):
-        raise TimeoutError(f"case exceeded {seconds} s")
-    old = signal.signal(signal.SIGALRM, boom)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
 
 
 def _paths(obj, prefix=()):

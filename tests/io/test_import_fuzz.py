@@ -5,9 +5,7 @@ in another exception, never in a hang. Derandomized, a deadline per example, a w
 as the backstop for a hang; a few seconds per reader."""
 from __future__ import annotations
 
-import contextlib
 import copy
-import signal
 import xml.etree.ElementTree as ET
 
 import pytest
@@ -18,6 +16,7 @@ from hypothesis import strategies as st
 
 from pinclear.core.errors import ModelFileError
 from pinclear.io.importers import convert
+from tests.helpers import alarm
 from tests.io.test_import_hostile import BASE
 
 #: seconds one example may take before it counts as a hang (a convert takes ~0.05 s)
@@ -32,17 +31,6 @@ JUNK = st.sampled_from(["", "nan", "-inf", "1e400", "-1", "0", "0 0 0", "0 0 0 0
                         "free", "continuous", "gearbox", "closing_C_1", "[1]", "{}"]) | st.text(max_size=8)
 
 
-@contextlib.contextmanager
-def alarm(seconds):
-    def boom(signum, frame):
-        raise TimeoutError(f"an import took more than {seconds} s")
-    old = signal.signal(signal.SIGALRM, boom)
-    signal.alarm(seconds)
-    try:
-        yield
-    finally:
-        signal.alarm(0)
-        signal.signal(signal.SIGALRM, old)
 
 
 def _imports_or_one_line(path):

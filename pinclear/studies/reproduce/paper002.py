@@ -21,6 +21,7 @@ import numpy as np
 
 from pinclear import analysis as an
 from pinclear.analysis.classify import CLEARANCE_FRACTION, classify_state
+from pinclear.analysis.plots import readable_ticks
 from pinclear.analysis.sweeps import make_executor, sweep
 from pinclear.core import safeio
 from pinclear.core.models import model_path
@@ -543,14 +544,8 @@ def _clearance_rows(res, kinds, named=None):
             for c, said in PAPER_CHAOS.items() if _kinds_at(kinds, c)]
     vals = sorted(round(float(r.value), 9) for r in res.runs if r.ok)
     if len(vals) >= 2:
-        first = next((v for v in vals if not all(_regular(k) for k in _kinds_at(kinds, v))), None)
-        lo_reg = all(_regular(k) for k in _kinds_at(kinds, vals[0]))
-        hi_irr = not any(_regular(k) for k in _kinds_at(kinds, vals[-1]))
-        ours = "periodic, then non-periodic as c grows" if lo_reg and hi_irr else "no such transition"
-        rows.append(row("the motion as the clearance grows (Fig. 24)", "ordering", ours,
-                        "periodic, then non-periodic as c grows", group="chaos",
-                        why=("first non-periodic clearance " + (f"{1e3 * first:g} mm" if first else "none")
-                             + f" over {1e3 * vals[0]:g}-{1e3 * vals[-1]:g} mm; the paper prints no threshold")))
+        rows.append(_transition_row(kinds, vals, "the motion as the clearance grows (Fig. 24)", "c", "clearance",
+                                    lambda c: f"{1e3 * c:g} mm", "; the paper prints no threshold"))
         sp = _spread(res, vals[-1])
         if sp is not None:
             n = _spread_n(res, vals[-1])
@@ -563,6 +558,18 @@ def _clearance_rows(res, kinds, named=None):
     return rows
 
 
+def _transition_row(kinds, vals, name, symbol, what, fmt, note=""):
+    """The ordering row "periodic, then non-periodic as SYMBOL grows" over the swept ``vals``:
+    ours holds when the smallest value's kinds are all regular and the largest's none."""
+    first = next((v for v in vals if not all(_regular(k) for k in _kinds_at(kinds, v))), None)
+    lo_reg = all(_regular(k) for k in _kinds_at(kinds, vals[0]))
+    hi_irr = not any(_regular(k) for k in _kinds_at(kinds, vals[-1]))
+    claim = f"periodic, then non-periodic as {symbol} grows"
+    return row(name, "ordering", claim if lo_reg and hi_irr else "no such transition", claim, group="chaos",
+               why=(f"first non-periodic {what} " + (fmt(first) if first else "none")
+                    + f" over {fmt(vals[0]).split(' ')[0]}-{fmt(vals[-1])}{note}"))
+
+
 def _speed_rows(res_w, kinds_w, named=None):
     """Sec. 4.2's claims: chaotic at 2 pi and at 3 pi rad/s (0.1 mm), the points spreading wider at 3 pi."""
     rows = [row(f"motion of the journals at {w / math.pi:g} pi rad/s, 0.1 mm", "motion kind", _kinds_at(kinds_w, w),
@@ -570,14 +577,8 @@ def _speed_rows(res_w, kinds_w, named=None):
             for w in (2 * math.pi, 3 * math.pi) if _kinds_at(kinds_w, w)]
     vals = sorted(round(float(r.value), 9) for r in res_w.runs if r.ok)
     if len(vals) >= 2:
-        first = next((v for v in vals if not all(_regular(k) for k in _kinds_at(kinds_w, v))), None)
-        lo_reg = all(_regular(k) for k in _kinds_at(kinds_w, vals[0]))
-        hi_irr = not any(_regular(k) for k in _kinds_at(kinds_w, vals[-1]))
-        ours = "periodic, then non-periodic as w grows" if lo_reg and hi_irr else "no such transition"
-        rows.append(row("the motion as the driving speed grows, 0.1 mm (Fig. 29)", "ordering", ours,
-                        "periodic, then non-periodic as w grows", group="chaos",
-                        why=("first non-periodic speed " + (f"{first / math.pi:g} pi rad/s" if first else "none")
-                             + f" over {vals[0] / math.pi:g}-{vals[-1] / math.pi:g} pi rad/s")))
+        rows.append(_transition_row(kinds_w, vals, "the motion as the driving speed grows, 0.1 mm (Fig. 29)", "w",
+                                    "speed", lambda w: f"{w / math.pi:g} pi rad/s"))
     a, b = _spread(res_w, 2 * math.pi), _spread(res_w, 3 * math.pi)
     if a is not None and b is not None:
         n = min(_spread_n(res_w, 2 * math.pi), _spread_n(res_w, 3 * math.pi))
@@ -674,7 +675,7 @@ def _portraits(res, values, name, title, plt, out, clearance=None, omega=None):
                                     fill=False, ls="--", color="k", lw=0.8))
             a.set_xlabel(f"{sig} [m] (dashed: the resolution)")
             a.set_ylabel(f"d/dt {sig} [m/s]")
-            a.ticklabel_format(axis="both", style="sci", scilimits=(0, 0), useOffset=False)
+            readable_ticks(a)          # the power of ten in the unit's bracket, no offset text
             a.set_title(f"{title(v)}, joint {j}", fontsize=9)
     fig.tight_layout()
     safeio.savefig(fig, out / name, dpi=90)
