@@ -474,20 +474,44 @@ def sweep(model, vary, t_end, out, **kw) -> SweepResult:
 
 def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=None, workers=None, scheduler=None,
                      executor=None, progress=True) -> SweepResult:
-    """Simulate ``model`` (a sidecar path or a bundled model's name) at every point of the grid of
-    ``vary`` ({key: values}, load()'s override keys such as ``"S2.mu"``, ``"forces[spring].k"``
-    or a scene option), for ``t_end`` seconds each, writing each point into ``out`` as it
-    finishes. Points already in ``out`` from an earlier, interrupted call of the same sweep are
-    not computed again.
+    """Simulate ``model`` at every point of the grid of ``vary``, for ``t_end`` seconds each,
+    writing each point into ``out`` as it finishes. Points already in ``out`` from an earlier,
+    interrupted call of the same sweep are not computed again.
 
-    sim_options: keyword arguments of :func:`pinclear.simulate` (method, integrator, rtol, dt_out,
-    max_cpu...), and ``peaks_after`` (s): each point's summary also gives its peaks from then on
-    (Trajectory.window_peaks), table columns ``peaks_after.*``. load_options: of
-    :func:`pinclear.load` (clearances, options, overrides for keys that stay fixed). workers: local processes (default: one per CPU); scheduler: a Dask
-    scheduler address instead; executor: any concurrent.futures.Executor (e.g. a Dask client's
-    ``get_executor()``) or 'serial'. progress: a progress bar with ETA on stderr (True), None,
-    or f(done, total, point).
-    """
+    Parameters
+    ----------
+    model : str or Path
+        A sidecar path or a bundled mechanism's name.
+    vary : dict
+        ``{key: values}``: load()'s override keys such as ``"S2.mu"``, ``"forces[spring].k"``,
+        or a scene option; the grid is every combination.
+    t_end : float
+        Simulated time per point [s].
+    out : str or Path
+        The sweep folder (``sweep.json``, ``points/``, ``table.csv``).
+    sim_options : dict, optional
+        Keyword arguments of :func:`pinclear.simulate` (method, integrator, rtol, dt_out,
+        max_cpu...), and ``peaks_after`` [s]: each point's summary also gives its peaks from
+        then on (Trajectory.window_peaks), table columns ``peaks_after.*``.
+    load_options : dict, optional
+        Keyword arguments of :func:`pinclear.load` (clearances, options, overrides for keys
+        that stay fixed, trust).
+    workers : int, optional
+        Local processes (default: one per CPU).
+    scheduler : str, optional
+        A Dask scheduler address, used instead of local processes.
+    executor : concurrent.futures.Executor or "serial", optional
+        Any executor (e.g. a Dask client's ``get_executor()``), or "serial": in this process.
+    progress : bool, None or callable
+        True: a progress bar with ETA on stderr; None: silent; or ``f(done, total, point)``.
+
+    Returns
+    -------
+    SweepResult
+        The folder, the keys, every point's status and the number computed by this call.
+
+    Notes
+    -----"""
     path, sim_kw, load_kw, fixed, points, keys = _checked(model, vary, t_end, sim_options, load_options)
     folder = Path(out)
     spec = jsonable({"format": FORMAT, "model": str(path.resolve()), "keys": keys, "points": points,

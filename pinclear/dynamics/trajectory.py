@@ -166,6 +166,8 @@ class Trajectory:
     """Samples of a run: t, q, v, a, lam (by name), residual, outputs, energy, stats, status."""
 
     def __init__(self):
+        """An empty run (status "empty", no samples, no mechanism); :meth:`empty` and
+        :meth:`load` make the ones a simulation or a file gives."""
         self.t = np.zeros(0)
         self.q = self.v = self.a = np.zeros((0, 0))
         self.z = np.zeros((0, 0))
@@ -185,6 +187,30 @@ class Trajectory:
     # ------------------------------------------------------------------ building
     @classmethod
     def empty(cls, mech, form, integrator, rtol, atol, t_eval):
+        """A run with no samples yet: its mechanism, zeroed statistics and the metadata every
+        saved run carries (the mechanism's description and digest, the method, the tolerances,
+        the requested times, the load options and the versions).
+
+        Parameters
+        ----------
+        mech : Mechanism
+            The mechanism being simulated (its ``path`` becomes ``mech_path``).
+        form : Formulation
+            The formulation object; its ``describe()`` is recorded as ``meta["method"]``.
+        integrator : str
+            The integrator's name (e.g. "RK45", "ROS34PW2", "RK4").
+        rtol : float
+            Relative tolerance [1].
+        atol : float or array
+            Absolute tolerance, one number or one per state component (recorded as a list).
+        t_eval : array
+            The requested output times [s]; first, last and count are recorded.
+
+        Returns
+        -------
+        Trajectory
+            Status "empty", no samples.
+        """
         tr = cls()
         tr.mech, tr.mech_path = mech, mech.path
         tr.stats = {"rhs_evals": 0, "steps": 0, "restarts": 0, "events": [], "cpu_s": 0.0}
@@ -196,8 +222,15 @@ class Trajectory:
         return tr
 
     def fill_states(self, samples):
-        """Times and states of the samples (pinclear.dynamics.stepping.outputs.Samples: arrays t, q, v,
-        z), nothing evaluated."""
+        """Set the times and states of the samples, nothing evaluated: ``a``, ``residual`` and
+        ``drive_error`` are NaN until :meth:`write_outputs` fills them.
+
+        Parameters
+        ----------
+        samples : Samples
+            pinclear.dynamics.stepping.outputs.Samples: arrays t [s], q (nq per row), v (nv per
+            row) and z (the element and energy states, nz per row).
+        """
         mech = self.mech
         n = len(samples.t)
         self.t = np.array(samples.t, float)
@@ -209,9 +242,21 @@ class Trajectory:
         self.drive_error = np.full(n, np.nan)
 
     def write_outputs(self, samples, outs):
-        """The samples (t, q, v, z) and everything recorded at them (``outs``: a
-        pinclear.dynamics.stepping.outputs.Outputs, whole arrays): accelerations, multipliers by row name,
-        residuals, the elements' outputs and the energies of the audit."""
+        """Set the samples (t, q, v, z) and everything recorded at them: accelerations,
+        multipliers by row name, residuals, the elements' outputs and the energies of the audit;
+        samples whose evaluation failed are counted in ``stats["failed_samples"]``.
+
+        Parameters
+        ----------
+        samples : Samples
+            pinclear.dynamics.stepping.outputs.Samples (arrays t, q, v, z), as for
+            :meth:`fill_states`.
+        outs : Outputs
+            pinclear.dynamics.stepping.outputs.Outputs, whole arrays: ``core`` (a, multipliers,
+            constraint values, closure power, kinetic and potential energy per sample),
+            ``elements`` (each force element's potential, loss and named outputs) and
+            ``failures``.
+        """
         mech = self.mech
         self.fill_states(samples)
         n, nv, m, mc = len(samples.t), mech.nv, mech.m, mech.compiled.m
@@ -251,27 +296,71 @@ class Trajectory:
 
     # ------------------------------------------------------------------ results
     def closure_residual(self):
+        """The closure residual per sample.
+
+        Returns
+        -------
+        ndarray
+            max |Phi| over the closure rows at each sample [m or rad, by row], 0 without
+            closures; NaN where a sample could not be evaluated.
+        """
         return self.residual
 
     def energy(self) -> dict:
+        """The sampled energy channels with their total.
+
+        Returns
+        -------
+        dict
+            ``{name: array}``, a copy of :attr:`energies` (kinetic, potential, spring [J],
+            dissipated_power, applied_power, closure_power [W], dissipated, work_drives [J])
+            plus ``"total"`` = kinetic + potential + spring [J].
+        """
         E = dict(self.energies)
         E["total"] = E["kinetic"] + E["potential"] + E["spring"]
         return E
 
     def energy_balance(self) -> dict:
-        """The run's energy audit (pinclear.dynamics.energy.energy_balance): error, t, ok, bound, scale..."""
+        """The run's energy audit (pinclear.dynamics.energy.energy_balance).
+
+        Returns
+        -------
+        dict
+            What pinclear.dynamics.energy.energy_balance returns: ``error_rel`` and
+            ``error_J`` (the largest drift of the balance, relative to ``scale_J`` and in J),
+            ``t`` [s] where it lies, ``bound_rel``/``bound_J`` (what the tolerances allow),
+            ``ok`` (error <= bound), ``scale_J`` and the balance's terms [J].
+        """
         from pinclear.dynamics.energy import energy_balance
 
         return energy_balance(self)
 
     def drive_forces(self) -> dict:
+        """The drive rows' multipliers by drive name (from the recorded mechanism description when
+        the run has no mechanism attached).
+
+        Returns
+        -------
+        dict
+            ``{drive: array}``, one value per sample [N for a prismatic drive, N m for a
+            revolute one].
+        """
         if self.mech is None:
             names = self.meta["mechanism"]["drives"]
             return {d["name"]: self.lam[d["name"]] for d in names}
         return {d.name: self.lam[d.name] for d in self.mech.drives}
 
     def tracking_error(self) -> dict:
-        """Drive coordinates vs their laws; platform pose vs its prescribed motion (if any)."""
+        """Drive coordinates against their laws; platform pose against its prescribed motion.
+
+        Returns
+        -------
+        dict
+            ``"drives"``: the largest drive error over the samples [m or rad] (with a mechanism
+            attached and drives); ``"platform_position"`` [m] and ``"platform_rotation"`` [rad,
+            the angle of the relative rotation]: the largest deviation of the platform frame
+            from ``mech.platform_motion`` (when the mechanism prescribes one). Empty otherwise.
+        """
         res = {}
         if len(self.drive_error) and self.mech is not None and self.mech.drives:
             res["drives"] = float(np.max(self.drive_error))
@@ -291,9 +380,25 @@ class Trajectory:
         return res
 
     def summary(self, peaks_after=None) -> dict:
-        """The run's summary (summary.json). ``peaks_after`` (s; default: the run's recorded
-        ``meta["peaks_after"]``, set by ``simulate --peaks-after``): also the peaks from that time on,
-        under ``peaks_after`` (:meth:`window_peaks`); the whole run's peaks stay where they were."""
+        """The run's summary (summary.json).
+
+        Parameters
+        ----------
+        peaks_after : float, optional
+            A time [s]: the summary also gives the peaks from that time on, under
+            ``peaks_after`` (:meth:`window_peaks`); the whole run's peaks stay where they were.
+            Default: the run's recorded ``meta["peaks_after"]`` (set by ``simulate
+            --peaks-after``), none if it records none. A time after the run's end gives
+            ``{"t_from", "message"}`` there instead.
+
+        Returns
+        -------
+        dict
+            JSON-safe: ``schema_version`` (SUMMARY_SCHEMA), status, message, failure, t_end,
+            samples, max_closure_residual, step statistics, the energy drift of a conservative
+            run, the tracking error, the energy audit, the peaks (:meth:`peak_summary`),
+            versions, aliases and ``units`` (SUMMARY_UNITS).
+        """
         from pinclear.dynamics.energy import ALIASES
 
         s = {"schema_version": SUMMARY_SCHEMA, "status": self.status, "message": self.message,
@@ -335,10 +440,24 @@ class Trajectory:
         return _jsonable(s)
 
     def window_peaks(self, t_from) -> dict:
-        """The peaks from ``t_from`` (s) to the end, the steady regime after a start-up transient:
-        ``{"t_from", "drive_force_peaks", "drive_force_peak_times", "contact_force_peaks",
-        "contact_force_peak_times", "acceleration_peaks", "peaks_from"}`` in the units of
-        :meth:`peak_summary`. Where the whole run's peak from the integration lies at or after
+        """The peaks from ``t_from`` to the end, the steady regime after a start-up transient.
+
+        Parameters
+        ----------
+        t_from : float
+            Start of the window [s], a finite number not after the run's last sample; anything
+            else raises InputError.
+
+        Returns
+        -------
+        dict
+            ``{"t_from", "drive_force_peaks", "drive_force_peak_times", "contact_force_peaks",
+            "contact_force_peak_times", "acceleration_peaks", "peaks_from"}`` in the units of
+            :meth:`peak_summary`.
+
+        Notes
+        -----
+        Where the whole run's peak from the integration lies at or after
         ``t_from`` it is the window's peak too (the largest of the run, inside the window) and is
         taken ("integration"); else the window's peak over the output samples
         (pinclear.dynamics.stepping.peaks.window_peak: a lower bound, resolved by the output step;
@@ -390,7 +509,14 @@ class Trajectory:
         description with ``peak_normal_force`` N and ``t_peak`` s), the same as
         ``contact_force_peaks`` {clearance: N} and ``contact_force_peak_times``, and ``peaks_from``:
         "integration" (over the accepted steps, pinclear.dynamics.stepping.peaks: independent of the
-        output grid) or "samples" (a run saved before the peaks were recorded)."""
+        output grid) or "samples" (a run saved before the peaks were recorded).
+
+        Returns
+        -------
+        dict
+            The peaks as above; from the samples, only ``peaks_from``, ``drive_force_peaks``
+            (max |multiplier|) and ``clearances``.
+        """
         pk = self.stats.get("peaks")
         if isinstance(pk, dict):
             drives, acc, contact = (dict(pk.get(k) or {}) for k in ("drive_forces", "accelerations", "contact_forces"))
@@ -426,7 +552,21 @@ class Trajectory:
 
     # ------------------------------------------------------------------ I/O
     def save(self, path):
-        """NPZ with every array + JSON metadata (versions, parameters, method options, stats)."""
+        """Write the run as NPZ: every array (t, q, v, a, z, residual, drive_error, ``lam/NAME``,
+        ``out/NAME``, ``energy/NAME``) and the JSON metadata (versions, parameters, method
+        options, status, failure, stats, the summary), atomically (a temporary file renamed
+        into place); :meth:`load` reads it back.
+
+        Parameters
+        ----------
+        path : str or Path
+            The file to write (conventionally ``.npz``); missing parent folders are created.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         arrays = {"t": self.t, "q": self.q, "v": self.v, "a": self.a, "z": self.z, "residual": self.residual,
@@ -447,26 +587,62 @@ class Trajectory:
         return atomic_savez(path, arrays)
 
     def to_csv(self, path):
-        """The samples as CSV for other programs (pinclear.dynamics.export_run: one column per
-        scalar channel, t, q.NAME, v.NAME, a.NAME, lam.NAME, out.*, energy.*, SI units, shortest
-        round-trip decimals); returns the path."""
+        """Write the samples as CSV for other programs (pinclear.dynamics.export_run: one column
+        per scalar channel, t, q.NAME, v.NAME, a.NAME, lam.NAME, out.*, energy.*, SI units,
+        shortest round-trip decimals).
+
+        Parameters
+        ----------
+        path : str or Path
+            The CSV file to write.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         from pinclear.dynamics.export_run import write_csv
 
         return write_csv(self, path)
 
     def to_mat(self, path):
-        """The samples as a MATLAB .mat file (scipy.io.savemat; matrices t, q, v, a, z, lam,
-        outputs, energies with their column names, and the metadata as JSON text); returns the path."""
+        """Write the samples as a MATLAB .mat file (scipy.io.savemat; matrices t, q, v, a, z, lam,
+        outputs, energies with their column names, and the metadata as JSON text).
+
+        Parameters
+        ----------
+        path : str or Path
+            The .mat file to write.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         from pinclear.dynamics.export_run import write_mat
 
         return write_mat(self, path)
 
     @classmethod
     def load(cls, path, mech=None):
-        """A saved run (NPZ + JSON metadata). Loading never imports code; ``mech`` (optional) is
-        the mechanism it belongs to, checked against the recorded description. The file is checked
-        as data first (pinclear.dynamics.validate: declared sizes before loading, JSON types, shapes,
-        finite states, increasing times); a failure is an InputError naming the file."""
+        """A saved run (NPZ + JSON metadata, as :meth:`save` writes it). Loading never imports
+        code. The file is checked as data first (pinclear.dynamics.validate: declared sizes
+        before loading, JSON types, shapes, finite states, increasing times); a failure is an
+        InputError naming the file.
+
+        Parameters
+        ----------
+        path : str or Path
+            The saved run (``.npz``).
+        mech : Mechanism, optional
+            The mechanism it belongs to, checked against the recorded description and digest
+            (:meth:`check_mechanism`) and attached; without it the run has no mechanism
+            (:meth:`load_mechanism` attaches one later).
+
+        Returns
+        -------
+        Trajectory
+        """
         from pinclear.dynamics import validate as V
 
         tr = cls()
@@ -528,7 +704,23 @@ class Trajectory:
         return tr
 
     def check_mechanism(self, mech, path="<trajectory>"):
-        """Refuse a mechanism other than the one the run recorded (same sizes are not enough)."""
+        """Refuse a mechanism other than the one the run recorded (same sizes are not enough): its
+        name, sizes, joints, closures, drives, force elements and gravity, its digest (parameters,
+        inertias, joint placements) and the columns of q, v, a and z must agree.
+
+        Parameters
+        ----------
+        mech : Mechanism
+            The mechanism to check.
+        path : str
+            What the run is called in the error (its file).
+
+        Returns
+        -------
+        None
+            Returns only if the mechanism matches; else raises InputError naming ``path`` and
+            the first difference.
+        """
         from pinclear.core.errors import InputError
 
         rec = self.meta.get("mechanism") or {}
@@ -565,7 +757,22 @@ class Trajectory:
         bundled mechanism is loaded, by the name the run records (a path recorded in a results
         file is never opened). ``trust`` covers the file at ``path`` only: recorded arguments
         never add code or files (pinclear.core.trust.check_recorded_args), and a bundled mechanism
-        needs no trust (docs/security.md)."""
+        needs no trust (docs/security.md).
+
+        Parameters
+        ----------
+        path : str or Path, optional
+            The mechanism file (sidecar) to load; default: the bundled mechanism the run names.
+        trust : bool, optional
+            As :func:`pinclear.load`'s ``trust``, for the file at ``path`` only (ignored without
+            ``path``).
+
+        Returns
+        -------
+        Mechanism
+            The mechanism, checked against the run (:meth:`check_mechanism`) and attached as
+            ``self.mech``.
+        """
         from pinclear.core.trust import check_recorded_args, recorded_mechanism
         from pinclear.io.sidecar import load
 

@@ -60,7 +60,25 @@ def rod(m, L, axis="x", axial=1e-7):
     along ``axis`` ("x", "y", "z" or a direction in the body frame): m L^2 / 12 about every
     axis across it. The loader rejects a zero principal moment, so the moment about the rod's
     own axis is a token ``axial`` (it enters the dynamics only if the rod spins about its axis,
-    which a revolute or prismatic joint across the rod never lets it do)."""
+    which a revolute or prismatic joint across the rod never lets it do).
+
+    Parameters
+    ----------
+    m : float
+        Mass [kg].
+    L : float
+        Length [m].
+    axis : {"x", "y", "z"} or array of 3 floats
+        The rod's direction in the body frame: a frame axis by name, or a direction (normalised;
+        not all zero). Another name raises InputError.
+    axial : float
+        The token moment about the rod's own axis [kg m^2].
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        The inertia matrix about the centre of mass, in the body frame [kg m^2].
+    """
     i = m * L * L / 12.0
     if isinstance(axis, str):
         if axis not in _AXES:
@@ -73,13 +91,45 @@ def rod(m, L, axis="x", axial=1e-7):
 
 
 def plate(mass, radius):
-    """Central inertia of a thin disc of ``radius`` in the local x-y plane (a plate in planar motion)."""
+    """Central inertia of a uniform thin disc in the local x-y plane (a plate in planar motion):
+    m r^2 / 4 about x and y, m r^2 / 2 about z.
+
+    Parameters
+    ----------
+    mass : float
+        Mass [kg].
+    radius : float
+        Radius [m].
+
+    Returns
+    -------
+    ndarray, shape (3, 3)
+        The diagonal inertia matrix about the centre [kg m^2].
+    """
     i = mass * radius * radius / 4.0
     return np.diag([i, i, 2 * i])
 
 
 def sines(offset, amp, omega, phase=0.0):
-    """A drive law offset + amp sin(omega t + phase) [rad or m; rad/s; rad] (pinclear.model.timelaws.Sines)."""
+    """A drive law offset + amp sin(omega t + phase), one sine term (pinclear.model.timelaws.Sines).
+
+    Parameters
+    ----------
+    offset : float
+        The constant part [rad for a revolute joint, m for a prismatic one].
+    amp : float
+        Amplitude [rad or m].
+    omega : float
+        Angular frequency [rad/s].
+    phase : float
+        Phase [rad].
+
+    Returns
+    -------
+    dict
+        The sidecar's law mapping ``{"type": "sines", "offset", "terms": [{amp, omega, phase}]}``,
+        for :meth:`Builder.drive`.
+    """
     return {"type": "sines", "offset": float(offset),
             "terms": [{"amp": float(amp), "omega": float(omega), "phase": float(phase)}]}
 
@@ -111,9 +161,36 @@ def _axis_rotation(axis, angle):
 
 
 class Builder:
-    """Collects a mechanism and writes NAME.urdf + NAME.yaml (see the module docstring)."""
+    """Collects a mechanism and writes NAME.urdf + NAME.yaml (see the module docstring).
+
+    Every adding method returns the builder, so calls can be chained.
+
+    Parameters
+    ----------
+    name : str
+        The mechanism's name, which also names the files (:data:`NAME_PATTERN`).
+    gravity : sequence of 3 floats
+        Gravitational acceleration in the ground frame [m/s^2].
+    description : str, optional
+        The sidecar's ``description:`` (omitted when empty).
+    ground : str
+        The name of the fixed root body (:data:`NAME_PATTERN`).
+    """
 
     def __init__(self, name, gravity=(0.0, 0.0, -9.81), description=None, ground="ground"):
+        """Start an empty mechanism: the ground body only (parameters: the class docstring).
+
+        Parameters
+        ----------
+        name : str
+            The mechanism's name and the files' stem.
+        gravity : sequence of 3 floats
+            Gravitational acceleration [m/s^2].
+        description : str, optional
+            The sidecar's description.
+        ground : str
+            The fixed root body's name.
+        """
         self.name = str(name)
         self._check_name("mechanism", self.name)
         self.ground = self._check_name("ground body", ground)
@@ -141,8 +218,27 @@ class Builder:
         return name
 
     def body(self, name, mass, com=(0.0, 0.0, 0.0), inertia=None):
-        """A rigid body: mass [kg], centre of mass [m] and central inertia [kg m^2] in its frame
-        (3 principal moments or a 3x3 matrix; default: a point-like token inertia)."""
+        """A rigid body (a URDF link); it hangs from the tree by the :meth:`joint` that names it
+        as child.
+
+        Parameters
+        ----------
+        name : str
+            The body's name, new (:data:`NAME_PATTERN`).
+        mass : float
+            Mass [kg].
+        com : sequence of 3 floats
+            Centre of mass in the body frame [m].
+        inertia : array, optional
+            Central inertia in the body frame [kg m^2]: 3 principal moments or a 3x3 matrix
+            (e.g. :func:`rod`, :func:`plate`). Default: a point-like token, 1e-7 times the
+            identity.
+
+        Returns
+        -------
+        Builder
+            ``self``.
+        """
         self._new_name("body", name, self.links)
         inertia = np.eye(3) * 1e-7 if inertia is None else np.asarray(inertia, float)
         inertia = np.diag(inertia) if inertia.ndim == 1 else inertia
@@ -169,7 +265,38 @@ class Builder:
         NAME_1..3 about x, y, z of the joint frame (no ``axis``), ``q`` three angles [rad] (default
         0) and no ``v`` (the start velocity follows from the drives); ``"universal"``: NAME_1
         about ``axis`` (default x) and NAME_2 about ``axis2`` (default y), perpendicular, ``q``
-        two angles. Module docstring: the massless links, the lock."""
+        two angles. Module docstring: the massless links, the lock.
+
+        Parameters
+        ----------
+        name : str
+            The joint's name, new among joints and closures (:data:`NAME_PATTERN`).
+        type : {"revolute", "prismatic", "continuous", "fixed", "spherical", "universal"}
+            :data:`JOINT_TYPES`; another raises InputError.
+        parent, child : str
+            Bodies already defined; ``child`` must not hang from another joint yet (nor be the
+            ground).
+        xyz : sequence of 3 floats
+            The joint frame's origin in the parent's frame [m].
+        axis : sequence of 3 floats, optional
+            The joint's axis in its frame (normalised): default z; a universal joint's first
+            axis (default x); none for a spherical joint; ignored for a fixed one.
+        rpy : sequence of 3 floats
+            The joint frame's orientation in the parent's frame, URDF roll-pitch-yaw [rad].
+        q : float or sequence of float, optional
+            Initial guess of the coordinate [rad or m]; three angles for a spherical joint, two
+            for a universal one [rad].
+        v : float, optional
+            Initial guess of the velocity [rad/s or m/s]; not for a spherical or universal
+            joint.
+        axis2 : sequence of 3 floats, optional
+            A universal joint's second axis (default y), perpendicular to ``axis``; only there.
+
+        Returns
+        -------
+        Builder
+            ``self``.
+        """
         if type not in JOINT_TYPES:
             raise InputError(f"builder {self.name}: joint {name!r}: unknown type {type!r}", key="joint",
                              choices=JOINT_TYPES)
@@ -247,7 +374,26 @@ class Builder:
 
     def closure(self, name, type, frame1, frame2, **keys):
         """A cut joint closing a loop: ``frame1``/``frame2`` are (body, xyz) or (body, xyz, rpy)
-        (pinclear.model.closures: planar_point, revolute, spherical, ...); ``keys``: e.g. normal."""
+        (pinclear.model.closures: planar_point, revolute, spherical, ...); ``keys``: e.g. normal.
+
+        Parameters
+        ----------
+        name : str
+            The closure's name, new among joints and closures (:data:`NAME_PATTERN`).
+        type : str
+            A closure type of pinclear.model.closures (planar_point, revolute, spherical, ...),
+            checked by the loader at :meth:`write`.
+        frame1, frame2 : tuple
+            ``(body, xyz)`` or ``(body, xyz, rpy)``: the frames the cut joint ties together, on
+            defined bodies, position [m] and roll-pitch-yaw [rad] in the body's frame.
+        **keys
+            The closure type's own sidecar keys (e.g. ``normal``), written as given.
+
+        Returns
+        -------
+        Builder
+            ``self``.
+        """
         self._new_name("closure", name, self._joint_names() | {c["name"] for c in self.closures})
         where = f"builder {self.name}: closure {name!r}"
         entry = {"name": name, "type": type}
@@ -258,7 +404,22 @@ class Builder:
         return self
 
     def drive(self, joint, law, name=None):
-        """A rheonomic drive of a tree joint (``law``: a sidecar law mapping, e.g. :func:`sines`)."""
+        """A rheonomic drive of a tree joint: the joint's coordinate follows ``law`` in time.
+
+        Parameters
+        ----------
+        joint : str
+            The driven tree joint's name (checked by the loader at :meth:`write`).
+        law : dict
+            A sidecar law mapping (docs/inputs.md), e.g. :func:`sines`; values in rad or m.
+        name : str, optional
+            The drive's name, new among drives; default ``JOINT_drive``.
+
+        Returns
+        -------
+        Builder
+            ``self``.
+        """
         name = self._new_name("drive", name or f"{joint}_drive", {d["name"] for d in self.drives})
         self.drives.append({"name": name, "joint": self._check_name("joint", joint), "law": law})
         return self
@@ -266,7 +427,28 @@ class Builder:
     def clearance(self, closure, type="planar_revolute", name=None, active=False, **keys):
         """A clearance joint replacing the closure ``closure`` (inactive unless ``active``: turned
         on by ``--clearance NAME`` / load(..., clearances=[NAME])); ``keys``: clearance [m],
-        radius [m], length [m], material, ce, mu, friction_law... (docs/inputs.md)."""
+        radius [m], length [m], material, ce, mu, friction_law... (docs/inputs.md).
+
+        Parameters
+        ----------
+        closure : str
+            The closure (cut joint) the clearance joint replaces when active.
+        type : str
+            The clearance joint's type (default "planar_revolute"; the loader's clearance types,
+            docs/inputs.md).
+        name : str, optional
+            The clearance's name, new among clearances; default the closure's name.
+        active : bool
+            Active whenever the mechanism is loaded; else only when asked for.
+        **keys
+            The type's own sidecar keys: clearance [m], radius [m], length [m], material, ce, mu,
+            friction_law, ..., written as given and checked by the loader at :meth:`write`.
+
+        Returns
+        -------
+        Builder
+            ``self``.
+        """
         name = self._new_name("clearance", name or closure, {c["name"] for c in self.clearances})
         self.clearances.append({"name": name, "type": type, "closure": self._check_name("closure", closure),
                                 "active": bool(active), **keys})
@@ -274,7 +456,22 @@ class Builder:
 
     def platform(self, body, xyz=None, name=None):
         """The frame whose motion the platform figure plots (the sidecar's ``platform: frame:``):
-        ``body``'s own frame, or a new frame ``name`` at ``xyz`` [m] in it (e.g. the centre)."""
+        ``body``'s own frame, or a new frame ``name`` at ``xyz`` [m] in it (e.g. the centre).
+
+        Parameters
+        ----------
+        body : str
+            A defined body.
+        xyz : sequence of 3 floats, optional
+            Position of a new frame in the body's frame [m]; without it the body's own frame.
+        name : str, optional
+            The new frame's name (only with ``xyz``); default ``BODY_centre``.
+
+        Returns
+        -------
+        Builder
+            ``self``.
+        """
         if body not in self.links:
             raise InputError(f"builder {self.name}: platform: no body {body!r}", key="platform",
                              choices=sorted(self.links))
@@ -284,11 +481,36 @@ class Builder:
         return self
 
     def parameter(self, name, value, unit, source):
-        """A row of the sidecar's parameter table (every number of a model with its source)."""
+        """A row of the sidecar's parameter table (every number of a model with its source).
+
+        Parameters
+        ----------
+        name : str
+            What the number is (e.g. "crank length").
+        value : float or str
+            The number, as written.
+        unit : str
+            Its unit (SI, e.g. "m", "kg", "1").
+        source : str
+            Where it comes from (a paper's table, a measurement, an assumption).
+
+        Returns
+        -------
+        Builder
+            ``self``.
+        """
         self.parameters.append({"name": name, "value": value, "unit": unit, "source": source})
         return self
 
     def urdf_text(self):
+        """The URDF of the tree: every body as a link (a massless one without an inertial
+        element) and every tree joint, names and values XML-escaped (pinclear.io.urdf_write).
+
+        Returns
+        -------
+        str
+            The URDF document.
+        """
         links = "".join(urdf_link(n, None if p is None else (p[0], p[1], p[2])) for n, p in self.links.items())
         joints = "".join(urdf_joint(j["name"], j["type"], j["parent"], j["child"], j["xyz"], j["axis"], j["limits"],
                                     j["rpy"]) for j in self.joints)
@@ -296,6 +518,15 @@ class Builder:
                 + links + joints + "</robot>\n")
 
     def sidecar_dict(self):
+        """The sidecar as a mapping: name, urdf, description, gravity, platform, and the
+        non-empty sections ``initial`` (q, v), ``closures``, ``drives``, ``clearances`` and
+        ``parameters``.
+
+        Returns
+        -------
+        dict
+            What :meth:`write` dumps as NAME.yaml.
+        """
         d = dict(self.sidecar)
         init = {k: v for k, v in (("q", self.q), ("v", self.v)) if v}
         for key, val in (("initial", init), ("closures", self.closures), ("drives", self.drives),
@@ -334,7 +565,22 @@ class Builder:
         """Write ``folder``/NAME.urdf and NAME.yaml, then load them (every key checked by the
         loader) and assemble at t = 0 with every clearance active: returns the ideal Mechanism.
         A spherical joint's frame is turned to the assembled start first (module docstring).
-        A mistake raises the loader's error naming the file and the key."""
+        A mistake raises the loader's error naming the file and the key.
+
+        Parameters
+        ----------
+        folder : str or Path
+            The folder the two files are written into (created if missing); the files are
+            names inside it, never paths through it.
+        head : str
+            Text put verbatim before the YAML (comment lines starting with ``#``).
+
+        Returns
+        -------
+        Mechanism
+            The ideal mechanism (no clearance active unless declared ``active``), as
+            ``pinclear.load(folder/NAME.yaml)`` gives it.
+        """
         from pinclear.io.sidecar import load
         from pinclear.model import kinematics
 
