@@ -50,7 +50,7 @@ def plot_phase_portrait(x, xdot=None, section=None, label="", ax=None, path=None
 
 
 def readable_ticks(ax):
-    """Ticks that neither run together nor collide with the labels (issue 52): at most 5 per
+    """Ticks that neither run together nor collide with the labels: at most 5 per
     axis, no additive offset, and for mm- or um-sized signals the power of ten written into the
     axis label ("[1e-4 m]": ticks in units of 0.1 mm) rather than as matplotlib's offset text,
     which is drawn at the axis' end over the label or the title."""

@@ -1,4 +1,4 @@
-"""`pinclear simulate ... --check`: is the run converged? (issue 52, item 7)
+"""`pinclear simulate ... --check`: is the run converged?
 
 The run is made again with its integration tolerances divided by REFINE (rtol and atol; RK4's
 fixed step h halved) and half its output step, into OUT/check/, and the two summaries are compared:

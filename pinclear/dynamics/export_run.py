@@ -1,4 +1,4 @@
-"""A run's samples for other programs (issue 52, item 8): CSV (one column per scalar channel,
+"""A run's samples for other programs: CSV (one column per scalar channel,
 MATLAB's readtable, spreadsheets, ADAMS's spline import) and MATLAB's .mat (scipy.io.savemat).
 
 Both hold the same channels (:func:`columns`), SI units and radians throughout:

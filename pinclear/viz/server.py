@@ -5,7 +5,7 @@ meshcat-python's own launcher (``meshcat.servers.zmqserver``) binds its ZMQ sock
 [::]) while announcing a 127.0.0.1 URL: anyone on the network could watch, or push commands
 to, the scene.  Here the same bridge runs with tornado bound to 127.0.0.1.
 
-Two more gates, since issue 53 (docs/security.md, "The viewer's server"):
+Two more gates (docs/security.md, "The viewer's server"):
 
 * **Host**: every HTTP request and WebSocket handshake must name the server as ``127.0.0.1:PORT``,
   ``localhost:PORT`` or ``[::1]:PORT``. A page of another site that rebinds its DNS name to

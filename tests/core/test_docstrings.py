@@ -108,3 +108,20 @@ def test_the_parser_reads_numpydoc():
     assert _documented(_section(doc, "Parameters")) == {"a", "b", "**kw"}
     assert _section(doc, "Raises") is None
     assert next(line for line in _section(doc, "Returns") if line.strip()) == "float"
+
+
+def test_no_docstring_tells_history_issue_numbers_or_dates():
+    """Docstrings say what and why; the history of a change (an issue number, the date it was
+    measured) belongs in benchmarks/*.md and the commit log (docs/design.md)."""
+    import ast
+    from pathlib import Path
+
+    history = re.compile(r"\bissue\s*#?\d+|\b20\d\d-\d\d-\d\d\b", re.I)
+    found = []
+    for path in sorted(Path(pinclear.__file__).parent.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef)):
+                m = history.search(ast.get_docstring(node) or "")
+                if m:
+                    found.append(f"{path.name}:{getattr(node, 'name', '<module>')}: {m.group(0)}")
+    assert not found, found
