@@ -28,8 +28,8 @@ def qr_pivoted(A, piv, beta, rcond):
 
     The column norms run two columns at a time and each reflector meets four at a time: their
     sums are independent chains of additions, each kept in its own order (the same numbers as
-    one dot product after another), which the processor overlaps: 1.5x faster at 16 x 16, where
-    one chain at a time waited on every addition."""
+    one dot product after another), which the processor overlaps, where one chain at a time
+    waited on every addition (benchmarks/kernel_choices.md)."""
     m, n = A.shape
     for j in range(m):
         piv[j] = j

@@ -161,9 +161,8 @@ COMPILE_NOTICE = "pinclear: compiling pinclear's kernels, once per machine, abou
 class _CompileClock(_event.Listener):
     """CPU seconds spent inside numba's compiler lock, outermost entries only: compiling a kernel
     (with the kernels it calls) and loading one from the on-disk cache both happen there, calls
-    of a kernel already loaded never enter it. Measured in one warm process, a four-bar run that
-    first loads its ~20 cached kernels spent 0.351 of its 0.358 CPU s there, the same run again
-    0.0035 s and none there."""
+    of a kernel already loaded never enter it (loading ~20 cached kernels is most of a short
+    run's first CPU second: benchmarks/kernel_choices.md)."""
 
     def __init__(self):
         self.cpu = 0.0

@@ -48,8 +48,8 @@ def proximal_inverse(F, d):
     pivots), symmetric and full: G = F^-1 into F's lower triangle, then G^T G into its upper
     triangle and diagonal, mirrored. m^3 / 2 flops once, so that each proximal iteration is one
     dense matrix-vector product (m^2, each entry's sum along a contiguous row in order, which
-    vectorises) instead of two triangular substitutions, whose entries wait on each other:
-    2.0x faster at m = 5, 1.7x at m = 13 (pinclear.core.regularised.proximal_iterations). S + rho I is
+    vectorises) instead of two triangular substitutions, whose entries wait on each other
+    (benchmarks/kernel_choices.md). S + rho I is
     well conditioned (cond <= 1 + 1 / rho_rel), so the explicit inverse costs no accuracy:
     against 50-digit iterations the filter's error is the same to two digits (1.9e-11 relative
     at m = 20, tests/dynamics/test_engine_methods.py)."""
