@@ -16,7 +16,6 @@ bit-identical whatever the executor and whatever was interrupted.
 """
 from __future__ import annotations
 
-import functools
 import hashlib
 import itertools
 import json
@@ -429,54 +428,13 @@ def _write_point(folder, job, res):
     return written
 
 
-def sweep(model, vary, t_end, out, **kw) -> SweepResult:
-    """One run per point of a parameter grid, each written into ``out`` as it finishes; resumable.
-
-    The folder is held locked (``OUT/.lock``, as a simulate run's folder) for the whole call, so
-    two sweeps into one folder never both compute; points already in ``out`` from an earlier,
-    interrupted call of the same sweep are not computed again.
-
-    Parameters
-    ----------
-    model : str or Path
-        A sidecar path or a bundled mechanism's name.
-    vary : dict
-        ``{key: values}``: load()'s override keys (``"S2.mu"``, ``"forces[spring].k"``) or scene
-        options; the grid is every combination.
-    t_end : float
-        Simulated seconds per point.
-    out : str or Path
-        The sweep folder (``sweep.json``, ``points/``, ``table.csv``).
-    **kw
-        ``sim_options`` (keyword arguments of :func:`pinclear.simulate`), ``load_options`` (of
-        :func:`pinclear.load`: clearances, options, fixed overrides, trust), ``workers`` (local
-        processes, default one per CPU), ``scheduler`` (a Dask scheduler address instead),
-        ``executor`` (a concurrent.futures.Executor or ``"serial"``), ``progress`` (True: a bar
-        on stderr; None; or ``f(done, total, point)``): see :func:`_sweep_in_folder`.
-
-    Returns
-    -------
-    SweepResult
-        The folder, the keys, every point's status and the number computed by this call.
-    """
-    folder = Path(out)
-    if folder.exists() and not folder.is_dir():
-        raise InputError(f"--out {str(folder)!r} is an existing file; give a folder")
-    for name, kind in (("points", Path.is_dir), ("sweep.json", Path.is_file)):
-        p = folder / name
-        if p.is_symlink() or (p.exists() and not kind(p)):
-            raise InputError(f"--out {str(folder)!r}: {str(p)!r} is a link or not a {'folder' if name == 'points' else 'file'}"
-                             "; pinclear never follows a link inside a results folder (remove it or choose another "
-                             "--out)")
-    with safeio.folder_lock(folder):
-        return _sweep_in_folder(model, vary, t_end, out, **kw)
-
-
-def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=None, workers=None, scheduler=None,
-                     executor=None, progress=True) -> SweepResult:
+def sweep(model, vary, t_end, out, *, sim_options=None, load_options=None, workers=None, scheduler=None,
+          executor=None, progress=True) -> SweepResult:
     """Simulate ``model`` at every point of the grid of ``vary``, for ``t_end`` seconds each,
     writing each point into ``out`` as it finishes. Points already in ``out`` from an earlier,
-    interrupted call of the same sweep are not computed again.
+    interrupted call of the same sweep are not computed again. The folder is held locked
+    (``OUT/.lock``, as a simulate run's folder) for the whole call: a second sweep into it is
+    refused at once, naming the process holding it.
 
     Parameters
     ----------
@@ -509,9 +467,24 @@ def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=
     -------
     SweepResult
         The folder, the keys, every point's status and the number computed by this call.
+    """
+    folder = Path(out)
+    if folder.exists() and not folder.is_dir():
+        raise InputError(f"--out {str(folder)!r} is an existing file; give a folder")
+    for name, kind in (("points", Path.is_dir), ("sweep.json", Path.is_file)):
+        p = folder / name
+        if p.is_symlink() or (p.exists() and not kind(p)):
+            raise InputError(f"--out {str(folder)!r}: {str(p)!r} is a link or not a {'folder' if name == 'points' else 'file'}"
+                             "; pinclear never follows a link inside a results folder (remove it or choose another "
+                             "--out)")
+    with safeio.folder_lock(folder):
+        return _sweep_in_folder(model, vary, t_end, out, sim_options=sim_options, load_options=load_options,
+                                workers=workers, scheduler=scheduler, executor=executor, progress=progress)
 
-    Notes
-    -----"""
+
+def _sweep_in_folder(model, vary, t_end, out, *, sim_options=None, load_options=None, workers=None, scheduler=None,
+                     executor=None, progress=True) -> SweepResult:
+    """:func:`sweep` inside its locked folder (the arguments as there)."""
     path, sim_kw, load_kw, fixed, points, keys = _checked(model, vary, t_end, sim_options, load_options)
     folder = Path(out)
     spec = jsonable({"format": FORMAT, "model": str(path.resolve()), "keys": keys, "points": points,
@@ -708,9 +681,3 @@ def write_table(folder, keys, points):
         arrays[c] = (np.array([np.nan if v is None else float(v) for v in vals]) if numeric
                      else np.array(["" if v is None else str(v) for v in vals]))
     safeio.write_atomic(Path(folder) / TABLE_NPZ, lambda fh: np.savez(fh, **arrays), root=folder)
-
-
-functools.update_wrapper(sweep, _sweep_in_folder, assigned=("__doc__",))
-sweep.__doc__ += """
-    The sweep folder is held locked (``OUT/.lock``, as a simulate run's folder) for the whole
-    call: a second sweep into it is refused at once, naming the process holding it."""
