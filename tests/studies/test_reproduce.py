@@ -90,23 +90,9 @@ def test_calibrated_cutoff_is_the_least_that_reaches_the_named_peak():
     assert paper004.calibrated_cutoff(R, 5000.0) is None
 
 
-def test_bands_design_and_budget():
-    """--bands: the nominal point, each input at both ends of its range (or each choice), then a Latin
-    hypercube whose points each fall in a different 1/n slice of every range; a CPU budget keeps the
-    one-at-a-time points and drops space-filling ones."""
+def test_reconstructed_inputs_are_listed_in_the_papers_doc():
     from pinclear.studies.reproduce import bands
 
-    inputs = bands.reconstructed_inputs("004")
-    pts = bands.design(inputs, n_lhs=8, seed=1)
-    assert pts[0][0] == "nominal" and len([p for p in pts if not p[0].startswith("space")]) == 1 + 2 * len(inputs)
-    sf = [p[1] for p in pts if p[0].startswith("space")]
-    for e in inputs:
-        lo, hi = e["range"]
-        u = np.sort([(p[e["key"]] - lo) / (hi - lo) for p in sf])
-        assert np.all(np.floor(u * 8) == np.arange(8))
-    assert len(bands.within_budget(pts, cost=10.0, budget=10.0 * (1 + 2 * len(inputs)) + 25.0)) == 1 + 2 * len(inputs) + 2
-    with pytest.raises(Exception, match="budget"):
-        bands.within_budget(pts, cost=1.0, budget=0.0)
     # every paper lists its reconstructed inputs with a reason and a range or choices, and docs/papers.md
     # lists each of them in that paper's section
     from pathlib import Path

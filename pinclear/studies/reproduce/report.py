@@ -67,7 +67,16 @@ def cells(r):
 
 
 def header(rep):
-    return f"**Verdicts: {summary(rep['results'])}.**"
+    """The counts line, and the rows whose band was not measured with the CPU they would need."""
+    out = f"**Verdicts: {summary(rep['results'])}.**"
+    nm = [r for r in rep["results"] if r["verdict"] == "not measured"]
+    if nm:
+        need = sum(r.get("cpu_needed_s") or 0.0 for r in nm)
+        out += (f" Not measured: {len(nm)} rows" + (f", about {need / 3600:.2g} CPU h to measure" if need else "")
+                + " (`pinclear reproduce --bands` resumes from the stored points): "
+                + "; ".join(r["name"] + (f" ({r['cpu_needed_s']:.0f} CPU s)" if r.get("cpu_needed_s") else "")
+                            for r in nm) + ".")
+    return out
 
 
 # ------------------------------------------------------------------------------- claims
