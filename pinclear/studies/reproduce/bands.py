@@ -32,7 +32,8 @@ LHS_POINTS = 8
 
 def reconstructed_inputs(paper, file=FILE, keyed=True):
     """The reconstructed inputs of ``paper`` (a list of dicts), checked: each has a name, a
-    reason and a range or choices; ``keyed``: only those the bands can vary (a key)."""
+    reason and a range or choices; ``keyed``: only those the bands vary (a key, and not chosen by
+    a calibration: ``calibrated`` names the rows that chose it)."""
     import yaml
 
     data = yaml.safe_load(Path(file).read_text())
@@ -50,7 +51,7 @@ def reconstructed_inputs(paper, file=FILE, keyed=True):
             lo, hi = e["range"]
             if not float(lo) <= float(e["nominal"]) <= float(hi):
                 raise ModelFileError(file, f"{where}.range", f"nominal {e['nominal']} outside {e['range']}")
-        if e.get("key") or not keyed:
+        if (e.get("key") and not e.get("calibrated")) or not keyed:
             out.append(e)
     return out
 
