@@ -130,3 +130,26 @@ def test_a_stored_point_that_is_not_this_one_is_never_taken(tmp_path, tamper):
         doc["cpu_s"] = -1.0
     path.write_text("not json {" if tamper == "garbage" else json.dumps(doc))
     assert store.get("band", values) is None and store.foreign == 1
+
+
+def test_a_row_the_band_misses_names_its_lever_and_the_value_it_needs(tmp_path):
+    """f = x + 0.03 y (+0.08 for form b): a paper value of 1.4 lies 1.5 tau above the band (x at most
+    1): the lever is x, and it would need x = 1.4 (extrapolated beyond [0, 1]); 0.25 lies inside x's
+    sampled points: interpolated; a kind no input gives is said to be out of reach; a value within tau
+    of the band gets no lever."""
+    papers = {"f": 1.4, "kind": "chaos"}
+    got, _, led = bands.measure_bands(model, INPUTS, ["f", "kind"], TAUS, bands.PointStore(None, "T", {}), n_lhs=0,
+                                      papers=papers)
+    lv = led["levers"]["f"]
+    assert lv["lever"] == "x" and lv["how"] == "extrapolated" and lv["needed"] == pytest.approx(1.4)
+    assert "lever: x" in got["f"][2] and "would need 1.4" in got["f"][2]
+    assert "no single input reaches chaos" in led["levers"]["kind"]["text"]
+    oat = bands.one_at_a_time(INPUTS)
+    res = {lb: model(v) for lb, _, v in oat}
+    inside = bands.lever(INPUTS, oat, res, "f", 0.25, 0.2)
+    assert inside["how"] == "interpolated" and inside["needed"] == pytest.approx(0.25)
+    _, _, led2 = bands.measure_bands(model, INPUTS, ["f"], TAUS, bands.PointStore(None, "T", {}), n_lhs=0,
+                                     papers={"f": 1.15})
+    assert led2["levers"] == {}
+    fig = bands.tornado_figure(led["levers"], led["nominal"], TAUS, papers, tmp_path)
+    assert fig == "tornado.png" and (tmp_path / fig).stat().st_size > 1000

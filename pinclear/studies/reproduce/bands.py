@@ -19,6 +19,7 @@ the rows whose points it did not reach are ``not measured`` with the CPU they wo
 from __future__ import annotations
 
 import math
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -317,7 +318,8 @@ def latin_hypercube(inputs, names, n, seed=0):
 
 def _spread_of(vals):
     if any(isinstance(v, str) for v in vals):
-        return sorted(set(map(str, vals)))
+        # a point may hold several kinds at once ('below resolution, period-1': two joints)
+        return sorted({k for v in vals for k in str(v).split(", ")})
     return min(map(float, vals)), max(map(float, vals))
 
 
@@ -332,12 +334,14 @@ def _swing_sum(scr, oat, k):
 
 
 def measure_bands(fn, inputs, keys, taus, store, executor="serial", budget=None, cost=60.0,
-                  screen_fn=None, n_lhs=LHS_POINTS, seed=0):
+                  screen_fn=None, n_lhs=LHS_POINTS, seed=0, papers=None):
     """Screen, then band (module docstring of this part): the one-at-a-time screen of every input
     on ``screen_fn`` (cheap runs; default ``fn`` itself, whose points are then shared with the
     band), then the band of each key over the inputs that matter for it on ``fn``: their ends
     and ``n_lhs`` space-filling points over the inputs that matter for any key. A key no input
-    moves by tau/2 gets as band ours at nominal +- the sum of the screen's swings. Returns
+    moves by tau/2 gets as band ours at nominal +- the sum of the screen's swings. ``papers``:
+    {key: the paper's value}; a key whose band misses it names its lever in the band's text
+    (:func:`lever`) and the ledger's ``levers`` keep each one's tornado. Returns
     (bands {key: (lo, hi, what) | (kinds, what) | NotReached}, screen table, ledger dict)."""
     ledger = Ledger(cost)
     oat = one_at_a_time(inputs)
@@ -367,7 +371,7 @@ def measure_bands(fn, inputs, keys, taus, store, executor="serial", budget=None,
         if not matters[k]:
             nv = nom[k]
             if isinstance(nv, str):
-                bands[k] = ([nv], "screen: no input changes it")
+                bands[k] = (_spread_of([nv]), "screen: no input changes it")
             else:
                 wide = _swing_sum(scr, oat, k)
                 bands[k] = (float(nv) - wide, float(nv) + wide,
@@ -378,7 +382,97 @@ def measure_bands(fn, inputs, keys, taus, store, executor="serial", budget=None,
                 f"({sum(lb.startswith('space') for lb in mine)} space-filling)")
         bands[k] = (b, what) if isinstance(b, list) else (b[0], b[1], what)
     failed = sorted(lb for lb, r in res.items() if not (isinstance(r, dict) and r.get("status", "success") == "success"))
-    return bands, table, dict(ledger.as_dict(), stage="band", foreign=store.foreign, failed=failed)
+    levers = {}
+    for k, p in (papers or {}).items():
+        b = bands.get(k)
+        if not isinstance(b, tuple) or k not in (nom or {}):
+            continue
+        # a lever only for a row the band misses by more than tau (one that contradicts)
+        t = taus.get(k, 0.0)
+        missed = (p not in b[0]) if len(b) == 2 else not (b[0] - t <= float(p) <= b[1] + t)
+        if missed:
+            got = {lb: (res if n in union else scr).get(lb) for lb, n, _ in oat}
+            levers[k] = lever(inputs, oat, got, k, p, taus.get(k, 0.0))
+            bands[k] = b[:-1] + (f"{b[-1]}; {levers[k]['text']}",)
+    return bands, table, dict(ledger.as_dict(), stage="band", foreign=store.foreign, failed=failed, levers=levers,
+                              nominal=nom)
+
+
+def lever(inputs, oat, results, key, paper, tau):
+    """What would move row ``key`` to the paper's value: the one-at-a-time tornado (each input's
+    value of the row at each end, the others nominal) and its lever, the input with the largest
+    swing. Numeric: the value that input would need, by linear interpolation between its sampled
+    points when the paper's value lies between them ('interpolated'), else by the nearest
+    segment's slope ('extrapolated', beside its plausible range); categorical: the inputs whose
+    change gives the paper's kind, or none. {'tornado': [(name, [(value, row)...])], 'text'}."""
+    nominal = results.get("nominal") or {}
+    by = {e["name"]: e for e in inputs}
+    tornado = []
+    for name in dict.fromkeys(n for _, n, _ in oat if n):
+        e = by[name]
+        pts = [(v[e["key"]], results[lb][key]) for lb, n, v in oat
+               if n == name and isinstance(results.get(lb), dict) and key in results[lb]]
+        tornado.append((name, sorted(pts + [(e["nominal"], nominal[key])], key=lambda t: str(t[0]) if "choices" in e
+                                     else float(t[0]))))
+    if isinstance(paper, str):
+        hits = [f"{n} = {v}" for n, pts in tornado for v, r in pts if paper in str(r).split(", ")]
+        text = ("lever: " + ", ".join(hits) + f" gives {paper}" if hits else
+                f"no single input reaches {paper} (each one-at-a-time end tried)")
+        return {"tornado": tornado, "text": text}
+    num = [(n, pts) for n, pts in tornado if "range" in by[n]]
+    if not num:
+        return {"tornado": tornado, "text": "no numeric input to move"}
+    n, pts = max(num, key=lambda t: max(abs(float(r) - float(nominal[key])) for _, r in t[1]))
+    e = by[n]
+    lo, hi = map(float, e["range"])
+    xs, ys = [float(v) for v, _ in pts], [float(r) for _, r in pts]
+    p = float(paper)
+    need, how = None, "no value of it reaches the paper's"
+    for (x0, y0), (x1, y1) in zip(zip(xs, ys), zip(xs[1:], ys[1:])):
+        if min(y0, y1) <= p <= max(y0, y1) and y1 != y0:
+            need, how = x0 + (p - y0) * (x1 - x0) / (y1 - y0), "interpolated"
+            break
+    if need is None:
+        i = 0 if abs(p - ys[0]) < abs(p - ys[-1]) else len(xs) - 2
+        slope = (ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i]) if xs[i + 1] != xs[i] else 0.0
+        if slope:
+            need, how = xs[i] + (p - ys[i]) / slope, "extrapolated"
+    swing = max(abs(y - float(nominal[key])) for y in ys)
+    unit = f" {e['unit']}" if e.get("unit") else ""
+    text = (f"lever: {n} (swing {swing / tau:.2g} tau over [{lo:g}, {hi:g}]{unit})" if tau > 0 else f"lever: {n}")
+    text += (f" would need {need:.3g}{unit} ({how}; plausible [{lo:g}, {hi:g}])" if need is not None else f"; {how}")
+    return {"tornado": tornado, "text": text, "lever": n, "needed": need, "how": how}
+
+
+def tornado_figure(levers, nominal, taus, papers, out, name="tornado.png"):
+    """One panel per row that misses the paper: each input's one-at-a-time swing of the row from
+    ours at nominal, in units of the row's tau (bars), and where the paper lies (line). Returns
+    the file name, or None without numeric levers."""
+    keys = [k for k, lv in levers.items() if not isinstance(papers[k], str)][:6]
+    if not keys:
+        return None
+    import matplotlib.pyplot as plt
+
+    from pinclear.core import safeio
+
+    fig, axes = plt.subplots(len(keys), 1, figsize=(7.5, 1.2 + 1.1 * len(keys) + 0.25 * max(
+        len(levers[k]["tornado"]) for k in keys) * len(keys)), squeeze=False)
+    for ax, k in zip(axes[:, 0], keys):
+        nv, tau = float(nominal[k]), taus[k] or 1.0
+        rows = [(n, [(float(r) - nv) / tau for _, r in pts]) for n, pts in levers[k]["tornado"]]
+        rows.sort(key=lambda t: max(map(abs, t[1])))
+        for i, (n, d) in enumerate(rows):
+            ax.barh(i, max(d) - min(d), left=min(d), color="C0")
+        ax.set_yticks(range(len(rows)), [n for n, _ in rows], fontsize=7)
+        ax.axvline(0.0, color="k", lw=0.8)
+        ax.axvline((float(papers[k]) - nv) / tau, color="C3", lw=1.5, label="paper")
+        ax.set_title(textwrap.fill(f"{k}: {levers[k]['text']}", 120), fontsize=7, loc="left")
+        ax.set_xlabel("row - ours at nominal [tau]", fontsize=7)
+        ax.legend(fontsize=7, loc="lower right")
+    fig.tight_layout()
+    safeio.savefig(fig, out / name, dpi=110)
+    plt.close(fig)
+    return name
 
 
 def ledger_text(ledger):

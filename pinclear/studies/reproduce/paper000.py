@@ -32,7 +32,7 @@ from pinclear.io.sidecar import load
 from pinclear.mechanisms import four_ups_upu as mod
 from pinclear.model import kinematics
 from pinclear.studies.reproduce import chaos
-from pinclear.studies.reproduce.bands import band_of, kinds_band, ledger_text, reconstructed_inputs
+from pinclear.studies.reproduce.bands import band_of, kinds_band, ledger_text, reconstructed_inputs, tornado_figure
 from pinclear.studies.reproduce.verdicts import row
 
 T = mod.PERIOD
@@ -213,6 +213,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     load = (min(raw) if raw else float(lam_mag.min()), 0.5 * float(lam_mag.max() - lam_mag.min()))
     results += chaos_rows(bif, kinds, s, bands_, load)
     figures += portrait_figure(out, bif["mu"], kinds, s["clearance"]) + bifurcation_figures(out, bif)
+    if ledger and ledger.get("levers"):
+        figures += [f for f in [tornado_figure(ledger["levers"], ledger["nominal"], paper000_taus(s), paper000_values(),
+                                               out)] if f]
     notes += chaos_notes(bif, kinds, quick) + lyap_notes + transient_notes(bif, s)
     notes.append("every result used K as printed in paper 000 (eq. 17, 4/(3(s1+s2)) sqrt(R1R2/(R1+R2))); the "
                  "conformal radius R1R2/(R_socket - R_ball) is reported beside it for the contact force")
@@ -938,6 +941,21 @@ def paper000_taus(s):
     return taus
 
 
+def paper000_values():
+    """{band key: the paper's value} (sec. 4.3-4.4), for the levers of the rows that miss it."""
+    out = {}
+    for mu, (lo, hi) in PAPER_FORCE.items():
+        out[f"span {mu:g}"], out[f"mean {mu:g}"] = PAPER_SPAN[mu], 0.5 * (lo + hi)
+        if mu not in CALIBRATED_ON:
+            out[f"min {mu:g}"], out[f"max {mu:g}"] = lo, hi
+    out.update({f"x offset {mu:g}": float(PAPER_X_OFFSET) for mu in (0.05, 0.1)})
+    out["smallest span"] = f"smallest at mu {min(PAPER_SPAN, key=PAPER_SPAN.get):g}"
+    for name, (mu, c) in KIND_POINTS.items():
+        out[f"Y {name}"] = "chaotic" if mu <= 0.022 and c is None else "quasi-periodic"
+        out[f"Z {name}"] = "quasi-periodic" if (mu == 0.01 and c is None) else "period-1"
+    return out
+
+
 def paper000_bands(s, executor, budget=None, quick=True, out=None):
     """(bands {row key: (lo, hi, what) | (kinds, what) | NotReached}, tables, ledger) of paper 000:
     every reconstructed input screened on the quick study's runs, then each row banded over the
@@ -951,15 +969,12 @@ def paper000_bands(s, executor, budget=None, quick=True, out=None):
     taus = paper000_taus(s)
     got, table, ledger = measure_bands(_Point000(s), reconstructed_inputs("000"), list(taus), taus, store, executor,
                                        budget, COST_000["quick" if quick else "full"],
-                                       screen_fn=None if quick else _Point000(screen_s))
+                                       screen_fn=None if quick else _Point000(screen_s), papers=paper000_values())
     # the threshold row's band would rerun the clearance diagram at each point: its cost, stated
     n_pts = ledger["ran"] + ledger["resumed"] + ledger["not_reached"]
     per_run = (ledger["cpu_s"] + ledger["cpu_stored_s"]) / max(ledger["ran"] + ledger["resumed"], 1) / (
         len(KIND_POINTS) + len(PAPER_FORCE) * s["force_periods"] / max(s["transient"] + s["cycles"], 1))
     got["clearance diagram cost"] = n_pts * len(s["clearance_values"]) * per_run
-    b = got.get("smallest span")
-    if isinstance(b, tuple) and len(b) == 2:      # the stored strings list each mu within tolerance
-        got["smallest span"] = (sorted({m for x in b[0] for m in x.split(", ")}), b[1])
     return got, [t for t in (table,) if t], ledger
 
 

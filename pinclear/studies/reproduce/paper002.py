@@ -27,7 +27,8 @@ from pinclear.core import safeio
 from pinclear.core.models import model_path
 from pinclear.dynamics.stepping.peaks import window_peak
 from pinclear.studies.reproduce import chaos
-from pinclear.studies.reproduce.bands import NotReached, band_of, kinds_band, ledger_text, reconstructed_inputs
+from pinclear.studies.reproduce.bands import (NotReached, band_of, kinds_band, ledger_text, reconstructed_inputs,
+                                              tornado_figure)
 from pinclear.studies.reproduce.verdicts import half_digit, row, tolerance
 
 SLIDER = "guide"                      # slider 9's prismatic joint (urdf/nine_bar.urdf)
@@ -875,18 +876,21 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
             sens += [_impact_sensitivity(out, s, ex, q0, v0), _start_sensitivity(s, ex, q0, v0, runs.get("A 0.5"))]
             if s.get("long cycles"):
                 sens.append(_long_run(s, ex))
-        measured, ledger = {}, None
+        measured, ledger, figs_bands = {}, None, []
         _merge(measured, "A 0.5 mm impact force peak", _impact_band(sens))
         if bands:
             got, band_tables, ledger = paper002_bands(out, s, ex, budget)
             for k, b in got.items():
                 _merge(measured, k, b)
             sens += band_tables
+            if ledger.get("levers"):
+                figs_bands = [f for f in [tornado_figure(ledger["levers"], ledger["nominal"], paper002_taus(),
+                                                         paper002_values(), out)] if f]
         results = _response_rows(table, measured) + _claim_rows(table, measured)
         notes = [f"sec. 3: the {k} mm run did not finish; its rows are missing"
                  for k in ("A 0.5", "B 0.5", "AB 0.5", "A 0.1") if k not in table]
         notes += _response_notes(table)
-        figs = _response_figures(runs, out, plt)
+        figs = _response_figures(runs, out, plt) + figs_bands
         tables = {"response": table}
         if s["cycles"] > 0:
             r2, n2, f2, t2 = _chaos(s, out, ex, plt, measured)
@@ -1114,6 +1118,21 @@ def paper002_taus():
     return taus
 
 
+def paper002_values():
+    """{band key: the paper's value} (sec. 3-4), for the levers of the rows that miss it."""
+    out = {}
+    for name in ("A", "B", "AB"):
+        out[f"{name} shift d"] = 1e3 * (PAPER[f"{name} displacement"][0] - PAPER["ideal displacement peak"][0])
+        out[f"{name} shift v"] = 1e3 * (PAPER[f"{name} velocity"][0] - PAPER["ideal velocity peak"][0])
+    for pk in ("A 0.5 mm impact force peak", "B 0.5 mm impact force peak", "AB impact force peak at B"):
+        out[pk] = PAPER[pk][0]
+    out.update({pk + " steady": PAPER[pk][0] for pk in STEADY_ROWS})
+    out.update({"kind 0.01 mm": "quasi-periodic", "kind 0.8 mm": "chaotic", "kind 2 pi": "chaotic",
+                "kind 3 pi": "chaotic", "wider at 3 pi": "wider at 3 pi", "one vs two": "weaker with A and B",
+                "trend c": "periodic, then non-periodic as c grows", "stronger": "A"})
+    return out
+
+
 #: CPU s of one 002 design point (four 2 s response runs, four kind runs of the study's length),
 #: a first guess before any point has run: the measured mean replaces it
 COST_002 = {"quick": 40.0, "full": 250.0}
@@ -1133,7 +1152,7 @@ def paper002_bands(out, s, executor, budget=None):
     quick = bool(s.get("quick"))
     got, table, ledger = measure_bands(_Point002(s), reconstructed_inputs("002"), list(taus), taus, store, executor,
                                        budget, COST_002["quick" if quick else "full"],
-                                       screen_fn=None if quick else _Point002(screen_s))
+                                       screen_fn=None if quick else _Point002(screen_s), papers=paper002_values())
     # the speed trend's band would rerun the speed diagram at each point: its cost, stated
     n_pts = ledger["ran"] + ledger["resumed"] + ledger["not_reached"]
     per_run = (ledger["cpu_s"] + ledger["cpu_stored_s"]) / max(ledger["ran"] + ledger["resumed"], 1) / (

@@ -23,7 +23,7 @@ import numpy as np
 from pinclear.core import safeio
 from pinclear.dynamics import screw
 from pinclear.mechanisms import four_ups_upr as mod
-from pinclear.studies.reproduce.bands import band_of, ledger_text, reconstructed_inputs
+from pinclear.studies.reproduce.bands import band_of, ledger_text, reconstructed_inputs, tornado_figure
 from pinclear.studies.reproduce.verdicts import row
 
 #: paper 004 sec. 4.1, G_q^p at the initial configuration (columns P1..P4, virtual 1, virtual 2)
@@ -404,6 +404,10 @@ def run(out, quick=False, workers=None, scheduler=None, bands=False, budget=None
     notes += layout_notes(found)
     plot_drive_forces(out, runs, cutoff=cutoff)
     sens = [sensitivity_table(runs), readings_table(runs)] + (band_tables if bands else [])
+    figures = ["drive_forces.png", "peak_vs_cutoff.png"]
+    if ledger and ledger.get("levers"):
+        figures += [f for f in [tornado_figure(ledger["levers"], ledger["nominal"], ledger["taus"], ledger["papers"],
+                                               out)] if f]
     groups = {"G": why_g, "peak": GROUPS["peak"].format(cuts=", ".join(f"{c:g}" for c in CUTOFFS)),
               "ratio": GROUPS["ratio"]}
     checks = g_checks + r_checks
@@ -415,7 +419,7 @@ def run(out, quick=False, workers=None, scheduler=None, bands=False, budget=None
                          "readings": ", ".join(READINGS)},
             "claims": claims(results, checks, found, runs, cutoff),
             "results": results, "consistency": checks, "groups": groups, "notes": notes,
-            "figures": ["drive_forces.png", "peak_vs_cutoff.png"], "sensitivity": sens}
+            "figures": figures, "sensitivity": sens}
 
 
 def plot_drive_forces(out, runs, show=20.0, cutoff=None):
@@ -527,13 +531,17 @@ def paper004_bands(n, workers=None, scheduler=None, budget=None, cutoff=20.0, ou
         if r != "as printed":              # the printed law crosses singular configurations: no share
             taus[f"{r}: limbs share"] = 0.01 * ratio_paper
     keys = list(taus)
+    papers = {k: (ratio_paper if k.endswith("limbs share") else float(PAPER_PEAKS[k.split(": ", 1)[1]][2]))
+              for k in keys}
     store = PointStore(out, "004", {"band": {"samples": n, "cutoff": round(float(cutoff), 6)}})
     ex, close = executor_for(workers, scheduler, 2 * len(inputs) + 1)
     try:
-        got, screen_table, ledger = measure_bands(_Point004(n, cutoff), inputs, keys, taus, store, ex, budget, COST_004)
+        got, screen_table, ledger = measure_bands(_Point004(n, cutoff), inputs, keys, taus, store, ex, budget, COST_004,
+                                                  papers=papers)
     finally:
         if close is not None:
             close()
+    ledger["taus"], ledger["papers"] = taus, papers
     bands = {tuple(k.split(": ", 1)): b for k, b in got.items()}
     return bands, [t for t in (screen_table,) if t], ledger
 
