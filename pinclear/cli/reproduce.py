@@ -16,10 +16,12 @@ def build_parser():
     ap.add_argument("paper", choices=sorted(PAPERS), help="the source paper's study to run")
     ap.add_argument("--quick", action="store_true", help="a reduced study (smoke run)")
     ap.add_argument("--bands", action="store_true",
-                    help="measure each row's band over the reconstructed inputs (one-at-a-time plus a small "
-                         "space-filling sample; costs runs: see --budget)")
+                    help="measure each row's band over the reconstructed inputs: a one-at-a-time screen, then "
+                         "the inputs that matter for each row (their ends plus a small space-filling sample). "
+                         "Every point is stored under OUT/bands/: the same command again resumes")
     ap.add_argument("--budget", type=number("positive", "CPU s"), default=None, metavar="CPU_S",
-                    help="CPU seconds the bands may use (default: the whole design)")
+                    help="CPU seconds the bands may use in this run (default: the whole design); the rows it "
+                         "does not reach are 'not measured' with the CPU they need, and a later run resumes")
     ap.add_argument("--out", default=None, help="report folder (default: reproduce_PAPER)")
     ap.add_argument("--workers", type=int, default=None, help="local worker processes (default: one per CPU)")
     ap.add_argument("--scheduler", default=None, metavar="ADDRESS",

@@ -153,3 +153,15 @@ def test_a_row_the_band_misses_names_its_lever_and_the_value_it_needs(tmp_path):
     assert led2["levers"] == {}
     fig = bands.tornado_figure(led["levers"], led["nominal"], TAUS, papers, tmp_path)
     assert fig == "tornado.png" and (tmp_path / fig).stat().st_size > 1000
+
+
+def test_a_short_screen_does_not_screen_a_kind_of_motion():
+    """The screen's short runs see period-1 everywhere; the study's runs change kind with x: the
+    kind's band must still vary every input (and so find 'qp'), while f keeps the screen's rule."""
+    def short(values):
+        return dict(model(values), kind="p1")
+
+    got, table, _ = bands.measure_bands(model, INPUTS, ["f", "kind"], TAUS, bands.PointStore(None, "T", {}), n_lhs=0,
+                                        screen_fn=short)
+    assert got["kind"][0] == ["p1", "qp"] and "over x, y, form" in got["kind"][1]
+    assert "over x " in got["f"][2] and "short run" in table["note"]

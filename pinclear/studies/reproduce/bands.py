@@ -354,6 +354,15 @@ def measure_bands(fn, inputs, keys, taus, store, executor="serial", budget=None,
         miss = NotReached(need, "the screen did not finish within the budget")
         return {k: miss for k in keys}, None, dict(ledger.as_dict(), stage="screen")
     matters, table = screen(scr, oat, keys, taus)
+    if not same:
+        # a kind of motion read off the screen's short runs does not screen the long runs' kind:
+        # every input is varied for a categorical row
+        names = [e["name"] for e in inputs]
+        for k in keys:
+            if isinstance(scr["nominal"].get(k), str):
+                matters[k] = names
+        table["note"] = ("the screen ran the quick study's lengths; categorical rows (kinds of motion, orderings) "
+                         "are banded over every input, as a short run's kind does not screen a long run's")
     union = [e["name"] for e in inputs if any(e["name"] in m for m in matters.values())]
     pts = [(lb, v) for lb, n, v in oat if n is None or n in union] + latin_hypercube(inputs, union, n_lhs, seed)
     res, _ = run_design(fn, pts, store, "band", executor, budget, cost, ledger, known=scr if same else None)
