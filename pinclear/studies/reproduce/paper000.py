@@ -17,6 +17,7 @@ worker processes (``workers``) or a Dask cluster (``scheduler``).
 from __future__ import annotations
 
 import dataclasses
+from functools import partial
 from types import SimpleNamespace
 
 import numpy as np
@@ -914,16 +915,6 @@ def _run000(values, s):
     return out
 
 
-class _Point000:
-    """_run000 at one study's settings (picklable)."""
-
-    def __init__(self, s):
-        self.s = dict(s)
-
-    def __call__(self, values):
-        return _run000(values, self.s)
-
-
 def paper000_taus(s):
     """{band key: tau} of the rows the bands measure (the rows' own tau: verdicts.row's rule)."""
     from pinclear.studies.reproduce.verdicts import half_digit, tolerance
@@ -967,9 +958,9 @@ def paper000_bands(s, executor, budget=None, quick=True, out=None):
     keep = ("force_periods", "window_periods", "transient", "cycles", "per_period", "dt_out", "clearance")
     store = PointStore(out, "000", {"screen": {k: screen_s[k] for k in keep}, "band": {k: s[k] for k in keep}})
     taus = paper000_taus(s)
-    got, table, ledger = measure_bands(_Point000(s), reconstructed_inputs("000"), list(taus), taus, store, executor,
+    got, table, ledger = measure_bands(partial(_run000, s=dict(s)), reconstructed_inputs("000"), list(taus), taus, store, executor,
                                        budget, COST_000["quick" if quick else "full"],
-                                       screen_fn=None if quick else _Point000(screen_s), papers=paper000_values())
+                                       screen_fn=None if quick else partial(_run000, s=screen_s), papers=paper000_values())
     # the threshold row's band would rerun the clearance diagram at each point: its cost, stated
     n_pts = ledger["ran"] + ledger["resumed"] + ledger["not_reached"]
     per_run = (ledger["cpu_s"] + ledger["cpu_stored_s"]) / max(ledger["ran"] + ledger["resumed"], 1) / (

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from functools import partial
 
 import numpy as np
 
@@ -1087,16 +1088,6 @@ def _run002(values, s):
     return out
 
 
-class _Point002:
-    """_run002 at one study's settings (picklable)."""
-
-    def __init__(self, s):
-        self.s = dict(s)
-
-    def __call__(self, values):
-        return _run002(values, self.s)
-
-
 #: the band keys of the motion kinds and orderings (categorical: tau 0)
 KIND_KEYS_002 = ([f"kind {1e3 * c:g} mm" for c in KIND_CLEARANCES] + [f"kind {w / math.pi:g} pi" for w in KIND_SPEEDS]
                  + ["wider at 3 pi", "one vs two", "trend c", "stronger"])
@@ -1150,9 +1141,9 @@ def paper002_bands(out, s, executor, budget=None):
     store = PointStore(out, "002", {"screen": {k: screen_s[k] for k in keep}, "band": {k: s[k] for k in keep}})
     taus = paper002_taus()
     quick = bool(s.get("quick"))
-    got, table, ledger = measure_bands(_Point002(s), reconstructed_inputs("002"), list(taus), taus, store, executor,
+    got, table, ledger = measure_bands(partial(_run002, s=dict(s)), reconstructed_inputs("002"), list(taus), taus, store, executor,
                                        budget, COST_002["quick" if quick else "full"],
-                                       screen_fn=None if quick else _Point002(screen_s), papers=paper002_values())
+                                       screen_fn=None if quick else partial(_run002, s=screen_s), papers=paper002_values())
     # the speed trend's band would rerun the speed diagram at each point: its cost, stated
     n_pts = ledger["ran"] + ledger["resumed"] + ledger["not_reached"]
     per_run = (ledger["cpu_s"] + ledger["cpu_stored_s"]) / max(ledger["ran"] + ledger["resumed"], 1) / (
