@@ -35,6 +35,9 @@ from pinclear.core.registry import CLEARANCE_TYPES
 #: clearance type -> PluginType (its keys, parser, closure types it may replace, plot): the
 #: registry is pinclear.core.registry.CLEARANCE_TYPES; one line there per type module
 TYPES = CLEARANCE_TYPES
+#: version of the contact models' forces (bump when a model's forces change): a wear checkpoint of
+#: another version is refused (pinclear.analysis.wear_life)
+MODEL_VERSION = 2
 #: the types of the mixed-lubrication model (contact.mixed): the keys it replaced are refused by name
 FILM_TYPES = ("lubricated_revolute", "lubricated_spherical")
 
