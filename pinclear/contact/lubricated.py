@@ -15,9 +15,17 @@ wedge speed is Om = w - 2 gdot and
            + (eps_dot / eps) (q^-2 - (1 + eps)^-2)]
   (ambient pressure at the widest gap, phi = 0).
 
-The film carries load down to contact: q is floored at ``FLOOR`` x sigma / c (sigma the combined
-roughness, mixed.py), a gap inside the roughness where the asperities carry the load; above it the
-film is the smooth-surface film unchanged.
+The film carries load down to contact: the gap's minimum in q is held at ``FLOOR`` x sigma (sigma
+the combined roughness, mixed.py; short: eps in q capped at 1 - FLOOR sigma / c, long: q floored
+there), a gap inside the roughness where the asperities carry the load; above it the film is the
+smooth-surface film unchanged.
+
+Integration: the short bearing in closed form (``short_bearing``: Sommerfeld's substitution makes
+every integrand a trigonometric polynomial, and its full-film arc is one arc of known ends, so its
+loads are exact at any eps, down to contact); the long bearing by the periodic trapezoid over NPHI
+points (the Guembel kinks make it second order). The long bearing's squeeze term, with the ambient
+pressure at the widest gap, jumps where e passes through the centre (the widest gap flips side):
+a limit of that boundary condition (the short bearing's force is continuous there).
 
 Cavitation: Guembel's half-Sommerfeld condition, the film carries no tension: P+ = max(P, 0).
 At a steady load (eps_dot = gdot = 0) this gives the closed forms of the load and attitude angle
@@ -67,8 +75,9 @@ from pinclear.core.registry import Key, PluginType, key_names
 from pinclear.model.forces import place_frames
 
 THEORIES = ("short", "long")
-#: quadrature points over the circumference (trapezoid, periodic; the Guembel kinks at P = 0 make
-#: it second order: 4096 points keep the steady load within 1e-5 of the closed forms at eps 0.9)
+#: quadrature points of the long bearing over the circumference (trapezoid, periodic; the Guembel
+#: kinks at P = 0 make it second order: 4096 points keep the steady load within 1e-5 of the closed
+#: forms at eps 0.9)
 NPHI = 1024
 _PHI = np.arange(NPHI) * (2.0 * math.pi / NPHI)
 _COS, _SIN = np.cos(_PHI), np.sin(_PHI)
@@ -88,6 +97,7 @@ def _pressure(long, k, eps, eps_dot, Om, qmin, co, si):
         # squeeze: (eps_dot / eps)(q^-2 - (1 + eps)^-2), written without the 1/eps (finite at eps = 0)
         squeeze = eps_dot * (1.0 - co) * (2.0 + eps * (1.0 + co)) / ((1.0 + eps) ** 2 * q * q)
         return k * (wedge + squeeze), 1.0 / q
+    q = 1.0 + min(eps, 1.0 - qmin) * co
     return k * (Om * eps * si - 2.0 * eps_dot * co) / (q * q * q), 1.0 / q
 
 
@@ -97,6 +107,38 @@ def journal_pressure(long, mu, R, L, c, qmin, eps, eps_dot, Om, P):
     k = 6.0 * mu * R * R * L / (c * c) if long else mu * L ** 3 / (2.0 * c * c)
     for i in range(NPHI):
         P[i] = _pressure(long, k, eps, eps_dot, Om, qmin, _COS[i], _SIN[i])[0]
+
+
+@njit(cache=True, inline="always")
+def short_bearing(k, eps, A, B, qmin):
+    """(F_e, F_t per unit R, the full-film shear integral S) of the short bearing in closed form:
+    P = k (A sin phi + B cos phi) / q^3 with q = 1 + e cos phi, e = min(eps, 1 - qmin) (module doc).
+    Sommerfeld's substitution cos phi = (cos g - e) / (1 - e cos g) turns q^-3 dphi into
+    (1 - e cos g)^2 dg / (1 - e^2)^(5/2) and dphi / q into dg / sqrt(1 - e^2): the integrands are
+    trigonometric polynomials of degree 2 in g, and P > 0 on the one arc where
+    a sin g + b cos g > B e (a = A sqrt(1 - e^2), b = B), of half-angle pi / 2 - asin(B e / rho)."""
+    e = min(eps, 1.0 - qmin)
+    w = (1.0 - e * e) ** 0.5
+    a, b = A * w, B
+    rho = (a * a + b * b) ** 0.5
+    if rho == 0.0:
+        return 0.0, 0.0, math.pi / w            # no pressure: half the circle (the vanishing-load limit)
+    beta = math.atan2(b, a)
+    r = min(max(b * e / rho, -1.0), 1.0)
+    g1 = math.asin(r) - beta
+    g2 = math.pi - math.asin(r) - beta
+    s1, c1, s2, c2 = math.sin(g1), math.cos(g1), math.sin(g2), math.cos(g2)
+    dg = g2 - g1
+    # int s c, int s, int c^2, int c, int s^2 over [g1, g2]
+    isc = 0.5 * (s2 * s2 - s1 * s1)
+    i_s = c1 - c2
+    icc = 0.5 * dg + 0.5 * (s2 * c2 - s1 * c1)
+    i_c = s2 - s1
+    iss = 0.5 * dg - 0.5 * (s2 * c2 - s1 * c1)
+    scale = k / w ** 5
+    Fe = scale * (a * isc - a * e * i_s + b * icc - 2.0 * b * e * i_c + b * e * e * dg)
+    Ft = scale * w * (a * iss + b * isc - b * e * i_s)
+    return Fe, Ft, dg / w
 
 
 @njit(cache=True)
@@ -123,13 +165,31 @@ def journal_film(long, mu, R, L, c, qmin, e, edot, axis, w, F):
     gdot = (th0 * edot[0] + th1 * edot[1] + th2 * edot[2]) / r if r > 1e-12 * c else 0.0
     Om = w - 2.0 * gdot
     k = 6.0 * mu * R * R * L / (c * c) if long else mu * L ** 3 / (2.0 * c * c)
+    if long:
+        Fe, Ft, S = long_bearing(k, eps, eps_dot, Om, qmin)
+    else:
+        Fe, Ft, S = short_bearing(k, eps, Om * eps, -2.0 * eps_dot, qmin)
+    Fe *= R
+    Ft *= R
+    Tj = -mu * R ** 3 * L * w * S / c - 0.5 * r * Ft
+    F[0] = Fe * eh0 + Ft * th0
+    F[1] = Fe * eh1 + Ft * th1
+    F[2] = Fe * eh2 + Ft * th2
+    power = F[0] * edot[0] + F[1] * edot[1] + F[2] * edot[2] + Tj * w
+    return Tj, power, eps, S
+
+
+@njit(cache=True, inline="always")
+def long_bearing(k, eps, eps_dot, Om, qmin):
+    """(F_e, F_t per unit R, the full-film shear integral S) of the long bearing by the periodic
+    trapezoid over NPHI points, the full-film arc's ends interpolated linearly (module doc)."""
     dphi = 2.0 * math.pi / NPHI
     Fe = Ft = wet = full = 0.0
-    P0, g0 = _pressure(long, k, eps, eps_dot, Om, qmin, _COS[0], _SIN[0])
+    P0, g0 = _pressure(True, k, eps, eps_dot, Om, qmin, _COS[0], _SIN[0])
     Pa, ga = P0, g0
     for i in range(NPHI):
         if i + 1 < NPHI:
-            Pb, gb = _pressure(long, k, eps, eps_dot, Om, qmin, _COS[i + 1], _SIN[i + 1])
+            Pb, gb = _pressure(True, k, eps, eps_dot, Om, qmin, _COS[i + 1], _SIN[i + 1])
         else:
             Pb, gb = P0, g0
         if Pa > 0.0:
@@ -144,15 +204,7 @@ def journal_film(long, mu, R, L, c, qmin, e, edot, axis, w, F):
         elif Pb > 0.0:
             wet += Pb / (Pb - Pa) * gb
         Pa, ga = Pb, gb
-    S = (wet if wet > 0.0 else 0.5 * full) * dphi
-    Fe *= R * dphi
-    Ft *= R * dphi
-    Tj = -mu * R ** 3 * L * w * S / c - 0.5 * r * Ft
-    F[0] = Fe * eh0 + Ft * th0
-    F[1] = Fe * eh1 + Ft * th1
-    F[2] = Fe * eh2 + Ft * th2
-    power = F[0] * edot[0] + F[1] * edot[1] + F[2] * edot[2] + Tj * w
-    return Tj, power, eps, S
+    return Fe * dphi, Ft * dphi, (wet if wet > 0.0 else 0.5 * full) * dphi
 
 
 @njit(cache=True, inline="always")
