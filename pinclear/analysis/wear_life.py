@@ -175,7 +175,8 @@ def wear_identity(mech, names, s, start=None) -> dict:
         st = st.hexdigest()[:32]
     return jsonable({"contact_model": MODEL_VERSION, "mechanism": mechanism_digest(mech), "mechanism_name": mech.name,
                      "clearances": sorted(f.name for f in mech.clearances), "wear": wear,
-                     "overrides": dict((mech.load_args or {}).get("overrides") or {}), "settings": asdict(s),
+                     "overrides": dict((mech.load_args or {}).get("overrides") or {}),
+                     **{f"settings.{k}": v for k, v in asdict(s).items()},
                      "joints": sorted(names), "start": st})
 
 
