@@ -243,6 +243,18 @@ def _html_table(columns, rows):
                                 for row in rows) + "</table>")
 
 
+def convergence_table(title, checks, note=""):
+    """A report table of output-step convergence checks ({run label: StepConvergence}, all on the
+    same steps): per run and quantity the value at each output step, coarse to fine, the
+    relative change between the two finest and whether that is within the check's rtol."""
+    first = next(iter(checks.values()))
+    rows = [[label, name, *vals, sc.changes[name][-1], "converged" if sc.converged[name] else "NOT converged"]
+            for label, sc in checks.items() for name, vals in sc.values.items()]
+    return {"title": title, "columns": ["run", "quantity", *(f"output step {1e3 * h:.3g} ms" for h in first.steps),
+                                        "last change", f"within {first.rtol:.0%}"],
+            "rows": rows, "note": note}
+
+
 def bands_figure(rep, out, name="bands.png"):
     """Every numeric row with a measured band, as its distance from the paper in units of the row's
     tau, (value - paper) / tau on a symmetric-log axis (so a paper value of 0, as G's worst entry,
@@ -318,5 +330,5 @@ def write_report(rep, out):
                       + "</title>" + "\n".join(body))
 
 
-__all__ = ["CLAIM_VERDICTS", "CLASSES", "claim", "claim_verdict", "claims_markdown", "header", "markdown", "run_record",
-           "sensitivity_markdown", "started_now", "versions", "write_report"]
+__all__ = ["CLAIM_VERDICTS", "CLASSES", "claim", "claim_verdict", "claims_markdown", "convergence_table", "header",
+           "markdown", "run_record", "sensitivity_markdown", "started_now", "versions", "write_report"]
