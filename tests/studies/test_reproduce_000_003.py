@@ -70,6 +70,13 @@ def test_paper000_reduced_run_contact_force_balances_the_ideal_joint_load(tmp_pa
     assert force["contact force mean, mu 0.1"]["verdict"] not in ("calibration", "not comparable")
     assert {c["key"] for c in rep["claims"]} == set(paper000.CLAIMS)
     assert set(rep["classification"]) == {"mu", "clearance"}
+    # the output-step table: the force's extremes and span and the platform's acceleration peak on every 10th..2nd
+    # sample; each coarser grid's span is a span of a subset of the row's samples, so at most the row's
+    conv = next(tb for tb in rep["sensitivity"] if tb["title"].startswith("output-step convergence"))
+    assert [r[1] for r in conv["rows"]] == ["force min [N]", "force max [N]", "force span [N]",
+                                            "platform acceleration peak [m/s^2]"]
+    span = next(r["ours"] for r in rep["results"] if r["name"] == "contact force span (max - min), mu 0.1")
+    assert all(0 < v <= span + 1e-12 for v in conv["rows"][2][2:7])
 
     ideal = pinclear.load("four_ups_upu")
     t = np.linspace(0.0, T, 1001)[:-1]          # the reaction is T-periodic: one period, uniform
