@@ -345,6 +345,30 @@ def _claim_rows(table):
                                     "(peaks over the run)")]
 
 
+#: the paper's printed numbers drawn on each run's curves (sec. 3.2-3.4): run -> (axis row, column,
+#: PAPER key); rows 0-2 of column 0 are displacement, velocity, acceleration, (0, 1) the impact force
+PAPER_MARKS = {"ideal": [(0, 0, "ideal displacement peak"), (1, 0, "ideal velocity peak")],
+               "A 0.5": [(0, 0, "A displacement"), (1, 0, "A velocity"), (2, 0, "A 0.5 mm acceleration peak"),
+                         (0, 1, "A 0.5 mm impact force peak")],
+               "A 0.1": [(2, 0, "A 0.1 mm acceleration peak"), (0, 1, "A 0.1 mm impact force peak")],
+               "B 0.5": [(0, 0, "B displacement"), (1, 0, "B velocity"), (0, 1, "B 0.5 mm impact force peak")],
+               "AB 0.5": [(0, 0, "AB displacement"), (1, 0, "AB velocity"), (0, 1, "AB impact force peak at B")]}
+
+
+def _mark_paper(ax, key, t, curves, colour):
+    """The paper's printed peaks of run ``key`` as crosses at their printed instants, on the side
+    (sign) our curve has there; ``curves``: {(row, col): samples} of the run."""
+    for r, c, pk in PAPER_MARKS.get(key, []):
+        y = curves.get((r, c))
+        if y is None:
+            continue
+        value, _, t_pk = PAPER[pk]
+        side = 1.0 if y[int(np.argmin(np.abs(t - t_pk)))] >= 0 else -1.0
+        ax[r, c].plot([t_pk], [side * value], "x", ms=8, mew=2, color=colour)
+        ax[r, c].annotate(f"paper {value:g}", (t_pk, side * value), fontsize=7, color=colour,
+                          textcoords="offset points", xytext=(4, 4))
+
+
 def _response_figures(runs, out, plt):
     ideal = runs["ideal"]
     xi, vi, ai = _slider(ideal)
@@ -356,28 +380,33 @@ def _response_figures(runs, out, plt):
         for col, (y, lab) in enumerate([(xi, "displacement [m]"), (vi, "velocity [m/s]"), (ai, "acceleration [m/s^2]")]):
             ax[col, 0].plot(ideal.t, y, "k--", lw=0.8, label="no clearance")
             ax[col, 0].set_ylabel(f"slider 9 {lab}")
-        for key in keys:
+        _mark_paper(ax, "ideal", ideal.t, {(0, 0): xi, (1, 0): vi}, "k")
+        for n, key in enumerate(keys):
             tr = runs.get(key)
             if tr is None:
                 continue
-            for col, y in enumerate(_slider(tr)):
-                ax[col, 0].plot(tr.t, y, lw=0.6, label=f"{key} mm")
+            curves = dict(zip(((0, 0), (1, 0), (2, 0)), _slider(tr)))
+            for (r, _), y in curves.items():
+                ax[r, 0].plot(tr.t, y, lw=0.6, color=f"C{n}", label=f"{key} mm")
             for j in JOINTS:
                 if f"{j}.fn" in tr.outputs:
                     ax[0, 1].plot(tr.t, tr.outputs[f"{j}.fn"], lw=0.6, label=f"{key} mm, at {j}")
             jj = "B" if key.startswith(("B", "AB")) else "A"
+            if f"{jj}.fn" in tr.outputs:
+                curves[(0, 1)] = tr.outputs[f"{jj}.fn"]
+            _mark_paper(ax, key, tr.t, curves, f"C{n}")
             e = tr.outputs[f"{jj}.eccentricity"] * 1e3
-            a = ax[1 if keys.index(key) == 0 else 2, 1]
+            a = ax[1 if n == 0 else 2, 1]
             a.plot(e[:, 0], e[:, 1], lw=0.5)
             th, c_mm = np.linspace(0, 2 * np.pi, 200), float(key.split()[1])
             a.plot(c_mm * np.cos(th), c_mm * np.sin(th), "k:", lw=0.8)      # the clearance circle
-            a.set_title(f"journal centre at {jj}, {key} mm [mm] (dotted: clearance)", fontsize=9)
+            a.set_title(f"journal centre at {jj}, {key} mm: eex, eey [mm] (dotted: clearance)", fontsize=9)
             a.set_aspect("equal")
         ax[0, 0].legend(fontsize=8)
         ax[0, 1].legend(fontsize=8)
         ax[0, 1].set_ylabel("impact force [N]")
         ax[2, 0].set_xlabel("t [s]")
-        fig.suptitle(title)
+        fig.suptitle(title + " (x: the paper's printed peaks at their printed instants, Figs. 5-8, 15-18)")
         fig.tight_layout()
         safeio.savefig(fig, out / fig_name, dpi=90)
         plt.close(fig)
@@ -670,33 +699,44 @@ def _spread_note(res, what):
 
 
 def _portraits(res, values, name, title, plt, out, clearance=None, omega=None):
-    """Phase portraits with their Poincaré points; the resolution disc (CLEARANCE_FRACTION x the
-    clearance, times the driving frequency in velocity) drawn at the points' mean. clearance(v),
-    omega(v): the run's clearance (m) and driving frequency (rad/s)."""
+    """Per joint, the phase portrait (eccentricity in mm, its rate in mm/s, the paper's clearance
+    unit) with its Poincaré points, and below it the Poincaré map alone at the points' own scale
+    with the resolution disc (CLEARANCE_FRACTION x the clearance, times the driving frequency in
+    velocity) drawn at their mean: points inside it are 'below resolution'. clearance(v), omega(v):
+    the run's clearance (m) and driving frequency (rad/s)."""
     from matplotlib.patches import Ellipse
 
-    fig, ax = plt.subplots(2, len(values), figsize=(5 * len(values), 8), squeeze=False)
+    fig, ax = plt.subplots(2 * len(JOINTS), len(values), figsize=(5 * len(values), 4 * 2 * len(JOINTS)),
+                           squeeze=False)
     for col, v in enumerate(values):
         r = next((r for r in res.runs if abs(float(r.value) - v) <= 1e-12 * max(1.0, abs(v))), None)
-        for row, j in enumerate(JOINTS):
+        for k, j in enumerate(JOINTS):
             sig = f"{j}.eccentricity[0]"
-            a = ax[row, col]
+            a, m = ax[2 * k, col], ax[2 * k + 1, col]
             if r is None or sig not in r.portraits:
                 a.set_title(f"{title(v)}: no run")
                 continue
             _, x, xd = r.portraits[sig]
-            an.plot_phase_portrait(x, xd, section=r.sections[sig], label=sig, ax=a)
-            if clearance is not None and len(r.sections[sig]):
-                rad = CLEARANCE_FRACTION * clearance(v)
-                sec = r.sections[sig]
-                a.add_patch(Ellipse((float(np.mean(sec.x)), float(np.mean(sec.xdot))), 2 * rad, 2 * rad * omega(v),
-                                    fill=False, ls="--", color="k", lw=0.8))
-            a.set_xlabel(f"{sig} [m] (dashed: the resolution)")
-            a.set_ylabel(f"d/dt {sig} [m/s]")
-            readable_ticks(a)          # the power of ten in the unit's bracket, no offset text
-            a.set_title(f"{title(v)}, joint {j}", fontsize=9)
+            sec = r.sections[sig]
+            a.plot(1e3 * np.asarray(x), 1e3 * np.asarray(xd), lw=0.5, color="C0")
+            a.plot(1e3 * np.asarray(sec.x), 1e3 * np.asarray(sec.xdot), "o", ms=3, color="C3")
+            a.set_xlabel(f"{sig} (eex) [mm]")
+            a.set_ylabel(f"d/dt {sig} [mm/s]")
+            a.set_title(f"{title(v)}, joint {j}: phase trajectory and Poincaré points", fontsize=9)
+            m.plot(1e3 * np.asarray(sec.x), 1e3 * np.asarray(sec.xdot), "o", ms=3, color="C3")
+            if clearance is not None and len(sec):
+                rad = 1e3 * CLEARANCE_FRACTION * clearance(v)
+                m.add_patch(Ellipse((1e3 * float(np.mean(sec.x)), 1e3 * float(np.mean(sec.xdot))), 2 * rad,
+                                    2 * rad * omega(v), fill=False, ls="--", color="k", lw=0.8))
+                m.autoscale_view()
+            m.set_xlabel(f"{sig} [mm]")
+            m.set_ylabel(f"d/dt {sig} [mm/s]")
+            m.set_title(f"{title(v)}, joint {j}: Poincaré map ({len(sec)} points; dashed: the resolution)",
+                        fontsize=9)
+            for b in (a, m):
+                readable_ticks(b)          # no offset text: the values as printed
     fig.tight_layout()
-    safeio.savefig(fig, out / name, dpi=90)
+    safeio.savefig(fig, out / name, dpi=80)
     plt.close(fig)
     return name
 

@@ -140,7 +140,7 @@ def response(tr, mech, settle):
     return {"z_dev": float(np.abs(se.x - mod.Z0).max()), "vz_amp": float(np.abs(se.xdot).max()),
             "az_amp": window_peak(tr.t, az, t_from=settle)[0],
             "F_max": float(F.max()), "F_max_settled": window_peak(tr.t, F, t_from=settle)[0],
-            "t": tr.t, "z": se.x - mod.Z0, "vz": se.xdot, "F": F, "conv": conv}
+            "t": tr.t, "z": se.x - mod.Z0, "vz": se.xdot, "az": az, "F": F, "conv": conv}
 
 
 def convergence(got, s):
@@ -647,10 +647,16 @@ def paper_notes(checks, ideal, ti):
             "Vd = 10 mm/s (reconstructed); Baumgarte alpha_b = 5, beta_b = 1 (eq. 20, Table 3)"]
 
 
+#: the paper's printed amplitudes drawn on responses.png (Figs. 9-11): per column (clearance sizes,
+#: friction) and row (deviation [mm], velocity, acceleration [m/s, m/s^2]) the three printed values
+PAPER_LINES = {(0, 0): PAPER_CLEARANCE["z_dev_mm"], (1, 0): PAPER_CLEARANCE["vz_amp"], (2, 0): PAPER_CLEARANCE_ACC,
+               (0, 1): PAPER_FRICTION["z_dev_mm"], (1, 1): PAPER_FRICTION["vz_amp"], (2, 1): PAPER_FRICTION["az_amp"]}
+
+
 def responses_figure(out, got, s):
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(3, 2, figsize=(12, 9), sharex=True)
+    fig, axes = plt.subplots(4, 2, figsize=(12, 11), sharex=True)
     styles = {"energy": "-", "paper003": ":"}
     for col, (g, vals, lab) in enumerate(((got["clearance"], [[c, c] for c in s["clearances"]],
                                            lambda v: f"c {1e3 * v[0]:g} mm"),
@@ -664,16 +670,26 @@ def responses_figure(out, got, s):
                 kw = dict(color=f"C{k}", ls=styles.get(m, "--"), label=f"{lab(v)}, {m}")
                 axes[0, col].plot(r["t"], 1e3 * r["z"], **kw)
                 axes[1, col].plot(r["t"], r["vz"], lw=0.7, **kw)
-                axes[2, col].plot(r["t"], r["F"], lw=0.6, **kw)
+                axes[2, col].plot(r["t"], r["az"], lw=0.5, **kw)
+                axes[3, col].plot(r["t"], r["F"], lw=0.6, **kw)
+        for row_ in range(3):
+            for k, value in enumerate(PAPER_LINES[(row_, col)]):      # the paper's amplitudes, both signs
+                for sign in (1.0, -1.0):
+                    axes[row_, col].axhline(sign * value, color=f"C{k}", ls=(0, (1, 3)), lw=1.0)
+        axes[3, col].axhline(PAPER_FORCE_MAX, color="k", ls=(0, (1, 3)), lw=1.0)
         axes[0, col].set_title(("clearance sizes (mu_d 0.16)" if col == 0 else "friction at 0.1 mm")
-                               + ": solid energy model, dotted paper 003's", fontsize=10)
+                               + ": solid energy model, dotted paper 003's; sparse dots: the paper's printed "
+                               "amplitudes", fontsize=9)
         axes[0, col].legend(fontsize=7, ncol=2)
     axes[0, 0].set_ylabel("Z - Z0 [mm]")
     axes[1, 0].set_ylabel("Z velocity [m/s]")
-    axes[2, 0].set_ylabel("|contact force| [N]")
-    for ax in axes[2]:
+    axes[2, 0].set_ylabel("Z acceleration [m/s^2]\n(the integration's)")
+    axes[3, 0].set_ylabel("|contact force| [N]\n(paper's 408 N dotted)")
+    for ax in axes[3]:
         ax.set_xlabel("t [s]")
         ax.set_yscale("symlog", linthresh=100)
+    for ax in axes[2]:
+        ax.set_yscale("symlog", linthresh=1.0)
     fig.tight_layout()
     safeio.savefig(fig, out / "responses.png", dpi=90)
     plt.close(fig)

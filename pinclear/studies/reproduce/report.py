@@ -256,34 +256,44 @@ def convergence_table(title, checks, note=""):
 
 
 def bands_figure(rep, out, name="bands.png"):
-    """Every numeric row with a measured band, as its distance from the paper in units of the row's
-    tau, (value - paper) / tau on a symmetric-log axis (so a paper value of 0, as G's worst entry,
-    and signed values fit one axis): the band as a bar, ours as a dot, the paper's +- tau shaded
-    at [-1, 1]; None if there is none."""
-    rows = [r for r in rep["results"] if isinstance(r["ours"], float) and r["band_from"] and r["tau"] > 0
-            and r["verdict"] not in ("calibration", "not comparable")]
-    if not rows:
+    """Every row with a measured band. A numeric row as its distance from the paper in units of the
+    row's tau, (value - paper) / tau on a symmetric-log axis (so a paper value of 0, as G's worst
+    entry, and signed values fit one axis): the band as a bar, ours as a dot, the paper's +- tau
+    shaded at [-1, 1]. A categorical row (a kind of motion, an ordering) below them: a square at 0,
+    coloured by its class, and its band's kinds against the paper's written beside it. None if no
+    row has a band."""
+    banded = [r for r in rep["results"] if r["band_from"] and r["verdict"] not in ("calibration", "not comparable")]
+    rows = [r for r in banded if isinstance(r["ours"], float) and r["tau"] > 0]
+    kinds = [r for r in banded if isinstance(r["ours"], str)]
+    if not rows and not kinds:
         return None
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(12, 0.32 * len(rows) + 1.4))
+    n = len(rows) + len(kinds)
+    fig, ax = plt.subplots(figsize=(12, 0.32 * n + 1.4))
     ax.axvspan(-1.0, 1.0, color="0.85", lw=0)
+    colours = {"contradicted": "C3", "reproduced": "C2"}
     for i, r in enumerate(rows):
         p, t, (lo, hi) = r["paper"], r["tau"], r["band"]
-        colour = {"contradicted": "C3", "reproduced": "C2"}.get(r["verdict"], "C0")
+        colour = colours.get(r["verdict"], "C0")
         ax.plot([(lo - p) / t, (hi - p) / t], [i, i], color=colour, lw=4, solid_capstyle="butt")
         ax.plot([(r["ours"] - p) / t], [i], "o", ms=4, color=colour, mec="k", mew=0.6)
+    for i, r in enumerate(kinds, start=len(rows)):
+        ax.plot([0.0], [i], "s", ms=6, color=colours.get(r["verdict"], "C0"), mec="k", mew=0.6)
+        ax.annotate(f"{r['verdict']}: band {', '.join(map(str, r['band']))}; paper {r['paper']}", (0.0, i),
+                    textcoords="offset points", xytext=(8, -3), fontsize=7)
     ax.axvline(0.0, color="k", lw=0.8)
     ax.set_xscale("symlog", linthresh=1.0)
-    ax.set_yticks(range(len(rows)))
-    ax.set_yticklabels([r["name"][:80] for r in rows], fontsize=7)
+    ax.set_yticks(range(n))
+    ax.set_yticklabels([r["name"][:80] for r in rows + kinds], fontsize=7)
     ax.invert_yaxis()
-    fig.subplots_adjust(left=0.42, right=0.98, bottom=1.0 / (0.32 * len(rows) + 1.4), top=0.98)
+    fig.subplots_adjust(left=0.42, right=0.98, bottom=1.0 / (0.32 * n + 1.4), top=0.98)
     ax.set_xlabel("(ours - paper) / tau. Bar: our band over the varied inputs (red contradicted, green reproduced, "
-                  "blue undecided);\ndot: ours at the nominal inputs; grey: the paper's value +- tau", fontsize=8)
+                  "blue undecided);\ndot: ours at the nominal inputs; grey: the paper's value +- tau; square: a "
+                  "categorical row, its band's kinds beside it", fontsize=8)
     safeio.savefig(fig, Path(out) / name, dpi=90)
     plt.close(fig)
     return name
