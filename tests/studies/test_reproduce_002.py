@@ -46,9 +46,14 @@ def test_report_files_and_keys(report):
     papers = {r["paper"] for r in doc["results"]}
     assert {0.115, 0.616, 0.653, 0.512, 289.0, 581.0, 124.0, 330.0, 76.2, 90.7} <= papers
     assert all(r["group"] in doc["groups"] for r in doc["results"])
-    # the reconstructed linkage's own kinematics and the start-up landings are not the paper's quantities
+    # the ideal slider's four printed numbers chose the linkage (linkage002's fit): calibration, never counted; the
+    # start-up landings are not the paper's quantities; the clearance's shifts are predictions over the family
     by = {r["name"]: r for r in doc["results"]}
-    assert all(r["verdict"] == "not comparable" for r in doc["results"] if r["group"] in ("linkage", "startup"))
+    linkage = [r for r in doc["results"] if r["group"] == "linkage"]
+    assert len(linkage) == 4 and all(r["verdict"] == "calibration" and "fitted" in r["why"] for r in linkage)
+    assert all(r["verdict"] == "not comparable" for r in doc["results"] if r["group"] == "startup")
+    shift = [r for r in doc["results"] if r["group"] == "shift"]
+    assert len(shift) == 6 and all(r["verdict"] == "not measured" and "linkage family" in r["why"] for r in shift)
     assert by["A 0.5 mm impact force peak (paper at 0.018 s), ours over the run"]["band_from"]   # sensitivity runs
     assert by["the joint with the stronger chaos (larger Poincaré velocity spread at 0.8 mm)"]["paper"] == "A"
     # the bifurcation tables carry the paper's named values (0.01 and 0.8 mm; 2 pi and 3 pi)
@@ -63,7 +68,10 @@ def test_report_files_and_keys(report):
     assert "![bifurcation_clearance.png]" in md
     assert (out / "report.html").read_text().count("data:image/png;base64,") == len(doc["figures"])
     # the measured sensitivity: journal radius x K form (3 x 2 runs) and the longer 0.01 mm run
-    radius, start, long = doc["sensitivity"]
+    radius, start, long, family = doc["sensitivity"]
+    # the fit's family: 3 x 3 linkages over links 6 and 8, every one within 0.05 print precisions of the four numbers
+    assert family["title"].startswith("paper 002's linkage fitted") and len(family["rows"]) == 9
+    assert all(r[-2] < 0.05 and r[-1] >= 0.45 for r in family["rows"])
     # the start-eccentricity table: the centred run, then one run per direction whose assembled
     # start lies START_E off centre (assembly error ~ second order in 0.25 mm over ~0.1 m links)
     assert start["rows"][0][0].startswith("centred") and len(start["rows"]) == 1 + len(p002.START_ANGLES)
@@ -154,3 +162,24 @@ def test_bands_run_the_one_at_a_time_design_through_the_sweep_runner(tmp_path):
         lo, hi, what = got[key]
         assert lo <= rows["nominal"][col] <= hi and what.startswith("11 of 11 input sets")
     assert rows["journal radius = 0.005"][3] < rows["nominal"][3] < rows["journal radius = 0.02"][3]
+
+
+def test_a_longer_transients_class_replaces_the_shorter_in_the_rows():
+    """transient_check's rule wired into paper 002's rows: where the class read after 20 more
+    transient periods differs (a decaying orbit that fakes period-3 and settles to period-1,
+    tests/analysis/test_convergence.py), the rows use the longer transient's class and say so."""
+    from pinclear.analysis.convergence import transient_check
+
+    k = np.arange(100)
+    decaying = 1.0 + 0.5 * 0.85 ** k * np.cos(2.0 * k)
+    settled = 1.0 + 0.1 * (k % 2)
+    checks = {(1e-5, "A"): transient_check(decaying, extra=20, rtol=1e-4),
+              (1e-5, "B"): transient_check(settled, extra=20, rtol=1e-4)}
+    kinds = {1e-5: {"A": checks[(1e-5, "A")].short, "B": checks[(1e-5, "B")].short}}
+    s = {"transient cycles": 20, "cycles": 100}
+    note, trans = p002._apply_transient(kinds, checks, s, "clearance", lambda v: f"{1e3 * v:g} mm")
+    assert kinds[1e-5]["A"].kind == "period-1" and kinds[1e-5]["B"].kind == "period-2"
+    assert trans[1e-5] == "20 vs 40 transient periods: A: period-3 -> period-1, B: period-2"
+    assert note.startswith("clearance diagram, 20 vs 40 transient periods: transient check (+20 periods): 1 of 2")
+    assert "keep their kinds (the longer transient's kinds used)" in p002._moved_note(trans) \
+        and "0 of 1 values" in p002._moved_note(trans)
