@@ -243,16 +243,22 @@ def _html_table(columns, rows):
                                 for row in rows) + "</table>")
 
 
-def convergence_table(title, checks, note=""):
+def convergence_table(title, checks, note="", extra=None, extra_label=""):
     """A report table of output-step convergence checks ({run label: StepConvergence}, all on the
     same steps): per run and quantity the value at each output step, coarse to fine, the
-    relative change between the two finest and whether that is within the check's rtol."""
+    relative change between the two finest and whether that is within the check's rtol.
+    ``extra`` {run label: {quantity: value}}: one more column, ``extra_label`` (e.g. the
+    integration's own peak over the accepted steps); nan where it has no value."""
     first = next(iter(checks.values()))
-    rows = [[label, name, *vals, sc.changes[name][-1], "converged" if sc.converged[name] else "NOT converged"]
-            for label, sc in checks.items() for name, vals in sc.values.items()]
-    return {"title": title, "columns": ["run", "quantity", *(f"output step {1e3 * h:.3g} ms" for h in first.steps),
-                                        "last change", f"within {first.rtol:.0%}"],
-            "rows": rows, "note": note}
+    rows = []
+    for label, sc in checks.items():
+        for name, vals in sc.values.items():
+            more = [(extra.get(label) or {}).get(name, float("nan"))] if extra is not None else []
+            rows.append([label, name, *vals, *more, sc.changes[name][-1],
+                         "converged" if sc.converged[name] else "NOT converged"])
+    cols = ["run", "quantity", *(f"output step {1e3 * h:.3g} ms" for h in first.steps),
+            *([extra_label] if extra is not None else []), "last change", f"within {first.rtol:.0%}"]
+    return {"title": title, "columns": cols, "rows": rows, "note": note}
 
 
 def bands_figure(rep, out, name="bands.png"):
