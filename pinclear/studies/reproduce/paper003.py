@@ -143,14 +143,28 @@ def response(tr, mech, settle):
             "t": tr.t, "z": se.x - mod.Z0, "vz": se.xdot, "az": az, "F": F, "conv": conv}
 
 
+def _run_label(key):
+    """'clearance 0.1 mm, energy' / 'mu_d 0.05, paper003' for a response key (its overrides as strings)."""
+    import re
+
+    head = key[0]
+    mu = re.search(r"'mu_d': ([0-9.e-]+)", head)
+    if mu:
+        head = f"mu_d {mu.group(1)}"
+    else:
+        c = re.match(r"\[([0-9.e-]+),", head)
+        head = f"clearance {1e3 * float(c.group(1)):g} mm" if c else head
+    return ", ".join([head, *key[1:]])
+
+
 def convergence(got, s):
     """The output-step table of the clearance and friction runs' acceleration amplitudes and
     force peaks (each run's own samples, every k-th of them)."""
     checks = {}
-    for study, runs in got.items():
+    for runs in got.values():
         for key, r in runs.items():
             if r is not None and r.get("conv") is not None:
-                checks[f"{study} {', '.join(key)}"] = r["conv"]
+                checks[_run_label(key)] = r["conv"]
     if not checks:
         return None
     bad = [k for k, c in checks.items() if not c.all_converged]
@@ -206,6 +220,11 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     conv = convergence(got, s)
     if conv is not None:
         sens.append(conv)
+        bad = sorted({r[1].split(" [")[0] for r in conv["rows"] if r[-1] != "converged"})
+        if bad:
+            notes.append(f"not converged in the output step ({s['dt_out']:g} s; the output-step table): "
+                         + " and ".join(bad) + " of some runs: the rows read spikes between samples, a lower bound "
+                         "of the peak; a row they decide holds only where every grid of the table agrees")
     geo = geometry_tables(sw, got, s, path, ideal, notes)
     sens += geo["tables"]
     lever = lever_form(geo["tables"], sens[0], out)
