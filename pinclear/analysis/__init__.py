@@ -51,7 +51,8 @@ from pinclear.analysis.classify import (
                                         integration_rtol,
                                         settled_period,
 )
-from pinclear.analysis.convergence import StepConvergence, TransientCheck, step_convergence, transient_check
+from pinclear.analysis.convergence import (StepConvergence, TransientCheck, sampled_convergence, step_convergence,
+                                          transient_check)
 from pinclear.analysis.diagrams import BifurcationResult, BifurcationRun, bifurcation, signal_key
 from pinclear.analysis.lyapunov import (
                                         ChaosEvidence,
@@ -71,4 +72,5 @@ __all__ = ["CHAOS_THRESHOLD", "Classification", "chaos_01", "classify", "classif
            "section_times", "Series", "phase_portrait", "relative_rate", "series", "BifurcationResult",
            "BifurcationRun", "bifurcation", "signal_key", "LyapunovResult", "largest_lyapunov",
            "mechanism_lyapunov", "ChaosEvidence", "confirm_chaos", "CLEARANCE_FRACTION",
-           "batch_means_bound", "transient_check", "TransientCheck", "step_convergence", "StepConvergence"]
+           "batch_means_bound", "transient_check", "TransientCheck", "step_convergence", "StepConvergence",
+           "sampled_convergence"]

@@ -152,4 +152,28 @@ def step_convergence(measure, steps, rtol=0.01) -> StepConvergence:
     return StepConvergence(steps, values, changes, order, error, conv, float(rtol))
 
 
-__all__ = ["StepConvergence", "TransientCheck", "step_convergence", "transient_check", "transient_summary"]
+#: strides of :func:`sampled_convergence`, coarse to fine: no two consecutive ones nested (every
+#: 2nd sample holds every 1st's peak half the time, every 3rd's never wholly), so a spike's sampled
+#: peak cannot repeat by aliasing from one to the next; the finest is every 2nd sample, so the
+#: table judges grids of 3 and 2 output steps and the run's own grid (every sample) is finer still
+STRIDES = (10, 7, 5, 3, 2)
+
+
+def sampled_convergence(t, measure, strides=STRIDES, rtol=0.01) -> StepConvergence:
+    """:func:`step_convergence` of quantities read off one run's uniform samples ``t``:
+    ``measure(index)`` -> a number or {name: number} from the samples ``index`` (every k-th one,
+    k in ``strides``, coarse to fine), so one run gives the whole table (a quantity converged on
+    grids of 3 and 2 output steps is converged on the run's own, finer grid). The samples come from the integrator's dense output at steps the output grid does not
+    choose, so every k-th sample of a run at step dt is what a run at step k dt would record."""
+    t = np.asarray(t, float)
+    if len(t) < 2 * max(strides):
+        raise InputError(f"sampled_convergence: {len(t)} samples are too few for a stride of {max(strides)}")
+    dt = (t[-1] - t[0]) / (len(t) - 1)
+    if np.max(np.abs(np.diff(t) - dt)) > 1e-6 * dt:
+        raise InputError("sampled_convergence: the samples are not uniform in time")
+    by_step = {k * dt: np.arange(0, len(t), k) for k in strides}
+    return step_convergence(lambda h: measure(by_step[h]), list(by_step), rtol)
+
+
+__all__ = ["STRIDES", "StepConvergence", "TransientCheck", "sampled_convergence", "step_convergence",
+           "transient_check", "transient_summary"]

@@ -14,9 +14,11 @@ paper's, the frame is body 5 (its length L5 is the distance between the crank pi
 Cranks 1 and 4 are driven (n23, n24): theta1 = omega1 t + 146.9 deg, theta4 = omega4 t + 28 deg,
 omega1 = 2 pi, omega4 = -2 pi rad/s. The paper's Tables 1-4 (dimensions, masses) were lost, so
 every dimension below is reconstructed (see ``PARAMETER_SOURCES``): chosen so that the five-bar
-stays fully rotatable (L2 + L3 > L5 + L1 + L4 and |L2 - L3| < L5 - L1 - L4) and that along the
-paper's drive law (indeed for every pair of crank angles) no dyad comes near a stretched or
-folded position.
+stays fully rotatable (L2 + L3 > L5 + L1 + L4 and |L2 - L3| < L5 - L1 - L4), that along the
+paper's drive law no dyad comes within 27 deg of a stretched or folded position (transmission
+sines >= 0.45; every other pair of crank angles assembles too), and that the ideal slider hits
+the peaks sec. 3.2 prints: L1, L4, Hx, Hy are fitted to them (pinclear.studies.reproduce.linkage002,
+which also gives the family of linkages that hit them as well).
 
 Motion is in the x-y plane, every revolute axis is z, gravity acts along -y.
 
@@ -69,40 +71,43 @@ DRIVES = {"crank1_drive": "O1", "crank4_drive": "O4"}
 class Dimensions:
     """Pin-to-pin lengths (m), angles (rad) and cross-sections of the reconstructed linkage."""
 
-    L1: float = 0.10        # crank 1, O1-A (= 2 Ls1)
-    L2: float = 0.30        # coupler 2, A-C (= 2 Ls2)
-    L3: float = 0.30        # link 3, B-C (= 2 Ls3)
-    L4: float = 0.10        # crank 4, O4-B (= 2 Ls4)
-    L5: float = 0.35        # frame, O1-O4
-    L6: float = 0.40        # link 6, D-C (= 2 Ls6)
-    L71: float = 0.30       # plate 7, H-D
-    L72: float = 0.18       # plate 7, H-E
-    beta: float = math.radians(120.0)   # plate 7, angle D-H-E
-    L8: float = 0.40        # link 8, E-F (= 2 Ls8)
-    Hx: float = 0.50        # plate pivot H and slider guide line y = Hy
-    Hy: float = 0.55
+    L1: float = 0.1013478   # crank 1, O1-A (= 2 Ls1)
+    L2: float = 0.285       # coupler 2, A-C (= 2 Ls2)
+    L3: float = 0.420       # link 3, B-C (= 2 Ls3)
+    L4: float = 0.1247286   # crank 4, O4-B (= 2 Ls4)
+    L5: float = 0.440       # frame, O1-O4
+    L6: float = 0.380       # link 6, D-C (= 2 Ls6)
+    L71: float = 0.315      # plate 7, H-D
+    L72: float = 0.280      # plate 7, H-E
+    beta: float = math.radians(95.0)    # plate 7, angle D-H-E
+    L8: float = 0.440       # link 8, E-F (= 2 Ls8)
+    Hx: float = 0.5773995   # plate pivot H and slider guide line y = Hy
+    Hy: float = 0.3910211
     bar_width: float = 0.025      # in-plane width of every bar
     thickness: float = 0.010      # out-of-plane thickness of bars and plate
     slider: tuple = (0.060, 0.040, 0.030)   # slider block along x, y, z
     branch_C: int = 1       # C to the left of A->B (above the cranks)
-    branch_D: int = -1      # D to the right of H->C
+    branch_D: int = 1       # D to the left of H->C
 
 
 DIMS = Dimensions()
 
+_FITTED = ("fitted: with L1, L4, Hx, Hy to paper 002's printed ideal slider peaks (sec. 3.2: 0.115 m at "
+           "0.616 s, 0.653 m/s at 0.512 s; pinclear.studies.reproduce.linkage002)")
+_FAMILY = "reconstructed: spans the family of linkages that hit the printed peaks (pinclear.studies.reproduce.linkage002)"
 PARAMETER_SOURCES = {
-    "L1": "reconstructed: crank O1-A; one third of the coupler so the five-bar is fully rotatable",
-    "L4": "reconstructed: crank O4-B equal to crank 1 (the paper drives both at the same speed)",
-    "L2": "reconstructed: coupler A-C; L2+L3 = 0.60 > L5+L1+L4 = 0.55, so A-C-B never stretches",
-    "L3": "reconstructed: link B-C equal to L2; |L2-L3| = 0 < L5-L1-L4 = 0.15, so it never folds",
-    "L5": "reconstructed: pivot distance O1-O4; balances the five-bar's transmission angles",
-    "L6": "reconstructed: link D-C; near-vertical so C's vertical travel swings plate 7 (~51 deg)",
+    "L1": _FITTED + "; crank O1-A",
+    "L4": _FITTED + "; crank O4-B (the five-bar's asymmetry sets the peaks' instants)",
+    "L2": "reconstructed: coupler A-C; L2+L3 = 0.705 > L5+L1+L4 = 0.666, so A-C-B never stretches",
+    "L3": "reconstructed: link B-C; |L2-L3| = 0.135 < L5-L1-L4 = 0.214, so it never folds",
+    "L5": "reconstructed: pivot distance O1-O4",
+    "L6": _FAMILY + "; link D-C, 0.30-0.46 m",
     "L71": "reconstructed: plate side H-D (eq. 15 uses only the derived Ls71, Ls72, beta1, beta2)",
-    "L72": "reconstructed: plate side H-E (named in n19, n20)",
-    "beta": "reconstructed: plate angle D-H-E (n17..n20); puts E below the guide line",
-    "L8": "reconstructed: link E-F; |E_y - Hy| < 0.18 m keeps it far from perpendicular to the guide",
-    "Hx": "reconstructed: plate pivot H; link 6's transmission angle stays in 56..124 deg for all crank angles",
-    "Hy": "reconstructed: height of H and of the slider guide (n16, n21: guide passes through H)",
+    "L72": "reconstructed: plate side H-E (named in n19, n20); sets the stroke with Hx, Hy",
+    "beta": "reconstructed: plate angle D-H-E (n17..n20)",
+    "L8": _FAMILY + "; link E-F, 0.40-0.48 m",
+    "Hx": _FITTED + "; plate pivot H",
+    "Hy": _FITTED + "; height of H and of the slider guide (n16, n21: guide passes through H)",
     "bar_width": "reconstructed: steel flat bar 25 mm x 10 mm (paper: 'each rod is a homogeneous rod')",
     "thickness": "reconstructed: 10 mm steel plate and bars",
     "slider": "reconstructed: steel block 60 x 40 x 30 mm",
@@ -209,6 +214,37 @@ def positions(theta1: float, theta4: float, d: Dimensions = DIMS) -> dict:
     return {"x": x, "points": {"A": A, "B": B, "C": C, "D": D, "E": E, "F": F, "H": H,
                                "O1": O1, "O4": O4},
             "sines": np.array([s_c, s_d, cos8]), "tree": tree}
+
+
+def _meet(P, r1, Q, r2, side):
+    """Vectorised ``_circle_intersection`` over rows of P, Q (n, 2): the points X (n, 2) and the
+    sines of the dyads' transmission angles (n,); NaN where a dyad cannot close."""
+    d = Q - P
+    dd = np.hypot(d[:, 0], d[:, 1])
+    a = (r1 * r1 - r2 * r2 + dd * dd) / (2.0 * dd)
+    h2 = r1 * r1 - a * a
+    h = np.sqrt(np.where(h2 >= 0.0, h2, np.nan))
+    u = d / dd[:, None]
+    X = P + a[:, None] * u + side * h[:, None] * np.stack([-u[:, 1], u[:, 0]], axis=1)
+    return X, dd * h / (r1 * r2)
+
+
+def slider_positions(theta1, theta4, d: Dimensions = DIMS):
+    """Slider 9's x (the pin F) and the smallest of the three dyad sines, for arrays of crank
+    angles: ``positions``'s chain A, B -> C -> D -> E -> F for many instants at once (the fit
+    of pinclear.studies.reproduce.linkage002 evaluates it thousands of times). NaN where a
+    dyad cannot close."""
+    th1, th4 = np.atleast_1d(np.asarray(theta1, float)), np.atleast_1d(np.asarray(theta4, float))
+    A = d.L1 * np.stack([np.cos(th1), np.sin(th1)], axis=1)
+    B = np.array([d.L5, 0.0]) + d.L4 * np.stack([np.cos(th4), np.sin(th4)], axis=1)
+    C, s_c = _meet(A, d.L2, B, d.L3, d.branch_C)
+    H = np.broadcast_to(np.array([d.Hx, d.Hy]), C.shape)
+    D, s_d = _meet(H, d.L71, C, d.L6, d.branch_D)
+    th7 = np.arctan2(D[:, 1] - d.Hy, D[:, 0] - d.Hx)
+    Ex, Ey = d.Hx + d.L72 * np.cos(th7 + d.beta), d.Hy + d.L72 * np.sin(th7 + d.beta)
+    r = (d.Hy - Ey) / d.L8
+    cos8 = np.sqrt(np.where(np.abs(r) < 1.0, 1.0 - r * r, np.nan))
+    return Ex + d.L8 * cos8, np.minimum(np.minimum(s_c, s_d), cos8)
 
 
 def paper_constraints(x: np.ndarray, t: float, d: Dimensions = DIMS,

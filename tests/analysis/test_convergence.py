@@ -76,3 +76,27 @@ def test_step_convergence_finds_the_trapezoid_rules_order_and_error():
         step_convergence(lambda h: 1.0, [1e-3, 2e-3])          # fine to coarse
     with pytest.raises(InputError):
         step_convergence(lambda h: 1.0, [1e-3])
+
+
+def test_sampled_convergence_reads_coarser_grids_off_one_run():
+    """A 5 ms spike (a half-sine of 5 ms, peak 1 at t = 0.30015 s) sampled every 1e-4 s: every k-th
+    sample is the grid of step k x 1e-4 s, whose largest sample is cos(pi d / 5 ms) for d the
+    distance of its nearest sample to the crest. Each value equals that closed form; the two
+    finest (every 3rd, 2nd sample: d = 1.5e-4 and 0.5e-4 s) give 0.99556 and 0.99951, a change
+    of 0.4 %: the check passes at 1 % and fails at 0.01 %."""
+    from pinclear.analysis.convergence import STRIDES, sampled_convergence
+
+    t = np.arange(0.0, 0.6 + 1e-12, 1e-4)
+    t0, w = 0.30015, 5e-3
+    y = np.where(np.abs(t - t0) < w / 2, np.cos(np.pi * (t - t0) / w), 0.0)
+    sc = sampled_convergence(t, lambda i: float(np.max(y[i])), rtol=0.01)
+    for k, v in zip(STRIDES, sc.values["value"]):
+        d = np.min(np.abs(t[::k] - t0))
+        assert v == pytest.approx(np.cos(np.pi * d / w), abs=1e-12)
+    assert sc.steps == pytest.approx([k * 1e-4 for k in STRIDES])
+    assert sc.converged["value"]
+    assert not sampled_convergence(t, lambda i: float(np.max(y[i])), rtol=1e-4).converged["value"]
+    with pytest.raises(InputError, match="not uniform"):
+        sampled_convergence(np.append(t, 0.7), lambda i: 0.0)
+    with pytest.raises(InputError, match="too few"):
+        sampled_convergence(t[:5], lambda i: 0.0)

@@ -70,6 +70,13 @@ def test_paper000_reduced_run_contact_force_balances_the_ideal_joint_load(tmp_pa
     assert force["contact force mean, mu 0.1"]["verdict"] not in ("calibration", "not comparable")
     assert {c["key"] for c in rep["claims"]} == set(paper000.CLAIMS)
     assert set(rep["classification"]) == {"mu", "clearance"}
+    # the output-step table: the force's extremes and span and the platform's acceleration peak on every 10th..2nd
+    # sample; each coarser grid's span is a span of a subset of the row's samples, so at most the row's
+    conv = next(tb for tb in rep["sensitivity"] if tb["title"].startswith("output-step convergence"))
+    assert [r[1] for r in conv["rows"]] == ["force min [N]", "force max [N]", "force span [N]",
+                                            "platform acceleration peak [m/s^2]"]
+    span = next(r["ours"] for r in rep["results"] if r["name"] == "contact force span (max - min), mu 0.1")
+    assert all(0 < v <= span + 1e-12 for v in conv["rows"][2][2:7])
 
     ideal = pinclear.load("four_ups_upu")
     t = np.linspace(0.0, T, 1001)[:-1]          # the reaction is T-periodic: one period, uniform
@@ -93,7 +100,7 @@ def test_paper003_reduced_run_z_deviation_grows_with_the_clearance(tmp_path):
     ratio must lie in [1.5, 2.2]; the ideal run stays on Z0 to 1e-8 m."""
     rep = paper003.run(tmp_path, quick=True, workers=1,
                        settings={"t_end": 0.05, "clearances": [1e-4, 2e-4], "mus": [0.05], "models": ["energy"],
-                                 "lengths": [], "lever_shifts": [], "fig8_clearance": None})
+                                 "lengths": [], "lever_shifts": [], "fig8_clearance": None, "settle": 0.02})
     _check_files(rep, tmp_path)
     rows = {r["name"]: r for r in rep["results"]}
     assert rows["largest contact force in the prismatic joint (friction study), energy model"]["verdict"] == \
@@ -106,8 +113,15 @@ def test_paper003_reduced_run_z_deviation_grows_with_the_clearance(tmp_path):
     assert all(r["verdict"] == "not comparable" for r in fig9 if r not in dev)
     assert {c["key"] for c in rep["claims"]} == set(paper003.CLAIMS)
     assert next(c for c in rep["claims"] if c["key"] == "003-size")["verdict"] == "contradicted"
-    (models,) = rep["sensitivity"]
+    models, conv = rep["sensitivity"]
     assert {r[1] for r in models["rows"]} == {"energy"} and len(models["rows"]) == 3
+    # the output-step table: each clearance and friction run, its acceleration amplitude and force peak read off
+    # every 10th, 7th, 5th, 3rd and 2nd sample; each value a peak of the rows' samples, so at most the row's value
+    assert conv["title"].startswith("output-step convergence") and len(conv["rows"]) == 2 * 3
+    acc = {r["name"]: r["ours"] for r in rep["results"] if "acceleration amplitude" in r["name"]}
+    for r in conv["rows"]:
+        assert all(0 < v for v in r[2:7]) and r[8] in ("converged", "NOT converged")
+    assert max(r[6] for r in conv["rows"] if r[1].startswith("acceleration")) <= max(acc.values())
     ideal, grow = rep["checks"]
     assert ideal["z_dev_m"] < 1e-8
     assert grow["monotonic"]

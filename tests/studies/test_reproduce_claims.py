@@ -71,6 +71,12 @@ def test_bands_figure_draws_every_banded_row_even_a_paper_value_of_zero(tmp_path
     assert bands_figure({"results": rows}, tmp_path) == "bands.png"
     assert (tmp_path / "bands.png").stat().st_size > 5_000
     assert bands_figure({"results": rows[2:]}, tmp_path, name="none.png") is None
+    # a categorical row with a measured band (the kinds over the varied inputs) is drawn too, alone if need be
+    kind = row("motion at 0.8 mm", "motion kind", "chaotic", "chaotic", band=["chaotic", "period-1"],
+               band_from="inputs")
+    assert kind["verdict"] == "undecided"
+    assert bands_figure({"results": rows[2:] + [kind]}, tmp_path, name="kinds.png") == "kinds.png"
+    assert (tmp_path / "kinds.png").stat().st_size > 5_000
 
 
 def test_run_record_counts_the_worker_processes_cpu():

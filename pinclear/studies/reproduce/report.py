@@ -252,35 +252,63 @@ def _html_table(columns, rows):
                                 for row in rows) + "</table>")
 
 
+def convergence_table(title, checks, note="", extra=None, extra_label=""):
+    """A report table of output-step convergence checks ({run label: StepConvergence}, all on the
+    same steps): per run and quantity the value at each output step, coarse to fine, the
+    relative change between the two finest and whether that is within the check's rtol.
+    ``extra`` {run label: {quantity: value}}: one more column, ``extra_label`` (e.g. the
+    integration's own peak over the accepted steps); nan where it has no value."""
+    first = next(iter(checks.values()))
+    rows = []
+    for label, sc in checks.items():
+        for name, vals in sc.values.items():
+            more = [(extra.get(label) or {}).get(name, float("nan"))] if extra is not None else []
+            rows.append([label, name, *vals, *more, sc.changes[name][-1],
+                         "converged" if sc.converged[name] else "NOT converged"])
+    cols = ["run", "quantity", *(f"output step {1e3 * h:.3g} ms" for h in first.steps),
+            *([extra_label] if extra is not None else []), "last change", f"within {first.rtol:.0%}"]
+    return {"title": title, "columns": cols, "rows": rows, "note": note}
+
+
 def bands_figure(rep, out, name="bands.png"):
-    """Every numeric row with a measured band, as its distance from the paper in units of the row's
-    tau, (value - paper) / tau on a symmetric-log axis (so a paper value of 0, as G's worst entry,
-    and signed values fit one axis): the band as a bar, ours as a dot, the paper's +- tau shaded
-    at [-1, 1]; None if there is none."""
-    rows = [r for r in rep["results"] if isinstance(r["ours"], float) and r["band_from"] and r["tau"] > 0
-            and r["verdict"] not in ("calibration", "not comparable")]
-    if not rows:
+    """Every row with a measured band. A numeric row as its distance from the paper in units of the
+    row's tau, (value - paper) / tau on a symmetric-log axis (so a paper value of 0, as G's worst
+    entry, and signed values fit one axis): the band as a bar, ours as a dot, the paper's +- tau
+    shaded at [-1, 1]. A categorical row (a kind of motion, an ordering) below them: a square at 0,
+    coloured by its class, and its band's kinds against the paper's written beside it. None if no
+    row has a band."""
+    banded = [r for r in rep["results"] if r["band_from"] and r["verdict"] not in ("calibration", "not comparable")]
+    rows = [r for r in banded if isinstance(r["ours"], float) and r["tau"] > 0]
+    kinds = [r for r in banded if isinstance(r["ours"], str)]
+    if not rows and not kinds:
         return None
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(12, 0.32 * len(rows) + 1.4))
+    n = len(rows) + len(kinds)
+    fig, ax = plt.subplots(figsize=(12, 0.32 * n + 1.4))
     ax.axvspan(-1.0, 1.0, color="0.85", lw=0)
+    colours = {"contradicted": "C3", "reproduced": "C2"}
     for i, r in enumerate(rows):
         p, t, (lo, hi) = r["paper"], r["tau"], r["band"]
-        colour = {"contradicted": "C3", "reproduced": "C2"}.get(r["verdict"], "C0")
+        colour = colours.get(r["verdict"], "C0")
         ax.plot([(lo - p) / t, (hi - p) / t], [i, i], color=colour, lw=4, solid_capstyle="butt")
         ax.plot([(r["ours"] - p) / t], [i], "o", ms=4, color=colour, mec="k", mew=0.6)
+    for i, r in enumerate(kinds, start=len(rows)):
+        ax.plot([0.0], [i], "s", ms=6, color=colours.get(r["verdict"], "C0"), mec="k", mew=0.6)
+        ax.annotate(f"{r['verdict']}: band {', '.join(map(str, r['band']))}; paper {r['paper']}", (0.0, i),
+                    textcoords="offset points", xytext=(8, -3), fontsize=7)
     ax.axvline(0.0, color="k", lw=0.8)
     ax.set_xscale("symlog", linthresh=1.0)
-    ax.set_yticks(range(len(rows)))
-    ax.set_yticklabels([r["name"][:80] for r in rows], fontsize=7)
+    ax.set_yticks(range(n))
+    ax.set_yticklabels([r["name"][:80] for r in rows + kinds], fontsize=7)
     ax.invert_yaxis()
-    fig.subplots_adjust(left=0.42, right=0.98, bottom=1.0 / (0.32 * len(rows) + 1.4), top=0.98)
+    fig.subplots_adjust(left=0.42, right=0.98, bottom=1.0 / (0.32 * n + 1.4), top=0.98)
     ax.set_xlabel("(ours - paper) / tau. Bar: our band over the varied inputs (red contradicted, green reproduced, "
-                  "blue undecided);\ndot: ours at the nominal inputs; grey: the paper's value +- tau", fontsize=8)
+                  "blue undecided);\ndot: ours at the nominal inputs; grey: the paper's value +- tau; square: a "
+                  "categorical row, its band's kinds beside it", fontsize=8)
     safeio.savefig(fig, Path(out) / name, dpi=90)
     plt.close(fig)
     return name
@@ -327,7 +355,7 @@ def write_report(rep, out):
                       + "</title>" + "\n".join(body))
 
 
-__all__ = ["CLAIM_VERDICTS", "CLASSES", "claim", "claim_verdict", "claims_markdown", "header", "markdown", "run_record",
+__all__ = ["CLAIM_VERDICTS", "CLASSES", "claim", "claim_verdict", "claims_markdown", "convergence_table", "header", "markdown", "run_record",
            "sensitivity_markdown", "started_now", "versions", "write_report"]
 
 
