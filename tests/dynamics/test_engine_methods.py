@@ -118,11 +118,12 @@ def _lstsq(A, b):
     return np.linalg.lstsq(A, b, rcond=1e-12)[0]
 
 
-def _off_manifold(mech, seed, size):
-    """A consistent state moved off the manifold by ``size`` in q and v (random directions)."""
+def _off_manifold(mech, seed, size, t=0.0):
+    """A state consistent at time ``t`` (the drives' rows depend on it) moved off the manifold by
+    ``size`` in q and v (random directions)."""
     rng = np.random.default_rng(seed)
-    q = kinematics.assemble(mech, pin.integrate(mech.model, mech.q0, 0.05 * rng.standard_normal(mech.nv)))
-    v = kinematics.consistent_velocity(mech, q, rng.standard_normal(mech.nv))
+    q = kinematics.assemble(mech, pin.integrate(mech.model, mech.q0, 0.05 * rng.standard_normal(mech.nv)), t=t)
+    v = kinematics.consistent_velocity(mech, q, rng.standard_normal(mech.nv), t=t)
     return q + size * rng.standard_normal(mech.nv), v + size * rng.standard_normal(mech.nv)
 
 
@@ -154,7 +155,7 @@ def test_projection_equals_the_numpy_projection(scene, method):
         solve = _lstsq
     for seed in range(3):
         t = 0.13 * seed
-        q, v = _off_manifold(mech, seed, 1e-6)
+        q, v = _off_manifold(mech, seed, 1e-6, t)
         q1, v1 = form.project(t, q.copy(), v.copy())
         q_ref, v_ref, J, M = _reference_projection(mech, rows, t, q, v, form.opts["tol"], form.opts["max_iter"], solve)
         sv = np.linalg.svd(J, compute_uv=False)

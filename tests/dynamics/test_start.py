@@ -108,7 +108,10 @@ def test_state_start_keeps_given_state(nine_a, tmp_path, sim):
     ws = nine_a.workspace()
     J = kinematics.jacobian(nine_a, ws, q, 0.0, with_drives=True)
     null = np.linalg.svd(J)[2][np.linalg.matrix_rank(J):]
-    q_off = pin.integrate(nine_a.model, q, 2e-3 * null[0])
+    # a step along the free direction sized to put the journal at a quarter of the clearance (the
+    # offset is linear in a small step; the fitted linkage's lever ratio sets its scale)
+    e_unit = np.linalg.norm(_journal_relative(nine_a, pin.integrate(nine_a.model, q, 1e-5 * null[0]), v)[0][:2]) / 1e-5
+    q_off = pin.integrate(nine_a.model, q, 0.25 * nine_a.clearances[0].c / e_unit * null[0])
     e_off = np.linalg.norm(_journal_relative(nine_a, q_off, v)[0][:2])
     assert 1e-5 < e_off < 0.5e-3                       # inside the clearance, off centre
     np.savez(tmp_path / "s.npz", q=q_off, v=v)
