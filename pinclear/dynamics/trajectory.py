@@ -477,9 +477,12 @@ class Trajectory:
 
         def pick(family, name, samples):
             rec = (pk.get(family) or {}).get(name)
-            if isinstance(rec, dict) and rec.get("t") is not None and rec["t"] >= t_from:
-                return rec["value"], rec["t"], "integration"
             value, t = window_peak(self.t, samples, t_from=t_from) if samples is not None else (None, None)
+            if isinstance(rec, dict) and rec.get("t") is not None and rec["t"] >= t_from:
+                # the accepted steps' peak, unless an output sample between two steps (dense output)
+                # came closer to the peak between them: the peak is over every evaluated point
+                if value is None or not np.isfinite(value) or value <= rec["value"]:
+                    return rec["value"], rec["t"], "integration"
             return (None, None, None) if value is None or not np.isfinite(value) else (value, t, "samples")
 
         drives = list(pk.get("drive_forces") or {}) or [
@@ -509,7 +512,8 @@ class Trajectory:
         description with ``peak_normal_force`` N and ``t_peak`` s), the same as
         ``contact_force_peaks`` {clearance: N} and ``contact_force_peak_times``, and ``peaks_from``:
         "integration" (over the accepted steps, pinclear.dynamics.stepping.peaks: independent of the
-        output grid) or "samples" (a run saved before the peaks were recorded).
+        output grid; a drive force sampled above its steps' peak gives the sample's) or "samples"
+        (a run saved before the peaks were recorded).
 
         Returns
         -------
@@ -520,6 +524,15 @@ class Trajectory:
         pk = self.stats.get("peaks")
         if isinstance(pk, dict):
             drives, acc, contact = (dict(pk.get(k) or {}) for k in ("drive_forces", "accelerations", "contact_forces"))
+            from pinclear.dynamics.stepping.peaks import window_peak
+
+            # the steps' drive-force peaks see the accepted states only: an output sample between
+            # two long steps (dense output) can come closer to the peak between them
+            for k, r in drives.items():
+                if r is not None and len(self.t) and k in self.lam:
+                    v, t = window_peak(self.t, self.lam[k])
+                    if np.isfinite(v) and v > r["value"]:
+                        drives[k] = {"value": v, "t": t}
             clr = [dict(c, peak_normal_force=(contact.get(c.get("name")) or {}).get("value"),
                         t_peak=(contact.get(c.get("name")) or {}).get("t")) for c in self.stats.get("clearances", [])]
             return {"peaks_from": "integration",

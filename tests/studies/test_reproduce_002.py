@@ -53,7 +53,7 @@ def test_report_files_and_keys(report):
     assert len(linkage) == 4 and all(r["verdict"] == "calibration" and "fitted" in r["why"] for r in linkage)
     assert all(r["verdict"] == "not comparable" for r in doc["results"] if r["group"] == "startup")
     shift = [r for r in doc["results"] if r["group"] == "shift"]
-    assert len(shift) == 6 and all(r["verdict"] == "not measured" and "linkage family" in r["why"] for r in shift)
+    assert len(shift) == 6 and all(r["verdict"] == "not measured" and "fitted family" in r["why"] for r in shift)
     assert by["A 0.5 mm impact force peak (paper at 0.018 s), ours over the run"]["band_from"]   # sensitivity runs
     assert by["the joint with the stronger chaos (larger Poincaré velocity spread at 0.8 mm)"]["paper"] == "A"
     # the bifurcation tables carry the paper's named values (0.01 and 0.8 mm; 2 pi and 3 pi)
