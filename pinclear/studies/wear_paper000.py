@@ -7,8 +7,9 @@ effect on dynamic characteristics"), run on pinclear's lubricated spherical join
 The 4UPS-UPU of paper 000 (urdf/four_ups_upu.yaml; masses and platform joint angles reconstructed,
 docs/papers.md) with its clearance at S2 (c = 0.5 mm, ball radius 20 mm, mu 0.1, the sidecar's dry
 law: Lankarani-Nikravesh with K as printed, modified Coulomb), once dry (the new joint) and once
-filled with oil at each of VISCOSITIES (a decade), the film blended into the same dry law below the
-asperity height. Per case, over the last ``window`` periods of the platform's law: the joint force
+filled with oil at each of VISCOSITIES (a decade), the mixed film (pinclear.contact.mixed: the film
+down to contact, Greenwood-Tripp asperities sharing the load for film parameters below 3) beside
+the same dry law at solid contact. Per case, over the last ``window`` periods of the platform's law: the joint force
 band (dry contact + film, raw and its T/20 moving average as the reproduction reads it), the share of
 time in asperity contact, the film's dissipation, and the platform's deviation from its motion law.
 The worn case: S2 worn over WEAR_CYCLES (Archard, WEAR_S2: k and H stated, paper 000 gives none) by
@@ -54,7 +55,7 @@ def _settings(quick, smoke=False):
         return {**_settings(True), "periods": 1, "wear cycles": 16.0, "wear first updates": 2, "wear max rounds": 2,
                 "smoke": True}
     return {"periods": 3 if quick else 54, "window": 1 if quick else 4, "dt_out [s]": 2e-3, "mu": MU,
-            "viscosities [Pa s]": list(VISCOSITIES), "asperity": "0.02 x clearance (10 um), band 10 um (defaults)",
+            "viscosities [Pa s]": list(VISCOSITIES), "roughness": "combined sigma 0.3 um, Greenwood-Tripp asperities (defaults, pinclear.contact.mixed)",
             "wear": WEAR_S2, "wear cycles": WEAR_CYCLES[0 if quick else 1], "wear first updates": 16,
             "wear max rounds": 4 if quick else 6, "wear tol": 0.05, "wear dt_out [s]": 1e-3, "quick": quick}
 
@@ -194,13 +195,12 @@ def _findings(rows):
     if resting and dry["status"] == "success":
         first = next(r for r in rows[1:] if r["case"] == resting[0])
         ratio = first["platform_um"]["z"] / dry["platform_um"]["z"]
-        lines += ["", f"Reading ({', '.join(resting)}): the ball rests on its asperities all through the "
-                  "window. The squeeze film cannot hold S2's steady one-sided load (it only slows the approach), and "
-                  "the wedge of the ball's spin relative to its socket (the limbs' slow swing) does not lift it: the "
-                  "oiled joint runs as a dry joint of clearance c - asperity. Its platform deviation "
-                  f"({resting[0]}) is {ratio:.3f} of the dry joint's (Z), close to (c - asperity) / c = 0.49 / 0.50 "
-                  "mm. The raw spans differ from the dry joint's by the impact ringing of each history, not by the "
-                  "oil (the film is faded out); the oil shows in the landing."]
+        lines += ["", f"Reading ({', '.join(resting)}): the asperities carry the load through the window (asperity "
+                  "share above 99 %, film weight below 1 %): the squeeze film slows the approach but does not hold "
+                  "S2's steady one-sided load, and the ball's slow spin relative to its socket builds no wedge that "
+                  f"lifts it. Its platform deviation ({resting[0]}) is {ratio:.3f} of the dry joint's (Z). (The round "
+                  "before the mixed film explained this ratio by an asperity height of 0.02 c; that model is "
+                  "withdrawn: the film now carries load down to contact, pinclear.contact.mixed.)"]
     return lines
 
 
@@ -241,8 +241,8 @@ def _report(s, rows, cpu):
              f"doubled up to {s['wear max rounds']} trials, tol {s['wear tol']:.0%}); worn socket: depth_map_S2.png, "
              "growth.png, profile.csv, history.csv.", "",
              f"S2: c = 0.5 mm, ball radius 20 mm, friction mu = {s['mu']} (modified Coulomb), Lankarani-Nikravesh "
-             f"with K as printed (the sidecar's dry law, also below the asperity height of the oiled joint); asperity "
-             f"{s['asperity']}. Each case runs {s['periods']} periods of {T:g} s from the sidecar's start and is read "
+             f"with K as printed (the sidecar's dry law, also the oiled joint's law at solid contact); roughness "
+             f"{s['roughness']}. Each case runs {s['periods']} periods of {T:g} s from the sidecar's start and is read "
              f"over the last {s['window']}; force = |dry contact + film| at S2, averaged band over {SMOOTH:.2g} s "
              "windows (as docs/reproduce/000 reads it); platform deviation = max |position - law| over the window.",
              "", "| case | status | force raw min-max [N] | averaged band [N] | mean [N] | asperity contact [%] | "
@@ -263,8 +263,8 @@ def _report(s, rows, cpu):
             f"{r['cpu_s']:.0f} |")
     lines += ["", "Findings (from the table above, this run; quick mode: a short transient, read as a first look):",
               ""] + _findings(rows)
-    lines += ["", f"CPU of the whole study: {cpu:.0f} s (one core; the lubricated joint evaluates in Python, the "
-              "dry one compiled, the worn one compiled; the worn case's CPU includes its wear run). Not run here: "
+    lines += ["", f"CPU of the whole study: {cpu:.0f} s (one core; the dry, mixed-film and worn joints all "
+              "compiled, the oiled cases integrated with BDF (benchmarks/lubrication.md); the worn case's CPU includes its wear run). Not run here: "
               "the bifurcation diagrams in mu and clearance with oil or wear.", ""]
     return "\n".join(lines)
 
