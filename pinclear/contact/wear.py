@@ -202,6 +202,16 @@ def block_increment(wm: WearModel, name, traj):
                            trapezoid_weights(traj.t))
 
 
+def spline_bounds(coef):
+    """(span, top): the range max - min and the maximum of the profile's spline (coefficients
+    ``coef``, spline_coefficients), sampled 8 times a cell with a 5 % margin: the contact search's
+    window (worn_geometry.search_half_angle) needs bounds, not values."""
+    x = np.linspace(0.0, 2.0 * math.pi / len(coef), 9)
+    v = ((coef[:, :1] * x + coef[:, 1:2]) * x + coef[:, 2:3]) * x + coef[:, 3:4]
+    lo, hi = float(v.min()), float(v.max())
+    return 1.05 * (hi - lo), hi + 0.025 * (hi - lo)
+
+
 def spline_coefficients(depth):
     """(N, 4) coefficients (highest power first, local in each cell) of the periodic cubic spline
     through the node depths: the worn profile the kernel evaluates (C2, exact at the nodes)."""
@@ -216,11 +226,15 @@ def spline_coefficients(depth):
 
 # ------------------------------------------------------------------ the worn joint
 class WornData(ClearanceData):
-    """ClearanceData plus the workspace's own weight array of the normal law (|grad delta|)."""
+    """ClearanceData plus the workspace's own weight array of the normal law and the contact
+    search's work rows."""
 
     def __init__(self, nc, nfs):
         super().__init__(nc, nfs)
         self.W = np.ones(nc)
+        # rows 4-6: the contact search's candidates (contact.worn_geometry), no allocation per call
+        self.scratch = np.zeros((7, 3))
+        self.channels = self.channels._replace(scratch=self.scratch)
 
 
 class WornJoint:
@@ -241,17 +255,26 @@ class WornJoint:
     def outputs(self, mech, ws, d, t, q, v, z):
         out = super().outputs(mech, ws, d, t, q, v, z)
         out["slip"] = self._slip(d)
+        out["contact_point"] = self._contact_point(d, ws.data.oMf[self.f1].homogeneous)
         return out
 
     def record(self, mech, ws, d, t, q, v, z, after_rhs):
         pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
         if "slip" not in out:
             out["slip"] = self._slip(d)
+        if "contact_point" not in out:
+            out["contact_point"] = self._contact_point(d, d.M[0])
         return pot, loss, out
 
     def record_layout(self):
         lay = super().record_layout()
-        return None if lay is None else lay + (("slip", 1),)
+        return None if lay is None else lay + (("slip", 1), ("contact_point", 3))
+
+    @staticmethod
+    def _contact_point(d, M1):
+        """The contact point p1 on the worn surface (the nearest point, worn_geometry) in frame1
+        axes from its origin: where the wear goes (block_increment)."""
+        return M1[:3, :3].T @ (d.p1[0] - M1[:3, 3])
 
     def with_depth(self, depth, continuing=False):
         """The same joint with the bearing worn to ``depth`` (a new, immutable joint).
@@ -273,14 +296,13 @@ class WornJoint:
         return (self._geo, self._frames(ws, d), self._bodies(ws), laws, self._friction, d.channels)
 
     def _normal(self, d, delta, dd, dd0):
-        # the Python twin of worn_clearance_force: the law's force times |grad delta|
+        # the Python twin of worn_clearance_force: the law's force times the geometry's weight
         Fn, Fel = self.law.force_and_elastic(delta, dd, dd0)
         g = d.scratch[3, 0]
         return Fn * g, Fel * g
 
     def _record_laws(self, d):
-        # the elastic energy is the law's U(delta): unit weights (the force's |grad delta| is not
-        # an energy factor)
+        # the elastic energy is the law's U(delta): unit weights
         lw = self._laws
         return lw.code, lw.P0, lw.P1, np.ones(self.nc)
 

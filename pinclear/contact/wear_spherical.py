@@ -147,6 +147,16 @@ def parse(sp, R1, R2):
                               POLES.index(w.get("pole", "z")), R1, R2, sp.estar(), R2 * R1 / (R1 - R2))
 
 
+def catmull_rom_bounds(depth):
+    """(span, top): bounds of the range and the maximum of the socket's tensor Catmull-Rom
+    interpolant (the contact search's window, worn_geometry.search_half_angle): its weights sum
+    to 1 with absolute sum <= 1.25 per direction (x = 1/2), so it stays within 1.25^2 half-ranges
+    of the nodes' mid-range."""
+    lo, hi = float(np.min(depth)), float(np.max(depth))
+    half = 1.5625 * 0.5 * (hi - lo)
+    return 2.0 * half, 0.5 * (lo + hi) + half
+
+
 # ------------------------------------------------------------------ the law
 def contact_radius(wm: SphericalWearModel, F):
     """Hertz contact radius a (m) of the ball in its seat under the load F (N), Johnson eq. 4.22."""
