@@ -299,7 +299,7 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
         E = tr.energy()["total"]
         jump = 0.0 if last_E is None else float(E[0] - last_E)
         bal = tr.energy_balance()
-        inc = {n: wms[n].increment(n, tr) for n in names}
+        inc = {n: wms[n].increment(n, tr, depth[n]) for n in names}
         factor = update_factor(s, inc, clearance, s.cycles - cyc)
         depth = {n: depth[n] + factor * inc[n] for n in names}
         worn = _with_depth(worn, idx, depth)

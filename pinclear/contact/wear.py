@@ -82,9 +82,9 @@ class WearModel:
     def profile_columns(self) -> dict:
         return {"angle [deg]": np.degrees(self.angles())}
 
-    def increment(self, name, traj):
-        """Node depth increment of one simulated block (block_increment)."""
-        return block_increment(self, name, traj)
+    def increment(self, name, traj, depth=None):
+        """Node depth increment of one simulated block on the profile ``depth`` (block_increment)."""
+        return block_increment(self, name, traj, depth)
 
 
 def parse(sp, R1, R2, L):
@@ -165,10 +165,79 @@ def cell_shares(wm: WearModel, theta, beta):
     return idx % wm.nodes, share
 
 
-def depth_increment(wm: WearModel, theta, F, slip, dt):
+def spline_eval(coef, theta):
+    """(w, w') of the periodic spline (spline_coefficients) at the angles theta (any shape)."""
+    N = len(coef)
+    h = 2.0 * math.pi / N
+    t = np.mod(theta, 2.0 * math.pi)
+    i = np.minimum((t / h).astype(np.int64), N - 1)
+    x = t - i * h
+    c3, c2, c1, c0 = coef[i, 0], coef[i, 1], coef[i, 2], coef[i, 3]
+    return ((c3 * x + c2) * x + c1) * x + c0, (3.0 * c3 * x + 2.0 * c2) * x + c1
+
+
+def patch_shares(wm: WearModel, theta, beta, depth, chunk=4096):
+    """(nodes, shares), both (samples, K): each load's pressure over the worn bearing's patch,
+    an elastic foundation calibrated on Hertz (docs/wear_lubrication.md): the journal touching the
+    worn surface at theta (its nearest point) leaves the gap g(x) = A x^2 / 2 + w(theta + x) - w -
+    w' x at the angle x from it (A = r (1 + r / R_j), r = c + w: the circles' gap, the wear's
+    departure from its tangent), and the foundation of approach delta_f = (R_b beta)^2 / (2 R*)
+    presses p ~ sqrt(1 - g / delta_f) (``hertz``) or 1 (``uniform``) where g < delta_f. On the
+    new bearing g / delta_f = (x / beta)^2: Johnson's elliptic pressure over the Hertz half-width
+    beta, exactly; in a pocket conforming to the journal the patch spreads over the conforming
+    arc. Cell integrals in closed form with the wear's departure linear across each cell."""
+    theta = np.atleast_1d(np.asarray(theta, float))
+    beta = np.clip(np.atleast_1d(np.asarray(beta, float)), 1e-300, math.pi / 2)
+    if not np.any(depth):
+        return cell_shares(wm, theta, beta)
+    parts = [_patch_chunk(wm, theta[k:k + chunk], beta[k:k + chunk], depth) for k in range(0, len(theta), chunk)]
+    K = max(p[0].shape[1] for p in parts)
+    nodes = np.concatenate([np.pad(p[0], ((0, 0), (0, K - p[0].shape[1]))) for p in parts])
+    share = np.concatenate([np.pad(p[1], ((0, 0), (0, K - p[1].shape[1]))) for p in parts])
+    return nodes, share
+
+
+def _patch_chunk(wm, theta, beta, depth):
+    coef = spline_coefficients(depth)
+    c, d = wm.R1 - wm.R2, wm.spacing
+    ws, w1 = spline_eval(coef, theta)
+    r = c + ws
+    bp = beta / np.sqrt((r / c) * (wm.R2 + r) / (wm.R2 + c))          # beta / sqrt(A / A_new)
+    df = (wm.R1 * beta) ** 2 / (2.0 * wm.rstar)
+    # the patch lies where A x^2 / 2 - (w - w_min) - |w'| |x| < delta_f (g >= that)
+    a, b, cc = 1.0 / bp ** 2, np.abs(w1) / df, 1.0 + (ws - float(np.min(depth))) / df
+    X = np.minimum((b + np.sqrt(b * b + 4.0 * a * cc)) / (2.0 * a), 0.5 * math.pi)
+    K = int(math.ceil(2.0 * X.max() / d)) + 3
+    idx = np.floor((theta - X) / d).astype(np.int64)[:, None] + np.arange(K)[None, :]
+    edge = np.concatenate([idx * d - 0.5 * d, idx[:, -1:] * d + 0.5 * d], axis=1) - theta[:, None]
+    gam = (spline_eval(coef, theta[:, None] + edge)[0] - ws[:, None] - w1[:, None] * edge) / df[:, None]
+    lo, hi = edge[:, :-1], edge[:, 1:]
+    g1 = (gam[:, 1:] - gam[:, :-1]) / d
+    B = bp[:, None]
+    x0 = -0.5 * g1 * B ** 2
+    Kq = 1.0 - gam[:, :-1] + g1 * lo + 0.25 * (g1 * B) ** 2
+    half = B * np.sqrt(np.maximum(Kq, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if wm.distribution == "uniform":
+            share = np.maximum(np.minimum(hi, x0 + half) - np.maximum(lo, x0 - half), 0.0)
+        else:
+            share = B * Kq * (_ellipse_integral((hi - x0) / half) - _ellipse_integral((lo - x0) / half))
+    share = np.where(Kq > 0.0, share, 0.0)
+    total = share.sum(axis=1)
+    none = total <= 0.0
+    if none.any():
+        # a patch narrower than the linearised cell: the whole load on the cell holding the contact
+        share[none] = 0.0
+        share[none, np.argmin(np.abs(lo[none] + hi[none]), axis=1)] = 1.0
+        total[none] = 1.0
+    return idx % wm.nodes, share / total[:, None]
+
+
+def depth_increment(wm: WearModel, theta, F, slip, dt, depth=None):
     """Wear depth (m) added at each node by the samples (contact angle theta, normal force F, slip
-    speed, time weight dt): sum k F v dt / H times the sample's share of the cell, over the cell's
-    area R_b d L (so the worn volume is k sum F v dt / H exactly)."""
+    speed, time weight dt) on the profile ``depth`` (None: the new bearing): sum k F v dt / H
+    times the sample's share of the cell (patch_shares), over the cell's area R_b d L (so the worn
+    volume is k sum F v dt / H exactly)."""
     F, slip, dt = (np.atleast_1d(np.asarray(x, float)) for x in (F, slip, dt))
     keep = (F > 0.0) & (slip > 0.0) & (dt > 0.0)
     if not keep.any():
@@ -176,7 +245,7 @@ def depth_increment(wm: WearModel, theta, F, slip, dt):
     th, F, slip, dt = np.atleast_1d(theta)[keep], F[keep], slip[keep], dt[keep]
     beta = half_width(wm, F) / wm.R1
     work = wm.k * F * slip * dt / wm.hardness                              # worn volume per sample, m^3
-    nodes, share = cell_shares(wm, th, beta)
+    nodes, share = patch_shares(wm, th, beta, np.zeros(wm.nodes) if depth is None else np.asarray(depth, float))
     vol = np.bincount(nodes.ravel(), weights=(work[:, None] * share).ravel(), minlength=wm.nodes)
     return vol / (wm.R1 * wm.spacing * wm.L)
 
@@ -192,14 +261,15 @@ def trapezoid_weights(t):
     return w
 
 
-def block_increment(wm: WearModel, name, traj):
+def block_increment(wm: WearModel, name, traj, depth=None):
     """Node depth increment (m) worn over one simulated block (a Trajectory of the worn joint
-    ``name``): the samples' angle (outputs NAME.eccentricity, frame1 axes), load (NAME.fn) and
-    slip speed (NAME.slip), trapezoid rule in time."""
+    ``name``) on the profile ``depth`` it ran on: the samples' contact angle (the angle of the
+    contact point NAME.contact_point on the worn surface, frame1 axes: where the contact is, not
+    where the eccentricity points), load (NAME.fn) and slip speed (NAME.slip), trapezoid rule."""
     out = traj.outputs
-    e = out[f"{name}.eccentricity"]
-    return depth_increment(wm, np.arctan2(e[:, 1], e[:, 0]), out[f"{name}.fn"], out[f"{name}.slip"],
-                           trapezoid_weights(traj.t))
+    p = out[f"{name}.contact_point"]
+    return depth_increment(wm, np.arctan2(p[:, 1], p[:, 0]), out[f"{name}.fn"], out[f"{name}.slip"],
+                           trapezoid_weights(traj.t), depth)
 
 
 def spline_bounds(coef):
@@ -226,15 +296,11 @@ def spline_coefficients(depth):
 
 # ------------------------------------------------------------------ the worn joint
 class WornData(ClearanceData):
-    """ClearanceData plus the workspace's own weight array of the normal law and the contact
-    search's work rows."""
+    """ClearanceData plus the workspace's own weight array of the normal law."""
 
     def __init__(self, nc, nfs):
         super().__init__(nc, nfs)
         self.W = np.ones(nc)
-        # rows 4-6: the contact search's candidates (contact.worn_geometry), no allocation per call
-        self.scratch = np.zeros((7, 3))
-        self.channels = self.channels._replace(scratch=self.scratch)
 
 
 class WornJoint:

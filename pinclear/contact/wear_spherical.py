@@ -127,7 +127,7 @@ class SphericalWearModel:
         area = np.broadcast_to(area[:, :, None], (self.rows, m, m))
         return u.reshape(self.rows, self.cols, m * m, 3), area.reshape(self.rows, m * m)
 
-    def increment(self, name, traj):
+    def increment(self, name, traj, depth=None):
         return block_increment(self, name, traj)
 
 
@@ -285,10 +285,11 @@ def _share_volumes(sub, area, u, a, work, R1, rows, hertz, vol):
 
 def block_increment(wm: SphericalWearModel, name, traj):
     """Node depth increment (m) worn over one block (a Trajectory of the worn socket ``name``):
-    direction from NAME.eccentricity (frame1 axes), load NAME.fn, slip NAME.slip, trapezoid rule.
-    An increment reaching the two rows next to a pole stops with an error naming ``pole``."""
+    direction of the contact point on the worn socket (NAME.contact_point, frame1 axes), load
+    NAME.fn, slip NAME.slip, trapezoid rule. An increment reaching the two rows next to a pole
+    stops with an error naming ``pole``."""
     out = traj.outputs
-    e = wm.local(out[f"{name}.eccentricity"])
+    e = wm.local(out[f"{name}.contact_point"])
     r = np.linalg.norm(e, axis=1)
     u = e / np.where(r > 0.0, r, 1.0)[:, None]
     h = depth_increment(wm, u, out[f"{name}.fn"], out[f"{name}.slip"], trapezoid_weights(traj.t))

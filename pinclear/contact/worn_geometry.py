@@ -89,19 +89,21 @@ def planar_refine(gpar, th_e, r, phi):
 
 
 @njit(cache=True, inline="always")
-def keep_best(m, x, y, b):
-    """Insert the candidate (m, x, y) into b (3 x 3, rows (m, x, y) by increasing m, inf when empty)."""
-    if m >= b[2, 0]:
-        return
-    k = 2
-    while k > 0 and m < b[k - 1, 0]:
-        b[k, 0], b[k, 1], b[k, 2] = b[k - 1, 0], b[k - 1, 1], b[k - 1, 2]
-        k -= 1
-    b[k, 0], b[k, 1], b[k, 2] = m, x, y
+def keep_best(b, m, x, y):
+    """The three best candidates b = (m1, x1, y1, m2, x2, y2, m3, x3, y3) (by increasing m, inf
+    when empty) with (m, x, y) inserted: scalars, no array in the kernel."""
+    m1, x1, y1, m2, x2, y2, m3, x3, y3 = b
+    if m < m1:
+        return m, x, y, m1, x1, y1, m2, x2, y2
+    if m < m2:
+        return m1, x1, y1, m, x, y, m2, x2, y2
+    if m < m3:
+        return m1, x1, y1, m2, x2, y2, m, x, y
+    return b
 
 
 @njit(cache=True)
-def planar_nearest_nodes(gpar, th_e, r, psi, b):
+def planar_nearest_nodes(gpar, th_e, r, psi):
     """The (up to) three profile samples nearest the journal centre among the local minima of the
     distance over the nodes and cell midpoints within psi of th_e (a spline's overshoot between
     nodes is a midpoint's), into b (keep_best; column 1: phi from th_e). cos of the offsets by
@@ -114,9 +116,9 @@ def planar_nearest_nodes(gpar, th_e, r, psi, b):
     phi0 = (i0 - K) * h - th_e
     cp, sp = math.cos(phi0), math.sin(phi0)
     ch, sh = math.cos(hh), math.sin(hh)
-    for k in range(3):
-        b[k, 0] = math.inf
-    m_prev, m_cur = math.inf, math.inf
+    inf = math.inf
+    b = (inf, 0.0, 0.0, inf, 0.0, 0.0, inf, 0.0, 0.0)
+    m_prev, m_cur = inf, inf
     for k in range(4 * K + 2):
         if k <= 4 * K:
             c = WORN_HEAD + 4 * ((i0 - K + k // 2) % N)
@@ -128,8 +130,9 @@ def planar_nearest_nodes(gpar, th_e, r, psi, b):
             m = math.inf
         # sample k - 1 is a local minimum of the distance over the window's samples
         if k >= 1 and m_cur <= m_prev and m_cur <= m:
-            keep_best(m_cur, phi0 + (k - 1) * hh, 0.0, b)
+            b = keep_best(b, m_cur, phi0 + (k - 1) * hh, 0.0)
         m_prev, m_cur = m_cur, m
+    return b
 
 
 @njit(cache=True)
@@ -139,7 +142,7 @@ def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
     the worn surface of |P - e| (the journal circle's overlap with the worn bearing), P the
     nearest bearing point: Newton on the smooth profile (planar_refine) from the ray and from the
     three nearest local minima over the nodes and cell midpoints within search_half_angle of e
-    (planar_nearest_nodes, into scratch[4:7]: WornData's scratch has 7 rows), the nearest kept.
+    (planar_nearest_nodes), the nearest kept.
     n = (P - e)/d is the exact gradient of delta in e (envelope theorem: P is stationary), so the
     force -F(delta) n is the exact gradient of the law's energy and n . (v2(p2) - v1(p1)) =
     d(delta)/dt (scratch[3, 0] = 1: the normal law's weight). At phi = 0 (an unworn bearing)
@@ -165,11 +168,10 @@ def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
         psi = search_half_angle(gpar[6], gpar[7], R1, r)
         if psi > 0.0:
             best = planar_gap(gpar, th_e, r, phi)[0]
-            b = scratch[4:7]
-            planar_nearest_nodes(gpar, th_e, r, psi, b)
+            b = planar_nearest_nodes(gpar, th_e, r, psi)
             for k in range(3):
-                if b[k, 0] < math.inf:
-                    other = planar_refine(gpar, th_e, r, b[k, 1])
+                if b[3 * k] < math.inf:
+                    other = planar_refine(gpar, th_e, r, b[3 * k + 1])
                     d_ = planar_gap(gpar, th_e, r, other)[0]
                     if d_ > best:
                         best, phi = d_, other
@@ -326,10 +328,10 @@ def sphere_refine(gpar, th_e, ph_e, r, th, ph):
 
 
 @njit(cache=True)
-def sphere_nearest_nodes(gpar, th_e, ph_e, r, psi, b):
+def sphere_nearest_nodes(gpar, th_e, ph_e, r, psi):
     """The (up to) three socket nodes nearest the ball centre among the local minima of the
-    distance along each row within the cap of angle psi about its direction, into b (keep_best;
-    columns 1, 2: theta, phi): the rows within psi, in each the columns within the cap (all of
+    distance along each row within the cap of angle psi about its direction, as keep_best's tuple
+    (x, y: theta, phi): the rows within psi, in each the columns within the cap (all of
     them where the cap holds a pole); cos of the column offsets by rotation."""
     R1, Nt, Np = gpar[1], int(gpar[5]), int(gpar[6])
     ht, hp = math.pi / Nt, 2.0 * math.pi / Np
@@ -338,8 +340,8 @@ def sphere_nearest_nodes(gpar, th_e, ph_e, r, psi, b):
     i_hi = min(int(math.ceil((th_e + psi) / ht - 0.5)), Nt - 1)
     s_psi = math.sin(min(0.5 * psi, 0.5 * math.pi))
     ch, sh = math.cos(hp), math.sin(hp)
-    for k in range(3):
-        b[k, 0] = math.inf
+    inf = math.inf
+    b = (inf, 0.0, 0.0, inf, 0.0, 0.0, inf, 0.0, 0.0)
     for i in range(i_lo, i_hi + 1):
         th = (i + 0.5) * ht
         sdt = math.sin(0.5 * (th - th_e))
@@ -359,8 +361,9 @@ def sphere_nearest_nodes(gpar, th_e, ph_e, r, psi, b):
             else:
                 m = math.inf
             if k >= 1 and m_cur <= m_prev and m_cur <= m:
-                keep_best(m_cur, th, dp0 + (k - 1) * hp + ph_e, b)
+                b = keep_best(b, m_cur, th, dp0 + (k - 1) * hp + ph_e)
             m_prev, m_cur = m_cur, m
+    return b
 
 
 @njit(cache=True)
@@ -369,7 +372,7 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
     socket centre, r = |e|: the least-distance penetration delta = R2 - min |P - e| over the worn
     socket, as the worn bearing's (worn_planar_geometry): Newton on the smooth interpolant
     (sphere_refine) from the ray and from the three nearest of the nodes' local minima along the
-    rows within search_half_angle of e (sphere_nearest_nodes, into scratch[4:7]), the nearest kept; n = (P - e)/d, the exact gradient of delta (the force is the
+    rows within search_half_angle of e (sphere_nearest_nodes), the nearest kept; n = (P - e)/d, the exact gradient of delta (the force is the
     law's energy gradient, scratch[3, 0] = 1); at the ray of an unworn socket delta = r - c and
     n = e/r. Within r <= c/2 (no contact possible) the ray's delta and n. Mesh coordinates: frame1
     axes cyclically permuted so the pole is the third."""
@@ -393,11 +396,10 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
         psi = search_half_angle(gpar[7], gpar[8], R1, r)
         if psi > 0.0:
             best = sphere_gap(gpar, ua, ub, up, r, th, ph)[0]
-            b = scratch[4:7]
-            sphere_nearest_nodes(gpar, th_e, ph_e, r, psi, b)
+            b = sphere_nearest_nodes(gpar, th_e, ph_e, r, psi)
             for k in range(3):
-                if b[k, 0] < math.inf:
-                    t0, p0 = sphere_refine(gpar, th_e, ph_e, r, b[k, 1], b[k, 2])
+                if b[3 * k] < math.inf:
+                    t0, p0 = sphere_refine(gpar, th_e, ph_e, r, b[3 * k + 1], b[3 * k + 2])
                     d_ = sphere_gap(gpar, ua, ub, up, r, t0, p0)[0]
                     if d_ > best:
                         best, th, ph = d_, t0, p0
