@@ -176,57 +176,80 @@ def spline_eval(coef, theta):
     return ((c3 * x + c2) * x + c1) * x + c0, (3.0 * c3 * x + 2.0 * c2) * x + c1
 
 
-def patch_shares(wm: WearModel, theta, beta, depth, chunk=4096):
-    """(nodes, shares), both (samples, K): each load's pressure over the worn bearing's patch,
-    an elastic foundation calibrated on Hertz (docs/wear_lubrication.md): the journal touching the
-    worn surface at theta (its nearest point) leaves the gap g(x) = A x^2 / 2 + w(theta + x) - w -
-    w' x at the angle x from it (A = r (1 + r / R_j), r = c + w: the circles' gap, the wear's
-    departure from its tangent), and the foundation of approach delta_f = (R_b beta)^2 / (2 R*)
-    presses p ~ sqrt(1 - g / delta_f) (``hertz``) or 1 (``uniform``) where g < delta_f. On the
-    new bearing g / delta_f = (x / beta)^2: Johnson's elliptic pressure over the Hertz half-width
-    beta, exactly; in a pocket conforming to the journal the patch spreads over the conforming
-    arc. Cell integrals in closed form with the wear's departure linear across each cell."""
+def patch_shares(wm: WearModel, theta, beta, depth, chunk=2048):
+    """(nodes, shares), both (samples, K): each load's pressure over the worn bearing's patch, an
+    elastic foundation calibrated on Hertz (docs/wear_lubrication.md sec. 5): the journal touching
+    the worn surface at theta (its nearest point) leaves the gap g(x) = A x^2 / 2 + w(theta + x) -
+    w - w' x at the angle x from it (A = r (1 + r / R_j), r = c + w: the circles' gap, and the
+    wear's departure from its tangent), and a foundation of approach a presses
+    p = E* sqrt((a - g) / (2 R*)) where g < a, the approach set by the load, int p L R_b dx = F.
+    On the new bearing g = (R_b x)^2 / (2 R*): Johnson's elliptic pressure over the Hertz
+    half-width, exactly (a = b^2 / (2 R*)); in a pocket conforming to the journal the patch
+    spreads over the conforming arc at a smaller approach. ``uniform``: the same patch, uniform
+    pressure. Cell integrals in closed form, the wear's departure linear across each cell."""
     theta = np.atleast_1d(np.asarray(theta, float))
     beta = np.clip(np.atleast_1d(np.asarray(beta, float)), 1e-300, math.pi / 2)
     if not np.any(depth):
         return cell_shares(wm, theta, beta)
-    parts = [_patch_chunk(wm, theta[k:k + chunk], beta[k:k + chunk], depth) for k in range(0, len(theta), chunk)]
+    coef = spline_coefficients(depth)
+    parts = [_patch_chunk(wm, theta[k:k + chunk], beta[k:k + chunk], coef, float(np.min(depth)))
+             for k in range(0, len(theta), chunk)]
     K = max(p[0].shape[1] for p in parts)
     nodes = np.concatenate([np.pad(p[0], ((0, 0), (0, K - p[0].shape[1]))) for p in parts])
     share = np.concatenate([np.pad(p[1], ((0, 0), (0, K - p[1].shape[1]))) for p in parts])
     return nodes, share
 
 
-def _patch_chunk(wm, theta, beta, depth):
-    coef = spline_coefficients(depth)
+#: the foundation's approach relative to the new bearing's Hertz approach: at most (a sharper
+#: seat than the new bearing's narrows the patch) and the bisection's steps
+APPROACH_MAX, APPROACH_STEPS = 4.0, 40
+
+
+def _patch_cells(G0, g1, lo, hi, B, s, uniform):
+    """Per cell: int sqrt(1 - s G) dx (or the patch's length) with G = (x / B)^2 + G0 + g1 (x - lo)
+    on [lo, hi] (the square completed: an ellipse's integral, _ellipse_integral)."""
+    Bs = B / math.sqrt(s) if np.isscalar(s) else B / np.sqrt(s)
+    x0 = -0.5 * g1 * B ** 2
+    Kq = 1.0 - s * (G0 - g1 * lo) + 0.25 * s * (g1 * B) ** 2
+    half = Bs * np.sqrt(np.maximum(Kq, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if uniform:
+            out = np.maximum(np.minimum(hi, x0 + half) - np.maximum(lo, x0 - half), 0.0)
+        else:
+            out = Bs * Kq * (_ellipse_integral((hi - x0) / half) - _ellipse_integral((lo - x0) / half))
+    return np.where(Kq > 0.0, out, 0.0)
+
+
+def _patch_chunk(wm, theta, beta, coef, wmin):
     c, d = wm.R1 - wm.R2, wm.spacing
     ws, w1 = spline_eval(coef, theta)
     r = c + ws
     bp = beta / np.sqrt((r / c) * (wm.R2 + r) / (wm.R2 + c))          # beta / sqrt(A / A_new)
-    df = (wm.R1 * beta) ** 2 / (2.0 * wm.rstar)
-    # the patch lies where A x^2 / 2 - (w - w_min) - |w'| |x| < delta_f (g >= that)
-    a, b, cc = 1.0 / bp ** 2, np.abs(w1) / df, 1.0 + (ws - float(np.min(depth))) / df
+    df = (wm.R1 * beta) ** 2 / (2.0 * wm.rstar)                       # the new bearing's approach
+    # the patch at the largest approach lies where A x^2 / 2 - (w - w_min) - |w'| |x| < APPROACH_MAX df
+    a, b, cc = 1.0 / bp ** 2, np.abs(w1) / df, APPROACH_MAX + (ws - wmin) / df
     X = np.minimum((b + np.sqrt(b * b + 4.0 * a * cc)) / (2.0 * a), 0.5 * math.pi)
     K = int(math.ceil(2.0 * X.max() / d)) + 3
     idx = np.floor((theta - X) / d).astype(np.int64)[:, None] + np.arange(K)[None, :]
     edge = np.concatenate([idx * d - 0.5 * d, idx[:, -1:] * d + 0.5 * d], axis=1) - theta[:, None]
+    # g / df at the cell edges less the parabola, linear across each cell
     gam = (spline_eval(coef, theta[:, None] + edge)[0] - ws[:, None] - w1[:, None] * edge) / df[:, None]
     lo, hi = edge[:, :-1], edge[:, 1:]
     g1 = (gam[:, 1:] - gam[:, :-1]) / d
     B = bp[:, None]
-    x0 = -0.5 * g1 * B ** 2
-    Kq = 1.0 - gam[:, :-1] + g1 * lo + 0.25 * (g1 * B) ** 2
-    half = B * np.sqrt(np.maximum(Kq, 0.0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        if wm.distribution == "uniform":
-            share = np.maximum(np.minimum(hi, x0 + half) - np.maximum(lo, x0 - half), 0.0)
-        else:
-            share = B * Kq * (_ellipse_integral((hi - x0) / half) - _ellipse_integral((lo - x0) / half))
-    share = np.where(Kq > 0.0, share, 0.0)
+    # approach a = df / s: the load sqrt(a) int sqrt(1 - g / a) dx = the new bearing's sqrt(df) beta pi / 2
+    target = (0.5 * math.pi) * beta
+    s_lo, s_hi = np.full(len(theta), 1.0 / APPROACH_MAX), np.full(len(theta), 1e12)
+    for _ in range(APPROACH_STEPS):
+        s = np.sqrt(s_lo * s_hi)
+        load = _patch_cells(gam[:, :-1], g1, lo, hi, B, s[:, None], False).sum(axis=1) / np.sqrt(s)
+        more = load > target
+        s_lo, s_hi = np.where(more, s, s_lo), np.where(more, s_hi, s)
+    share = _patch_cells(gam[:, :-1], g1, lo, hi, B, np.sqrt(s_lo * s_hi)[:, None], wm.distribution == "uniform")
     total = share.sum(axis=1)
     none = total <= 0.0
     if none.any():
-        # a patch narrower than the linearised cell: the whole load on the cell holding the contact
+        # a patch narrower than the linearised cells: the whole load on the cell holding the contact
         share[none] = 0.0
         share[none, np.argmin(np.abs(lo[none] + hi[none]), axis=1)] = 1.0
         total[none] = 1.0
