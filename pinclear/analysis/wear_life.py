@@ -30,7 +30,16 @@ block's last).
 
 Files (all through pinclear.core.safeio, written after every update, so an interrupt loses at most the
 block under way, and a second call with the same folder resumes): OUT/checkpoint.npz (profile,
-state, history), OUT/history.csv, OUT/profile.csv (depth vs angle, degrees labelled).
+state, history, the run's identity), OUT/history.csv, OUT/profile.csv (depth vs angle, degrees
+labelled).
+
+A checkpoint is data, never authority (docs/security.md): it carries the identity of its run
+(:func:`wear_identity`: the contact models' version, the mechanism's digest with every active
+clearance's parameters and wear mapping, the load's overrides, the settings, the start), is read
+through pinclear.dynamics.validate.read_npz, and every field is checked for type, shape, sign and
+bound against this run before it is used (:func:`_load_checkpoint`); a mismatch is refused naming
+the field. A depth beyond ``max_depth_fraction`` of a bearing's (socket's) radius ends the trial as
+failed, naming the joint (its last checkpoint is the update before).
 """
 from __future__ import annotations
 
@@ -57,7 +66,8 @@ class WearSettings:
     block_periods); transient_periods: simulated first, without wear (start-up landings);
     rtol, dt_out: of each block's integration (the wear quadrature uses its samples);
     scheme: ``factor`` (``updates`` fixed factors) or ``depth`` (each update's largest nodal
-    increment ``step`` x the joint's clearance; at most ``max_updates`` updates)."""
+    increment ``step`` x the joint's clearance; at most ``max_updates`` updates); max_depth_fraction:
+    a trial whose depth exceeds this fraction of a bearing's (socket's) radius ends as failed."""
     cycles: float
     period: float
     updates: int = 4
@@ -68,6 +78,7 @@ class WearSettings:
     scheme: str = "factor"
     step: float = 0.01
     max_updates: int = 2000
+    max_depth_fraction: float = 0.05
 
     def check(self):
         for key in ("cycles", "period", "rtol", "dt_out"):
@@ -83,6 +94,10 @@ class WearSettings:
                              choices=SCHEMES)
         if not (isinstance(self.step, (int, float)) and 0 < self.step <= 1):
             raise InputError(f"step must be a fraction of the clearance in (0, 1], got {self.step!r}", key="step")
+        f = self.max_depth_fraction
+        if not (isinstance(f, (int, float)) and not isinstance(f, bool) and 0 < f <= 0.5):
+            raise InputError(f"max_depth_fraction must be a fraction of the radius in (0, 0.5], got {f!r}",
+                             key="max_depth_fraction")
         if not (isinstance(self.max_updates, int) and self.max_updates >= 1):
             raise InputError(f"max_updates must be an integer >= 1, got {self.max_updates!r}", key="max_updates")
         if not (isinstance(self.transient_periods, int) and self.transient_periods >= 0):
@@ -132,36 +147,163 @@ def _with_depth(mech, idx, depth):
     return mech.replace(forces=forces)
 
 
-def _load_checkpoint(folder, s, wms):
+#: the layout of OUT/checkpoint.npz; a checkpoint of another layout (or none) is refused
+CHECKPOINT_FORMAT = 2
+
+
+def wear_identity(mech, names, s, start=None) -> dict:
+    """What a checkpoint must match to continue a wear run (JSON-able, compared key by key by
+    pinclear.dynamics.validate.identity_differences): the contact models' version, the mechanism
+    (digest of its description: every active clearance with its parameters and wear mapping,
+    drives, inertias), its active clearances and wear mappings spelled out, the load's overrides,
+    the settings, the worn joints and the start state."""
+    import hashlib
+
+    from pinclear.contact import MODEL_VERSION
+    from pinclear.core.jsonsafe import jsonable
+    from pinclear.dynamics.validate import mechanism_digest
+
+    wear = {}
+    for n in sorted(names):
+        wm = worn_joint(mech, n)[1].wear
+        wear[n] = {k: getattr(wm, k) for k in ("k", "hardness", "distribution") if hasattr(wm, k)}
+        wear[n]["nodes"] = int(wm.nodes)
+    if start is None:
+        st = None
+    else:
+        st = hashlib.sha256(np.ascontiguousarray(np.r_[np.ravel(start[0]), np.ravel(start[1])], float).tobytes())
+        st = st.hexdigest()[:32]
+    return jsonable({"contact_model": MODEL_VERSION, "mechanism": mechanism_digest(mech), "mechanism_name": mech.name,
+                     "clearances": sorted(f.name for f in mech.clearances), "wear": wear,
+                     "overrides": dict((mech.load_args or {}).get("overrides") or {}),
+                     **{f"settings.{k}": v for k, v in asdict(s).items()},
+                     "joints": sorted(names), "start": st})
+
+
+def _load_checkpoint(folder, s, wms, mech=None, identity=None, joints=None):
+    """OUT/checkpoint.npz as {field: array} after checking it belongs to this run and holds what
+    pinclear writes (module doc); None when there is none."""
+    from pinclear.dynamics import validate
+
     path = Path(folder) / "checkpoint.npz"
     if not path.exists():
         return None
-    with np.load(path, allow_pickle=False) as z:
-        # a checkpoint written before a setting existed ran with its default
-        saved = {**asdict(WearSettings(cycles=s.cycles, period=s.period)), **json.loads(str(z["settings"]))}
-        if saved != {**asdict(s), "joints": sorted(wms)}:
-            raise InputError(f"{path}: a checkpoint of other settings ({saved}); choose another --out or the same "
-                             "settings", key="--out")
-        ck = {k: np.array(z[k]) for k in z.files if k != "settings"}
-    for name, wm in wms.items():
-        if ck.get(f"depth.{name}", np.zeros(0)).shape != (wm.nodes,):
-            raise InputError(f"{path}: no {wm.nodes}-node depth of {name}", key="--out")
-    if "factor" not in ck:              # written before the history had the factor: a fixed one
-        ck["factor"] = np.full(len(ck["cycles"]), s.factor)
+    z = validate.read_npz(path, "wear checkpoint")
+    fmt = z.get("format")
+    if fmt is None or fmt.shape != () or fmt.dtype.kind not in "iu" or int(fmt) != CHECKPOINT_FORMAT:
+        raise InputError(f"{path}: a wear checkpoint of another layout (format {None if fmt is None else fmt!r}, "
+                         f"this pinclear writes {CHECKPOINT_FORMAT}: written before the run identity and the contact "
+                         "models' version were stored); choose another --out or delete it", key="--out")
+    meta = validate.read_meta({"meta": z.get("identity")}, path, "wear checkpoint")
+    if identity is not None:
+        diffs = validate.identity_differences(meta, identity)
+        if diffs:
+            raise InputError(f"{path}: a checkpoint of another run: " + "; ".join(diffs) + "; choose another --out "
+                             "or the same mechanism and settings", key="--out")
+    ck = _checked_fields(z, path, s, wms, mech)
+    if mech is not None and joints is not None:
+        _check_state(path, mech, joints, ck)
     return ck
+
+
+def _checked_fields(z, path, s, wms, mech):
+    """The checkpoint's arrays, each checked for type, shape, sign and bound (module doc)."""
+    from pinclear.dynamics import validate
+
+    def bad(key, why):
+        return InputError(f"{path}: {key} {why}: not a checkpoint this run wrote", key="--out")
+
+    ck = {}
+    done = z.get("done")
+    if done is None or done.shape != () or done.dtype.kind not in "iu":
+        raise bad("done", "is not an integer")
+    done = int(done)
+    most = s.updates if s.scheme == "factor" else s.max_updates
+    if not 1 <= done <= most:
+        raise bad("done", f"= {done} lies outside [1, {most}]")
+    ck["done"] = done
+    if mech is not None:
+        ck["q"] = validate.real_array(z, "q", path, 1, rows=mech.nq)
+        ck["v"] = validate.real_array(z, "v", path, 1, rows=mech.nv)
+    else:
+        ck["q"], ck["v"] = (validate.real_array(z, k, path, 1) for k in "qv")
+    ck["t"] = validate.real_array(z, "t", path, 0)
+    if not ck["t"] >= 0.0:
+        raise bad("t", f"= {float(ck['t'])!r} is negative")
+    ck["last_E"] = validate.real_array(z, "last_E", path, 0, finite=False)
+    if np.isinf(ck["last_E"]):
+        raise bad("last_E", "is infinite")
+    for k in _history_keys(sorted(wms)):
+        a = validate.real_array(z, k, path, 1, rows=done)
+        if k in ("cycles", "factor", "cpu_sim", "cpu_update", "audit_bound") or k.endswith(("max_depth", "worn_volume")):
+            if np.any(a < 0.0) or (k in ("cycles", "factor") and np.any(a <= 0.0)):
+                raise bad(k, "holds a negative value (or zero)")
+        ck[k] = a
+    cyc = ck["cycles"]
+    if np.any(np.diff(cyc) <= 0.0) or cyc[-1] > s.cycles * (1.0 + 1e-9):
+        raise bad("cycles", f"do not increase to at most the life {s.cycles:g}")
+    if s.scheme == "factor" and not np.allclose(cyc, np.arange(1, done + 1) * s.cycles / s.updates, rtol=1e-9, atol=0):
+        raise bad("cycles", f"are not the factor scheme's (k + 1) x {s.cycles:g} / {s.updates}")
+    for n, wm in wms.items():
+        d = validate.real_array(z, f"depth.{n}", path, 1, rows=wm.nodes)
+        bound = s.max_depth_fraction * _radius(wm)
+        if np.any(d < 0.0) or np.any(d > bound):
+            raise bad(f"depth.{n}", f"lies outside [0, {bound:.4g}] m (max_depth_fraction x the radius)")
+        hd, hv = ck[f"{n}.max_depth"], ck[f"{n}.worn_volume"]
+        if np.any(np.diff(hd) < 0.0) or np.any(np.diff(hv) < 0.0):
+            raise bad(f"{n}.max_depth", "decreases (wear only removes material)")
+        if not math.isclose(hd[-1], float(d.max()), rel_tol=1e-9, abs_tol=1e-300) or \
+                not math.isclose(hv[-1], wm.volume(d), rel_tol=1e-6, abs_tol=1e-30):
+            raise bad(f"depth.{n}", "differs from its history's last max_depth or worn_volume")
+        ck[f"depth.{n}"] = d
+    return ck
+
+
+def _radius(wm):
+    """The worn surface's radius: the bearing's or the socket's (R1)."""
+    return float(wm.R1)
+
+
+def _check_state(path, mech, joints, ck):
+    """The checkpoint's state in the worn mechanism: a configuration (unit quaternions, closure rows
+    within 1e-3 of the mechanism's size) and no clearance penetrating by more than its clearance."""
+    import pinocchio as pin
+
+    from pinclear.dynamics.validate import mechanism_length
+    from pinclear.model import kinematics
+
+    q, v = ck["q"], ck["v"]
+    if not pin.isNormalized(mech.model, q, 1e-6):
+        raise InputError(f"{path}: q is not a valid configuration (a quaternion of non-unit norm)", key="--out")
+    worn = _with_depth(mech, joints, {n: ck[f"depth.{n}"] for n in joints})
+    ws = worn.workspace()
+    kinematics.update(worn, ws, q, v)
+    mc = worn.compiled.m
+    if mc:
+        kinematics.constraint_rows(worn, ws, float(ck["t"]), q, v)
+        r = float(np.max(np.abs(ws.phi[:mc])))
+        if not r <= 1e-3 * mechanism_length(worn):
+            raise InputError(f"{path}: q is off the constraint manifold (closure residual {r:.3g})", key="--out")
+    for i, f in enumerate(worn.forces):
+        if getattr(f, "is_clearance", False):
+            pen = float(np.max(f.event_values(worn, ws, ws.force_data[i], float(ck["t"]), q, v, np.zeros(f.nz))))
+            if not pen <= f.c:
+                raise InputError(f"{path}: the state puts clearance {f.name!r} {pen:.3g} m inside its bearing (more "
+                                 f"than its clearance {f.c:.3g} m)", key="--out")
 
 
 def _history_keys(names):
     return HISTORY + tuple(f"{n}.{k}" for n in names for k in ("max_depth", "worn_volume"))
 
 
-def _save(folder, s, wms, depth, state, done, hist):
+def _save(folder, s, wms, depth, state, done, hist, identity):
     folder = Path(folder)
     q, v, t, last_E = state
     keys = _history_keys(sorted(wms))
     safeio.savez(folder / "checkpoint.npz", {
         "q": q, "v": v, "t": np.array(t), "last_E": np.array(np.nan if last_E is None else last_E),
-        "done": np.array(done), "settings": np.array(json.dumps({**asdict(s), "joints": sorted(wms)})),
+        "done": np.array(done, dtype=np.int64), "format": np.array(CHECKPOINT_FORMAT, dtype=np.int64),
+        "identity": np.array(json.dumps(identity, sort_keys=True)),
         **{f"depth.{n}": d for n, d in depth.items()}, **{k: np.array(hist[k]) for k in keys}})
     _tables(folder, wms, depth, hist)
 
@@ -199,10 +341,11 @@ def update_factor(s: WearSettings, inc, clearance, left):
     return cap if ratio <= 0.0 else min(cap, max(1.0, s.step / ratio))
 
 
-def _start(mech, s, out, wms, found, start):
+def _start(mech, s, out, wms, found, start, identity):
     """(depth, q, v, t, done, cycles done, last_E, history) from OUT's checkpoint or a new start (the
     start-up periods simulated without wear)."""
-    ck = _load_checkpoint(out, s, wms) if out is not None else None
+    joints = {n: f[0] for n, f in found.items()}
+    ck = _load_checkpoint(out, s, wms, mech, identity, joints) if out is not None else None
     if ck is not None:
         hist = {k: list(ck[k]) for k in _history_keys(sorted(wms))}
         return ({n: ck[f"depth.{n}"] for n in wms}, ck["q"], ck["v"], float(ck["t"]), int(ck["done"]),
@@ -245,6 +388,10 @@ def read_profile(path) -> dict:
 
     # a 5 GiB profile was read whole: at most 64 MB (a million nodes of a dozen joints)
     lines = read_text_bounded(path, 64 << 20, "path", "wear profile").splitlines()
+    from pinclear.contact.wear import MAX_NODES
+
+    if len(lines) > MAX_NODES + 1:
+        raise ModelFileError(str(path), "profile", f"{len(lines) - 1} rows: at most {MAX_NODES} wear nodes a joint")
     try:
         head = lines[0].lstrip("# ").split(", ")
         # node coordinates first: a bearing's angle, or a socket's (theta, phi) (contact.wear_spherical)
@@ -261,9 +408,10 @@ def read_profile(path) -> dict:
                              "'# angle [deg], NAME depth [m], ...'") from None
 
 
-def with_profile(mech, profile, file="profile.csv"):
+def with_profile(mech, profile, file="profile.csv", max_depth_fraction=WearSettings.max_depth_fraction):
     """``mech`` with each worn clearance of ``profile`` ({name: depths}, :func:`read_profile`) worn to
-    its depths; the joints must be active with the same ``wear:`` node count as the run's."""
+    its depths; the joints must be active with the same ``wear:`` node count as the run's, every depth
+    within [0, max_depth_fraction x the bearing's radius] (what a wear run can write)."""
     from pinclear.core.errors import ModelFileError
 
     idx, depth = {}, {}
@@ -272,6 +420,10 @@ def with_profile(mech, profile, file="profile.csv"):
         if d.shape != (joint.wear.nodes,) or not np.all(np.isfinite(d)):
             raise ModelFileError(str(file), name, f"{d.size} depths for a {joint.wear.nodes}-node bearing "
                                  "(load the mechanism with the wear run's --clearance and --set)")
+        bound = max_depth_fraction * _radius(joint.wear)
+        if np.any(d < 0.0) or np.any(d > bound):
+            raise ModelFileError(str(file), name, f"depths {d.min():.4g} to {d.max():.4g} m: a wear run writes depths "
+                                 f"in [0, {bound:.4g}] m ({max_depth_fraction:g} x the radius {_radius(joint.wear):.4g} m)")
         idx[name], depth[name] = i, d
     forces = list(mech.forces)
     for name, i in idx.items():
@@ -290,8 +442,10 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
     found = {n: worn_joint(mech, n) for n in names}
     idx, wms = {n: f[0] for n, f in found.items()}, {n: f[1].wear for n, f in found.items()}
     clearance = {n: f[1].c for n, f in found.items()}
-    depth, q, v, t, done, cyc, last_E, hist = _start(mech, s, out, wms, found, start)
+    identity = wear_identity(mech, names, s, start)
+    depth, q, v, t, done, cyc, last_E, hist = _start(mech, s, out, wms, found, start, identity)
     worn = _with_depth(mech, idx, depth)
+    failed = None
     while not _finished(s, done, cyc):
         c0 = time.process_time()
         tr = _simulate(worn, t, t + s.block_periods * s.period, q, v, s)
@@ -301,7 +455,11 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
         bal = tr.energy_balance()
         inc = {n: wms[n].increment(n, tr, depth[n]) for n in names}
         factor = update_factor(s, inc, clearance, s.cycles - cyc)
-        depth = {n: depth[n] + factor * inc[n] for n in names}
+        new = {n: depth[n] + factor * inc[n] for n in names}
+        failed = _too_deep(s, wms, new, done + 1)
+        if failed:
+            break
+        depth = new
         worn = _with_depth(worn, idx, depth)
         c2 = time.process_time()
         # the next block starts from this one's last state: its energy there is the elastic
@@ -318,12 +476,24 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
         for k, val in row.items():
             hist[k].append(float(val))
         if out is not None:
-            _save(out, s, wms, depth, (q, v, t, last_E), done, hist)
+            _save(out, s, wms, depth, (q, v, t, last_E), done, hist, identity)
         if progress:
             progress(done, f"of {s.updates}" if s.scheme == "factor" else f"{cyc:.4g}/{s.cycles:.4g} cycles",
                      max(d.max() for d in depth.values()))
     return {"depth": depth, "angles": {n: wm.angles() for n, wm in wms.items()}, "history": hist, "settings": s,
-            "mech": worn, "complete": _finished(s, done, cyc) and cyc >= s.cycles * (1.0 - 1e-12)}
+            "mech": worn, "failed": failed,
+            "complete": failed is None and _finished(s, done, cyc) and cyc >= s.cycles * (1.0 - 1e-12)}
+
+
+def _too_deep(s, wms, depth, update):
+    """The failure of a trial whose depth passes max_depth_fraction of a radius (None: within)."""
+    for n, wm in wms.items():
+        dmax, bound = float(np.max(depth[n])), s.max_depth_fraction * _radius(wm)
+        if not dmax <= bound:
+            return (f"{n}: update {update} wears {dmax:.4g} m deep, beyond max_depth_fraction {s.max_depth_fraction:g} x "
+                    f"the radius {_radius(wm):.4g} m = {bound:.4g} m; the trial failed (its last checkpoint is the "
+                    "update before)")
+    return None
 
 
 def block_length(mech, names, s: WearSettings, tol=0.025, max_periods=32, start=None):
@@ -383,9 +553,10 @@ def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, pro
         n_upd = len(res["history"]["cycles"])
         rounds.append({"updates": n_upd, **({"factor": si.factor} if si.scheme == "factor" else {"step": si.step}),
                        "complete": res["complete"], "max_depth": d,
-                       "worn_volume": {n: res["history"][f"{n}.worn_volume"][-1] for n in d},
+                       "worn_volume": {n: (res["history"][f"{n}.worn_volume"] or [0.0])[-1] for n in d},
                        # the trial's blocks and updates, resumed parts included (from its history)
                        "cpu_s": float(sum(res["history"]["cpu_sim"]) + sum(res["history"]["cpu_update"]))})
+        rounds[-1]["failed"] = res["failed"]
         if not res["complete"]:
             res.update(rounds=rounds, converged=False)
             return res

@@ -40,6 +40,8 @@ def build_parser():
                    "update as a fraction of the joint's radial clearance (first trial; default 0.01)")
     p.add_argument("--max-updates", type=count(1), default=2000, help="depth scheme: most updates of one trial "
                    "(default 2000; a trial that needs more stops there and is reported)")
+    p.add_argument("--max-depth-fraction", type=number(), default=0.05, help="a trial whose depth passes this fraction "
+                   "of the bearing's (socket's) radius ends as failed, naming the joint (default 0.05)")
     p.add_argument("--tol", type=number(), default=0.05, help="convergence: halving the update factor changes the "
                    "final depth by at most this (default 0.05)")
     p.add_argument("--max-rounds", type=count(1), default=5, help="most trials of the update factor (default 5)")
@@ -63,7 +65,8 @@ def cli_main(argv=None) -> int:
     mech = _load(args)
     s = WearSettings(cycles=float(args.cycles), period=float(args.period), updates=args.updates,
                      block_periods=args.block_periods, transient_periods=args.transient_periods, rtol=args.rtol,
-                     dt_out=args.dt_out, scheme=args.scheme, step=args.step, max_updates=args.max_updates)
+                     dt_out=args.dt_out, scheme=args.scheme, step=args.step, max_updates=args.max_updates,
+                     max_depth_fraction=args.max_depth_fraction)
     out = safeio.make_dirs(Path(args.out))
     block = None
     if args.block_tol is not None:
@@ -78,7 +81,8 @@ def cli_main(argv=None) -> int:
         _tables(out, {n: worn_joint(res["mech"], n)[1].wear for n in res["depth"]}, res["depth"], res["history"])
         plot(res, out)
         fac = res["history"]["factor"]
-        summary = {"converged": res["converged"], "scheme": args.scheme, "rounds": res["rounds"],
+        summary = {"converged": res["converged"], "failed": res.get("failed"), "scheme": args.scheme,
+                   "rounds": res["rounds"],
                    "update_factor": [min(fac), max(fac)], "updates": len(fac), "block": block,
                    "max_depth_m": {n: float(d.max()) for n, d in res["depth"].items()},
                    "cpu_sim_s": float(sum(res["history"]["cpu_sim"])),

@@ -18,6 +18,7 @@ best for soft, low-restitution impacts. Hertz is the undamped reference.
 from __future__ import annotations
 
 from pinclear.contact.base import ClearanceJoint
+from pinclear.contact.mixed import refuse_removed
 from pinclear.contact.laws import (
     FRICTION_LAWS,
     NORMAL_LAWS,
@@ -34,6 +35,11 @@ from pinclear.core.registry import CLEARANCE_TYPES
 #: clearance type -> PluginType (its keys, parser, closure types it may replace, plot): the
 #: registry is pinclear.core.registry.CLEARANCE_TYPES; one line there per type module
 TYPES = CLEARANCE_TYPES
+#: version of the contact models' forces (bump when a model's forces change): a wear checkpoint of
+#: another version is refused (pinclear.analysis.wear_life)
+MODEL_VERSION = 2
+#: the types of the mixed-lubrication model (contact.mixed): the keys it replaced are refused by name
+FILM_TYPES = ("lubricated_revolute", "lubricated_spherical")
 
 
 def replacing(closure_type) -> list:
@@ -56,6 +62,8 @@ def build(spec: dict, mech, sidecar_path):
         raise ContactSetupError(f"unknown clearance type {typ!r}", file=file, key=f"clearances.{spec['name']}.type",
                                 choices=TYPES.names())
     record = TYPES.get(typ)
+    if typ in FILM_TYPES:
+        refuse_removed(spec, file)
     sp = Spec(spec, file, set(TYPES.allowed(typ)))
     target = spec.get("closure")
     closures = {**{c.name: c for c in mech.closures}, **dict(mech.replaced_closures or {})}

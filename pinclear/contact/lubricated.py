@@ -1,19 +1,31 @@
-"""Lubricated planar revolute clearance: a hydrodynamic journal bearing, blended into dry contact.
+"""Lubricated planar revolute clearance: a hydrodynamic journal bearing in mixed lubrication.
 
 Film (Reynolds' equation for an incompressible isoviscous film; the short- and long-bearing
 approximations as the clearance-joint literature takes them from Pinkus & Sternlicht 1961, Theory
 of Hydrodynamic Lubrication, ch. 4 and 13, e.g. Flores et al. 2009, Nonlinear Dyn. 56, 277, eqs.
 4-13). With e the eccentricity of the journal centre in the bearing frame, eps = |e| / c, phi the
-angle from the line of centres' far side (film h = c (1 + eps cos phi)), the relative spin
+angle from the line of centres' far side (film h = c q, q = 1 + eps cos phi), the relative spin
 w = w_journal - w_bearing and the whirl gdot (rate of e's direction in the bearing frame), the
 wedge speed is Om = w - 2 gdot and
 
 * short bearing (Ocvirk; L/D small), integrated across the length:
-  P(phi) = mu L^3 / (2 c^2) (Om eps sin phi - 2 eps_dot cos phi) / (1 + eps cos phi)^3;
+  P(phi) = mu L^3 / (2 c^2) (Om eps sin phi - 2 eps_dot cos phi) / q^3;
 * long bearing (Sommerfeld; L/D large), times L:
-  P(phi) = 6 mu R^2 L / c^2 [Om eps sin phi (2 + eps cos phi) / ((2 + eps^2)(1 + eps cos phi)^2)
-           + (eps_dot / eps) ((1 + eps cos phi)^-2 - (1 + eps)^-2)]
+  P(phi) = 6 mu R^2 L / c^2 [Om eps sin phi (2 + eps cos phi) / ((2 + eps^2) q^2)
+           + (eps_dot / eps) (q^-2 - (1 + eps)^-2)]
   (ambient pressure at the widest gap, phi = 0).
+
+The film carries load down to contact: the gap's minimum in q is held at ``FLOOR`` x sigma (sigma
+the combined roughness, mixed.py; short: eps in q capped at 1 - FLOOR sigma / c, long: q floored
+there), a gap inside the roughness where the asperities carry the load; above it the film is the
+smooth-surface film unchanged.
+
+Integration: the short bearing in closed form (``short_bearing``: Sommerfeld's substitution makes
+every integrand a trigonometric polynomial, and its full-film arc is one arc of known ends, so its
+loads are exact at any eps, down to contact); the long bearing by the periodic trapezoid over NPHI
+points (the Guembel kinks make it second order). The long bearing's squeeze term, with the ambient
+pressure at the widest gap, jumps where e passes through the centre (the widest gap flips side):
+a limit of that boundary condition (the short bearing's force is continuous there).
 
 Cavitation: Guembel's half-Sommerfeld condition, the film carries no tension: P+ = max(P, 0).
 At a steady load (eps_dot = gdot = 0) this gives the closed forms of the load and attitude angle
@@ -24,24 +36,28 @@ checks through the coupled dynamics.
 
 Force on the journal: F = R int P+ (cos phi e_hat + sin phi t_hat) dphi (t_hat = axis x e_hat),
 its reaction on the bearing. Torque of the film's shear on the journal (Pinkus & Sternlicht eq.
-4-47, the Couette part over the whole circumference, the Poiseuille part by parts):
-T_j = -2 pi mu R^3 L w / (c sqrt(1 - eps^2)) - (|e| / 2) F_t, and on the bearing the opposite of
-the journal's moment (the film holds no momentum). The power of these loads on the two bodies is
+4-47, the Poiseuille part by parts): T_j = -(mu R^3 L w / c) S - (|e| / 2) F_t. The Couette part
+acts over the full-film arc only, S = int_{P > 0} dphi / q: where Guembel's film has ruptured the
+gap holds no continuous film and carries no shear (the half-Sommerfeld friction; for a steady
+journal, P > 0 on exactly half the circle, S = pi / sqrt(1 - eps^2), half of Petroff's full
+film; where the film carries no pressure at all, S is half the circle's integral, the limit of a
+vanishing load). On the bearing the opposite of the journal's moment (the film holds no
+momentum). The power of these loads on the two bodies is
 
-    P_film = -(R c / 2) int P+ (Om eps sin phi - 2 eps_dot cos phi) dphi - 2 pi mu R^3 L w^2 / (c sqrt(1 - eps^2))
+    P_film = -(R c / 2) int P+ (Om eps sin phi - 2 eps_dot cos phi) dphi - (mu R^3 L w^2 / c) S
 
-<= 0 at every state: for the short bearing P+ > 0 only where the bracket is; for the long bearing,
-where P+ > 0 is not tied to the bracket's sign when squeeze and wedge mix, Reynolds' equation
-(h^3 P')' = -6 mu R^2 c (bracket) integrated by parts over each interval where P > 0 (P+ vanishes
-at its ends) gives int P+ (bracket) = int_{P>0} h^3 P'^2 / (6 mu R^2 c) >= 0. The film only
-dissipates (tests/contact/test_lubricated.py checks both at random states, the long one to the quadrature's
-error); its dissipation is a state of the joint (output ``film_dissipated``) and part of the energy
-audit's E_diss.
+<= 0 at every state. Proof: S >= 0; for the short bearing P+ > 0 only where the bracket is (q > 0);
+for the long bearing, where P+ > 0 is not tied to the bracket's sign when squeeze and wedge mix,
+Reynolds' equation (h^3 P')' = -6 mu R^2 c (bracket) integrated by parts over each interval where
+P > 0 (P+ vanishes at its ends) gives int P+ (bracket) = int_{P>0} h^3 P'^2 / (6 mu R^2 c) >= 0
+(exact above the floor of q; tests/contact/test_lubricated.py checks both at random states, also
+below the floor, the long one to the quadrature's error). The film only dissipates; its
+dissipation is a state of the joint (output ``film_dissipated``) and part of the energy audit's
+E_diss.
 
-Dry contact and blend: the asperities touch when the film's minimum h_min = c - |e| falls to
-``asperity`` (h_a): the dry law acts on the penetration |e| - (c - h_a) (the joint's dry clearance
-is c - h_a), and the film's loads are scaled by s = smoothstep((h_min - h_a) / band) (3 x^2 -
-2 x^3, 0 at h_a, 1 at h_a + band): no force jumps, and s P_film <= 0 still.
+Dry contact, asperities and friction: contact/mixed.py (FilmJoint): the dry law acts on the
+penetration |e| - c of the full clearance, the asperities (Greenwood-Tripp) share the load when
+h_min = c - |e| is within a few sigma, and every load is compiled in one kernel.
 """
 from __future__ import annotations
 
@@ -49,171 +65,222 @@ import math
 
 import numpy as np
 
+from pinclear.contact.channels import channel_geometry
+from pinclear.contact.mixed import KEYS as MIXED_KEYS
+from pinclear.contact.mixed import FilmJoint, apply_loads, centre_rates, contact_loads, film_spec
 from pinclear.contact.revolute import _PLANAR, _PLOT, RevoluteClearance, check_bearing_radius
 from pinclear.contact.revolute import from_spec as _dry_from_spec
+from pinclear.core.jit import njit
 from pinclear.core.registry import Key, PluginType, key_names
-from pinclear.model.forces import add_body_wrench, add_wrenches, body_twist
+from pinclear.model.forces import place_frames
 
 THEORIES = ("short", "long")
-#: quadrature points over the circumference (trapezoid, periodic; the Guembel kinks at P = 0 make
-#: it second order: 4096 points keep the steady load within 1e-5 of the closed forms at eps 0.9)
+#: quadrature points of the long bearing over the circumference (trapezoid, periodic; the Guembel
+#: kinks at P = 0 make it second order: 4096 points keep the steady load within 1e-5 of the closed
+#: forms at eps 0.9)
 NPHI = 1024
 _PHI = np.arange(NPHI) * (2.0 * math.pi / NPHI)
 _COS, _SIN = np.cos(_PHI), np.sin(_PHI)
 
-_LUB = (Key("viscosity", "number", "Pa s", None, "> 0", "Pinkus & Sternlicht 1961", "dynamic viscosity of the oil"),
-        Key("theory", "string", "-", "short", ", ".join(THEORIES), "Pinkus & Sternlicht 1961 ch. 4",
-            "short (Ocvirk) or long (Sommerfeld) bearing"),
-        Key("asperity", "number", "m", "0.02 x clearance", ">= 0, < clearance", "contact/lubricated.py",
-            "film thickness at which the asperities touch (dry law from there)"),
-        Key("band", "number", "m", "asperity (or 0.02 x clearance)", "> 0", "contact/lubricated.py",
-            "film thickness band above the asperity height over which the film fades out"))
+_LUB = (MIXED_KEYS[0], Key("theory", "string", "-", "short", ", ".join(THEORIES), "Pinkus & Sternlicht 1961 ch. 4",
+                           "short (Ocvirk) or long (Sommerfeld) bearing")) + MIXED_KEYS[1:]
 #: the film keys every lubricated type takes (lubricated_spherical.py has no bearing theory)
-FILM_KEYS = tuple(k for k in _LUB if k.name != "theory")
+FILM_KEYS = MIXED_KEYS
 
 
-def film_pressure(theory, mu, R, L, c, eps, eps_dot, Om):
+@njit(cache=True, inline="always")
+def _pressure(long, k, eps, eps_dot, Om, qmin, co, si):
+    """(P, 1 / q) at one angle (cos, sin = co, si) before cavitation (module doc); k the scale."""
+    q = max(1.0 + eps * co, qmin)
+    if long:
+        wedge = Om * eps * si * (2.0 + eps * co) / ((2.0 + eps * eps) * q * q)
+        # squeeze: (eps_dot / eps)(q^-2 - (1 + eps)^-2), written without the 1/eps (finite at eps = 0)
+        squeeze = eps_dot * (1.0 - co) * (2.0 + eps * (1.0 + co)) / ((1.0 + eps) ** 2 * q * q)
+        return k * (wedge + squeeze), 1.0 / q
+    q = 1.0 + min(eps, 1.0 - qmin) * co
+    return k * (Om * eps * si - 2.0 * eps_dot * co) / (q * q * q), 1.0 / q
+
+
+@njit(cache=True)
+def journal_pressure(long, mu, R, L, c, qmin, eps, eps_dot, Om, P):
     """P(phi) (N/m, integrated over the length) at the quadrature angles, before cavitation."""
-    q = 1.0 + eps * _COS
-    if theory == "short":
-        return mu * L ** 3 / (2 * c * c) * (Om * eps * _SIN - 2 * eps_dot * _COS) / q ** 3
-    wedge = Om * eps * _SIN * (2 + eps * _COS) / ((2 + eps * eps) * q * q)
-    # squeeze: (eps_dot / eps)(q^-2 - (1 + eps)^-2), written without the 1/eps (finite at eps = 0)
-    squeeze = eps_dot * (1 - _COS) * (2 + eps * (1 + _COS)) / ((1 + eps) ** 2 * q * q)
-    return 6 * mu * R * R * L / (c * c) * (wedge + squeeze)
+    k = 6.0 * mu * R * R * L / (c * c) if long else mu * L ** 3 / (2.0 * c * c)
+    for i in range(NPHI):
+        P[i] = _pressure(long, k, eps, eps_dot, Om, qmin, _COS[i], _SIN[i])[0]
 
 
-def film_loads(theory, mu, R, L, c, e, edot, axis, w):
-    """(F on the journal (3,), torque T_j on the journal about ``axis``, power of the film's loads
-    on the two bodies (<= 0 for the short bearing), eps) at eccentricity e (world, bearing plane),
-    its rate in the bearing frame edot, and the relative spin w (rad/s)."""
-    r = float(np.linalg.norm(e))
-    eps = min(r / c, 1.0 - 1e-9)
+@njit(cache=True, inline="always")
+def short_bearing(k, eps, A, B, qmin):
+    """(F_e, F_t per unit R, the full-film shear integral S) of the short bearing in closed form:
+    P = k (A sin phi + B cos phi) / q^3 with q = 1 + e cos phi, e = min(eps, 1 - qmin) (module doc).
+    Sommerfeld's substitution cos phi = (cos g - e) / (1 - e cos g) turns q^-3 dphi into
+    (1 - e cos g)^2 dg / (1 - e^2)^(5/2) and dphi / q into dg / sqrt(1 - e^2): the integrands are
+    trigonometric polynomials of degree 2 in g, and P > 0 on the one arc where
+    a sin g + b cos g > B e (a = A sqrt(1 - e^2), b = B), of half-angle pi / 2 - asin(B e / rho)."""
+    e = min(eps, 1.0 - qmin)
+    w = (1.0 - e * e) ** 0.5
+    a, b = A * w, B
+    rho = (a * a + b * b) ** 0.5
+    if rho == 0.0:
+        return 0.0, 0.0, math.pi / w            # no pressure: half the circle (the vanishing-load limit)
+    beta = math.atan2(b, a)
+    r = min(max(b * e / rho, -1.0), 1.0)
+    g1 = math.asin(r) - beta
+    g2 = math.pi - math.asin(r) - beta
+    s1, c1, s2, c2 = math.sin(g1), math.cos(g1), math.sin(g2), math.cos(g2)
+    dg = g2 - g1
+    # int s c, int s, int c^2, int c, int s^2 over [g1, g2]
+    isc = 0.5 * (s2 * s2 - s1 * s1)
+    i_s = c1 - c2
+    icc = 0.5 * dg + 0.5 * (s2 * c2 - s1 * c1)
+    i_c = s2 - s1
+    iss = 0.5 * dg - 0.5 * (s2 * c2 - s1 * c1)
+    scale = k / w ** 5
+    Fe = scale * (a * isc - a * e * i_s + b * icc - 2.0 * b * e * i_c + b * e * e * dg)
+    Ft = scale * w * (a * iss + b * isc - b * e * i_s)
+    return Fe, Ft, dg / w
+
+
+@njit(cache=True)
+def journal_film(long, mu, R, L, c, qmin, e, edot, axis, w, F):
+    """The film's force F (3,) on the journal at eccentricity e (world, bearing plane), its rate in
+    the bearing frame edot and the relative spin w (rad/s); returns (T_j about the axis, the power
+    of the film's loads on the two bodies, eps, the full-film shear integral S) (module doc)."""
+    r = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2]) ** 0.5
+    eps = r / c
     if r > 1e-12 * c:
-        eh = e / r
+        eh0, eh1, eh2 = e[0] / r, e[1] / r, e[2] / r
     else:
         # centred: any radial direction (the wedge force vanishes with eps)
-        eh = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
-        eh /= np.linalg.norm(eh)
-    th = np.cross(axis, eh)
-    eps_dot = float(eh @ edot) / c
-    gdot = float(th @ edot) / r if r > 1e-12 * c else 0.0
+        if abs(axis[0]) < 0.9:
+            eh0, eh1, eh2 = 0.0, axis[2], -axis[1]
+        else:
+            eh0, eh1, eh2 = -axis[2], 0.0, axis[0]
+        nn = (eh0 * eh0 + eh1 * eh1 + eh2 * eh2) ** 0.5
+        eh0, eh1, eh2 = eh0 / nn, eh1 / nn, eh2 / nn
+    th0 = axis[1] * eh2 - axis[2] * eh1
+    th1 = axis[2] * eh0 - axis[0] * eh2
+    th2 = axis[0] * eh1 - axis[1] * eh0
+    eps_dot = (eh0 * edot[0] + eh1 * edot[1] + eh2 * edot[2]) / c
+    gdot = (th0 * edot[0] + th1 * edot[1] + th2 * edot[2]) / r if r > 1e-12 * c else 0.0
     Om = w - 2.0 * gdot
-    P = np.maximum(film_pressure(theory, mu, R, L, c, eps, eps_dot, Om), 0.0)
+    k = 6.0 * mu * R * R * L / (c * c) if long else mu * L ** 3 / (2.0 * c * c)
+    if long:
+        Fe, Ft, S = long_bearing(k, eps, eps_dot, Om, qmin)
+    else:
+        Fe, Ft, S = short_bearing(k, eps, Om * eps, -2.0 * eps_dot, qmin)
+    Fe *= R
+    Ft *= R
+    Tj = -mu * R ** 3 * L * w * S / c - 0.5 * r * Ft
+    F[0] = Fe * eh0 + Ft * th0
+    F[1] = Fe * eh1 + Ft * th1
+    F[2] = Fe * eh2 + Ft * th2
+    power = F[0] * edot[0] + F[1] * edot[1] + F[2] * edot[2] + Tj * w
+    return Tj, power, eps, S
+
+
+@njit(cache=True, inline="always")
+def long_bearing(k, eps, eps_dot, Om, qmin):
+    """(F_e, F_t per unit R, the full-film shear integral S) of the long bearing by the periodic
+    trapezoid over NPHI points, the full-film arc's ends interpolated linearly (module doc)."""
     dphi = 2.0 * math.pi / NPHI
-    Fe, Ft = R * dphi * float(P @ _COS), R * dphi * float(P @ _SIN)
-    couette = 2.0 * math.pi * mu * R ** 3 * L / (c * math.sqrt(1.0 - eps * eps))
-    Tj = -couette * w - 0.5 * r * Ft
-    F = Fe * eh + Ft * th
-    power = float(F @ edot) + Tj * w
+    Fe = Ft = wet = full = 0.0
+    P0, g0 = _pressure(True, k, eps, eps_dot, Om, qmin, _COS[0], _SIN[0])
+    Pa, ga = P0, g0
+    for i in range(NPHI):
+        if i + 1 < NPHI:
+            Pb, gb = _pressure(True, k, eps, eps_dot, Om, qmin, _COS[i + 1], _SIN[i + 1])
+        else:
+            Pb, gb = P0, g0
+        if Pa > 0.0:
+            Fe += Pa * _COS[i]
+            Ft += Pa * _SIN[i]
+        full += ga
+        # the full-film arc of the segment [phi_i, phi_i+1]: the zero of P interpolated linearly
+        if Pa > 0.0 and Pb > 0.0:
+            wet += 0.5 * (ga + gb)
+        elif Pa > 0.0:
+            wet += Pa / (Pa - Pb) * ga
+        elif Pb > 0.0:
+            wet += Pb / (Pb - Pa) * gb
+        Pa, ga = Pb, gb
+    return Fe * dphi, Ft * dphi, (wet if wet > 0.0 else 0.5 * full) * dphi
+
+
+@njit(cache=True, inline="always")
+def journal_loads(bodies, laws, fr, ch, mp, fo, M1, v, z, zdot):
+    """After the dry geometry: the contact and asperity loads (mixed.contact_loads) and the film's,
+    their dissipated power into zdot (module doc of mixed.py)."""
+    loss = contact_loads(bodies, laws, fr, ch, mp, fo, v, z, zdot)
+    n, p2, j, edot, wv = ch.n, ch.p2, fo.j, fo.edot, fo.w
+    for i in range(3):
+        j[i] = p2[0, i] - mp.R * n[0, i]
+    centre_rates(bodies, v, j, edot, wv)
+    axis = fo.T                             # scratch: the bearing axis, then the torque along it
+    a0, a1, a2 = M1[0, 2], M1[1, 2], M1[2, 2]
+    ax = edot[0] * a0 + edot[1] * a1 + edot[2] * a2
+    edot[0] -= ax * a0
+    edot[1] -= ax * a1
+    edot[2] -= ax * a2
+    axis[0], axis[1], axis[2] = a0, a1, a2
+    # the dry geometry's |e| - c = delta, along n
+    r = ch.delta[0] + mp.c
+    e = wv                                  # scratch after the spin is read
+    w = wv[0] * a0 + wv[1] * a1 + wv[2] * a2
+    for i in range(3):
+        e[i] = r * n[0, i]
+    Tj, power, eps, S = journal_film(mp.kind == 1, mp.mu, mp.R, mp.L, mp.c, mp.qmin, e, edot, axis, w, fo.F)
+    fo.T[0], fo.T[1], fo.T[2] = Tj * a0, Tj * a1, Tj * a2
+    fo.res[0], fo.res[3], fo.res[4], fo.res[5] = eps, power, S, Tj
+    zdot[mp.film_state] = -power
+    zdot[ch.delta.shape[0]] = loss - power
+
+
+@njit(cache=True)
+def journal_eval(bodies, laws, fr, ch, mp, fo, M1, v, z, zdot):
+    """journal_loads from Python (FilmJoint._compute)."""
+    journal_loads(bodies, laws, fr, ch, mp, fo, M1, v, z, zdot)
+
+
+@njit(cache=True, inline="always")
+def journal_force(geo, frames, bodies, laws, fr, ch, mp, fo, v, z, tau, zdot):
+    """The lubricated journal's whole right-hand-side contribution in one call: its frames'
+    placements, the dry geometry, the loads (journal_loads), their wrenches into tau."""
+    M = frames.M
+    place_frames(frames)
+    channel_geometry(geo.code, geo.gpar, M[0], M[1], ch.scratch, ch.delta, ch.n, ch.p1, ch.p2)
+    journal_loads(bodies, laws, fr, ch, mp, fo, M[0], v, z, zdot)
+    apply_loads(bodies, ch, fo, tau)
+    return 1
+
+
+def film_pressure(theory, mu, R, L, c, eps, eps_dot, Om, qmin=0.0):
+    """P(phi) at the quadrature angles (journal_pressure from Python)."""
+    P = np.empty(NPHI)
+    journal_pressure(theory == "long", mu, R, L, c, qmin, eps, eps_dot, Om, P)
+    return P
+
+
+def film_loads(theory, mu, R, L, c, e, edot, axis, w, qmin=0.0):
+    """(F on the journal (3,), torque T_j on the journal about ``axis``, power of the film's loads
+    on the two bodies (<= 0), eps) (journal_film from Python)."""
+    F = np.zeros(3)
+    Tj, power, eps, _ = journal_film(theory == "long", mu, R, L, c, qmin, np.asarray(e, float),
+                                     np.asarray(edot, float), np.asarray(axis, float), float(w), F)
     return F, Tj, power, eps
-
-
-def smoothstep(x):
-    x = min(max(x, 0.0), 1.0)
-    return x * x * (3.0 - 2.0 * x)
-
-
-class FilmJoint:
-    """Mixin of the lubricated clearance types (this module, lubricated_spherical.py): a dry joint
-    (the next base class, its clearance reduced to c - asperity) plus an oil film whose loads a
-    subclass computes in ``_compute`` and hands to :meth:`_blend`. z = [onset speeds |
-    E_dissipated | friction states | film dissipation]; the film is evaluated in Python."""
-
-    def __init__(self, *args, viscosity, asperity, band, c_nominal, **kw):
-        self.mu_oil = float(viscosity)
-        self.h_a, self.band, self.c_film = float(asperity), float(band), float(c_nominal)
-        super().__init__(*args, **kw)
-
-    def _freeze(self):
-        self.kind = type(self).kind          # the dry base may have set its own
-        self.nz = self.nc + 2 + self.nfs
-        self.film_state = self.nz - 1
-        super()._freeze()
-
-    def _compiled_kernel(self):
-        return None                       # the film is evaluated in Python (add_force)
-
-    def record_layout(self):
-        return None
-
-    def _blend(self, d, F, T, j, power, eps, torque_out):
-        """The film's loads (F on body 2, torque T on body 2 about its centre j, their power on the
-        two bodies) faded out over the band above the asperity height: s = smoothstep((h_min -
-        h_a) / band) scales loads and power alike, so s P_film <= 0 still (module doc)."""
-        s = smoothstep((self.c_film * (1.0 - eps) - self.h_a) / self.band)
-        d.film = (s * F, s * T, j, eps, s, s * torque_out)
-        d.film_loss = -s * power
-        d.loss += d.film_loss
-
-    def add_force(self, mech, ws, d, t, q, v, z, tau, zdot):
-        self._eval(ws, d, t, q, v, z)
-        nc = self.nc
-        zdot[:nc] = 0.0
-        zdot[nc] = d.loss
-        zdot[nc + 1:self.film_state] = d.dzf
-        zdot[self.film_state] = d.film_loss
-        if d.on.any():
-            add_wrenches(ws.J6, self.idx1, self.idx2, d.F2, d.p1, d.p2, tau)
-        F, T, j = d.film[:3]
-        m = np.cross(j, F) + T            # the film's wrench on body 2 about the origin
-        # the film holds no momentum: body 1 takes the opposite wrench about the same point
-        add_body_wrench(ws.J6, self.idx2, F[0], F[1], F[2], m[0], m[1], m[2], tau)
-        add_body_wrench(ws.J6, self.idx1, -F[0], -F[1], -F[2], -m[0], -m[1], -m[2], tau)
-
-    def outputs(self, mech, ws, d, t, q, v, z):
-        out = super().outputs(mech, ws, d, t, q, v, z)
-        F, _, _, eps, s, T = d.film
-        out.update(film_force=F.copy(), film_torque=T, eccentricity_ratio=eps, film_weight=s,
-                   film_dissipated=float(z[self.film_state]))
-        return out
-
-    def describe(self):
-        return {**super().describe(), "viscosity": self.mu_oil, "asperity": self.h_a, "band": self.band,
-                "film_clearance": self.c_film}
-
-
-def film_spec(sp, own=()):
-    """(the film's keyword arguments of FilmJoint, the dry joint's Spec) of a lubricated entry:
-    viscosity, asperity height and band read and checked; the dry law acts from h_min = asperity,
-    so the dry joint's clearance is c - asperity (its radii are those of that clearance). ``own``:
-    the type's further keys the dry parser does not take."""
-    c = sp.clearance()
-    mu = sp.number("viscosity")
-    h_a = sp.number("asperity", 0.02 * c, allow_zero=True)
-    if h_a >= c:
-        raise sp.error("asperity", f"must be below the clearance {c} m, got {h_a}")
-    band = sp.number("band", h_a if h_a > 0 else 0.02 * c)
-    dry = dict(sp.d, clearance=c - h_a)
-    for k in ("viscosity", "asperity", "band") + tuple(own):
-        dry.pop(k, None)
-    sp_dry = type(sp).__new__(type(sp))
-    sp_dry.__dict__.update(sp.__dict__, d=dry)
-    return dict(viscosity=mu, asperity=h_a, band=band, c_nominal=c), sp_dry
 
 
 class LubricatedRevoluteClearance(FilmJoint, RevoluteClearance):
     """Planar journal bearing with an oil film (module doc)."""
 
     kind = "lubricated_revolute"
+    film_kernel = journal_force
+    film_eval = journal_eval
 
     def __init__(self, *args, theory, **kw):
         self.theory = theory
+        self.film_code = THEORIES.index(theory)
         super().__init__(*args, **kw)
-
-    def _compute(self, ws, d, v, z):
-        super()._compute(ws, d, v, z)
-        n = d.n[0]
-        e = (d.delta[0] + self.c) * n      # the dry geometry's |e| - c_dry = delta
-        j = d.p2[0] - self.R2 * n
-        u, b = body_twist(ws.J6, self.idx1, v), body_twist(ws.J6, self.idx2, v)
-        w1, w2 = np.array(u[3:]), np.array(b[3:])
-        edot = (np.array(b[:3]) + np.cross(w2, j)) - (np.array(u[:3]) + np.cross(w1, j))
-        axis = ws.data.oMf[self.f1].rotation[:, 2].copy()
-        edot -= (edot @ axis) * axis
-        F, Tj, power, eps = film_loads(self.theory, self.mu_oil, self.R2, self.L, self.c_film, e, edot, axis,
-                                       float(axis @ (w2 - w1)))
-        self._blend(d, F, Tj * axis, j, power, eps, Tj)
 
     def describe(self):
         return {**super().describe(), "theory": self.theory}
@@ -221,20 +288,20 @@ class LubricatedRevoluteClearance(FilmJoint, RevoluteClearance):
 
 def from_spec(sp, mech, closure):
     theory = sp.choice("theory", THEORIES)
-    film, sp_dry = film_spec(sp, own=("theory", "bearing_radius"))
+    film, sp_dry = film_spec(sp)
+    sp_dry.d.pop("theory", None)
     joint = _dry_from_spec(sp_dry, mech, closure, spatial=False)
-    # the dry channel's clearance is c - asperity, so bearing_radius is checked against the nominal c
-    check_bearing_radius(sp, joint.R2, film["c_nominal"])
-    # the bearing is R_j + c: the dry channel's radii are those of the clearance c - h_a
+    check_bearing_radius(sp, joint.R2, joint.c)
     return LubricatedRevoluteClearance(joint.name, mech.model, joint.f1, joint.f2, joint.c, joint.R2, joint.law,
                                        joint.friction, length=joint.L, stiffness_note=joint.stiffness_note,
-                                       theory=theory, **film, **sp.common(film["c_nominal"]))
+                                       theory=theory, **film, **sp.common(joint.c))
 
 
 LUBRICATED_REVOLUTE = PluginType(
     "lubricated_revolute", parse=from_spec, replaces=("revolute", "planar_point", "spherical"),
-    doc="A planar journal bearing with an oil film: the hydrodynamic force and friction torque of the short "
-        "(Ocvirk) or long (Sommerfeld) bearing with Guembel's cavitation, faded out over a band above the asperity "
-        "height, below which the dry law acts (docs/wear_lubrication.md).",
-    source="Pinkus & Sternlicht 1961; Flores et al. 2009", keys=_PLANAR + _LUB, plot=_PLOT)
+    doc="A planar journal bearing in mixed lubrication: the hydrodynamic force and friction torque of the short "
+        "(Ocvirk) or long (Sommerfeld) bearing with Guembel's cavitation down to contact, the asperities "
+        "(Greenwood-Tripp) sharing the load within a few roughnesses of it, the dry law beyond "
+        "(docs/wear_lubrication.md).",
+    source="Pinkus & Sternlicht 1961; Flores et al. 2009; Greenwood & Tripp 1970", keys=_PLANAR + _LUB, plot=_PLOT)
 KEYS = key_names(_PLANAR + _LUB)

@@ -39,6 +39,8 @@ from pinclear.contact.channels import Laws
 from pinclear.core.registry import Key
 
 MODELS = ("archard",)
+#: most wear nodes of a bearing (a finer mesh than 0.004 deg cells is not a mesh study, it is a typo)
+MAX_NODES = 100_000
 DISTRIBUTIONS = ("hertz", "uniform")
 
 #: the keys of a clearance's ``wear:`` mapping (docs/keys.md, docs/wear_lubrication.md)
@@ -46,7 +48,7 @@ WEAR_KEYS = (
     Key("model", "string", "-", "archard", ", ".join(MODELS), "Archard 1953", "the wear law"),
     Key("k", "number", "-", None, "> 0", "Archard 1953: V = k F s / H", "dimensionless wear coefficient"),
     Key("hardness", "number", "Pa", None, "> 0", "Archard 1953", "hardness H of the worn bearing"),
-    Key("nodes", "integer", "-", 360, ">= 16", "contact/wear.py", "wear nodes around the bearing"),
+    Key("nodes", "integer", "-", 360, ">= 16, <= MAX_NODES (100000)", "contact/wear.py", "wear nodes around the bearing"),
     Key("distribution", "string", "-", "hertz", ", ".join(DISTRIBUTIONS), "Johnson 1985 eqs. 4.43-4.45",
         "pressure over the Hertz half-width: elliptic (hertz) or uniform"),
 )
@@ -100,8 +102,8 @@ def parse(sp, R1, R2, L):
         raise sp.error("wear.distribution", f"unknown distribution {dist!r}", DISTRIBUTIONS)
     k, hardness = positive(sp, w, "k"), positive(sp, w, "hardness")
     nodes = w.get("nodes", 360)
-    if isinstance(nodes, bool) or not isinstance(nodes, int) or nodes < 16:
-        raise sp.error("wear.nodes", f"an integer >= 16, got {nodes!r}")
+    if isinstance(nodes, bool) or not isinstance(nodes, int) or not 16 <= nodes <= MAX_NODES:
+        raise sp.error("wear.nodes", f"an integer in [16, {MAX_NODES}], got {nodes!r}")
     return WearModel(k, hardness, int(nodes), dist, R1, R2, L, sp.estar(), R2 * R1 / (R1 - R2))
 
 

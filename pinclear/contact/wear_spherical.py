@@ -39,6 +39,8 @@ from pinclear.core.jit import njit
 from pinclear.core.registry import Key
 
 POLES = ("x", "y", "z")
+#: most mesh rows in theta: 2 x 200^2 = 80000 nodes (0.9 deg cells), within contact.wear.MAX_NODES
+MAX_ROWS = 200
 
 #: the keys of a spherical clearance's ``wear:`` mapping (docs/wear_lubrication.md sec. 6)
 WEAR_KEYS = (
@@ -46,7 +48,7 @@ WEAR_KEYS = (
     Key("k", "number", "-", None, "> 0", "Archard 1953: V = k F s / H", "dimensionless wear coefficient"),
     Key("hardness", "number", "Pa", None, "> 0", "Archard 1953", "hardness H of the worn socket"),
     Key("nodes", "integer", "-", 36, ">= 8", "contact/wear_spherical.py",
-        "mesh rows in theta (2 x nodes columns in phi; 36: 5 deg cells)"),
+        "mesh rows in theta (2 x nodes columns in phi; 36: 5 deg cells; at most 200)"),
     Key("distribution", "string", "-", "hertz", ", ".join(DISTRIBUTIONS), "Johnson 1985 eqs. 4.22-4.23",
         "pressure over the Hertz contact circle: elliptic (hertz) or uniform"),
     Key("pole", "string", "-", "z", ", ".join(POLES), "contact/wear_spherical.py",
@@ -141,8 +143,8 @@ def parse(sp, R1, R2):
         if w.get(key, default) not in choices:
             raise sp.error(f"wear.{key}", f"unknown {key} {w[key]!r}", choices)
     rows = w.get("nodes", 36)
-    if isinstance(rows, bool) or not isinstance(rows, int) or rows < 8:
-        raise sp.error("wear.nodes", f"an integer >= 8 (mesh rows in theta), got {rows!r}")
+    if isinstance(rows, bool) or not isinstance(rows, int) or not 8 <= rows <= MAX_ROWS:
+        raise sp.error("wear.nodes", f"an integer in [8, {MAX_ROWS}] (mesh rows in theta), got {rows!r}")
     return SphericalWearModel(positive(sp, w, "k"), positive(sp, w, "hardness"), rows, w.get("distribution", "hertz"),
                               POLES.index(w.get("pole", "z")), R1, R2, sp.estar(), R2 * R1 / (R1 - R2))
 

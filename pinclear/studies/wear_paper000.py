@@ -75,7 +75,10 @@ def run_case(overrides, s, mech=None):
     t_eval = np.arange(t_end - s["window"] * T, t_end + 1e-12, s["dt_out [s]"])
     t_eval[-1] = min(t_eval[-1], t_end)
     cpu = time.process_time()
-    tr = simulate(mech, t_end, t_eval=t_eval)
+    # the squeeze film near contact is stiff (damping of order 1e13 N s/m): an oiled run takes an
+    # implicit integrator (benchmarks/lubrication.md: BDF costs 0.36x the dry RK45 run, RK45 ~1000x)
+    oiled = str((overrides or {}).get("S2.type", "")).startswith("lubricated")
+    tr = simulate(mech, t_end, t_eval=t_eval, integrator="BDF" if oiled else "RK45")
     cpu = time.process_time() - cpu
     r = {"status": tr.status, "cpu_s": cpu}
     if tr.status != "success":

@@ -38,6 +38,7 @@ READS = {
     ("view", "file"): lambda p, d: ["view", p, "--html", os.path.join(d, "v.html")],
     ("view", "--mech"): "run:view",
     ("view", "--wear"): "folder:profile.csv",
+    ("reproduce", "--from"): "folder:004/report.json",
     ("plot", "file"): lambda p, d: ["plot", p, "--out", d],
     ("plot", "--ref"): "run:plot-ref",
     ("plot", "--mech"): "run:plot",
@@ -132,12 +133,15 @@ def _argv(cmd_opt, path_kind, tmp_path, saved_run):
         folder = tmp_path / "folder"
         folder.mkdir()
         target = str(folder / arg)
+        os.makedirs(os.path.dirname(target), exist_ok=True)
         if path_kind == "dev_zero":
             os.symlink("/dev/zero", target)
         else:
             _hostile(path_kind, target)
         if cmd_opt == ("simulate", "--resume"):
             return ["simulate", "four_bar", "--t-end", "0.02", "--resume", str(folder), "--out", str(folder)], target
+        if cmd_opt == ("reproduce", "--from"):
+            return ["reproduce", "claims", "--from", str(folder), "--out", str(tmp_path / "claims.md")], target
         return ["view", "four_bar", "--wear", str(folder), "--html", str(tmp_path / "v.html")], target
     p = _hostile(path_kind, str(tmp_path / "hostile.yaml"))
     run = str(saved_run)

@@ -53,24 +53,30 @@ def test_loaded_spinning_journal_settles_at_the_closed_form_eccentricity_and_att
     assert math.hypot(e[0], e[1]) / C == pytest.approx(eps, rel=0.01)
     # attitude: from the load line (-y) to the eccentricity, in the spin's sense
     assert math.atan2(e[0], -e[1]) == pytest.approx(psi, rel=0.01)
-    assert tr.outputs["A.film_weight"][-1] == 1.0 and tr.outputs["A.fn"][-1] == 0.0
+    # the film alone: no asperity load (lambda >= 4) and no dry contact
+    assert tr.outputs["A.film_parameter"][-1] > 4.0 and tr.outputs["A.asperity_force"][-1] == 0.0
+    assert tr.outputs["A.fn"][-1] == 0.0
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("theory", ["short", "long"])
 def test_film_only_dissipates_and_the_audit_closes(theory):
-    # a free (undriven) spinning journal thrown across its oil film into the dry wall and back
-    mech = pinclear.load(JOURNAL, clearances=["A"], overrides={"A.theory": theory, "A.asperity": 5e-6,
-                                                                "A.band": 5e-6})
+    # a free (undriven) spinning journal thrown across a thin oil film (2e-6 Pa s) onto its
+    # asperities and back: their energy is elastic (in the potential), their boundary friction and
+    # the film dissipate; total + dissipated stays within the run's integration bound
+    mech = pinclear.load(JOURNAL, clearances=["A"], overrides={"A.theory": theory, "A.roughness": 2e-6,
+                                                                "A.viscosity": 2e-6})
     mech = mech.replace(drives=())
     tr = pinclear.simulate(mech, 0.05, integrator="Radau", rtol=1e-9, q0=np.array([0.0, 0.0, 0.0]),
                            v0=np.array([0.3, -0.2, 300.0]), assemble=False, dt_out=1e-4)
     assert tr.status == "success"
     E, D = tr.energy()["total"], tr.outputs["A.dissipated"]
     film = tr.outputs["A.film_dissipated"]
-    assert film[-1] > 0.5 * (E[0] - E[-1])                 # the film took most of it
+    assert np.max(tr.outputs["A.asperity_force"]) > 1.0                # it reached the asperities
+    assert film[-1] > 0.1 * (E[0] - E[-1])
     assert np.all(np.diff(film) >= -1e-12 * E[0])           # never gives energy back
-    assert np.max(np.abs(E + D - E[0])) < 1e-6 * E[0]
+    b = tr.energy_balance()
+    assert b["ok"] and np.max(np.abs(E + D - E[0])) <= b["bound"] * b["scale"]
 
 
 def test_short_bearing_power_is_never_positive_at_random_states():
@@ -117,7 +123,8 @@ def test_long_bearing_power_is_never_positive_at_random_states():
 
 def test_bearing_radius_is_checked_against_the_nominal_clearance():
     """bearing_radius = radius + clearance (1e-4 m) is accepted, though the dry channel's own
-    clearance is c - asperity; any other value stops the load, naming the key."""
+    clearance is the full clearance (the film carries load down to contact); any other value stops
+    the load, naming the key."""
     mech = pinclear.load(JOURNAL, clearances=["A"], overrides={"A.bearing_radius": R + C})
     assert mech.clearances[0].c_film == pytest.approx(C, rel=1e-15)
     with pytest.raises(pinclear.core.errors.ContactSetupError, match=r"A.bearing_radius.*differs from clearance 0.0001 m"):

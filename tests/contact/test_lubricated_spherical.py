@@ -100,7 +100,8 @@ def test_a_loaded_ball_sinks_through_its_film_as_the_closed_form_squeeze_law_say
                                dt_out=T / 30)
         assert tr.status == "success"
         eps = -tr.q[:, 2] / C
-        assert eps[-1] > 0.88 and np.all(tr.outputs["S.film_weight"] == 1.0)     # through the film, not dry
+        # through the film, not the asperities or dry contact
+        assert eps[-1] > 0.88 and np.all(tr.outputs["S.asperity_force"] == 0.0) and np.all(tr.outputs["S.fn"] == 0.0)
         assert np.max(np.abs(eps - ref.sol(tr.t)[0])) < 3 * rtol
         assert np.max(np.abs(tr.q[:, [0, 1, 3, 4, 5]])) < 1e-12 * C               # straight down, no spin
 
@@ -125,12 +126,11 @@ def test_film_power_is_never_positive_at_random_states():
 def test_a_ball_thrown_through_its_film_into_the_wall_closes_its_audit():
     """Thrown across its (thin) film with spin into the dry wall and back: the film's dissipation
     never decreases, and total + dissipated stays within the run's integration bound (pinclear.dynamics.energy)."""
-    mech = pinclear.load(BALL, clearances=["S"], overrides={"S.viscosity": 1e-4, "S.asperity": 5e-6,
-                                                             "S.band": 5e-6})
+    mech = pinclear.load(BALL, clearances=["S"], overrides={"S.viscosity": 1e-4, "S.roughness": 2e-6})
     tr = pinclear.simulate(mech, 0.004, integrator="Radau", rtol=1e-9, q0=np.zeros(6),
                            v0=np.array([0.3, -0.2, 0.4, 0.0, 200.0, 100.0]), assemble=False, dt_out=1e-5)
     assert tr.status == "success"
-    assert np.max(tr.outputs["S.fn"]) > 0 and np.min(tr.outputs["S.film_weight"]) == 0.0   # reached dry contact
+    assert np.max(tr.outputs["S.asperity_force"]) > 0                  # reached the asperities
     E, D = tr.energy()["total"], tr.outputs["S.dissipated"]
     film = tr.outputs["S.film_dissipated"]
     assert film[-1] > 0.1 * (E[0] - E[-1])
@@ -142,9 +142,9 @@ def test_a_ball_thrown_through_its_film_into_the_wall_closes_its_audit():
 
 @pytest.mark.parametrize("key, value, pattern", [
     ("viscosity", -0.01, r"lub_ball.yaml: clearances.S.viscosity: must be > 0, got -0.01"),
-    ("asperity", 2e-4, r"lub_ball.yaml: clearances.S.asperity: must be below the clearance 0.0001 m"),
-    ("band", 0.0, r"lub_ball.yaml: clearances.S.band: must be > 0"),
-    ("theory", "short", r"lub_ball.yaml: clearances.S.theory: unknown key \(valid: .*asperity, band.*viscosity"),
+    ("asperity", 2e-4, r"lub_ball.yaml: clearances.S.asperity: removed: .*'roughness' \(sigma, m; default 3e-07\)"),
+    ("band", 0.0, r"lub_ball.yaml: clearances.S.band: removed: .*'roughness'"),
+    ("theory", "short", r"lub_ball.yaml: clearances.S.theory: unknown key \(valid: .*boundary_mu.*roughness.*viscosity"),
     ("socket_radius", 0.0201, r"clearances.S.socket_radius: unknown key \(valid: .*radius"),
 ])
 def test_bad_keys_stop_the_load_with_one_line(key, value, pattern):
@@ -164,27 +164,28 @@ def test_a_missing_viscosity_stops_the_load(tmp_path):
 def test_oil_in_s2_of_the_4ups_upu_delays_and_softens_the_landing():
     """pinclear.studies.wear_paper000's case runner on 0.1 s of paper 000's mechanism from its centred start:
     the squeeze film only slows the ball's approach (it carries no load at rest), so with oil the
-    first asperity contact comes later and its peak force is lower than the dry joint's; the film's
-    dissipation is part of the audited total and the audit closes. Later by more than 2x: at 0.1 Pa s
-    under S2's ~140 N the squeeze law alone takes 6 pi mu R^4 / (c^2 W) int_0^0.98 g = 32 ms to cross
-    the film (quasi-static), against the dry joint's 12.6 ms fall."""
+    first dry contact comes later (or not within the window) and its peak force is lower than the
+    dry joint's; the film's dissipation is part of the audited total and the audit closes. Later by
+    more than 2x: at 0.1 Pa s under S2's ~140 N the squeeze law alone takes 6 pi mu R^4 / (c^2 W)
+    int_0^0.98 g = 32 ms to cross 98 % of the film (quasi-static), and the rest grows without bound
+    as the gap closes (g ~ 1 / (1 - eps)), against the dry joint's 12.6 ms fall."""
     from pinclear.studies import wear_paper000 as study
 
     s = {**study._settings(True), "periods": 0.05, "window": 0.025}
     (_, dry), (_, oil) = study.cases()[0], study.cases()[-1]
     a, b = study.run_case(dry, s), study.run_case(oil, s)
     assert a["status"] == b["status"] == "success"
-    assert b["first_contact_s"] > 2 * a["first_contact_s"]
-    assert b["peak_dry_N"] < a["peak_dry_N"]
+    # nan (no dry contact in the window) counts as later and softer
+    assert not b["first_contact_s"] <= 2 * a["first_contact_s"]
+    assert not b["peak_dry_N"] >= a["peak_dry_N"]
     assert 0 < b["film_J_run"] < b["dissipated_J_run"]
     assert b["audit_ok"] and a["audit_ok"]
 
 
-def test_the_film_hands_over_to_the_dry_law_without_a_force_jump():
-    """The joint's generalized force (film + dry law) on either side of the band's two ends, h_min =
-    asperity + band (film weight 1 -> fading) and h_min = asperity (film gone, dry law from zero
-    penetration), for a ball approaching with spin: the difference across each end shrinks with the
-    step (no jump)."""
+def test_no_force_jump_at_the_asperity_onset_and_at_contact():
+    """The joint's generalized force (film + asperities + dry law) for a ball approaching with spin,
+    across h_min = 4 sigma (the asperities' onset) and h_min = 0 (the dry law's): the difference
+    across each shrinks with the step (no jump)."""
     from pinclear.model import kinematics
 
     mech = pinclear.load(BALL, clearances=["S"])
@@ -203,13 +204,15 @@ def test_the_film_hands_over_to_the_dry_law_without_a_force_jump():
         el.add_force(mech, ws, d, 0.0, q, v, z, tau, zdot)
         return tau
 
-    walk = np.array([tau_at(h) for h in np.linspace(el.h_a - 0.5 * el.band, el.h_a + 1.5 * el.band, 41)])
+    sigma = el.sigma
+    walk = np.array([tau_at(h) for h in np.linspace(-0.5 * sigma, 5 * sigma, 41)])
     scale = np.abs(walk).max()
-    assert scale > 0 and np.abs(walk[-1]).max() > 0.1 * scale        # the film's own force is in the walk
-    for h in (el.h_a + el.band, el.h_a):
+    assert scale > 0 and np.abs(walk[-1]).max() > 0        # the film's own force is in the walk
+    for h in (4 * sigma, 0.0):
         # across a jump the difference stays as the step shrinks; a continuous force's shrinks with it
-        eta = 1e-6 * el.band
+        eta = 1e-6 * sigma
         wide = np.abs(tau_at(h + 10 * eta) - tau_at(h - 10 * eta)).max()
         near = np.abs(tau_at(h + eta) - tau_at(h - eta)).max()
+        local = np.abs(tau_at(h)).max()
         assert near <= 0.2 * wide + 1e-12 * scale
-        assert near < 1e-4 * scale
+        assert near < 1e-4 * local

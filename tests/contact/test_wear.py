@@ -191,7 +191,7 @@ def test_depth_scheme_resumes_an_interrupted_run_to_the_same_profile(tmp_path):
     assert again["history"]["cycles"] == whole["history"]["cycles"]
     assert again["history"]["factor"] == whole["history"]["factor"]
     # a checkpoint of other settings is refused, naming the folder
-    with pytest.raises(InputError, match="checkpoint of other settings"):
+    with pytest.raises(InputError, match=r"checkpoint of another run: settings.step: 0.004 \(checkpoint\) vs 0.002"):
         wear_run(mech, "A", WearSettings(**{**s.__dict__, "step": 0.002}), out=tmp_path, start=start)
 
 
@@ -286,7 +286,7 @@ def test_depth_scheme_stops_at_max_updates_and_says_so(tmp_path):
 @pytest.mark.parametrize("wear_spec, key, text", [
     ({"model": "archard", "hardness": 1e8}, "clearances.A.wear.k", "required"),
     ({"model": "rabinowicz", "k": 1e-4, "hardness": 1e8}, "clearances.A.wear.model", "archard"),
-    ({"k": 1e-4, "hardness": 1e8, "nodes": 3}, "clearances.A.wear.nodes", ">= 16"),
+    ({"k": 1e-4, "hardness": 1e8, "nodes": 3}, "clearances.A.wear.nodes", "in [16, 100000]"),
     ({"k": 1e-4, "hardness": 1e8, "shape": 1}, "clearances.A.wear.shape", "distribution"),
 ])
 def test_wear_key_errors_name_file_key_and_choices(wear_spec, key, text):

@@ -227,7 +227,7 @@ def test_scheme_on_a_socket_converges_writes_its_files_and_refuses_wear_at_the_p
 @pytest.mark.parametrize("wear_spec, key, text", [
     ({"model": "archard", "hardness": 1e8}, "clearances.S.wear.k", "required"),
     ({"model": "rabinowicz", "k": 1e-4, "hardness": 1e8}, "clearances.S.wear.model", "archard"),
-    ({"k": 1e-4, "hardness": 1e8, "nodes": 4}, "clearances.S.wear.nodes", ">= 8"),
+    ({"k": 1e-4, "hardness": 1e8, "nodes": 4}, "clearances.S.wear.nodes", "in [8, 200]"),
     ({"k": 1e-4, "hardness": 1e8, "pole": "w"}, "clearances.S.wear.pole", "x, y, z"),
     ({"k": 1e-4, "hardness": 1e8, "shape": 1}, "clearances.S.wear.shape", "pole"),
 ])

@@ -64,6 +64,46 @@ def test_reproduce_004_matches_the_papers_G_and_peaks(tmp_path):
     assert "calibration" in r.stdout and "not measured" in r.stdout
 
 
+def test_reproduce_004_bands_resume_with_a_budget_and_feed_the_claims_page(tmp_path, monkeypatch):
+    """--bands with a budget too small for the design (each point counted at 10 CPU s here, so that
+    the budget's cut is exact): the report says how many points it left and what they need; the
+    same command without a budget resumes them (no stored point run again), and every peak row is
+    then banded; `reproduce claims` gathers the report's claims table."""
+    from pinclear.studies.reproduce import bands, reproduce
+
+    class Fixed(bands._Timed):
+        calls = 0
+
+        def __call__(self, values):
+            Fixed.calls += 1
+            return self.fn(values), 10.0
+
+    monkeypatch.setattr(bands, "_Timed", Fixed)
+    out = tmp_path / "reports" / "004"
+    first = reproduce("004", out, quick=True, workers=1, bands=True, budget=35.0)
+    stored = len(list((out / "bands").glob("*.json")))
+    assert stored == Fixed.calls == 3 and "not reached within --budget" in first["settings"]["bands"]
+    assert any(r["verdict"] == "not measured" and r["cpu_needed_s"] for r in first["results"])
+    assert "Not measured:" in (out / "report.md").read_text()
+    Fixed.calls = 0
+    second = reproduce("004", out, quick=True, workers=1, bands=True)
+    assert "3 resumed" in second["settings"]["bands"] and Fixed.calls == len(list((out / "bands").glob("*.json"))) - 3
+    peaks = [r for r in second["results"] if r["name"].startswith("peak") and r["verdict"] != "calibration"]
+    assert peaks and all(r["band_from"] and r["verdict"] != "not measured" for r in peaks)
+    # the screen table is in the report, one row per banded key, one column per reconstructed input
+    (scr,) = [t for t in second["sensitivity"] if t["title"].startswith("screen")]
+    assert scr["columns"][1:] == [e["name"] for e in paper004.reconstructed_inputs("004")]
+    page = tmp_path / "claims.md"
+    r = subprocess.run([sys.executable, "-m", "pinclear.cli", "reproduce", "claims", "--from", str(out.parent),
+                        "--out", str(page)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    text = page.read_text()
+    assert "## Paper 004" in text and all(c["claim"] in text for c in second["claims"])
+    r = subprocess.run([sys.executable, "-m", "pinclear.cli", "reproduce", "claims", "--from", str(tmp_path / "none"),
+                        "--out", str(page)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and "no report there" in r.stderr
+
+
 def test_closed_form_G_is_the_screw_codes_and_the_print_box_holds_the_paper():
     """G's actuated columns from the UPR limb's twist space (no screw code) equal the screw code's;
     the print-precision box holds the printed G (a fit inside it reaches < 0.1 tau) and spreads the
@@ -90,23 +130,9 @@ def test_calibrated_cutoff_is_the_least_that_reaches_the_named_peak():
     assert paper004.calibrated_cutoff(R, 5000.0) is None
 
 
-def test_bands_design_and_budget():
-    """--bands: the nominal point, each input at both ends of its range (or each choice), then a Latin
-    hypercube whose points each fall in a different 1/n slice of every range; a CPU budget keeps the
-    one-at-a-time points and drops space-filling ones."""
+def test_reconstructed_inputs_are_listed_in_the_papers_doc():
     from pinclear.studies.reproduce import bands
 
-    inputs = bands.reconstructed_inputs("004")
-    pts = bands.design(inputs, n_lhs=8, seed=1)
-    assert pts[0][0] == "nominal" and len([p for p in pts if not p[0].startswith("space")]) == 1 + 2 * len(inputs)
-    sf = [p[1] for p in pts if p[0].startswith("space")]
-    for e in inputs:
-        lo, hi = e["range"]
-        u = np.sort([(p[e["key"]] - lo) / (hi - lo) for p in sf])
-        assert np.all(np.floor(u * 8) == np.arange(8))
-    assert len(bands.within_budget(pts, cost=10.0, budget=10.0 * (1 + 2 * len(inputs)) + 25.0)) == 1 + 2 * len(inputs) + 2
-    with pytest.raises(Exception, match="budget"):
-        bands.within_budget(pts, cost=1.0, budget=0.0)
     # every paper lists its reconstructed inputs with a reason and a range or choices, and docs/papers.md
     # lists each of them in that paper's section
     from pathlib import Path

@@ -17,6 +17,7 @@ worker processes (``workers``) or a Dask cluster (``scheduler``).
 from __future__ import annotations
 
 import dataclasses
+from functools import partial
 from types import SimpleNamespace
 
 import numpy as np
@@ -32,7 +33,7 @@ from pinclear.io.sidecar import load
 from pinclear.mechanisms import four_ups_upu as mod
 from pinclear.model import kinematics
 from pinclear.studies.reproduce import chaos
-from pinclear.studies.reproduce.bands import design, reconstructed_inputs, spread, within_budget
+from pinclear.studies.reproduce.bands import band_of, kinds_band, ledger_text, reconstructed_inputs, tornado_figure
 from pinclear.studies.reproduce.verdicts import row
 
 T = mod.PERIOD
@@ -188,14 +189,14 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     s = _settings(quick, settings)
     ex, close = executor_for(workers, scheduler, max(len(PAPER_FORCE) * 2, len(s["mu_values"]),
                                                      len(s["clearance_values"])))
-    bands_ = {}
+    bands_, ledger = {}, None
     try:
         sw, t_eval, t_end = response_runs(out, s, quick, ex)
         bif = bifurcation_runs(s, ex)
         kinds = motion_kinds(bif, s)
         lyap_notes = lyapunov_checks(kinds, s, ex)
         if bands:
-            bands_, band_table = paper000_bands(s, ex, budget, quick)
+            bands_, band_tables, ledger = paper000_bands(s, ex, budget, quick, out)
     finally:
         if close is not None:
             close()
@@ -213,6 +214,9 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     load = (min(raw) if raw else float(lam_mag.min()), 0.5 * float(lam_mag.max() - lam_mag.min()))
     results += chaos_rows(bif, kinds, s, bands_, load)
     figures += portrait_figure(out, bif["mu"], kinds, s["clearance"]) + bifurcation_figures(out, bif)
+    if ledger and ledger.get("levers"):
+        figures += [f for f in [tornado_figure(ledger["levers"], ledger["nominal"], paper000_taus(s), paper000_values(),
+                                               out)] if f]
     notes += chaos_notes(bif, kinds, quick) + lyap_notes + transient_notes(bif, s)
     notes.append("every result used K as printed in paper 000 (eq. 17, 4/(3(s1+s2)) sqrt(R1R2/(R1+R2))); the "
                  "conformal radius R1R2/(R_socket - R_ball) is reported beside it for the contact force")
@@ -227,10 +231,10 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
                          "bifurcation cycles": f"{s['transient']} transient + {s['cycles']} recorded",
                          "mu values": len(s["mu_values"]), "clearance values": len(s["clearance_values"]),
                          "resolution": f"{analysis.CLEARANCE_FRACTION:g} x the clearance",
-                         "bands": "--bands over reconstructed.yaml" if bands else "not measured (--bands)"},
+                         "bands": ledger_text(ledger)},
             "claims": claims(results), "results": results, "groups": groups, "notes": notes, "checks": checks,
             "figures": figures,
-            "sensitivity": sensitivity_tables(bif, s) + ([band_table] if bands else []),
+            "sensitivity": sensitivity_tables(bif, s) + (band_tables if bands else []),
             "classification": {k: {sig: [dict(value=float(v), **c[sig].as_dict()) for v, c in kinds[k].items()
                                          if sig in c] for sig in SIGNALS} for k in ("mu", "clearance")},
             "paper_kind": PAPER_KIND}
@@ -310,16 +314,6 @@ def force_runs(sw, lam, notes):
     return runs, checks
 
 
-def _band(bands, key, ours):
-    """(band, band_from) of a row from --bands' {key: (lo, hi, what)} (ours included), or (None, '')."""
-    b = bands.get(key)
-    if b is None:
-        return None, ""
-    if len(b) == 2:                       # categorical: (kinds, what)
-        return sorted(set(b[0]) | ({ours} if isinstance(ours, str) else set(ours))), b[1]
-    return (min(b[0], ours), max(b[1], ours)), b[2]
-
-
 def platform_series(runs, s):
     """(mu, trajectory, [platform X, Y, Z series]) of the response runs at mu 0.05 and 0.10 (K printed)."""
     for mu in (0.05, 0.10):
@@ -343,9 +337,9 @@ def response_rows(runs, s, t_eval, notes, bands=None):
             if c == "x":
                 off = abs(1e3 * float(np.mean(se.x - law[:, j])))
                 peak = 1e3 * float(np.abs(se.x - law[:, j]).max())
-                band, frm = _band(bands or {}, f"x offset {mu:g}", off)
+                band, frm, need = band_of(bands or {}, f"x offset {mu:g}", off)
                 r = row(f"platform X offset from the ideal law, mu {mu} (ours: window mean; window max {peak:.3g} mm)",
-                        "platform deviation", off, float(PAPER_X_OFFSET), "mm", band=band, band_from=frm,
+                        "platform deviation", off, float(PAPER_X_OFFSET), "mm", band=band, band_from=frm, cpu_s=need,
                         printed=PAPER_X_OFFSET, group="offset")
                 results.append(offset_reading(r, peak))
     return results
@@ -392,19 +386,22 @@ def force_rows(runs, s, notes, bands=None):
         # gravity's sign was chosen on the min / max of mu 0.05 and 0.10 (CALIBRATED_ON); the mean could
         # not choose it (the ideal load's mean is 143.1 N with +X, 145.4 N with -X) and mu 0.15 took no part
         calib = mu in CALIBRATED_ON
+        b = {k: band_of(bands or {}, f"{k} {mu:g}", v) for k, v in (("mean", Fm.mean()), ("min", Fm.min()),
+                                                                   ("max", Fm.max()))}
         results += [row(f"contact force mean, mu {mu}", "load force", Fm.mean(), 0.5 * (lo + hi), "N",
+                        band=b["mean"][0], band_from=b["mean"][1], cpu_s=b["mean"][2],
                         group="force", why="paper: mid-point of its min/max; a prediction (the mean did not choose "
-                                           "gravity's sign)"),
-                    row(f"contact force min, mu {mu}", "load force", Fm.min(), lo, "N",
-                        status="calibration" if calib else None, group="force",
-                        why="" if calib else "a prediction: mu 0.15 took no part in the choice of gravity's sign"),
-                    row(f"contact force max, mu {mu}", "load force", Fm.max(), hi, "N",
-                        status="calibration" if calib else None, group="force",
-                        why="" if calib else "a prediction: mu 0.15 took no part in the choice of gravity's sign")]
+                                           "gravity's sign)")]
+        for k, ours, paper in (("min", Fm.min(), lo), ("max", Fm.max(), hi)):
+            results.append(row(f"contact force {k}, mu {mu}", "load force", ours, paper, "N",
+                               band=None if calib else b[k][0], band_from="" if calib else b[k][1],
+                               cpu_s=None if calib else b[k][2], status="calibration" if calib else None,
+                               group="force",
+                               why="" if calib else "a prediction: mu 0.15 took no part in the choice of gravity's sign"))
         spans[mu] = float(Fm.max() - Fm.min())
-        band, frm = _band(bands or {}, f"span {mu:g}", spans[mu])
+        band, frm, need = band_of(bands or {}, f"span {mu:g}", spans[mu])
         results.append(row(f"contact force span (max - min), mu {mu}", "force span", spans[mu], PAPER_SPAN[mu], "N",
-                           band=band, band_from=frm, reading=0.1, group="span"))
+                           band=band, band_from=frm, cpu_s=need, reading=0.1, group="span"))
         share = float(np.mean(tr.outputs["S2.contact"] > 0))
         contact.append((mu, share, float(Fm.min())))
         notes.append(f"mu = {mu}, K printed: raw contact force {Fm.min():.1f}-{Fm.max():.0f} N, {SMOOTH:.2g} s average "
@@ -412,9 +409,10 @@ def force_rows(runs, s, notes, bands=None):
                      f"{100 * share:.0f} % of the window")
     if len(spans) == len(PAPER_SPAN):
         ours = smallest_spans(spans)
-        band, frm = _band(bands or {}, "smallest span", ours)
+        band, frm, need = band_of(bands or {}, "smallest span", ours)
         paper = f"smallest at mu {min(PAPER_SPAN, key=PAPER_SPAN.get):g}"
         results.append(row("mu with the smallest contact-force span", "ordering", ours, paper, band=band, band_from=frm,
+                           cpu_s=need,
                            group="span",
                            why="spans " + " / ".join(f"{spans[m]:.1f}" for m in sorted(spans)) + " N (paper "
                                + " / ".join(f"{PAPER_SPAN[m]:.1f}" for m in sorted(PAPER_SPAN)) + " N)"))
@@ -648,42 +646,55 @@ def chaos_rows(bif, kinds, s, bands=None, load=None):
             band = sorted({c[Y].kind for c in list(sens.values()) + list(kinds.get("sens_rtol", {}).values())
                            if Y in c} | set(ours))
             frm = f"mu {SENS_MU:g}: {len(sens)} sensitivity variants + rtol {SENS_RTOL:g}"
-        if (bands or {}).get("kind 0.01"):
-            kb, what = bands["kind 0.01"]
+        kb, what, need = kinds_band(bands or {}, ["Y mu 0.01", "Y mu 0.016", "Y mu 0.022"], ours)
+        if kb is not None:
             band, frm = sorted(set(band or ours) | set(kb)), ", ".join(x for x in (frm, "--bands: " + what) if x)
+        elif need and not frm:
+            band = None
         why = "mu " + ", ".join(f"{float(v):g}" for v in window)
         if load is not None:
             why += (f"; why: the ball never leaves the socket wall: its contact force stays above {load[0]:.0f} N "
                     f"(response windows) against +-{load[1]:.0f} N of dynamic load over a period (the ideal joint's "
                     "reaction), so friction acts on a persistent contact with no impacts to excite")
         rows.append(row("clearance Y motion in the chaos window mu 0.010-0.022 (paper: chaotic)", "motion kind", ours,
-                        "chaotic", band=band, band_from=frm, group="chaos", why=why))
+                        "chaotic", band=band, band_from=frm, cpu_s=None if frm else need, group="chaos", why=why))
     above = [v for v in mu_k if float(v) > 0.022]
     if above:
+        ours = _kind_set(mu_k, above, Y)
+        kb, what, need = kinds_band(bands or {}, ["Y mu 0.03", "Y mu 0.1"], ours)
         rows.append(row("clearance Y motion for mu 0.03-0.20 (paper: quasi-periodic above the window)", "motion kind",
-                        _kind_set(mu_k, above, Y), "quasi-periodic", group="chaos",
+                        ours, "quasi-periodic", band=kb, band_from=what, cpu_s=need, group="chaos",
                         why="the set of kinds over the mu values"))
     # sec. 4.4 / Figs. 9-10: the platform is quasi-periodic 'only when the friction coefficient is small'
     # (mu 0.01), period-1 otherwise
     small = [v for v in mu_k if abs(float(v) - 0.01) < 1e-9 and Z in mu_k[v]]
     if small:
+        ours = _kind_set(mu_k, small, Z)
+        kb, what, need = kinds_band(bands or {}, ["Z mu 0.01"], ours)
         rows.append(row("platform Z motion at mu 0.01 (paper: quasi-periodic, 'only when the friction coefficient is "
-                        "small', Figs. 9-10)", "motion kind", _kind_set(mu_k, small, Z), "quasi-periodic",
-                        group="chaos"))
+                        "small', Figs. 9-10)", "motion kind", ours, "quasi-periodic", band=kb, band_from=what,
+                        cpu_s=need, group="chaos"))
     rest = [v for v in mu_k if float(v) > 0.01 + 1e-9]
+    ours = sorted(set(_kind_set(mu_k, rest, Z)) | set(_kind_set(c_k, list(c_k), Z)))
+    kb, what, need = kinds_band(bands or {}, [f"Z {k}" for k in KIND_POINTS if k != "mu 0.01"], ours)
     rows.append(row("platform Z motion, mu above 0.01 and every clearance at mu 0.1 (paper: period-1)", "motion kind",
-                    sorted(set(_kind_set(mu_k, rest, Z)) | set(_kind_set(c_k, list(c_k), Z))), "period-1",
-                    group="chaos", why="the set of kinds over both diagrams"))
+                    ours, "period-1", band=kb, band_from=what, cpu_s=need, group="chaos",
+                    why="the set of kinds over both diagrams"))
+    ours = _kind_set(c_k, list(c_k), Y)
+    kb, what, need = kinds_band(bands or {}, ["Y mu 0.1", "Y 0.67 mm, mu 0.1"], ours)
     rows.append(row("clearance Y motion, every clearance at mu 0.1 (paper: quasi-periodic)", "motion kind",
-                    _kind_set(c_k, list(c_k), Y), "quasi-periodic", group="chaos",
+                    ours, "quasi-periodic", band=kb, band_from=what, cpu_s=need, group="chaos",
                     why="the set of kinds over the clearance values"))
     spread = {float(r.value): float(np.ptp(r.sections[Y].xdot)) for r in bif["clearance"].runs
               if r.ok and Y in r.sections and len(r.sections[Y])}
     if spread:
         c_max = max(spread, key=spread.get)
+        # its band needs the whole clearance diagram at every design point: stated, not run
+        need = (bands or {}).get("clearance diagram cost")
         rows.append(row("clearance of the largest clearance-Y velocity range (Fig. 16)", "threshold", 1e3 * c_max,
-                        float(PAPER_VMAX_CLEARANCE), "mm", printed=PAPER_VMAX_CLEARANCE, group="chaos",
-                        why=f"over {len(spread)} clearance values up to {1e3 * max(spread):g} mm"))
+                        float(PAPER_VMAX_CLEARANCE), "mm", printed=PAPER_VMAX_CLEARANCE, group="chaos", cpu_s=need,
+                        why=f"over {len(spread)} clearance values up to {1e3 * max(spread):g} mm"
+                            + ("; its band needs the clearance diagram at every design point" if need else "")))
     return rows
 
 
@@ -814,19 +825,22 @@ def sensitivity_tables(bif, s):
 
 
 # ------------------------------------------------------------------------------- paper 000
-def mechanism000(values, mu, clearance):
+def mechanism000(values, mu, clearance=None):
     """The S2-clearance model with one design point's reconstructed inputs (reconstructed.yaml
     '000': override keys S2.*, the friction ramp's v0 with v1 = 10 v0, gravity's sign, the mass
-    factors of the moving platform and of the rods)."""
+    factors of the moving platform and of the rods). ``clearance``: a study's own value (the
+    clearance diagram's), else the point's c2 (``S2.clearance``, default the sidecar's)."""
     from pinclear.core.models import model_path
     from pinclear.io.sidecar import load
 
-    over = {"S2.mu": mu, "S2.clearance": clearance}
+    over = {"S2.mu": mu}
     for k, v in values.items():
         if k == "S2.friction_law.v0":
             over["S2.friction_law"] = {"type": "modified_coulomb", "v0": float(v), "v1": 10.0 * float(v)}
         elif k.startswith("S2."):
             over[k] = v
+    if clearance is not None:
+        over["S2.clearance"] = clearance
     mech = load(model_path("four_ups_upu"), clearances=["S2"], overrides=over)
     mech.model.gravity.linear = float(values.get("gravity_sign", 1.0)) * np.asarray(mech.model.gravity.linear)
     for key, bodies in (("mass:moving_platform", ("moving_platform",)),
@@ -836,65 +850,123 @@ def mechanism000(values, mu, clearance):
     return mech
 
 
-def _run000(job):
-    """Paper 000's measured quantities at one design point (module-level: it pickles): the raw
-    contact-force span per mu and the platform's X offset over the response window, and the
-    clearance's motion at mu 0.01 (classified with the clearance's resolution)."""
-    from pinclear import analysis
-    from pinclear.dynamics.simulate import simulate
-    from pinclear.mechanisms import four_ups_upu as mod
+#: the motion-kind points of the bands, at the values sec. 4.4's claims name (not whole diagrams):
+#: the chaos window mu 0.010-0.022 (its ends and middle), mu 0.03 just above it, mu 0.1 (the
+#: clearance study's, at c2) and the clearance of Fig. 16's largest velocity range at mu 0.1.
+#: {name: (mu, clearance or None for the point's c2)}
+KIND_POINTS = {"mu 0.01": (0.01, None), "mu 0.016": (0.016, None), "mu 0.022": (0.022, None),
+               "mu 0.03": (0.03, None), "mu 0.1": (0.1, None), "0.67 mm, mu 0.1": (0.1, 6.7e-4)}
+#: the rows' band keys that are motion kinds (categorical), from each kind point: Y (the
+#: clearance's) and Z (the platform's)
+KIND_KEYS = [f"{sig} {name}" for name in KIND_POINTS for sig in ("Y", "Z")]
 
-    s, out = job["s"], {}
+
+class _KindMech:
+    """mechanism000 at a kind point's (mu, clearance) for a design point's inputs (picklable)."""
+
+    def __init__(self, values):
+        self.values = values
+
+    def __call__(self, name):
+        mu, c = KIND_POINTS[name]
+        return mechanism000(self.values, mu, c)
+
+
+def _run000(values, s):
+    """Paper 000's measured quantities at one design point: the raw contact force's mean, span
+    (and min / max at mu 0.15, which chose nothing) per mu, the smallest span's mu, the
+    platform's X offset, and the motion kinds at KIND_POINTS, classified as the diagrams'
+    runs are (:func:`_classify_options`)."""
+    from pinclear.dynamics.simulate import RTOL_DEFAULT
+
+    out = {}
     t_end = s["force_periods"] * T
     t_eval = np.arange(t_end - s["window_periods"] * T, t_end + 1e-12, s["dt_out"])
     t_eval[-1] = min(t_eval[-1], t_end)
+    spans = {}
     for mu in PAPER_FORCE:
-        mech = mechanism000(job["values"], mu, s["clearance"])
+        mech = mechanism000(values, mu)
         tr = simulate(mech, t_end, t_eval=t_eval)
         if tr.status != "success":
             return {"status": f"mu {mu}: {tr.status}: {tr.message}"}
         F = np.linalg.norm(tr.outputs["S2.normal_force"] + tr.outputs["S2.friction_force"], axis=1)
-        out[f"span {mu:g}"] = float(F.max() - F.min())
-        law_x = np.array([mod.platform_position(t)[0][0] for t in tr.t])
-        out[f"x offset {mu:g}"] = 1e3 * abs(float(np.mean(analysis.series(tr, "platform.x", mech).x - law_x)))
-    mech = mechanism000(job["values"], SENS_MU, s["clearance"])
-    n = s["transient"] + s["cycles"]
-    times = analysis.section_times(T, n, per_period=4)
-    tr = simulate(mech, float(times[-1]), t_eval=times)
-    if tr.status != "success":
-        return {"status": f"mu {SENS_MU}: {tr.status}: {tr.message}"}
-    sec = analysis.poincare(tr, T, "S2.eccentricity[1]", skip_transient=s["transient"], mech=mech)
-    c = analysis.classify(sec, resolution=analysis.CLEARANCE_FRACTION * s["clearance"], sim_rtol=1e-8,
-                          steps_per_period=max(tr.stats.get("steps", n), 1) / n)
-    out["kind 0.01"] = c.kind
+        spans[mu] = out[f"span {mu:g}"] = float(F.max() - F.min())
+        out[f"mean {mu:g}"] = float(F.mean())
+        if mu not in CALIBRATED_ON:
+            out[f"min {mu:g}"], out[f"max {mu:g}"] = float(F.min()), float(F.max())
+        if mu in (0.05, 0.10):
+            law_x = np.array([mod.platform_position(t)[0][0] for t in tr.t])
+            out[f"x offset {mu:g}"] = 1e3 * abs(float(np.mean(analysis.series(tr, "platform.x", mech).x - law_x)))
+    out["smallest span"] = ", ".join(smallest_spans(spans))
+    per = s["transient"] + s["cycles"]
+    bif = analysis.bifurcation(_KindMech(values), "kind point", list(KIND_POINTS), period=T, signal=SIGNALS[:2],
+                               cycles=s["cycles"], transient=s["transient"], per_period=s["per_period"],
+                               executor="serial")
+    for r in bif.runs:
+        if not r.ok:
+            return {"status": f"{r.value}: {r.status}"}
+        c = KIND_POINTS[r.value][1] or float(values.get("S2.clearance", s["clearance"]))
+        opts = {"resolution": analysis.CLEARANCE_FRACTION * c}
+        if r.stats.get("steps"):
+            opts.update(sim_rtol=RTOL_DEFAULT, steps_per_period=r.stats["steps"] / per)
+        for sig, short in ((SIGNALS[1], "Y"), (SIGNALS[0], "Z")):
+            out[f"{short} {r.value}"] = analysis.classify(r.sections[sig], **opts).kind
     out["status"] = "success"
     return out
 
 
-def paper000_bands(s, executor, budget=None, quick=True):
-    """({row key: (lo, hi, what) or (kinds, what)}, table) of paper 000 over reconstructed.yaml."""
-    from pinclear.analysis.sweeps import run_jobs
+def paper000_taus(s):
+    """{band key: tau} of the rows the bands measure (the rows' own tau: verdicts.row's rule)."""
+    from pinclear.studies.reproduce.verdicts import half_digit, tolerance
 
-    pts = within_budget(design(reconstructed_inputs("000")), COST_000["quick" if quick else "full"], budget)
-    got = {}
-    run_jobs(_run000, [{"label": lb, "values": v, "s": dict(s)} for lb, v in pts], executor,
-             lambda job, res: got.__setitem__(job["label"], res),
-             lambda job, exc: got.__setitem__(job["label"], {"status": f"{type(exc).__name__}: {exc}"}))
-    ok = {k: v for k, v in got.items() if v.get("status") == "success"}
-    n_sf = sum(lb.startswith("space") for lb, _ in pts)
-    what = f"{len(ok)} of {len(pts)} input sets ({len(pts) - n_sf} one-at-a-time, {n_sf} space-filling)"
-    fields = [k for k in next(iter(ok.values()), {}) if k not in ("status", "kind 0.01")]
-    bands = {f: (lo, hi, what) for f, (lo, hi) in spread(ok, fields).items()}
-    bands["kind 0.01"] = (sorted({v["kind 0.01"] for v in ok.values()}), what)
+    taus = {}
+    for mu, (lo, hi) in PAPER_FORCE.items():
+        taus[f"span {mu:g}"] = max(0.1, tolerance("force span")[0] * PAPER_SPAN[mu])
+        taus[f"mean {mu:g}"] = tolerance("load force")[0] * 0.5 * (lo + hi)
+        if mu not in CALIBRATED_ON:
+            taus[f"min {mu:g}"], taus[f"max {mu:g}"] = (tolerance("load force")[0] * v for v in (lo, hi))
+    for mu in (0.05, 0.1):
+        taus[f"x offset {mu:g}"] = max(half_digit(PAPER_X_OFFSET), tolerance("platform deviation")[0] * float(PAPER_X_OFFSET))
+    taus["smallest span"] = 0.0
+    taus.update({k: 0.0 for k in KIND_KEYS})
+    return taus
 
-    bands["smallest span"] = (sorted({k for v in ok.values() for k in smallest_spans(
-        {float(m): v[f"span {m}"] for m in ("0.05", "0.1", "0.15")})}), what)
-    cols = ["span 0.05", "span 0.1", "span 0.15", "x offset 0.05", "x offset 0.1", "kind 0.01"]
-    rows = [[lb] + [got[lb].get(c, float("nan")) for c in cols] + [got[lb]["status"]] for lb, _ in pts]
-    return bands, {"title": "bands (--bands): paper 000's measured quantities over the reconstructed inputs",
-                   "columns": ["input set", "force span mu 0.05 [N]", "force span mu 0.1 [N]", "force span mu 0.15 [N]",
-                               "X offset mu 0.05 [mm]", "X offset mu 0.1 [mm]", "clearance Y at mu 0.01", "status"],
-                   "rows": rows, "note": what + "; the platform joint angles wait for a regenerated model"}
+
+def paper000_values():
+    """{band key: the paper's value} (sec. 4.3-4.4), for the levers of the rows that miss it."""
+    out = {}
+    for mu, (lo, hi) in PAPER_FORCE.items():
+        out[f"span {mu:g}"], out[f"mean {mu:g}"] = PAPER_SPAN[mu], 0.5 * (lo + hi)
+        if mu not in CALIBRATED_ON:
+            out[f"min {mu:g}"], out[f"max {mu:g}"] = lo, hi
+    out.update({f"x offset {mu:g}": float(PAPER_X_OFFSET) for mu in (0.05, 0.1)})
+    out["smallest span"] = f"smallest at mu {min(PAPER_SPAN, key=PAPER_SPAN.get):g}"
+    for name, (mu, c) in KIND_POINTS.items():
+        out[f"Y {name}"] = "chaotic" if mu <= 0.022 and c is None else "quasi-periodic"
+        out[f"Z {name}"] = "quasi-periodic" if (mu == 0.01 and c is None) else "period-1"
+    return out
+
+
+def paper000_bands(s, executor, budget=None, quick=True, out=None):
+    """(bands {row key: (lo, hi, what) | (kinds, what) | NotReached}, tables, ledger) of paper 000:
+    every reconstructed input screened on the quick study's runs, then each row banded over the
+    inputs that matter for it at the study's own settings (pinclear.studies.reproduce.bands);
+    the points stored under OUT/bands/ (a second call resumes)."""
+    from pinclear.studies.reproduce.bands import PointStore, measure_bands
+
+    screen_s = dict(SETTINGS["quick"], **RESPONSE)
+    keep = ("force_periods", "window_periods", "transient", "cycles", "per_period", "dt_out", "clearance")
+    store = PointStore(out, "000", {"screen": {k: screen_s[k] for k in keep}, "band": {k: s[k] for k in keep}})
+    taus = paper000_taus(s)
+    got, table, ledger = measure_bands(partial(_run000, s=dict(s)), reconstructed_inputs("000"), list(taus), taus, store, executor,
+                                       budget, COST_000["quick" if quick else "full"],
+                                       screen_fn=None if quick else partial(_run000, s=screen_s), papers=paper000_values())
+    # the threshold row's band would rerun the clearance diagram at each point: its cost, stated
+    n_pts = ledger["ran"] + ledger["resumed"] + ledger["not_reached"]
+    per_run = (ledger["cpu_s"] + ledger["cpu_stored_s"]) / max(ledger["ran"] + ledger["resumed"], 1) / (
+        len(KIND_POINTS) + len(PAPER_FORCE) * s["force_periods"] / max(s["transient"] + s["cycles"], 1))
+    got["clearance diagram cost"] = n_pts * len(s["clearance_values"]) * per_run
+    return got, [t for t in (table,) if t], ledger
 
 
 #: CPU s of one paper 000 design point (quick: 4 + 13 periods x 4 runs, measured ~12 s; full ~20x)

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 import sys
 import time
+from functools import partial
 
 import numpy as np
 
@@ -27,8 +28,9 @@ from pinclear.core import safeio
 from pinclear.core.models import model_path
 from pinclear.dynamics.stepping.peaks import window_peak
 from pinclear.studies.reproduce import chaos
-from pinclear.studies.reproduce.bands import design, reconstructed_inputs, spread, within_budget
-from pinclear.studies.reproduce.verdicts import row
+from pinclear.studies.reproduce.bands import (NotReached, band_of, kinds_band, ledger_text, reconstructed_inputs,
+                                              tornado_figure)
+from pinclear.studies.reproduce.verdicts import half_digit, row, tolerance
 
 SLIDER = "guide"                      # slider 9's prismatic joint (urdf/nine_bar.urdf)
 JOINTS = ("A", "B")
@@ -221,13 +223,19 @@ def _merge(bands, key, band):
     if band is None:
         return
     old = bands.get(key)
+    if isinstance(band, NotReached) or isinstance(old, NotReached):
+        # a band the budget did not reach leaves one measured otherwise (the sensitivity runs') as it is
+        bands[key] = old if old is not None and not isinstance(old, NotReached) else band
+        return
+    if len(band) == 2:                     # categorical: (kinds, what)
+        bands[key] = band
+        return
     bands[key] = band if old is None else (min(old[0], band[0]), max(old[1], band[1]), f"{old[2]}; {band[2]}")
 
 
 def _banded(name, quantity, ours, paper, unit, bands, key, **kw):
-    b = bands.get(key)
-    return row(name, quantity, ours, paper, unit, band=None if b is None else (min(b[0], ours), max(b[1], ours)),
-               band_from="" if b is None else b[2], **kw)
+    band, frm, need = band_of(bands, key, ours)
+    return row(name, quantity, ours, paper, unit, band=band, band_from=frm, cpu_s=need, **kw)
 
 
 def _response_rows(table, bands=None):
@@ -315,15 +323,16 @@ def _response_notes(table):
     return notes
 
 
-def _claim_rows(table):
+def _claim_rows(table, bands=None):
     """Sec. 3.4's claim: a second clearance weakens the impact at B (581 -> 330 N)."""
     b, ab = table.get("B 0.5", {}), table.get("AB 0.5", {})
     if not (b and ab):
         return []
     ours = "weaker with A and B" if ab["B impact force peak [N]"] < b["B impact force peak [N]"] else \
         "stronger with A and B"
+    band, frm, need = kinds_band(bands or {}, ["one vs two"], ours)
     return [row("impact at B, one (B) vs two clearances (paper: 581 -> 330 N)", "ordering", ours, "weaker with A and B",
-                group="impact", why=f"ours {b['B impact force peak [N]']:.4g} -> {ab['B impact force peak [N]']:.4g} N "
+                band=band, band_from=frm, cpu_s=need, group="impact", why=f"ours {b['B impact force peak [N]']:.4g} -> {ab['B impact force peak [N]']:.4g} N "
                                     "(peaks over the run)")]
 
 
@@ -448,7 +457,7 @@ def _named_evidence(parameter, values, period, s, executor, overrides):
     return chaos.lyapunov_evidence(values, again, RTOL, s["cycles"])
 
 
-def _chaos(s, out, executor, plt):
+def _chaos(s, out, executor, plt, bands=None):
     notes, figs, tables = [], [], {}
     mu = {f"{j}.mu": s["mu (sec. 4)"] for j in JOINTS}
     # --- against the clearance (sec. 4.1, Figs. 20-24)
@@ -464,7 +473,7 @@ def _chaos(s, out, executor, plt):
                             executor, mu)
     notes += [f"clearance {1e3 * v:g} mm (named by the paper): {chaos.exponent_text(ev)}" for v, ev in named.items()]
     tables["clearance"] = _table(res, kinds, 1e3, "clearance [mm]")
-    rows = _clearance_rows(res, kinds, named)
+    rows = _clearance_rows(res, kinds, named, bands)
     for c, said in PAPER_CHAOS.items():
         k = kinds.get(c, {})
         ours = ", ".join(f"{j}: {_kind_text(k.get(j))}" for j in JOINTS)
@@ -493,7 +502,7 @@ def _chaos(s, out, executor, plt):
     notes += [f"speed {v / math.pi:g} pi rad/s, 0.1 mm (named by the paper): {chaos.exponent_text(ev)}"
               for v, ev in named_w.items()]
     tables["speed"] = _table(res_w, kinds_w, 1 / math.pi, "speed [pi rad/s]")
-    rows += _speed_rows(res_w, kinds_w, named_w)
+    rows += _speed_rows(res_w, kinds_w, named_w, bands)
     LYAPUNOV_NAMED.clear()
     LYAPUNOV_NAMED.update({f"{1e3 * v:g} mm": ev for v, ev in named.items()})
     LYAPUNOV_NAMED.update({f"{v / math.pi:g} pi rad/s": ev for v, ev in named_w.items()})
@@ -536,56 +545,65 @@ def _named(named, value):
                 None)
 
 
-def _clearance_rows(res, kinds, named=None):
+def _kind_row(name, ours, paper, bands, key, why, quantity="motion kind"):
+    band, frm, need = kinds_band(bands or {}, [key], ours)
+    return row(name, quantity, ours, paper, band=band, band_from=frm, cpu_s=need, group="chaos", why=why)
+
+
+def _clearance_rows(res, kinds, named=None, bands=None):
     """Sec. 4.1's claims: 0.01 mm quasi-periodic, 0.8 mm chaotic, periodic -> chaos as the
-    clearance grows, chaos at A stronger than at B."""
-    rows = [row(f"motion of the journals A and B at {1e3 * c:g} mm (mu 0.3)", "motion kind", _kinds_at(kinds, c),
-                said.split(" (")[0], group="chaos", why="the set of the two joints' kinds" + _lyap_why(_named(named, c)))
+    clearance grows, chaos at A stronger than at B. ``bands``: the kind points' bands."""
+    rows = [_kind_row(f"motion of the journals A and B at {1e3 * c:g} mm (mu 0.3)", _kinds_at(kinds, c),
+                      said.split(" (")[0], bands, f"kind {1e3 * c:g} mm",
+                      "the set of the two joints' kinds" + _lyap_why(_named(named, c)))
             for c, said in PAPER_CHAOS.items() if _kinds_at(kinds, c)]
     vals = sorted(round(float(r.value), 9) for r in res.runs if r.ok)
     if len(vals) >= 2:
         rows.append(_transition_row(kinds, vals, "the motion as the clearance grows (Fig. 24)", "c", "clearance",
-                                    lambda c: f"{1e3 * c:g} mm", "; the paper prints no threshold"))
+                                    lambda c: f"{1e3 * c:g} mm", "; the paper prints no threshold", bands, "trend c"))
         sp = _spread(res, vals[-1])
         if sp is not None:
             n = _spread_n(res, vals[-1])
-            rows.append(row(f"the joint with the stronger chaos (larger Poincaré velocity spread at {1e3 * vals[-1]:g} mm)",
-                            "ordering", spread_order(sp["A"], sp["B"], n), "A", group="chaos",
-                            why=f"std A {sp['A']:.3g} m/s, B {sp['B']:.3g} m/s over {n} points each: "
+            rows.append(_kind_row(f"the joint with the stronger chaos (larger Poincaré velocity spread at {1e3 * vals[-1]:g} mm)",
+                                  spread_order(sp["A"], sp["B"], n), "A", bands, "stronger", quantity="ordering",
+                                  why=f"std A {sp['A']:.3g} m/s, B {sp['B']:.3g} m/s over {n} points each: "
                                 f"{100 * abs(sp['A'] / sp['B'] - 1):.1f} % apart against a sampling error of "
                                 f"{100 / math.sqrt(2 * max(n - 1, 1)):.1f} % each (both listed when within 2 standard "
                                 "errors of their difference)"))
     return rows
 
 
-def _transition_row(kinds, vals, name, symbol, what, fmt, note=""):
+def _transition_row(kinds, vals, name, symbol, what, fmt, note="", bands=None, key=None):
     """The ordering row "periodic, then non-periodic as SYMBOL grows" over the swept ``vals``:
     ours holds when the smallest value's kinds are all regular and the largest's none."""
     first = next((v for v in vals if not all(_regular(k) for k in _kinds_at(kinds, v))), None)
     lo_reg = all(_regular(k) for k in _kinds_at(kinds, vals[0]))
     hi_irr = not any(_regular(k) for k in _kinds_at(kinds, vals[-1]))
     claim = f"periodic, then non-periodic as {symbol} grows"
-    return row(name, "ordering", claim if lo_reg and hi_irr else "no such transition", claim, group="chaos",
+    ours = claim if lo_reg and hi_irr else "no such transition"
+    band, frm, need = kinds_band(bands or {}, [key] if key else [], ours)
+    return row(name, "ordering", ours, claim, band=band, band_from=frm, cpu_s=need, group="chaos",
                why=(f"first non-periodic {what} " + (fmt(first) if first else "none")
                     + f" over {fmt(vals[0]).split(' ')[0]}-{fmt(vals[-1])}{note}"))
 
 
-def _speed_rows(res_w, kinds_w, named=None):
+def _speed_rows(res_w, kinds_w, named=None, bands=None):
     """Sec. 4.2's claims: chaotic at 2 pi and at 3 pi rad/s (0.1 mm), the points spreading wider at 3 pi."""
-    rows = [row(f"motion of the journals at {w / math.pi:g} pi rad/s, 0.1 mm", "motion kind", _kinds_at(kinds_w, w),
-                "chaotic", group="chaos", why="the set of the two joints' kinds" + _lyap_why(_named(named, w)))
+    rows = [_kind_row(f"motion of the journals at {w / math.pi:g} pi rad/s, 0.1 mm", _kinds_at(kinds_w, w), "chaotic",
+                      bands, f"kind {w / math.pi:g} pi", "the set of the two joints' kinds" + _lyap_why(_named(named, w)))
             for w in (2 * math.pi, 3 * math.pi) if _kinds_at(kinds_w, w)]
     vals = sorted(round(float(r.value), 9) for r in res_w.runs if r.ok)
     if len(vals) >= 2:
         rows.append(_transition_row(kinds_w, vals, "the motion as the driving speed grows, 0.1 mm (Fig. 29)", "w",
-                                    "speed", lambda w: f"{w / math.pi:g} pi rad/s"))
+                                    "speed", lambda w: f"{w / math.pi:g} pi rad/s", bands=bands, key="trend w"))
     a, b = _spread(res_w, 2 * math.pi), _spread(res_w, 3 * math.pi)
     if a is not None and b is not None:
         n = min(_spread_n(res_w, 2 * math.pi), _spread_n(res_w, 3 * math.pi))
         ours = spread_order(max(b.values()), max(a.values()), n, labels=("wider at 3 pi", "not wider at 3 pi"))
-        rows.append(row("Poincaré points spread wider at 3 pi than at 2 pi rad/s", "ordering", ours, "wider at 3 pi",
-                        group="chaos", why=f"largest std {max(a.values()):.3g} vs {max(b.values()):.3g} m/s over {n} "
-                                           "points (both listed when within 2 standard errors)"))
+        rows.append(_kind_row("Poincaré points spread wider at 3 pi than at 2 pi rad/s", ours, "wider at 3 pi",
+                              bands, "wider at 3 pi", quantity="ordering",
+                              why=f"largest std {max(a.values()):.3g} vs {max(b.values()):.3g} m/s over {n} "
+                                  "points (both listed when within 2 standard errors)"))
     return rows
 
 
@@ -859,21 +877,24 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
             sens += [_impact_sensitivity(out, s, ex, q0, v0), _start_sensitivity(s, ex, q0, v0, runs.get("A 0.5"))]
             if s.get("long cycles"):
                 sens.append(_long_run(s, ex))
-        measured = {}
+        measured, ledger, figs_bands = {}, None, []
         _merge(measured, "A 0.5 mm impact force peak", _impact_band(sens))
         if bands:
-            got, band_table = paper002_bands(out, s, ex, q0, v0, budget, table.get("A 0.5", {}).get("cpu_s"))
+            got, band_tables, ledger = paper002_bands(out, s, ex, budget)
             for k, b in got.items():
                 _merge(measured, k, b)
-            sens.append(band_table)
-        results = _response_rows(table, measured) + _claim_rows(table)
+            sens += band_tables
+            if ledger.get("levers"):
+                figs_bands = [f for f in [tornado_figure(ledger["levers"], ledger["nominal"], paper002_taus(),
+                                                         paper002_values(), out)] if f]
+        results = _response_rows(table, measured) + _claim_rows(table, measured)
         notes = [f"sec. 3: the {k} mm run did not finish; its rows are missing"
                  for k in ("A 0.5", "B 0.5", "AB 0.5", "A 0.1") if k not in table]
         notes += _response_notes(table)
-        figs = _response_figures(runs, out, plt)
+        figs = _response_figures(runs, out, plt) + figs_bands
         tables = {"response": table}
         if s["cycles"] > 0:
-            r2, n2, f2, t2 = _chaos(s, out, ex, plt)
+            r2, n2, f2, t2 = _chaos(s, out, ex, plt, measured)
             results += r2
             notes += n2
             figs += f2
@@ -887,7 +908,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
                  "period's global-error bound, pinclear.analysis.classify.integration_rtol); with fewer than 40 "
                  "recorded cycles a motion without a period is 'unresolved' (the 0-1 test needs more samples)")
     s = dict(s, **{"wall time [s]": round(time.perf_counter() - wall0, 1), "CPU of the simulations [s]": round(cpu_runs, 1),
-                   "resolution": f"{CLEARANCE_FRACTION:g} x the clearance", "bands": bool(bands)})
+                   "resolution": f"{CLEARANCE_FRACTION:g} x the clearance", "bands": ledger_text(ledger)})
     groups = {k: v.format(frac=CLEARANCE_FRACTION) for k, v in GROUPS.items()}
     return {"title": "Paper 002: nine-bar with revolute clearances at A and B (responses, chaos, bifurcations)",
             "paper": "002", "settings": s, "claims": claims(results), "results": results, "groups": groups, "notes": notes, "figures": figs,
@@ -954,58 +975,178 @@ def _impact_band(sens):
     return (min(peaks), max(peaks), " + ".join(what) + f" ({len(peaks)} runs)") if peaks else None
 
 
-# ------------------------------------------------------------------------------- paper 002
-def _run002(job):
-    """One A 0.5 mm run of paper 002's sec. 3 at a design point (module-level: it pickles):
-    the slider's shift at the ideal peak and the impact and acceleration peaks."""
-    from pinclear.core.models import model_path
-    from pinclear.dynamics.simulate import simulate
+# ------------------------------------------------------------------------------- paper 002 bands
+#: the nine-bar's moving bodies, whose masses and inertias the 'link masses' input scales
+LINKS = ("crank1", "coupler2", "link3", "crank4", "link6", "plate7", "link8", "slider9")
+#: the motion-kind points of the bands, at the values sec. 4 names (not whole diagrams): 0.01 and
+#: 0.8 mm at 2 pi rad/s (Figs. 20-23) with 1 mm, the end of Fig. 24's range (the trend's and the
+#: stronger joint's value), 2 pi and 3 pi rad/s at 0.1 mm (Figs. 25-28), mu 0.3
+KIND_CLEARANCES = (1e-5, 8e-4, 1e-3)
+KIND_SPEEDS = (2 * math.pi, 3 * math.pi)
+
+
+def mechanism002(values, active, extra=None):
+    """The nine-bar with clearances ``active`` and one design point's reconstructed inputs
+    (reconstructed.yaml '002': '{j}.*' keys for every active journal, 'mass:links' scales the
+    moving bodies' masses and inertias); ``extra``: further load() overrides (the study's)."""
     from pinclear.io.sidecar import load
+    from pinclear.studies.reproduce.paper000 import scale_body
 
-    over = {k.format(j="A"): v for k, v in job["values"].items()}
-    mech = load(model_path("nine_bar"), clearances=["A"], overrides=over)
-    tr = simulate(mech, job["t_end"], method="lagrange", integrator="RK45", rtol=RTOL, dt_out=job["dt"],
-                           q0=job["q0"], v0=job["v0"])
-    x, v, a = _slider(tr)
-    i_d, i_v = job["i_d"], job["i_v"]
-    return {"A shift d": 1e3 * float(x[i_d] - job["x_ideal"]), "A shift v": 1e3 * float(abs(v[i_v]) - job["v_ideal"]),
-            "A 0.5 mm impact force peak": _peak(tr.t, tr.outputs["A.fn"])[0],
-            "A 0.5 mm acceleration peak steady": _steady_peak(tr.t, a)[0],
-            "status": tr.status, "cpu": tr.stats.get("cpu_s")}
+    over = {}
+    for k, v in values.items():
+        if k.startswith("{j}."):
+            over.update({k.format(j=j): v for j in active})
+    over.update(extra or {})
+    mech = load(model_path("nine_bar"), clearances=list(active), overrides=over)
+    for body in LINKS:
+        scale_body(mech.model, body, float(values.get("mass:links", 1.0)))
+    return mech
 
 
-def paper002_bands(out, s, executor, q0, v0, budget=None, cost=None):
-    """({row key: (lo, hi, what)}, table) of paper 002's A 0.5 mm rows over the keyed inputs of
-    reconstructed.yaml; ``cost``: CPU s of one run (the centred A 0.5 mm run's), for the budget."""
-    from pinclear.analysis.sweeps import run_jobs
-    from pinclear.core.models import model_path
+class _KindMech002:
+    """Factory of the kind points' mechanisms (picklable): both journals at clearance ``value``
+    (``what`` 'clearance', 2 pi rad/s) or at 0.1 mm driven at ``value`` rad/s ('speed'), mu 0.3."""
+
+    def __init__(self, values, what, mu):
+        self.values, self.what, self.mu = values, what, mu
+
+    def __call__(self, value):
+        extra = {f"{j}.mu": self.mu for j in JOINTS}
+        if self.what == "clearance":
+            extra.update({f"{j}.clearance": float(value) for j in JOINTS})
+        else:
+            extra.update({f"{j}.clearance": 0.1e-3 for j in JOINTS})
+            extra.update({k: f * float(value) for k, f in SPEED.items()})
+        return mechanism002(self.values, JOINTS, extra)
+
+
+def _kind_runs(values, s):
+    """The kind points' bifurcation runs: {'clearance': result, 'speed': result}."""
+    common = dict(signal=SIGNALS, cycles=s["cycles"], transient=s["transient cycles"], per_period=100,
+                  sim_options=dict(method="lagrange", integrator="RK45", rtol=RTOL), executor="serial")
+    return {"clearance": an.bifurcation(_KindMech002(values, "clearance", s["mu (sec. 4)"]), "clearance",
+                                        list(KIND_CLEARANCES), period=1.0, **common),
+            "speed": an.bifurcation(_KindMech002(values, "speed", s["mu (sec. 4)"]), "speed", list(KIND_SPEEDS),
+                                    period=crank_period, **common)}
+
+
+def _run002(values, s):
+    """Paper 002's measured quantities at one design point: sec. 3's four response runs (the
+    shifts at the ideal peaks, the impact peaks over the run, the steady peaks, the one-vs-two
+    ordering at B) and sec. 4's kinds at the named values (the set of A's and B's kinds, and
+    whether the Poincaré points spread wider at 3 pi), each computed as the rows' are."""
     from pinclear.dynamics.simulate import simulate
-    from pinclear.io.sidecar import load
 
-    inputs = reconstructed_inputs("002")
-    pts = within_budget(design(inputs), float(cost or 60.0), budget)
-    ideal = simulate(load(model_path("nine_bar")), s["response t_end [s]"], rtol=RTOL,
-                              dt_out=s["output step [s]"])
-    xi, vi, _ = _slider(ideal)
-    _, t_d = _peak(ideal.t, xi, 1.0)
-    _, t_v = _peak(ideal.t, vi, 1.0)
-    i_d, i_v = int(np.argmin(np.abs(ideal.t - t_d))), int(np.argmin(np.abs(ideal.t - t_v)))
-    base = {"t_end": s["response t_end [s]"], "dt": s["output step [s]"], "q0": list(q0), "v0": list(v0),
-            "i_d": i_d, "i_v": i_v, "x_ideal": float(xi[i_d]), "v_ideal": float(abs(vi[i_v]))}
-    jobs = [dict(base, label=label, values=values) for label, values in pts]
-    got = {}
-    run_jobs(_run002, jobs, executor, lambda job, res: got.__setitem__(job["label"], res),
-             lambda job, exc: got.__setitem__(job["label"], f"{type(exc).__name__}: {exc}"))
-    ok = {k: v for k, v in got.items() if isinstance(v, dict) and v["status"] == "success"}
-    n_sf = sum(label.startswith("space") for label, _ in pts)
-    what = f"{len(ok)} of {len(pts)} input sets ({len(pts) - n_sf} one-at-a-time, {n_sf} space-filling)"
-    fields = ("A shift d", "A shift v", "A 0.5 mm impact force peak", "A 0.5 mm acceleration peak steady")
-    bands = {f: (lo, hi, what) for f, (lo, hi) in spread(ok, fields).items()}
-    rows = [[label] + ([got[label].get(f, float("nan")) for f in fields] + [got[label]["status"]]
-                       if isinstance(got.get(label), dict) else [float("nan")] * len(fields) + [str(got.get(label))])
-            for label, _ in pts]
-    return bands, {"title": "bands (--bands): the A 0.5 mm run over the reconstructed inputs of reconstructed.yaml",
-                   "columns": ["input set", "displacement shift [mm]", "velocity change [mm/s]", "impact peak [N]",
-                               "steady acceleration peak [m/s^2]", "status"],
-                   "rows": rows, "note": what + "; inputs without an override key (link dimensions) wait for a "
-                                                "regenerated linkage"}
+    ideal = simulate(mechanism002(values, ()), s["response t_end [s]"], rtol=RTOL, dt_out=s["output step [s]"])
+    q0, v0 = ideal.q[0].tolist(), ideal.v[0].tolist()
+    runs = {"ideal": ideal}
+    for key, active, c in (("A 0.5", ("A",), 0.5e-3), ("A 0.1", ("A",), 0.1e-3), ("B 0.5", ("B",), 0.5e-3),
+                           ("AB 0.5", ("A", "B"), 0.5e-3)):
+        mech = mechanism002(values, active, {f"{j}.clearance": c for j in active})
+        tr = simulate(mech, s["response t_end [s]"], method="lagrange", integrator="RK45", rtol=RTOL,
+                      dt_out=s["output step [s]"], q0=q0, v0=v0)
+        if tr.status != "success":
+            return {"status": f"{key} mm: {tr.status}: {tr.message}"}
+        runs[key] = tr
+    table = _response_table(runs, s)
+    out = {}
+    for name in ("A", "B", "AB"):
+        r = table[f"{name} 0.5"]
+        out[f"{name} shift d"] = 1e3 * r["displacement shift at the ideal peak [m]"]
+        out[f"{name} shift v"] = 1e3 * r["velocity shift at the ideal peak [m/s]"]
+    out["A 0.5 mm impact force peak"] = table["A 0.5"]["A impact force peak [N]"]
+    out["B 0.5 mm impact force peak"] = table["B 0.5"]["B impact force peak [N]"]
+    out["AB impact force peak at B"] = table["AB 0.5"]["B impact force peak [N]"]
+    out["A 0.5 mm acceleration peak steady"] = table["A 0.5"]["steady acceleration peak [m/s^2]"]
+    out["A 0.1 mm acceleration peak steady"] = table["A 0.1"]["steady acceleration peak [m/s^2]"]
+    out["A 0.1 mm impact force peak steady"] = table["A 0.1"]["A steady impact force peak [N]"]
+    claim = _claim_rows(table)
+    out["one vs two"] = claim[0]["ours"] if claim else "no run"
+    if s["cycles"] > 0:
+        kr = _kind_runs(values, s)
+        for res, what in ((kr["clearance"], "clearance"), (kr["speed"], "speed")):
+            if res.failures:
+                return {"status": f"{what} kind point: " + "; ".join(f"{v}: {st}" for v, st, _ in res.failures)}
+        kinds = _joint_kinds(kr["clearance"], s)
+        for c in KIND_CLEARANCES:
+            out[f"kind {1e3 * c:g} mm"] = ", ".join(_kinds_at(kinds, c))
+        vals = [round(c, 9) for c in (KIND_CLEARANCES[0], KIND_CLEARANCES[-1])]
+        out["trend c"] = _transition_row(kinds, vals, "", "c", "clearance", str)["ours"]
+        sp = _spread(kr["clearance"], KIND_CLEARANCES[-1])
+        if sp is not None:
+            out["stronger"] = ", ".join(sorted(spread_order(sp["A"], sp["B"], _spread_n(kr["clearance"],
+                                                                                       KIND_CLEARANCES[-1]))))
+        kinds_w = _joint_kinds(kr["speed"], s, clearance=0.1e-3)
+        for w in KIND_SPEEDS:
+            out[f"kind {w / math.pi:g} pi"] = ", ".join(_kinds_at(kinds_w, w))
+        a, b = _spread(kr["speed"], KIND_SPEEDS[0]), _spread(kr["speed"], KIND_SPEEDS[1])
+        if a is not None and b is not None:
+            n = min(_spread_n(kr["speed"], KIND_SPEEDS[0]), _spread_n(kr["speed"], KIND_SPEEDS[1]))
+            out["wider at 3 pi"] = ", ".join(sorted(spread_order(max(b.values()), max(a.values()), n,
+                                                                 labels=("wider at 3 pi", "not wider at 3 pi"))))
+    out["status"] = "success"
+    return out
+
+
+#: the band keys of the motion kinds and orderings (categorical: tau 0)
+KIND_KEYS_002 = ([f"kind {1e3 * c:g} mm" for c in KIND_CLEARANCES] + [f"kind {w / math.pi:g} pi" for w in KIND_SPEEDS]
+                 + ["wider at 3 pi", "one vs two", "trend c", "stronger"])
+
+
+def paper002_taus():
+    """{band key: tau} of the rows the bands measure (verdicts.row's rule for each row)."""
+    taus = {}
+    for name in ("A", "B", "AB"):
+        for k, paper, base in (("d", PAPER[f"{name} displacement"][0], PAPER["ideal displacement peak"][0]),
+                               ("v", PAPER[f"{name} velocity"][0], PAPER["ideal velocity peak"][0])):
+            taus[f"{name} shift {k}"] = max(1.0, tolerance("kinematic peak")[0] * abs(1e3 * (paper - base)))
+    for pk in ("A 0.5 mm impact force peak", "B 0.5 mm impact force peak", "AB impact force peak at B"):
+        taus[pk] = max(half_digit(f"{PAPER[pk][0]:g}"), tolerance("impact peak")[0] * PAPER[pk][0])
+    for pk in STEADY_ROWS:
+        q = "acceleration peak" if "acceleration" in pk else "impact peak"
+        taus[pk + " steady"] = max(half_digit(f"{PAPER[pk][0]:g}"), tolerance(q)[0] * PAPER[pk][0])
+    taus.update({k: 0.0 for k in KIND_KEYS_002})
+    return taus
+
+
+def paper002_values():
+    """{band key: the paper's value} (sec. 3-4), for the levers of the rows that miss it."""
+    out = {}
+    for name in ("A", "B", "AB"):
+        out[f"{name} shift d"] = 1e3 * (PAPER[f"{name} displacement"][0] - PAPER["ideal displacement peak"][0])
+        out[f"{name} shift v"] = 1e3 * (PAPER[f"{name} velocity"][0] - PAPER["ideal velocity peak"][0])
+    for pk in ("A 0.5 mm impact force peak", "B 0.5 mm impact force peak", "AB impact force peak at B"):
+        out[pk] = PAPER[pk][0]
+    out.update({pk + " steady": PAPER[pk][0] for pk in STEADY_ROWS})
+    out.update({"kind 0.01 mm": "quasi-periodic", "kind 0.8 mm": "chaotic", "kind 2 pi": "chaotic",
+                "kind 3 pi": "chaotic", "wider at 3 pi": "wider at 3 pi", "one vs two": "weaker with A and B",
+                "trend c": "periodic, then non-periodic as c grows", "stronger": "A"})
+    return out
+
+
+#: CPU s of one 002 design point (four 2 s response runs, four kind runs of the study's length),
+#: a first guess before any point has run: the measured mean replaces it
+COST_002 = {"quick": 40.0, "full": 250.0}
+
+
+def paper002_bands(out, s, executor, budget=None):
+    """(bands {row key: (lo, hi, what) | (kinds, what) | NotReached}, tables, ledger) of paper
+    002: every reconstructed input screened on the quick study's runs, then each row banded over
+    the inputs that matter for it at the study's settings (pinclear.studies.reproduce.bands); the
+    points stored under OUT/bands/ (a second call resumes)."""
+    from pinclear.studies.reproduce.bands import PointStore, measure_bands
+
+    screen_s = _settings(True)
+    keep = ("response t_end [s]", "output step [s]", "cycles", "transient cycles", "mu (sec. 4)")
+    store = PointStore(out, "002", {"screen": {k: screen_s[k] for k in keep}, "band": {k: s[k] for k in keep}})
+    taus = paper002_taus()
+    quick = bool(s.get("quick"))
+    got, table, ledger = measure_bands(partial(_run002, s=dict(s)), reconstructed_inputs("002"), list(taus), taus, store, executor,
+                                       budget, COST_002["quick" if quick else "full"],
+                                       screen_fn=None if quick else partial(_run002, s=screen_s), papers=paper002_values())
+    # the speed trend's band would rerun the speed diagram at each point: its cost, stated
+    n_pts = ledger["ran"] + ledger["resumed"] + ledger["not_reached"]
+    per_run = (ledger["cpu_s"] + ledger["cpu_stored_s"]) / max(ledger["ran"] + ledger["resumed"], 1) / (
+        len(KIND_CLEARANCES) + len(KIND_SPEEDS) + 4 * s["response t_end [s]"] / max(s["cycles"] + s["transient cycles"], 1))
+    got.setdefault("trend w", NotReached(n_pts * len(s["speeds [pi rad/s]"]) * per_run, "the speed diagram"))
+    return got, [t for t in (table,) if t], ledger

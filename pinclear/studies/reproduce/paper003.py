@@ -96,7 +96,8 @@ GROUPS = {
            "output grid: a coarser grid can only miss part of a peak, so our lower end is a lower bound)",
     "force": "the whole run's largest force is the slider's first landing in the gap (it starts centred; the paper "
              "does not give its initial state): not the paper's quantity. After the landing (t >= settle) the force "
-             "is the contact's steady load, set by the reconstructed slider geometry; its band is not measured",
+             "is the contact's steady load, set by the reconstructed slider geometry; its band spans both contact models "
+             "scaled by the measured slider lengths' and guide places' ratios of that force (as the deviation's)",
 }
 
 
@@ -175,7 +176,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     lever = lever_form(geo["tables"], sens[0], out)
     if lever:
         sens.append(lever["table"])
-    results = deviation_rows(got, s, geo["factors"]) + trend_rows(got, s) + force_rows(got, s, notes)
+    results = deviation_rows(got, s, geo["factors"]) + trend_rows(got, s) + force_rows(got, s, notes, geo["factors"])
     checks.append(growth_check(got, s))
     notes += paper_notes(checks, ideal, ti)
     responses_figure(out, got, s)
@@ -363,7 +364,7 @@ def geometry_tables(sw, got, s, path, ideal, notes):
     """The slider-length and lever-arm tables, and the factors (lo, hi) by which the measured
     geometry moves the 0.1 mm deviation and velocity amplitude from the reconstructed one."""
     ref = pick(got["clearance"], [1e-4, 1e-4], "energy")
-    tables, dev, vel, acc = [], [], [], []
+    tables, dev, vel, acc, frc = [], [], [], [], []
     if ref is None:
         return {"tables": tables, "factors": None}
     if "length" in sw:
@@ -376,6 +377,7 @@ def geometry_tables(sw, got, s, path, ideal, notes):
                 dev.append(r["z_dev"] / ref["z_dev"])
                 vel.append(r["vz_amp"] / ref["vz_amp"])
                 acc.append(r["az_amp"] / ref["az_amp"])
+                frc.append(r["F_max_settled"] / ref["F_max_settled"])
         lrows.sort()
         tables.append({"title": "slider length (reconstructed; sidecar 0.3 m), 0.1 mm gap, mu_d 0.16, energy model",
                        "columns": ["slider length [m]", "Z deviation [um]", "deviation / clearance",
@@ -384,17 +386,18 @@ def geometry_tables(sw, got, s, path, ideal, notes):
                        "note": "the gap lets the slider tilt in the guide by about 2 c / l, and the platform moves by "
                                "that tilt times its distance from the slider"})
     if sw["lever"]:
-        lever_table(sw, ref, s, ideal, notes, tables, dev, vel, acc)
+        lever_table(sw, ref, s, ideal, notes, tables, dev, vel, acc, frc)
     factors = {"dev": (min(dev + [1.0]), max(dev + [1.0])), "vel": (min(vel + [1.0]), max(vel + [1.0])),
-               "acc": (min(acc + [1.0]), max(acc + [1.0])),
+               "acc": (min(acc + [1.0]), max(acc + [1.0])), "force": (min(frc + [1.0]), max(frc + [1.0])),
                "what": f"slider length {', '.join(f'{L:g}' for L in s['lengths'])} m, guide shifts "
                        f"{', '.join(f'{x:+g}' for x in s['lever_shifts'])} m, both contact models"} if dev else None
     return {"tables": tables, "factors": factors}
 
 
-def lever_table(sw, ref, s, ideal, notes, tables, dev, vel, acc):
-    """The lever-arm table (appended to ``tables``); each run's deviation, velocity and
-    acceleration ratios to the reconstructed geometry's appended to ``dev``, ``vel``, ``acc``."""
+def lever_table(sw, ref, s, ideal, notes, tables, dev, vel, acc, frc):
+    """The lever-arm table (appended to ``tables``); each run's deviation, velocity, acceleration
+    and settled-force ratios to the reconstructed geometry's appended to ``dev``, ``vel``, ``acc``,
+    ``frc``."""
     zg = mod.GUIDE_Z0 + mod.GUIDE_LEN / 2
     vrows = [[zg, 1e6 * ref["z_dev"], ref["z_dev"] / 1e-4, ref["vz_amp"]]]
     for sh, vp, swl in sw["lever"]:
@@ -407,6 +410,7 @@ def lever_table(sw, ref, s, ideal, notes, tables, dev, vel, acc):
         dev.append(r["z_dev"] / ref["z_dev"])
         vel.append(r["vz_amp"] / ref["vz_amp"])
         acc.append(r["az_amp"] / ref["az_amp"])
+        frc.append(r["F_max_settled"] / ref["F_max_settled"])
     vrows.sort()
     tables.append({"title": "lever arm: the guide/slider pair moved along the UP branch (reconstructed place: guide "
                             f"centre {zg:g} m above the base U joint), 0.1 mm gap, mu_d 0.16, energy model",
@@ -546,8 +550,10 @@ def trend_rows(got, s):
     return rows
 
 
-def force_rows(got, s, notes):
-    """Fig. 11: the largest contact force, over the run (the first landing: not comparable) and after it."""
+def force_rows(got, s, notes, factors=None):
+    """Fig. 11: the largest contact force, over the run (the first landing: not comparable) and
+    after it, banded over the contact models and the measured geometry's factors (slider length,
+    guide place) as the deviation rows are."""
     rows, rf = [], got["friction"]
     for m in s["models"]:
         okf = [r for r in (pick(rf, friction_law(mu), m) for mu in s["mus"]) if r is not None]
@@ -558,9 +564,13 @@ def force_rows(got, s, notes):
                         status="not comparable", group="force"))
         settled = max(r["F_max_settled"] for r in okf)
         if np.isfinite(settled):
+            per_model = [max(r["F_max_settled"] for r in (pick(rf, friction_law(mu), mm) for mu in s["mus"])
+                             if r is not None) for mm in s["models"]
+                         if any(pick(rf, friction_law(mu), mm) is not None for mu in s["mus"])]
+            band = _band(per_model, factors["force"]) if factors else None
             rows.append(row(f"largest contact force after the first landing (t >= {s['settle']:g} s), "
                             f"{_model_label(m)}", "contact force peak", settled, PAPER_FORCE_MAX, "N",
-                            printed="408", group="force"))
+                            band=band, band_from=factors["what"] if band else "", printed="408", group="force"))
         notes.append(f"{_model_label(m)}: largest contact force after the first landing, per mu_d: "
                      + ", ".join(f"{mu}: {r['F_max_settled']:.0f} N (whole run {r['F_max']:.0f} N)"
                                  for mu in s["mus"] if (r := pick(rf, friction_law(mu), m)) is not None))

@@ -23,7 +23,7 @@ import numpy as np
 from pinclear.core import safeio
 from pinclear.dynamics import screw
 from pinclear.mechanisms import four_ups_upr as mod
-from pinclear.studies.reproduce.bands import design, reconstructed_inputs, run_points, within_budget
+from pinclear.studies.reproduce.bands import band_of, ledger_text, reconstructed_inputs, tornado_figure
 from pinclear.studies.reproduce.verdicts import row
 
 #: paper 004 sec. 4.1, G_q^p at the initial configuration (columns P1..P4, virtual 1, virtual 2)
@@ -247,16 +247,16 @@ def peak_rows(runs, bands=None, cutoff=20.0):
         for label in ("low speed, platform only", "high speed, with limbs"):
             res, _ = cases[label]
             pk, lo, hi, what = peak_of(res, cutoff)
-            b = (bands or {}).get((reading, label))
+            b, frm, need = band_of(bands or {}, (reading, label), pk)
             if b is not None:
-                lo, hi, what = min(lo, b[0]), max(hi, b[1]), b[2]
+                lo, hi, what = min(lo, b[0]), max(hi, b[1]), frm
             printed = PAPER_PEAKS[label][2]
             calib = bool(res.crossings) and label == CALIBRATION_CASE
             name = f"peak drive force, {label}, law {reading}"
             if res.crossings:
                 name += f" ({len(res.crossings)} singular crossings; below the cut-off cond < {cutoff:.3g})"
             rows.append(row(name, "drive force peak", pk, float(printed), "N", band=(lo, hi), band_from=what,
-                            reading=READING[printed], group="peak",
+                            reading=READING[printed], group="peak", cpu_s=need,
                             status="calibration" if calib else None,
                             why=f"chose the cut-off {cutoff:.3g}" if calib else ""))
     return rows
@@ -280,9 +280,9 @@ def ratio_rows(runs, bands=None, cutoff=20.0):
         if not hi_res.crossings:
             limbs = cases["high speed, with limbs"][0]
             share = float(np.abs(limbs.tau).max() / np.abs(hi_res.tau).max())
-            b = (bands or {}).get((reading, "limbs share"))
+            b, frm, need = band_of(bands or {}, (reading, "limbs share"), share)
             rows.append(row(f"with limbs / platform only, high speed, law {reading}", "force ratio", share,
-                            p_limbs / p_hi, band=None if b is None else b[:2], band_from="" if b is None else b[2],
+                            p_limbs / p_hi, band=b, band_from=frm, cpu_s=need,
                             reading=(p_limbs / p_hi) * (5.0 / p_limbs + 5.0 / p_hi), group="peak"))
     return rows, checks
 
@@ -384,11 +384,11 @@ def run(out, quick=False, workers=None, scheduler=None, bands=False, budget=None
     runs = {reading: case_peaks(mech, system, n, reading) for reading in READINGS}
     low_printed = runs["as printed"][CALIBRATION_CASE][0]
     cutoff = calibrated_cutoff(low_printed, float(PAPER_PEAKS[CALIBRATION_CASE][2])) or 20.0
-    band = None
+    band, ledger = None, None
     if bands:
         # 501 samples per period: the peaks of the crossing-free readings move by < 0.1 % from 2001
-        band, band_table = paper004_bands(min(n, 501), workers=workers, scheduler=scheduler, budget=budget,
-                                          cutoff=cutoff)
+        band, band_tables, ledger = paper004_bands(min(n, 501), workers=workers, scheduler=scheduler,
+                                                   budget=budget, cutoff=cutoff, out=out)
     ratios, r_checks = ratio_rows(runs, band, cutoff)
     results = g_rows + peak_rows(runs, band, cutoff) + ratios
     notes = [("the virtual-joint columns 5 and 6 of G depend on how the UPR limb's virtual joints are chosen "
@@ -403,18 +403,23 @@ def run(out, quick=False, workers=None, scheduler=None, bands=False, budget=None
     found = layouts()
     notes += layout_notes(found)
     plot_drive_forces(out, runs, cutoff=cutoff)
-    sens = [sensitivity_table(runs), readings_table(runs)] + ([band_table] if bands else [])
+    sens = [sensitivity_table(runs), readings_table(runs)] + (band_tables if bands else [])
+    figures = ["drive_forces.png", "peak_vs_cutoff.png"]
+    if ledger and ledger.get("levers"):
+        figures += [f for f in [tornado_figure(ledger["levers"], ledger["nominal"], ledger["taus"], ledger["papers"],
+                                               out)] if f]
     groups = {"G": why_g, "peak": GROUPS["peak"].format(cuts=", ".join(f"{c:g}" for c in CUTOFFS)),
               "ratio": GROUPS["ratio"]}
     checks = g_checks + r_checks
     return {"title": "Paper 004: screw-theory inverse dynamics of the 4-UPS/UPR mechanism", "paper": "004",
             "settings": {"samples per period": n, "gravity": "off (as the paper's example)",
-                         "layout": "f (Table 1)", "quick": bool(quick), "bands": bool(bands),
+                         "layout": "f (Table 1)", "quick": bool(quick),
+                         "bands": ledger_text(ledger) if bands else "not measured (--bands)",
                          "cut-off": f"{cutoff:.3g} (calibrated on the low-speed peak)",
                          "readings": ", ".join(READINGS)},
             "claims": claims(results, checks, found, runs, cutoff),
             "results": results, "consistency": checks, "groups": groups, "notes": notes,
-            "figures": ["drive_forces.png", "peak_vs_cutoff.png"], "sensitivity": sens}
+            "figures": figures, "sensitivity": sens}
 
 
 def plot_drive_forces(out, runs, show=20.0, cutoff=None):
@@ -502,42 +507,43 @@ def paper004_point(values, n=2001, cutoff=20.0):
     for reading in READINGS:
         cases = case_peaks(mech, system, n, reading)
         for label, (res, _) in cases.items():
-            _, lo, hi, _ = peak_of(res, cutoff)
-            out[f"{reading}|{label}|lo"], out[f"{reading}|{label}|hi"] = lo, hi
+            out[f"{reading}: {label}"] = peak_of(res, cutoff)[0]
         limbs, plat = cases["high speed, with limbs"][0], cases["high speed, platform only"][0]
         if not plat.crossings:
-            out[f"{reading}|limbs share|lo"] = out[f"{reading}|limbs share|hi"] = float(
-                np.abs(limbs.tau).max() / np.abs(plat.tau).max())
+            out[f"{reading}: limbs share"] = float(np.abs(limbs.tau).max() / np.abs(plat.tau).max())
     return out
 
 
-def paper004_bands(n, workers=None, scheduler=None, budget=None, cutoff=20.0):
-    """({(reading, case): (lo, hi, what)}, sensitivity table) of paper 004 over its inputs."""
+def paper004_bands(n, workers=None, scheduler=None, budget=None, cutoff=20.0, out=None):
+    """({(reading, case): (lo, hi, what) | NotReached}, tables, ledger) of paper 004 over its
+    inputs: screened, then banded over those that matter (pinclear.studies.reproduce.bands.measure_bands),
+    the points stored under OUT/bands/ (a second call resumes)."""
+    from pinclear.studies.reproduce.bands import PointStore, measure_bands
+    from pinclear.studies.reproduce.paper000 import executor_for
 
     inputs = reconstructed_inputs("004")
-    pts = within_budget(design(inputs), COST_004, budget)
-    res = run_points(_Point004(n, cutoff), pts, workers, scheduler)
-    what = f"{len(pts)} input sets: {sum(not p[0].startswith('space') for p in pts)} one-at-a-time, " \
-           f"{sum(p[0].startswith('space') for p in pts)} space-filling"
-    bands, rows = {}, []
-    keys = [(r, c) for r in READINGS for c in list(PAPER_PEAKS) + ["limbs share"]]
-    for reading, case in keys:
-        lo = [v[f"{reading}|{case}|lo"] for v in res.values() if isinstance(v, dict) and f"{reading}|{case}|lo" in v]
-        hi = [v[f"{reading}|{case}|hi"] for v in res.values() if isinstance(v, dict) and f"{reading}|{case}|hi" in v]
-        if lo:
-            bands[(reading, case)] = (min(lo), max(hi), what)
-    for label, v in res.items():
-        if isinstance(v, dict):
-            rows.append([label] + [v.get(f"{r}|{c}|hi", float("nan")) for r in READINGS
-                                   for c in ("low speed, platform only", "high speed, with limbs")])
-        else:
-            rows.append([label, str(v)] + [float("nan")] * (2 * len(READINGS) - 1))
-    table = {"title": "bands (--bands): the peaks over the reconstructed inputs of reconstructed.yaml",
-             "columns": ["input set"] + [f"{c.split(',')[0]} {c.split(', ')[1]}, {r} [N]" for r in READINGS
-                                         for c in ("low speed, platform only", "high speed, with limbs")],
-             "rows": rows,
-             "note": f"{what}; a law with singular crossings lists its peak at the calibrated cut-off {cutoff:.3g}"}
-    return bands, table
+    # one key per (reading, case): the peak (its lo and hi are equal: peak_of's band is one value)
+    ratio_paper = float(PAPER_PEAKS["high speed, with limbs"][2]) / float(PAPER_PEAKS["high speed, platform only"][2])
+    taus = {}
+    for r in READINGS:
+        for c in PAPER_PEAKS:
+            taus[f"{r}: {c}"] = max(READING[PAPER_PEAKS[c][2]], 0.05 * float(PAPER_PEAKS[c][2]))
+        if r != "as printed":              # the printed law crosses singular configurations: no share
+            taus[f"{r}: limbs share"] = 0.01 * ratio_paper
+    keys = list(taus)
+    papers = {k: (ratio_paper if k.endswith("limbs share") else float(PAPER_PEAKS[k.split(": ", 1)[1]][2]))
+              for k in keys}
+    store = PointStore(out, "004", {"band": {"samples": n, "cutoff": round(float(cutoff), 6)}})
+    ex, close = executor_for(workers, scheduler, 2 * len(inputs) + 1)
+    try:
+        got, screen_table, ledger = measure_bands(_Point004(n, cutoff), inputs, keys, taus, store, ex, budget, COST_004,
+                                                  papers=papers)
+    finally:
+        if close is not None:
+            close()
+    ledger["taus"], ledger["papers"] = taus, papers
+    bands = {tuple(k.split(": ", 1)): b for k, b in got.items()}
+    return bands, [t for t in (screen_table,) if t], ledger
 
 
 class _Point004:

@@ -67,7 +67,16 @@ def cells(r):
 
 
 def header(rep):
-    return f"**Verdicts: {summary(rep['results'])}.**"
+    """The counts line, and the rows whose band was not measured with the CPU they would need."""
+    out = f"**Verdicts: {summary(rep['results'])}.**"
+    nm = [r for r in rep["results"] if r["verdict"] == "not measured"]
+    if nm:
+        need = sum(r.get("cpu_needed_s") or 0.0 for r in nm)
+        out += (f" Not measured: {len(nm)} rows" + (f", about {need / 3600:.2g} CPU h to measure" if need else "")
+                + " (`pinclear reproduce --bands` resumes from the stored points): "
+                + "; ".join(r["name"] + (f" ({r['cpu_needed_s']:.0f} CPU s)" if r.get("cpu_needed_s") else "")
+                            for r in nm) + ".")
+    return out
 
 
 # ------------------------------------------------------------------------------- claims
@@ -320,3 +329,39 @@ def write_report(rep, out):
 
 __all__ = ["CLAIM_VERDICTS", "CLASSES", "claim", "claim_verdict", "claims_markdown", "header", "markdown", "run_record",
            "sensitivity_markdown", "started_now", "versions", "write_report"]
+
+
+# ------------------------------------------------------------------------------- the claims page
+CLAIMS_INTRO = """# Which of the four papers' claims hold
+
+Each report of `pinclear reproduce PAPER` opens with a table of that paper's central claims: the
+claim, where the paper shows it, the paper's evidence, ours and a verdict. This page gathers them
+from the committed reports in [docs/reproduce/](reproduce/) (`pinclear reproduce claims` writes it
+from their report.json files; a test checks that it matches them). A claim's verdict is that of
+the rows that decide it (listed beside "ours"): one contradicted row contradicts it, all
+reproduced reproduce it, a row whose band was not measured leaves it **not measured**, a band too
+wide to decide leaves it **undecided**; calibration and not-comparable rows never decide. A claim
+checked by a test or a computed fact, not by a compared number, names the test; **new finding**
+is what the paper does not report. The papers: [docs/papers.md](papers.md); how a row earns its
+class and how the bands are measured: [docs/papers.md](papers.md#how-a-row-earns-its-class).
+"""
+
+
+def claims_page(folder) -> str:
+    """docs/claims.md's text from the reports under ``folder`` (``NNN/report.json`` for each
+    paper with a report there): per paper, its run's commit and CPU, its counts and its claims."""
+    import json
+
+    from pinclear.core.bounded import read_text_bounded
+
+    lines = [CLAIMS_INTRO]
+    for rep_file in sorted(Path(folder).glob("*/report.json")):
+        rep = json.loads(read_text_bounded(rep_file, 64 << 20, "report", "report.json"))
+        run = rep.get("run") or {}
+        made = (f"made by commit {run['commit']}, {run['cpu_self_s'] + run['cpu_children_s']:.0f} CPU s"
+                if run else "made before the reports recorded their run")
+        lines += [f"## {rep['title']} ([report](reproduce/{rep_file.parent.name}/report.md))", "",
+                  f"Rows: {summary(rep['results'])}; {made}; bands: {rep['settings'].get('bands', 'not recorded')}.", ""]
+        lines += claims_markdown(rep.get("claims") or []) if rep.get("claims") else ["(no claims table: an older report)"]
+        lines.append("")
+    return "\n".join(lines)
