@@ -16,10 +16,11 @@ included) spread over the Hertz half-width of a cylinder in a conformal cylindri
 b = sqrt(4 F R* / (pi L E*)) with R* = R_j R_b / (R_b - R_j) (Johnson 1985, Contact Mechanics,
 eq. 4.43 with the internal contact's relative curvature), either elliptic
 p(s) = (2 F / (pi b L)) sqrt(1 - s^2 / b^2) (Johnson eq. 4.45: ``distribution: hertz``, the
-default) or uniform F / (2 b L) (``distribution: uniform``). R* is the new bearing's: a worn pocket
-that conforms to the journal widens the true contact (Persson's conformal solution), which this
-distribution does not follow (docs/wear_lubrication.md). Each node receives the exact integral of
-the distribution over its cell, so the worn volume is k F s / H to round-off whatever the nodes.
+default) or uniform F / (2 b L) (``distribution: uniform``) on the new bearing; on a worn one the
+same elastic foundation over the gap to the worn profile (patch_shares): a pocket that conforms
+to the journal widens the patch (docs/wear_lubrication.md sec. 8). Each node receives the exact
+integral of the distribution over its cell, so the worn volume is k F s / H to round-off whatever
+the nodes.
 
 Geometry: the worn bearing's radius is R_b + w(theta), w a periodic cubic spline through the node
 depths (C2 in theta), evaluated in the compiled kernel (contact._kernels.worn_planar_geometry):
@@ -180,7 +181,7 @@ def spline_eval(coef, theta):
 
 def patch_shares(wm: WearModel, theta, beta, depth, chunk=2048):
     """(nodes, shares), both (samples, K): each load's pressure over the worn bearing's patch, an
-    elastic foundation calibrated on Hertz (docs/wear_lubrication.md sec. 5): the journal touching
+    elastic foundation calibrated on Hertz (docs/wear_lubrication.md sec. 8): the journal touching
     the worn surface at theta (its nearest point) leaves the gap g(x) = A x^2 / 2 + w(theta + x) -
     w - w' x at the angle x from it (A = r (1 + r / R_j), r = c + w: the circles' gap, and the
     wear's departure from its tangent), and a foundation of approach a presses
