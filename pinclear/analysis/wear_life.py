@@ -532,13 +532,59 @@ def _trial(s, k):
     return WearSettings(**{**asdict(s), "step": s.step / 2 ** k})
 
 
-def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, progress=None, start=None) -> dict:
+def refined(mech, name):
+    """The mechanism with the worn joint ``name``'s wear cells halved (a bearing's nodes doubled, a
+    socket's rows doubled: 4x its nodes), new (unworn), for the mesh half of the convergence test."""
+    import dataclasses
+
+    i, joint = worn_joint(mech, name)
+    wm = joint.wear
+    wm2 = (dataclasses.replace(wm, rows=2 * wm.rows) if hasattr(wm, "rows")
+           else dataclasses.replace(wm, nodes=2 * wm.nodes))
+    args, kw = joint._ctor
+    forces = list(mech.forces)
+    forces[i] = type(joint)(*args, wear=wm2, depth=None, **kw)
+    return mech.replace(forces=forces)
+
+
+def profile_norm(wm, depth) -> float:
+    """The profile's L2 norm over the worn surface per unit measure (RMS depth, m): the nodes'
+    mean square, a socket's weighted by its cells' areas, so that meshes of any size compare."""
+    depth = np.asarray(depth, float)
+    if hasattr(wm, "cell_areas"):
+        a = wm.cell_areas()
+        return float(np.sqrt(np.sum(a * depth ** 2) / np.sum(a)))
+    return float(np.sqrt(np.mean(depth ** 2)))
+
+
+def mesh_change(mech, name, s, res, out=None, start=None, tol=0.05) -> dict:
+    """The mesh half of the convergence test: the run ``res`` (settings s) repeated with the cells
+    halved (refined); the changes of the largest depth and of the profile's L2 norm (profile_norm),
+    both relative to the finer run's largest depth, and ``ok`` when both are <= tol."""
+    fine_mech = refined(mech, name)
+    fine = wear_run(fine_mech, name, s, None if out is None else safeio.make_dirs(Path(out) / "mesh_halved"),
+                    None, start)
+    wm1, wm2 = worn_joint(mech, name)[1].wear, worn_joint(fine_mech, name)[1].wear
+    d1, d2 = res["depth"][name], fine["depth"][name]
+    top = max(float(d2.max()), 1e-300)
+    dmax = abs(float(d2.max()) - float(d1.max())) / top
+    dl2 = abs(profile_norm(wm2, d2) - profile_norm(wm1, d1)) / top
+    return {"nodes": (wm1.nodes, wm2.nodes), "max_depth": (float(d1.max()), float(d2.max())),
+            "l2": (profile_norm(wm1, d1), profile_norm(wm2, d2)), "d_max": dmax, "d_l2": dl2,
+            "complete": fine["complete"], "ok": bool(fine["complete"] and dmax <= tol and dl2 <= tol)}
+
+
+def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, progress=None, start=None,
+              mesh=True) -> dict:
     """The convergence test of the scheme (module doc): trials with the factor halved (``factor``:
     updates doubled) or the depth step halved (``depth``) until every joint's final maximum depth
-    changes by <= tol. Returns the finest run's result plus ``rounds`` (one dict a trial: updates,
-    factor or step, complete, max_depth {name: m}, worn_volume {name: m^3}, cpu_s) and ``converged``
-    (False after max_rounds, or when a trial stopped at max_updates: every trial's numbers are in
-    rounds)."""
+    changes by <= tol; then (mesh) the converged trial repeated with the wear cells halved: the
+    largest depth and the profile's L2 norm (relative to the largest depth) must change by <= tol
+    too (mesh_change, returned as ``mesh``). Returns the finest run's result plus ``rounds`` (one
+    dict a trial: updates, factor or step, complete, max_depth {name: m}, worn_volume {name: m^3},
+    cpu_s), ``mesh`` and ``converged`` (False after max_rounds, when a trial stopped at
+    max_updates, or when the mesh changed the result by more than tol: every trial's numbers are
+    in rounds and mesh)."""
     rounds, prev = [], None
     if s.scheme == "factor" and s.cycles < s.updates * s.block_periods:
         raise InputError(f"{s.cycles:g} cycles are fewer than updates x block periods = {s.updates} x "
@@ -558,16 +604,17 @@ def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, pro
                        "cpu_s": float(sum(res["history"]["cpu_sim"]) + sum(res["history"]["cpu_update"]))})
         rounds[-1]["failed"] = res["failed"]
         if not res["complete"]:
-            res.update(rounds=rounds, converged=False)
+            res.update(rounds=rounds, mesh=None, converged=False)
             return res
         # a halving that made no more updates (the life's end held both at the same count) tests
         # nothing, unless nothing wore at all (no step to resolve)
         if (prev is not None and (n_upd > rounds[-2]["updates"] or not any(d.values()))
                 and all(abs(d[n] - prev["depth"][n].max()) <= tol * d[n] for n in d)):
-            res.update(rounds=rounds, converged=True)
+            m = mesh_change(mech, name, si, res, out, start, tol) if mesh else None
+            res.update(rounds=rounds, mesh=m, converged=m is None or m["ok"])
             return res
         prev = res
-    prev.update(rounds=rounds, converged=False)
+    prev.update(rounds=rounds, mesh=None, converged=False)
     return prev
 
 
