@@ -532,19 +532,24 @@ def _trial(s, k):
     return WearSettings(**{**asdict(s), "step": s.step / 2 ** k})
 
 
-def refined(mech, name):
-    """The mechanism with the worn joint ``name``'s wear cells halved (a bearing's nodes doubled, a
+def refined(mech, names):
+    """The mechanism with the worn joints ``names``' wear cells halved (a bearing's nodes doubled, a
     socket's rows doubled: 4x its nodes), new (unworn), for the mesh half of the convergence test."""
     import dataclasses
 
-    i, joint = worn_joint(mech, name)
-    wm = joint.wear
-    wm2 = (dataclasses.replace(wm, rows=2 * wm.rows) if hasattr(wm, "rows")
-           else dataclasses.replace(wm, nodes=2 * wm.nodes))
-    args, kw = joint._ctor
     forces = list(mech.forces)
-    forces[i] = type(joint)(*args, wear=wm2, depth=None, **kw)
+    for name in _names(names):
+        i, joint = worn_joint(mech, name)
+        wm = joint.wear
+        wm2 = (dataclasses.replace(wm, rows=2 * wm.rows) if hasattr(wm, "rows")
+               else dataclasses.replace(wm, nodes=2 * wm.nodes))
+        args, kw = joint._ctor
+        forces[i] = type(joint)(*args, wear=wm2, depth=None, **kw)
     return mech.replace(forces=forces)
+
+
+def _names(names):
+    return [names] if isinstance(names, str) else list(names)
 
 
 def profile_norm(wm, depth) -> float:
@@ -557,21 +562,28 @@ def profile_norm(wm, depth) -> float:
     return float(np.sqrt(np.mean(depth ** 2)))
 
 
-def mesh_change(mech, name, s, res, out=None, start=None, tol=0.05) -> dict:
+def mesh_change(mech, names, s, res, out=None, start=None, tol=0.05) -> dict:
     """The mesh half of the convergence test: the run ``res`` (settings s) repeated with the cells
-    halved (refined); the changes of the largest depth and of the profile's L2 norm (profile_norm),
-    both relative to the finer run's largest depth, and ``ok`` when both are <= tol."""
-    fine_mech = refined(mech, name)
-    fine = wear_run(fine_mech, name, s, None if out is None else safeio.make_dirs(Path(out) / "mesh_halved"),
+    halved (refined); per joint the changes of the largest depth and of the profile's L2 norm
+    (profile_norm), both relative to the finer run's largest depth; ``ok`` when all are <= tol.
+    A single joint's numbers are also at the top level (nodes, max_depth, l2, d_max, d_l2)."""
+    fine_mech = refined(mech, names)
+    fine = wear_run(fine_mech, names, s, None if out is None else safeio.make_dirs(Path(out) / "mesh_halved"),
                     None, start)
-    wm1, wm2 = worn_joint(mech, name)[1].wear, worn_joint(fine_mech, name)[1].wear
-    d1, d2 = res["depth"][name], fine["depth"][name]
-    top = max(float(d2.max()), 1e-300)
-    dmax = abs(float(d2.max()) - float(d1.max())) / top
-    dl2 = abs(profile_norm(wm2, d2) - profile_norm(wm1, d1)) / top
-    return {"nodes": (wm1.nodes, wm2.nodes), "max_depth": (float(d1.max()), float(d2.max())),
-            "l2": (profile_norm(wm1, d1), profile_norm(wm2, d2)), "d_max": dmax, "d_l2": dl2,
-            "complete": fine["complete"], "ok": bool(fine["complete"] and dmax <= tol and dl2 <= tol)}
+    joints = {}
+    for name in _names(names):
+        wm1, wm2 = worn_joint(mech, name)[1].wear, worn_joint(fine_mech, name)[1].wear
+        d1, d2 = res["depth"][name], fine["depth"][name]
+        top = max(float(d2.max()), 1e-300)
+        joints[name] = {"nodes": (wm1.nodes, wm2.nodes), "max_depth": (float(d1.max()), float(d2.max())),
+                        "l2": (profile_norm(wm1, d1), profile_norm(wm2, d2)),
+                        "d_max": abs(float(d2.max()) - float(d1.max())) / top,
+                        "d_l2": abs(profile_norm(wm2, d2) - profile_norm(wm1, d1)) / top}
+    ok = bool(fine["complete"]) and all(j["d_max"] <= tol and j["d_l2"] <= tol for j in joints.values())
+    result = {"joints": joints, "complete": fine["complete"], "ok": ok}
+    if len(joints) == 1:
+        result.update(next(iter(joints.values())))
+    return result
 
 
 def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, progress=None, start=None,

@@ -265,6 +265,10 @@ def _spring_run(step, tol, max_rounds):
     return res, exact, load, _hertz_approach(wm, load(0.0))
 
 
+def joint_c(res):
+    return next(f for f in res["mech"].forces if f.name == "A").c
+
+
 def test_depth_scheme_follows_a_known_geometric_feedback():
     # the spring presses the journal less as it sinks into its wear: the load falls ~20 % over the
     # life and the wear rate with it. The scheme is explicit Euler in the cycles with a depth step:
@@ -282,7 +286,12 @@ def test_depth_scheme_follows_a_known_geometric_feedback():
     steps = [r["step"] for r in res["rounds"]]
     assert all(b == pytest.approx(a / 2) for a, b in zip(steps, steps[1:]))
     (coarse, fine) = depths[-2:]
-    assert all(a > b for a, b in zip(depths, depths[1:]))     # explicit Euler on a falling rate overestimates
+    # explicit Euler on a falling rate overestimates, so the depth falls as the step halves, once
+    # the step is stable: an update wearing more than the patch's approach (the new bearing's Hertz
+    # approach, 2.9e-7 m here, against step x c = 4e-7 m for the first trial) overshoots into a
+    # narrow crescent and the coarsest trial comes out shallower (1.37e-6 against 1.49e-6 m)
+    stable = [d for d, st in zip(depths, steps) if st * joint_c(res) < approach]
+    assert len(stable) >= 2 and all(a > b for a, b in zip(stable, stable[1:]))
     assert coarse - fine <= 0.05 * fine
     assert exact <= fine <= exact + approach
     assert res["depth"]["A"].argmax() == 270                    # the pocket at the bottom (-90 deg)
