@@ -12,6 +12,12 @@ alpha(t) = centre + swing sin(2 pi t / T)):
 - the mean depth over that arc is the ideal history's (all its wear inside the arc) within 5 %;
 - no node deeper than 1.5x the mean of its neighbours (no spike from the deposition);
 - halving the cell changes the largest depth and the mean by <= 5 %.
+Two caveats (measured, benchmarks/worn_contact.md): the pocket ends 8-11 deg inside the expected
+arc, sqrt(2 d / c) taken at the largest depth over-stating the conforming arc at the swing's ends,
+where the pocket is shallower, so the arc is checked as an envelope (the worn nodes inside it,
+spanning the swing); and with every worn node inside it the mean over the arc equals the ideal
+history's V / (R L arc) whatever the shape inside (Archard's volume is exact), so the 5 % criterion
+adds nothing to the volume's; the spike and mesh criteria test the shape.
 """
 import math
 from pathlib import Path
@@ -27,7 +33,7 @@ from pinclear.contact import channels, wear
 JOURNAL = Path(__file__).parents[1] / "data" / "wear_journal.yaml"
 CLEAR, LOAD, SPIN = 5e-4, 500.0, 20.0                # clearance m, load N, journal spin rad/s
 SWING, CENTRE = math.radians(24.0), -0.5 * math.pi   # the load line's half-swing and mean direction
-# samples per swing period, updates, service s per update: an update wears <~1.1e-7 m, below the
+# samples per swing period, updates, service s per update: an update wears ~1.2e-7 m, below the
 # patch's approach (the new bearing's Hertz approach b^2 / (2 R*) = 1.45e-7 m): a larger increment
 # overshoots (a high spot worn below its neighbours) and the explicit update zigzags node to node
 # (30 updates of 35 s: node / neighbours up to 1.9, benchmarks/worn_contact.md)
