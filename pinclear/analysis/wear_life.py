@@ -23,6 +23,13 @@ factor (``scheme``):
   <= ``tol``, counting only a halving that made more updates (two trials both held at one update
   by the life's end are not a test).
 
+Mesh: either scheme's converged trial is then repeated with the wear cells halved (a bearing's
+nodes, a socket's rows doubled: :func:`refined`); halving the cell must change the largest depth
+and the profile's L2 norm (RMS depth, :func:`profile_norm`) by <= ``tol`` of the largest depth
+(:func:`mesh_change`), else the test has not converged (``mesh`` in its result). The explicit update
+is stable only while one update wears less than the contact patch's approach (about the new
+bearing's Hertz approach b^2 / (2 R*), docs/wear_lubrication.md sec. 8).
+
 Energy: each block is audited on its own (pinclear.dynamics.energy.energy_balance, between reshapes); a
 reshape changes the contact's elastic energy at a fixed state by a jump that is neither work nor
 dissipation, reported apart (``jump``: the total energy at the next block's first sample less the
