@@ -23,6 +23,13 @@ factor (``scheme``):
   <= ``tol``, counting only a halving that made more updates (two trials both held at one update
   by the life's end are not a test).
 
+Mesh: either scheme's converged trial is then repeated with the wear cells halved (a bearing's
+nodes, a socket's rows doubled: :func:`refined`); halving the cell must change the largest depth
+and the profile's L2 norm (RMS depth, :func:`profile_norm`) by <= ``tol`` of the largest depth
+(:func:`mesh_change`), else the test has not converged (``mesh`` in its result). The explicit update
+is stable only while one update wears less than the contact patch's approach (about the new
+bearing's Hertz approach b^2 / (2 R*), docs/wear_lubrication.md sec. 8).
+
 Energy: each block is audited on its own (pinclear.dynamics.energy.energy_balance, between reshapes); a
 reshape changes the contact's elastic energy at a fixed state by a jump that is neither work nor
 dissipation, reported apart (``jump``: the total energy at the next block's first sample less the
@@ -453,7 +460,7 @@ def wear_run(mech, names, s: WearSettings, out=None, progress=None, start=None) 
         E = tr.energy()["total"]
         jump = 0.0 if last_E is None else float(E[0] - last_E)
         bal = tr.energy_balance()
-        inc = {n: wms[n].increment(n, tr) for n in names}
+        inc = {n: wms[n].increment(n, tr, depth[n]) for n in names}
         factor = update_factor(s, inc, clearance, s.cycles - cyc)
         new = {n: depth[n] + factor * inc[n] for n in names}
         failed = _too_deep(s, wms, new, done + 1)
@@ -532,13 +539,71 @@ def _trial(s, k):
     return WearSettings(**{**asdict(s), "step": s.step / 2 ** k})
 
 
-def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, progress=None, start=None) -> dict:
+def refined(mech, names):
+    """The mechanism with the worn joints ``names``' wear cells halved (a bearing's nodes doubled, a
+    socket's rows doubled: 4x its nodes), new (unworn), for the mesh half of the convergence test."""
+    import dataclasses
+
+    forces = list(mech.forces)
+    for name in _names(names):
+        i, joint = worn_joint(mech, name)
+        wm = joint.wear
+        wm2 = (dataclasses.replace(wm, rows=2 * wm.rows) if hasattr(wm, "rows")
+               else dataclasses.replace(wm, nodes=2 * wm.nodes))
+        args, kw = joint._ctor
+        forces[i] = type(joint)(*args, wear=wm2, depth=None, **kw)
+    return mech.replace(forces=forces)
+
+
+def _names(names):
+    return [names] if isinstance(names, str) else list(names)
+
+
+def profile_norm(wm, depth) -> float:
+    """The profile's L2 norm over the worn surface per unit measure (RMS depth, m): the nodes'
+    mean square, a socket's weighted by its cells' areas, so that meshes of any size compare."""
+    depth = np.asarray(depth, float)
+    if hasattr(wm, "cell_areas"):
+        a = wm.cell_areas()
+        return float(np.sqrt(np.sum(a * depth ** 2) / np.sum(a)))
+    return float(np.sqrt(np.mean(depth ** 2)))
+
+
+def mesh_change(mech, names, s, res, out=None, start=None, tol=0.05) -> dict:
+    """The mesh half of the convergence test: the run ``res`` (settings s) repeated with the cells
+    halved (refined); per joint the changes of the largest depth and of the profile's L2 norm
+    (profile_norm), both relative to the finer run's largest depth; ``ok`` when all are <= tol.
+    A single joint's numbers are also at the top level (nodes, max_depth, l2, d_max, d_l2)."""
+    fine_mech = refined(mech, names)
+    fine = wear_run(fine_mech, names, s, None if out is None else safeio.make_dirs(Path(out) / "mesh_halved"),
+                    None, start)
+    joints = {}
+    for name in _names(names):
+        wm1, wm2 = worn_joint(mech, name)[1].wear, worn_joint(fine_mech, name)[1].wear
+        d1, d2 = res["depth"][name], fine["depth"][name]
+        top = max(float(d2.max()), 1e-300)
+        joints[name] = {"nodes": (wm1.nodes, wm2.nodes), "max_depth": (float(d1.max()), float(d2.max())),
+                        "l2": (profile_norm(wm1, d1), profile_norm(wm2, d2)),
+                        "d_max": abs(float(d2.max()) - float(d1.max())) / top,
+                        "d_l2": abs(profile_norm(wm2, d2) - profile_norm(wm1, d1)) / top}
+    ok = bool(fine["complete"]) and all(j["d_max"] <= tol and j["d_l2"] <= tol for j in joints.values())
+    result = {"joints": joints, "complete": fine["complete"], "ok": ok}
+    if len(joints) == 1:
+        result.update(next(iter(joints.values())))
+    return result
+
+
+def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, progress=None, start=None,
+              mesh=True) -> dict:
     """The convergence test of the scheme (module doc): trials with the factor halved (``factor``:
     updates doubled) or the depth step halved (``depth``) until every joint's final maximum depth
-    changes by <= tol. Returns the finest run's result plus ``rounds`` (one dict a trial: updates,
-    factor or step, complete, max_depth {name: m}, worn_volume {name: m^3}, cpu_s) and ``converged``
-    (False after max_rounds, or when a trial stopped at max_updates: every trial's numbers are in
-    rounds)."""
+    changes by <= tol; then (mesh) the converged trial repeated with the wear cells halved: the
+    largest depth and the profile's L2 norm (relative to the largest depth) must change by <= tol
+    too (mesh_change, returned as ``mesh``). Returns the finest run's result plus ``rounds`` (one
+    dict a trial: updates, factor or step, complete, max_depth {name: m}, worn_volume {name: m^3},
+    cpu_s), ``mesh`` and ``converged`` (False after max_rounds, when a trial stopped at
+    max_updates, or when the mesh changed the result by more than tol: every trial's numbers are
+    in rounds and mesh)."""
     rounds, prev = [], None
     if s.scheme == "factor" and s.cycles < s.updates * s.block_periods:
         raise InputError(f"{s.cycles:g} cycles are fewer than updates x block periods = {s.updates} x "
@@ -558,16 +623,17 @@ def converged(mech, name, s: WearSettings, tol=0.05, max_rounds=5, out=None, pro
                        "cpu_s": float(sum(res["history"]["cpu_sim"]) + sum(res["history"]["cpu_update"]))})
         rounds[-1]["failed"] = res["failed"]
         if not res["complete"]:
-            res.update(rounds=rounds, converged=False)
+            res.update(rounds=rounds, mesh=None, converged=False)
             return res
         # a halving that made no more updates (the life's end held both at the same count) tests
         # nothing, unless nothing wore at all (no step to resolve)
         if (prev is not None and (n_upd > rounds[-2]["updates"] or not any(d.values()))
                 and all(abs(d[n] - prev["depth"][n].max()) <= tol * d[n] for n in d)):
-            res.update(rounds=rounds, converged=True)
+            m = mesh_change(mech, name, si, res, out, start, tol) if mesh else None
+            res.update(rounds=rounds, mesh=m, converged=m is None or m["ok"])
             return res
         prev = res
-    prev.update(rounds=rounds, converged=False)
+    prev.update(rounds=rounds, mesh=None, converged=False)
     return prev
 
 

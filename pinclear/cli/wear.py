@@ -82,7 +82,7 @@ def cli_main(argv=None) -> int:
         plot(res, out)
         fac = res["history"]["factor"]
         summary = {"converged": res["converged"], "failed": res.get("failed"), "scheme": args.scheme,
-                   "rounds": res["rounds"],
+                   "rounds": res["rounds"], "mesh": res.get("mesh"),
                    "update_factor": [min(fac), max(fac)], "updates": len(fac), "block": block,
                    "max_depth_m": {n: float(d.max()) for n, d in res["depth"].items()},
                    "cpu_sim_s": float(sum(res["history"]["cpu_sim"])),

@@ -208,8 +208,9 @@ def clearance_force(geo, frames, bodies, laws, fr, ch, v, z, tau, zdot):
 
 @njit(cache=True, inline="always")
 def worn_clearance_force(geo, frames, bodies, laws, fr, ch, v, z, tau, zdot):
-    """clearance_force of a worn planar bearing: the normal law's force scaled by |grad delta|
-    (worn_planar_geometry leaves it in scratch[3, 0]; laws.W is this workspace's own array)."""
+    """clearance_force of a worn bearing or socket: the normal law's force scaled by the weight the
+    worn geometry leaves in scratch[3, 0] (1: its n is the exact gradient of its least-distance
+    delta; laws.W is this workspace's own array)."""
     M = frames.M
     place_frames(frames)
     channel_geometry(geo.code, geo.gpar, M[0], M[1], ch.scratch, ch.delta, ch.n, ch.p1, ch.p2)
@@ -263,11 +264,17 @@ def clearance_record(ch, M, z, zdot, nc, code, P0, P1, W, work, row):
 @njit(cache=True)
 def worn_record(ch, M, z, zdot, nc, code, P0, P1, W, work, row):
     """clearance_record followed by the slip speed |vt| of the contact (0 without load): the
-    Archard wear integrand's speed (pinclear.contact.wear)."""
+    Archard wear integrand's speed (pinclear.contact.wear), and the contact point on the worn
+    surface p1 in frame1 (where the wear goes)."""
     clearance_record(ch, M, z, zdot, nc, code, P0, P1, W, work, row)
     vt = ch.vt
     slip = (vt[0, 0] * vt[0, 0] + vt[0, 1] * vt[0, 1] + vt[0, 2] * vt[0, 2]) ** 0.5
     row[RECORD_SIZE + 1] = slip if ch.Fn[0] > 0.0 else 0.0
+    for i in range(3):
+        acc = 0.0
+        for j in range(3):
+            acc += M[0, j, i] * (ch.p1[0, j] - M[0, j, 3])
+        row[RECORD_SIZE + 2 + i] = acc
 
 
 @njit(cache=True)

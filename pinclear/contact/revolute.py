@@ -24,7 +24,7 @@ import numpy as np
 from pinclear.contact import channels, worn_geometry
 from pinclear.contact.base import ClearanceJoint
 from pinclear.contact.spherical import stiffness
-from pinclear.contact.wear import WornData, WornJoint, spline_coefficients
+from pinclear.contact.wear import WornData, WornJoint, spline_bounds, spline_coefficients
 from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
 
 _PLANAR = (Key("radius", "number", "m", 0.01, "> 0", "paper 002 eq. 6", "journal radius R_journal"),
@@ -126,8 +126,9 @@ class WornRevoluteClearance(WornJoint, RevoluteClearance):
     planar_geometry = channels.G_WORN_PLANAR
 
     def _geometry_params(self):
-        head = np.array([self.c, self.R1, self.R2, self.ca, self.L, float(self.wear.nodes)])
-        return np.concatenate([head, spline_coefficients(self.depth).ravel()])
+        coef = spline_coefficients(self.depth)
+        head = np.array([self.c, self.R1, self.R2, self.ca, self.L, float(self.wear.nodes), *spline_bounds(coef)])
+        return np.concatenate([head, coef.ravel()])
 
     def profile(self, theta):
         """(w, dw/dtheta) of the worn profile at the angles theta (the kernel's spline)."""

@@ -15,7 +15,7 @@ from pinclear.contact.base import ClearanceJoint
 from pinclear.contact.laws import hertz_stiffness
 from pinclear.contact.spec import DEFAULTS
 from pinclear.contact.wear import WornData, WornJoint
-from pinclear.contact.wear_spherical import POLES
+from pinclear.contact.wear_spherical import POLES, catmull_rom_bounds
 from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
 
 _RADIUS = Key("radius", "number", "m", 0.01, "> 0", "paper 000 eq. 6", "ball radius R_ball")
@@ -101,8 +101,8 @@ class WornSphericalClearance(WornJoint, SphericalClearance):
 
     def _geometry_params(self):
         w = self.wear
-        return np.concatenate([[self.c, self.R1, self.R2, float(w.pole), 0.0, float(w.rows), float(w.cols)],
-                               self.depth])
+        return np.concatenate([[self.c, self.R1, self.R2, float(w.pole), 0.0, float(w.rows), float(w.cols),
+                                *catmull_rom_bounds(self.depth)], self.depth])
 
     def profile(self, theta, phi):
         """(w, dw/dtheta, dw/dphi) of the worn socket at the mesh angles (the kernel's interpolant)."""

@@ -16,10 +16,11 @@ included) spread over the Hertz half-width of a cylinder in a conformal cylindri
 b = sqrt(4 F R* / (pi L E*)) with R* = R_j R_b / (R_b - R_j) (Johnson 1985, Contact Mechanics,
 eq. 4.43 with the internal contact's relative curvature), either elliptic
 p(s) = (2 F / (pi b L)) sqrt(1 - s^2 / b^2) (Johnson eq. 4.45: ``distribution: hertz``, the
-default) or uniform F / (2 b L) (``distribution: uniform``). R* is the new bearing's: a worn pocket
-that conforms to the journal widens the true contact (Persson's conformal solution), which this
-distribution does not follow (docs/wear_lubrication.md). Each node receives the exact integral of
-the distribution over its cell, so the worn volume is k F s / H to round-off whatever the nodes.
+default) or uniform F / (2 b L) (``distribution: uniform``) on the new bearing; on a worn one the
+same elastic foundation over the gap to the worn profile (patch_shares): a pocket that conforms
+to the journal widens the patch (docs/wear_lubrication.md sec. 8). Each node receives the exact
+integral of the distribution over its cell, so the worn volume is k F s / H to round-off whatever
+the nodes.
 
 Geometry: the worn bearing's radius is R_b + w(theta), w a periodic cubic spline through the node
 depths (C2 in theta), evaluated in the compiled kernel (contact._kernels.worn_planar_geometry):
@@ -84,9 +85,9 @@ class WearModel:
     def profile_columns(self) -> dict:
         return {"angle [deg]": np.degrees(self.angles())}
 
-    def increment(self, name, traj):
-        """Node depth increment of one simulated block (block_increment)."""
-        return block_increment(self, name, traj)
+    def increment(self, name, traj, depth=None):
+        """Node depth increment of one simulated block on the profile ``depth`` (block_increment)."""
+        return block_increment(self, name, traj, depth)
 
 
 def parse(sp, R1, R2, L):
@@ -167,10 +168,102 @@ def cell_shares(wm: WearModel, theta, beta):
     return idx % wm.nodes, share
 
 
-def depth_increment(wm: WearModel, theta, F, slip, dt):
+def spline_eval(coef, theta):
+    """(w, w') of the periodic spline (spline_coefficients) at the angles theta (any shape)."""
+    N = len(coef)
+    h = 2.0 * math.pi / N
+    t = np.mod(theta, 2.0 * math.pi)
+    i = np.minimum((t / h).astype(np.int64), N - 1)
+    x = t - i * h
+    c3, c2, c1, c0 = coef[i, 0], coef[i, 1], coef[i, 2], coef[i, 3]
+    return ((c3 * x + c2) * x + c1) * x + c0, (3.0 * c3 * x + 2.0 * c2) * x + c1
+
+
+def patch_shares(wm: WearModel, theta, beta, depth, chunk=2048):
+    """(nodes, shares), both (samples, K): each load's pressure over the worn bearing's patch, an
+    elastic foundation calibrated on Hertz (docs/wear_lubrication.md sec. 8): the journal touching
+    the worn surface at theta (its nearest point) leaves the gap g(x) = A x^2 / 2 + w(theta + x) -
+    w - w' x at the angle x from it (A = r (1 + r / R_j), r = c + w: the circles' gap, and the
+    wear's departure from its tangent), and a foundation of approach a presses
+    p = E* sqrt((a - g) / (2 R*)) where g < a, the approach set by the load, int p L R_b dx = F.
+    On the new bearing g = (R_b x)^2 / (2 R*): Johnson's elliptic pressure over the Hertz
+    half-width, exactly (a = b^2 / (2 R*)); in a pocket conforming to the journal the patch
+    spreads over the conforming arc at a smaller approach. ``uniform``: the same patch, uniform
+    pressure. Cell integrals in closed form, the wear's departure linear across each cell."""
+    theta = np.atleast_1d(np.asarray(theta, float))
+    beta = np.clip(np.atleast_1d(np.asarray(beta, float)), 1e-300, math.pi / 2)
+    if not np.any(depth):
+        return cell_shares(wm, theta, beta)
+    coef = spline_coefficients(depth)
+    parts = [_patch_chunk(wm, theta[k:k + chunk], beta[k:k + chunk], coef, float(np.min(depth)))
+             for k in range(0, len(theta), chunk)]
+    K = max(p[0].shape[1] for p in parts)
+    nodes = np.concatenate([np.pad(p[0], ((0, 0), (0, K - p[0].shape[1]))) for p in parts])
+    share = np.concatenate([np.pad(p[1], ((0, 0), (0, K - p[1].shape[1]))) for p in parts])
+    return nodes, share
+
+
+#: the foundation's approach relative to the new bearing's Hertz approach: at most (a sharper
+#: seat than the new bearing's narrows the patch) and the bisection's steps
+APPROACH_MAX, APPROACH_STEPS = 4.0, 40
+
+
+def _patch_cells(G0, g1, lo, hi, B, s, uniform):
+    """Per cell: int sqrt(1 - s G) dx (or the patch's length) with G = (x / B)^2 + G0 + g1 (x - lo)
+    on [lo, hi] (the square completed: an ellipse's integral, _ellipse_integral)."""
+    Bs = B / math.sqrt(s) if np.isscalar(s) else B / np.sqrt(s)
+    x0 = -0.5 * g1 * B ** 2
+    Kq = 1.0 - s * (G0 - g1 * lo) + 0.25 * s * (g1 * B) ** 2
+    half = Bs * np.sqrt(np.maximum(Kq, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if uniform:
+            out = np.maximum(np.minimum(hi, x0 + half) - np.maximum(lo, x0 - half), 0.0)
+        else:
+            out = Bs * Kq * (_ellipse_integral((hi - x0) / half) - _ellipse_integral((lo - x0) / half))
+    return np.where(Kq > 0.0, out, 0.0)
+
+
+def _patch_chunk(wm, theta, beta, coef, wmin):
+    c, d = wm.R1 - wm.R2, wm.spacing
+    ws, w1 = spline_eval(coef, theta)
+    r = c + ws
+    bp = beta / np.sqrt((r / c) * (wm.R2 + r) / (wm.R2 + c))          # beta / sqrt(A / A_new)
+    df = (wm.R1 * beta) ** 2 / (2.0 * wm.rstar)                       # the new bearing's approach
+    # the patch at the largest approach lies where A x^2 / 2 - (w - w_min) - |w'| |x| < APPROACH_MAX df
+    a, b, cc = 1.0 / bp ** 2, np.abs(w1) / df, APPROACH_MAX + (ws - wmin) / df
+    X = np.minimum((b + np.sqrt(b * b + 4.0 * a * cc)) / (2.0 * a), 0.5 * math.pi)
+    K = int(math.ceil(2.0 * X.max() / d)) + 3
+    idx = np.floor((theta - X) / d).astype(np.int64)[:, None] + np.arange(K)[None, :]
+    edge = np.concatenate([idx * d - 0.5 * d, idx[:, -1:] * d + 0.5 * d], axis=1) - theta[:, None]
+    # g / df at the cell edges less the parabola, linear across each cell
+    gam = (spline_eval(coef, theta[:, None] + edge)[0] - ws[:, None] - w1[:, None] * edge) / df[:, None]
+    lo, hi = edge[:, :-1], edge[:, 1:]
+    g1 = (gam[:, 1:] - gam[:, :-1]) / d
+    B = bp[:, None]
+    # approach a = df / s: the load sqrt(a) int sqrt(1 - g / a) dx = the new bearing's sqrt(df) beta pi / 2
+    target = (0.5 * math.pi) * beta
+    s_lo, s_hi = np.full(len(theta), 1.0 / APPROACH_MAX), np.full(len(theta), 1e12)
+    for _ in range(APPROACH_STEPS):
+        s = np.sqrt(s_lo * s_hi)
+        load = _patch_cells(gam[:, :-1], g1, lo, hi, B, s[:, None], False).sum(axis=1) / np.sqrt(s)
+        more = load > target
+        s_lo, s_hi = np.where(more, s, s_lo), np.where(more, s_hi, s)
+    share = _patch_cells(gam[:, :-1], g1, lo, hi, B, np.sqrt(s_lo * s_hi)[:, None], wm.distribution == "uniform")
+    total = share.sum(axis=1)
+    none = total <= 0.0
+    if none.any():
+        # a patch narrower than the linearised cells: the whole load on the cell holding the contact
+        share[none] = 0.0
+        share[none, np.argmin(np.abs(lo[none] + hi[none]), axis=1)] = 1.0
+        total[none] = 1.0
+    return idx % wm.nodes, share / total[:, None]
+
+
+def depth_increment(wm: WearModel, theta, F, slip, dt, depth=None):
     """Wear depth (m) added at each node by the samples (contact angle theta, normal force F, slip
-    speed, time weight dt): sum k F v dt / H times the sample's share of the cell, over the cell's
-    area R_b d L (so the worn volume is k sum F v dt / H exactly)."""
+    speed, time weight dt) on the profile ``depth`` (None: the new bearing): sum k F v dt / H
+    times the sample's share of the cell (patch_shares), over the cell's area R_b d L (so the worn
+    volume is k sum F v dt / H exactly)."""
     F, slip, dt = (np.atleast_1d(np.asarray(x, float)) for x in (F, slip, dt))
     keep = (F > 0.0) & (slip > 0.0) & (dt > 0.0)
     if not keep.any():
@@ -178,7 +271,7 @@ def depth_increment(wm: WearModel, theta, F, slip, dt):
     th, F, slip, dt = np.atleast_1d(theta)[keep], F[keep], slip[keep], dt[keep]
     beta = half_width(wm, F) / wm.R1
     work = wm.k * F * slip * dt / wm.hardness                              # worn volume per sample, m^3
-    nodes, share = cell_shares(wm, th, beta)
+    nodes, share = patch_shares(wm, th, beta, np.zeros(wm.nodes) if depth is None else np.asarray(depth, float))
     vol = np.bincount(nodes.ravel(), weights=(work[:, None] * share).ravel(), minlength=wm.nodes)
     return vol / (wm.R1 * wm.spacing * wm.L)
 
@@ -194,14 +287,25 @@ def trapezoid_weights(t):
     return w
 
 
-def block_increment(wm: WearModel, name, traj):
+def block_increment(wm: WearModel, name, traj, depth=None):
     """Node depth increment (m) worn over one simulated block (a Trajectory of the worn joint
-    ``name``): the samples' angle (outputs NAME.eccentricity, frame1 axes), load (NAME.fn) and
-    slip speed (NAME.slip), trapezoid rule in time."""
+    ``name``) on the profile ``depth`` it ran on: the samples' contact angle (the angle of the
+    contact point NAME.contact_point on the worn surface, frame1 axes: where the contact is, not
+    where the eccentricity points), load (NAME.fn) and slip speed (NAME.slip), trapezoid rule."""
     out = traj.outputs
-    e = out[f"{name}.eccentricity"]
-    return depth_increment(wm, np.arctan2(e[:, 1], e[:, 0]), out[f"{name}.fn"], out[f"{name}.slip"],
-                           trapezoid_weights(traj.t))
+    p = out[f"{name}.contact_point"]
+    return depth_increment(wm, np.arctan2(p[:, 1], p[:, 0]), out[f"{name}.fn"], out[f"{name}.slip"],
+                           trapezoid_weights(traj.t), depth)
+
+
+def spline_bounds(coef):
+    """(span, top): the range max - min and the maximum of the profile's spline (coefficients
+    ``coef``, spline_coefficients), sampled 8 times a cell with a 5 % margin: the contact search's
+    window (worn_geometry.search_half_angle) needs bounds, not values."""
+    x = np.linspace(0.0, 2.0 * math.pi / len(coef), 9)
+    v = ((coef[:, :1] * x + coef[:, 1:2]) * x + coef[:, 2:3]) * x + coef[:, 3:4]
+    lo, hi = float(v.min()), float(v.max())
+    return 1.05 * (hi - lo), hi + 0.025 * (hi - lo)
 
 
 def spline_coefficients(depth):
@@ -218,7 +322,7 @@ def spline_coefficients(depth):
 
 # ------------------------------------------------------------------ the worn joint
 class WornData(ClearanceData):
-    """ClearanceData plus the workspace's own weight array of the normal law (|grad delta|)."""
+    """ClearanceData plus the workspace's own weight array of the normal law."""
 
     def __init__(self, nc, nfs):
         super().__init__(nc, nfs)
@@ -243,17 +347,26 @@ class WornJoint:
     def outputs(self, mech, ws, d, t, q, v, z):
         out = super().outputs(mech, ws, d, t, q, v, z)
         out["slip"] = self._slip(d)
+        out["contact_point"] = self._contact_point(d, ws.data.oMf[self.f1].homogeneous)
         return out
 
     def record(self, mech, ws, d, t, q, v, z, after_rhs):
         pot, loss, out = super().record(mech, ws, d, t, q, v, z, after_rhs)
         if "slip" not in out:
             out["slip"] = self._slip(d)
+        if "contact_point" not in out:
+            out["contact_point"] = self._contact_point(d, d.M[0])
         return pot, loss, out
 
     def record_layout(self):
         lay = super().record_layout()
-        return None if lay is None else lay + (("slip", 1),)
+        return None if lay is None else lay + (("slip", 1), ("contact_point", 3))
+
+    @staticmethod
+    def _contact_point(d, M1):
+        """The contact point p1 on the worn surface (the nearest point, worn_geometry) in frame1
+        axes from its origin: where the wear goes (block_increment)."""
+        return M1[:3, :3].T @ (d.p1[0] - M1[:3, 3])
 
     def with_depth(self, depth, continuing=False):
         """The same joint with the bearing worn to ``depth`` (a new, immutable joint).
@@ -275,14 +388,13 @@ class WornJoint:
         return (self._geo, self._frames(ws, d), self._bodies(ws), laws, self._friction, d.channels)
 
     def _normal(self, d, delta, dd, dd0):
-        # the Python twin of worn_clearance_force: the law's force times |grad delta|
+        # the Python twin of worn_clearance_force: the law's force times the geometry's weight
         Fn, Fel = self.law.force_and_elastic(delta, dd, dd0)
         g = d.scratch[3, 0]
         return Fn * g, Fel * g
 
     def _record_laws(self, d):
-        # the elastic energy is the law's U(delta): unit weights (the force's |grad delta| is not
-        # an energy factor)
+        # the elastic energy is the law's U(delta): unit weights
         lw = self._laws
         return lw.code, lw.P0, lw.P1, np.ones(self.nc)
 

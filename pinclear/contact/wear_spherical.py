@@ -129,7 +129,7 @@ class SphericalWearModel:
         area = np.broadcast_to(area[:, :, None], (self.rows, m, m))
         return u.reshape(self.rows, self.cols, m * m, 3), area.reshape(self.rows, m * m)
 
-    def increment(self, name, traj):
+    def increment(self, name, traj, depth=None):
         return block_increment(self, name, traj)
 
 
@@ -147,6 +147,16 @@ def parse(sp, R1, R2):
         raise sp.error("wear.nodes", f"an integer in [8, {MAX_ROWS}] (mesh rows in theta), got {rows!r}")
     return SphericalWearModel(positive(sp, w, "k"), positive(sp, w, "hardness"), rows, w.get("distribution", "hertz"),
                               POLES.index(w.get("pole", "z")), R1, R2, sp.estar(), R2 * R1 / (R1 - R2))
+
+
+def catmull_rom_bounds(depth):
+    """(span, top): bounds of the range and the maximum of the socket's tensor Catmull-Rom
+    interpolant (the contact search's window, worn_geometry.search_half_angle): its weights sum
+    to 1 with absolute sum <= 1.25 per direction (x = 1/2), so it stays within 1.25^2 half-ranges
+    of the nodes' mid-range."""
+    lo, hi = float(np.min(depth)), float(np.max(depth))
+    half = 1.5625 * 0.5 * (hi - lo)
+    return 2.0 * half, 0.5 * (lo + hi) + half
 
 
 # ------------------------------------------------------------------ the law
@@ -277,10 +287,11 @@ def _share_volumes(sub, area, u, a, work, R1, rows, hertz, vol):
 
 def block_increment(wm: SphericalWearModel, name, traj):
     """Node depth increment (m) worn over one block (a Trajectory of the worn socket ``name``):
-    direction from NAME.eccentricity (frame1 axes), load NAME.fn, slip NAME.slip, trapezoid rule.
-    An increment reaching the two rows next to a pole stops with an error naming ``pole``."""
+    direction of the contact point on the worn socket (NAME.contact_point, frame1 axes), load
+    NAME.fn, slip NAME.slip, trapezoid rule. An increment reaching the two rows next to a pole
+    stops with an error naming ``pole``."""
     out = traj.outputs
-    e = wm.local(out[f"{name}.eccentricity"])
+    e = wm.local(out[f"{name}.contact_point"])
     r = np.linalg.norm(e, axis=1)
     u = e / np.where(r > 0.0, r, 1.0)[:, None]
     h = depth_increment(wm, u, out[f"{name}.fn"], out[f"{name}.slip"], trapezoid_weights(traj.t))

@@ -183,18 +183,24 @@ def test_worn_socket_geometry_passes_the_nodes_is_continuous_and_its_force_is_th
         h = 1e-9
         grad = np.array([(_geometry(j, e + h * dx)[0] - _geometry(j, e - h * dx)[0]) / (2 * h) for dx in np.eye(3)])
         assert np.linalg.norm(grad - g0 * n0) < 1e-5 * g0
-    assert g0 > 1.0
+        # least distance: delta = r - |e - nearest point| has a unit gradient (eikonal), whatever the
+        # wear's slope (the radial penetration's was > 1 on a slope)
+        assert abs(np.linalg.norm(grad) - 1.0) < 1e-5
 
 
 def test_worn_socket_run_closes_the_energy_balance_and_creates_none():
     mech = pinclear.load(BALL, clearances=["S"], overrides={"S.friction_law": {"type": "modified_coulomb",
                                                                                     "mu": 0.2}})
     wm = mech.forces[-1].wear
-    # a pocket of 80 % of the clearance at the bottom (-z: mesh theta 90, phi 270 deg), 0.1 rad wide
+    # a pocket of 80 % of the clearance at the bottom (-z: mesh theta 90, phi 270 deg), 1 rad wide:
+    # its floor's extra curvature 0.8 c / sigma^2 stays below c, so the ball's centre never crosses
+    # the medial axis where two wall points are equally near. A 0.1 rad pocket (80 c) is narrower
+    # than the ball: the single least-distance contact flips between the walls (delta has a kink,
+    # the force a jump), the damped ball settles into that V and DOP853 stalls at t = 0.0145 s
     th, ph = wm.angles()
     x = np.stack([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)], 1)
     ang = np.arccos(np.clip(x @ np.array([0.0, -1.0, 0.0]), -1, 1))
-    pocket = 0.8 * mech.forces[-1].c * np.exp(-0.5 * (ang / 0.1) ** 2) * (ang < 0.6)
+    pocket = 0.8 * mech.forces[-1].c * np.exp(-0.5 * ang ** 2)
     worn = mech.replace(forces=list(mech.forces[:-1]) + [_worn(mech, pocket)])
     tr = pinclear.simulate(worn, 0.05, integrator="DOP853", rtol=1e-10, q0=np.array([2e-5, 0.0, 0.0, 0, 0, 0]),
                            v0=np.array([0.05, 0.03, -0.1, 30.0, 5.0, 0.0]), assemble=False, dt_out=1e-5)
