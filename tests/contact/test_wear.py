@@ -132,12 +132,18 @@ def test_worn_profile_passes_through_the_nodes_and_is_continuous():
     assert abs(a[1] - a[0]) < 1e-6 * 1e-5 and abs(b[1] - b[0]) < 1e-3 * abs(b).max()
 
 
-def test_scheme_update_factor_converges_and_resumes(tmp_path):
+def _journal_life(tmp_path):
+    """The journal's 2000-cycle life under its static load through the converged scheme:
+    (mechanism, settings, start state, result)."""
     mech = pinclear.load(JOURNAL, clearances=["A"])
     start = _static_start(mech)
     s = WearSettings(cycles=2000.0, period=0.01, updates=2, block_periods=1, transient_periods=0, rtol=1e-8,
                      dt_out=1e-4)
-    res = converged(mech, "A", s, out=tmp_path, start=start)
+    return mech, s, start, converged(mech, "A", s, out=tmp_path, start=start)
+
+
+def test_scheme_update_factor_converges_and_resumes(tmp_path):
+    mech, s, start, res = _journal_life(tmp_path)
     assert res["converged"]
     r1, r2 = res["rounds"][-2:]
     u2, f1, f2, d1, d2 = r2["updates"], r1["factor"], r2["factor"], r1["max_depth"]["A"], r2["max_depth"]["A"]
@@ -347,11 +353,7 @@ def test_convergence_covers_the_mesh_a_fine_mesh_passes_a_coarse_one_fails(tmp_p
     # largest depth by tens of per cent
     from pinclear.analysis.wear_life import profile_norm
 
-    mech = pinclear.load(JOURNAL, clearances=["A"])
-    start = _static_start(mech)
-    s = WearSettings(cycles=2000.0, period=0.01, updates=2, block_periods=1, transient_periods=0, rtol=1e-8,
-                     dt_out=1e-4)
-    res = converged(mech, "A", s, out=tmp_path, start=start)
+    mech, s, start, res = _journal_life(tmp_path)
     m = res["mesh"]
     assert res["converged"] and m["ok"] and m["nodes"] == (360, 720)
     assert m["d_max"] <= 0.05 and m["d_l2"] <= 0.05 and (tmp_path / "mesh_halved").is_dir()
