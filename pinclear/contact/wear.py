@@ -191,9 +191,14 @@ def patch_shares(wm: WearModel, theta, beta, depth, chunk=2048):
     spreads over the conforming arc at a smaller approach. ``uniform``: the same patch, uniform
     pressure. Cell integrals in closed form, the wear's departure linear across each cell."""
     theta = np.atleast_1d(np.asarray(theta, float))
+    if not np.all(np.isfinite(theta)):
+        raise ValueError(f"patch_shares: {int(np.sum(~np.isfinite(theta)))} contact angles are not finite")
     beta = np.clip(np.atleast_1d(np.asarray(beta, float)), 1e-300, math.pi / 2)
     if not np.any(depth):
         return cell_shares(wm, theta, beta)
+    # a vanishing load (a sample at the edge of contact) has an approach too small to represent
+    # (df underflows and its window is 0 / 0); its share of no wear goes to a patch of this width
+    beta = np.maximum(beta, PATCH_BETA_MIN)
     coef = spline_coefficients(depth)
     parts = [_patch_chunk(wm, theta[k:k + chunk], beta[k:k + chunk], coef, float(np.min(depth)))
              for k in range(0, len(theta), chunk)]
@@ -203,6 +208,9 @@ def patch_shares(wm: WearModel, theta, beta, depth, chunk=2048):
     return nodes, share
 
 
+#: the smallest patch half-width (rad) the worn bearing's patch is computed for: below it (loads
+#: of order 1e-13 N on steel) the load, and so its wear, is nil and only its window must stay finite
+PATCH_BETA_MIN = 1e-9
 #: the foundation's approach relative to the new bearing's Hertz approach: at most (a sharper
 #: seat than the new bearing's narrows the patch) and the bisection's steps
 APPROACH_MAX, APPROACH_STEPS = 4.0, 40
@@ -230,7 +238,8 @@ def _patch_chunk(wm, theta, beta, coef, wmin):
     bp = beta / np.sqrt((r / c) * (wm.R2 + r) / (wm.R2 + c))          # beta / sqrt(A / A_new)
     df = (wm.R1 * beta) ** 2 / (2.0 * wm.rstar)                       # the new bearing's approach
     # the patch at the largest approach lies where A x^2 / 2 - (w - w_min) - |w'| |x| < APPROACH_MAX df
-    a, b, cc = 1.0 / bp ** 2, np.abs(w1) / df, APPROACH_MAX + (ws - wmin) / df
+    # the spline may dip below its lowest node between nodes: w - w_min >= 0 holds for the nodes' minimum only
+    a, b, cc = 1.0 / bp ** 2, np.abs(w1) / df, APPROACH_MAX + np.maximum(ws - wmin, 0.0) / df
     X = np.minimum((b + np.sqrt(b * b + 4.0 * a * cc)) / (2.0 * a), 0.5 * math.pi)
     K = int(math.ceil(2.0 * X.max() / d)) + 3
     idx = np.floor((theta - X) / d).astype(np.int64)[:, None] + np.arange(K)[None, :]

@@ -24,6 +24,11 @@ from pinclear.core.version import provenance
 #: the study's wear law: k for mild wear of lubricated-free steel on steel, hardness of a through-
 #: hardened pin (both stated, not from paper 002, which gives none)
 WEAR = {"model": "archard", "k": 1e-5, "hardness": 2e9, "nodes": 360}
+#: Archard's k / H (1/Pa), the stated ranges both studies read their depths over: dry mild wear of
+#: steel on steel k 1e-6 - 1e-4 (Archard & Hirst 1956; Rabinowicz 1995, table of wear coefficients)
+#: over H 2-8 GPa (through-hardened to bearing steel, HV 200-800); boundary-lubricated steel k
+#: 1e-9 - 1e-7 (the same table, two to three decades below dry) over the same H
+K_OVER_H = {"dry": (1e-6 / 8e9, 1e-4 / 2e9), "lubricated": (1e-9 / 8e9, 1e-7 / 2e9)}
 #: name -> "module:function" of each study (function(out, quick=False, smoke=False) -> rows)
 STUDIES = Registry("study", {e.name: e for e in (
     Entry("paper002", "pinclear.studies.wear:paper002", "the nine-bar linkage worn at A and B"),
@@ -47,7 +52,47 @@ def _settings(quick, smoke=False):
         "mu": 0.3, "wear": WEAR, "quick": True, "smoke": True}
 
 
-def chaos_K(mech, periods, transient, period, rtol):
+def previous_rows(out):
+    """The rows of the results.json this run is about to replace in ``out`` (None if there is none
+    or it does not parse): the README says what moved, so a conclusion the new run does not keep is
+    withdrawn in writing, not overwritten in silence."""
+    try:
+        old = json.loads((Path(out) / "results.json").read_text())
+        return old["rows"], old.get("versions", {}).get("commit", "an earlier build")
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+
+
+def moved_lines(previous, rows, key, heads):
+    """Lines of the headline numbers ``heads`` ({label: function(row) -> text}) per row (matched by
+    ``key``) that changed from ``previous`` (previous_rows) to this run."""
+    if not previous:
+        return []
+    old_rows, commit = previous
+    old = {r.get(key): r for r in old_rows}
+    lines = []
+    for r in rows:
+        o = old.get(r[key])
+        if o is None:
+            lines.append(f"- {r[key]}: new in this run")
+            continue
+        diffs = []
+        for label, f in heads.items():
+            try:
+                a, b = f(o), f(r)
+            except (KeyError, TypeError, ValueError, ZeroDivisionError):
+                continue
+            if a != b:
+                diffs.append(f"{label} {a} -> {b}")
+        if diffs:
+            lines.append(f"- {r[key]}: " + "; ".join(diffs))
+    if not lines:
+        return []
+    return ["", f"Against the run this one replaces (results.json of {str(commit)[:12]}; a conclusion there that "
+            "the numbers below no longer carry is withdrawn):", ""] + lines
+
+
+def chaos_K(mech, periods, transient, period, rtol, start=None):
     """(largest 0-1 test K over the four eccentricity components of A and B sampled once per
     period, their spread per joint, and the run's kind by analysis.classify_state: period within
     the run's integration error bound, 'below resolution' under CLEARANCE_FRACTION x the
@@ -57,7 +102,8 @@ def chaos_K(mech, periods, transient, period, rtol):
     from pinclear.dynamics.simulate import simulate
 
     T = (periods + transient) * period
-    tr = simulate(mech, T, rtol=rtol, dt_out=period)
+    kw = {} if start is None else {"q0": start[0], "v0": start[1]}
+    tr = simulate(mech, T, rtol=rtol, dt_out=period, **kw)
     if tr.status != "success":
         return float("nan"), {}, "failed"
     keep = tr.t >= transient * period - 1e-9
@@ -81,9 +127,17 @@ def paper002(out, quick=False, smoke=False):
     from pinclear.analysis.wear_life import WearSettings, _tables, block_length, converged, plot, worn_joint
     from pinclear.io.sidecar import load
 
+    from pinclear.dynamics.simulate import simulate
+
     s = _settings(quick, smoke)
     out = safeio.make_dirs(Path(out))
+    before = previous_rows(out)
     rows, cpu0 = [], time.process_time()
+    # every run starts from the assembled ideal linkage at rest on its law (the journals centred):
+    # the sidecar's pose is assembled for the ideal joints only and can press a small clearance's
+    # journal into its bearing (paper 002's reproduction starts the same way)
+    ideal = simulate(load("nine_bar"), 1e-3, dt_out=1e-3)
+    start = (ideal.q[0].copy(), ideal.v[0].copy())
     for c_mm in s["clearances [mm]"]:
         ov = {f"{j}.{k}": v for j in ("A", "B") for k, v in (("clearance", c_mm * 1e-3), ("mu", s["mu"]),
                                                               ("wear", WEAR))}
@@ -94,16 +148,18 @@ def paper002(out, quick=False, smoke=False):
         folder = safeio.make_dirs(out / f"c{c_mm:g}mm")
         c1 = time.process_time()
         # blocks long enough that their mean wear rate is a converged average (on the new bearing)
-        n, n_ok, n_table = block_length(mech, ["A", "B"], ws, tol=s["block tol"], max_periods=s["max block periods"])
+        n, n_ok, n_table = block_length(mech, ["A", "B"], ws, tol=s["block tol"], max_periods=s["max block periods"],
+                                        start=start)
         ws = replace(ws, block_periods=n)
-        res = converged(mech, ["A", "B"], ws, max_rounds=s["max rounds"], out=folder)
+        res = converged(mech, ["A", "B"], ws, max_rounds=s["max rounds"], out=folder, start=start)
         plot(res, folder)
         _tables(folder, {n: worn_joint(res["mech"], n)[1].wear for n in res["depth"]}, res["depth"], res["history"])
         c2 = time.process_time()
         h = res["history"]
-        K_new, sp_new, kind_new = chaos_K(mech, s["chaos periods"], s["transient periods"], s["period [s]"], s["rtol"])
+        K_new, sp_new, kind_new = chaos_K(mech, s["chaos periods"], s["transient periods"], s["period [s]"], s["rtol"],
+                                          start)
         K_worn, sp_worn, kind_worn = chaos_K(res["mech"], s["chaos periods"], s["transient periods"], s["period [s]"],
-                                             s["rtol"])
+                                             s["rtol"], start)
         rows.append({"clearance_mm": c_mm, "converged": res["converged"], "rounds": res["rounds"],
                      "step": res["settings"].step, "updates": len(h["factor"]), "block_periods": n,
                      "block_converged": n_ok, "block_table": n_table,
@@ -117,11 +173,62 @@ def paper002(out, quick=False, smoke=False):
                      "K_new": K_new, "K_worn": K_worn, "kind_new": kind_new, "kind_worn": kind_worn,
                      "spread_new_um": {k: 1e6 * v for k, v in sp_new.items()},
                      "spread_worn_um": {k: 1e6 * v for k, v in sp_worn.items()},
+                     "mesh": res.get("mesh"), "k_over_h": _k_over_h(h, s),
                      "cpu_wear_s": c2 - c1, "cpu_chaos_s": time.process_time() - c2})
     cpu = time.process_time() - cpu0
     safeio.write_text(out / "results.json", json.dumps({"settings": s, "rows": rows, "cpu_s": cpu, "versions": provenance()}, indent=1) + "\n")
-    safeio.write_text(out / "README.md", _report(s, rows, cpu, out))
+    safeio.write_text(out / "README.md", _report(s, rows, cpu, out, before))
     return rows
+
+
+def _k_over_h(h, s):
+    """{regime end: {k/H, A and B largest depth [um] or None}} after the study's life at the ends of
+    K_OVER_H, read off the history (pinclear.analysis.wear_life.at_wear_ratio)."""
+    from pinclear.analysis.wear_life import at_wear_ratio
+
+    k0 = WEAR["k"] / WEAR["hardness"]
+    out = {}
+    for regime, ends in K_OVER_H.items():
+        for end, kh in zip(("low", "high"), ends):
+            row = {"k/H": kh, "cycles at nominal": kh / k0 * s["cycles"]}
+            for j in ("A", "B"):
+                got = at_wear_ratio(h, j, s["cycles"], kh / k0)
+                row[f"{j}_um"] = None if got is None else 1e6 * got[0]
+            out[f"{regime} {end}"] = row
+    return out
+
+
+def _mesh_lines(rows, tol=0.05):
+    lines = ["", "Mesh half of the convergence test (pinclear.analysis.wear_life.mesh_change: the converged trial rerun "
+             "with the bearing's nodes doubled; changes relative to the finer mesh's largest depth, tolerance "
+             f"{tol:.0%}):", "", "| clearance [mm] | joint | nodes | largest depth [um] | RMS depth [um] | change of the "
+             "largest / of the RMS [%] | converged in mesh |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        m = r.get("mesh")
+        if not m:
+            lines.append(f"| {r['clearance_mm']:g} | A, B | not run (the step did not converge first) |  |  |  |  |")
+            continue
+        for j, v in m["joints"].items():
+            lines.append(f"| {r['clearance_mm']:g} | {j} | {v['nodes'][0]} -> {v['nodes'][1]} | "
+                         f"{1e6 * v['max_depth'][0]:.3g} -> {1e6 * v['max_depth'][1]:.3g} | {1e6 * v['l2'][0]:.3g} -> "
+                         f"{1e6 * v['l2'][1]:.3g} | {100 * v['d_max']:.1f} / {100 * v['d_l2']:.1f} | "
+                         f"{'yes' if v['d_max'] <= tol and v['d_l2'] <= tol else 'no'} |")
+    return lines
+
+
+def _k_over_h_lines(rows, s):
+    k0 = WEAR["k"] / WEAR["hardness"]
+    lines = ["", f"Growth over the stated k/H ranges (Archard: the wear depends on (k/H) x cycles only, so a life of "
+             f"{s['cycles']:g} turns at r x k/H is this run's history at r x {s['cycles']:g} turns; nominal k/H = "
+             f"{k0:.3g} 1/Pa; the lubricated range read on the dry joint's load history, an upper reading):", "",
+             "| clearance [mm] | regime, end | k/H [1/Pa] | equivalent turns at nominal | A growth [um] | B growth [um] |",
+             "|---|---|---|---|---|---|"]
+    for r in rows:
+        for key, v in (r.get("k_over_h") or {}).items():
+            cell = [("beyond this run's life" if v[f"{j}_um"] is None else f"{v[f'{j}_um']:.3g}") for j in ("A", "B")]
+            lines.append(f"| {r['clearance_mm']:g} | {key} | {v['k/H']:.3g} | {v['cycles at nominal']:.3g} | "
+                         f"{cell[0]} | {cell[1]} |")
+    return lines
 
 
 def _volumes(trial):
@@ -129,7 +236,7 @@ def _volumes(trial):
     return f" (worn volume A {1e9 * v['A']:.3g}, B {1e9 * v['B']:.3g} mm^3)" if v else ""
 
 
-def _report(s, rows, cpu, out):
+def _report(s, rows, cpu, out, before=None):
     lines = ["# Study: paper 002's nine-bar with A and B worn together (pinclear study paper002)", "",
              "Generated by `pinclear study paper002" + (" --smoke" if s.get("smoke") else " --quick" if s["quick"] else "")
              + "`; the method is in "
@@ -173,6 +280,7 @@ def _report(s, rows, cpu, out):
         lines.append(f"- c = {r['clearance_mm']:g} mm: {table}; block {r.get('block_periods', 1)} turns"
                      + ("" if r.get("block_converged", True) else " (the largest allowed, not converged: the "
                         "growth still depends on the block length)"))
+    lines += _mesh_lines(rows) + _k_over_h_lines(rows, s)
     lines += ["", "Findings (from the table above, this run):", ""]
     for r in rows:
         faster = "A" if r["A_growth_um"] > r["B_growth_um"] else "B"
@@ -180,10 +288,21 @@ def _report(s, rows, cpu, out):
         moved = (f"the same kind of motion ({r['kind_new']})" if r["kind_new"] == r["kind_worn"] else
                  f"the motion changes from {r['kind_new']} to {r['kind_worn']} (analysis.classify_state; "
                  "'irregular' is the 0-1 test without a Lyapunov check, not chaos)")
-        conv = "" if r["converged"] else (" The depth step did not converge within the trials: the growth is "
-                                          "the finest trial's, the trials above show the spread.")
+        m = r.get("mesh")
+        if r["converged"]:
+            conv = ""
+        elif m is not None and not m["ok"]:
+            conv = (" The depth step converged but the mesh did not (table above): the growth is the coarser "
+                    "mesh's and moves with the node count.")
+        else:
+            conv = (" The depth step did not converge within the trials: the growth is the finest trial's, the "
+                    "trials above show the spread.")
         lines.append(f"- c = {r['clearance_mm']:g} mm: {faster} wears {ratio:.2g} x faster; K {r['K_new']:.2f} new vs "
                      f"{r['K_worn']:.2f} worn: {moved}.{conv}")
+    lines += moved_lines(before, rows, "clearance_mm", {
+        "A growth [um]": lambda r: f"{r['A_growth_um']:.3g}", "B growth [um]": lambda r: f"{r['B_growth_um']:.3g}",
+        "kind new": lambda r: f"{r['kind_new']} (K {r['K_new']:.2f})", "kind worn": lambda r: f"{r['kind_worn']} (K {r['K_worn']:.2f})",
+        "converged": lambda r: "yes" if r["converged"] else "no"})
     lines += ["", f"CPU of this run of the study: {cpu:.0f} s (one core; a run resumed from the trials' checkpoints "
               "counts only what it computed); per clearance: "
               + ", ".join(f"{r['clearance_mm']:g} mm wear {r['cpu_wear_s']:.0f} s + 0-1 test {r['cpu_chaos_s']:.0f} s"

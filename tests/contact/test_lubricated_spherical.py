@@ -172,7 +172,8 @@ def test_oil_in_s2_of_the_4ups_upu_delays_and_softens_the_landing():
     from pinclear.studies import wear_paper000 as study
 
     s = {**study._settings(True), "periods": 0.05, "window": 0.025}
-    (_, dry), (_, oil) = study.cases()[0], study.cases()[-1]
+    cases = dict(study.cases())
+    dry, oil = cases["dry (new joint)"], cases["oil 0.1 Pa s"]
     a, b = study.run_case(dry, s), study.run_case(oil, s)
     assert a["status"] == b["status"] == "success"
     # nan (no dry contact in the window) counts as later and softer

@@ -231,6 +231,14 @@ def test_block_length_of_a_steady_journal_is_one_period():
     n, ok, table = block_length(mech, "A", s, start=_static_start(mech))
     assert (n, ok, [row[0] for row in table]) == (1, True, [1, 2])
     assert table[1][1]["A"] == pytest.approx(table[0][1]["A"], rel=1e-6)
+    # its blocks continue a state in contact: the start-pose check (here tighter than the static
+    # penetration) is for a sidecar's pose, so it must not stop them (the nine-bar's B at 0.1 mm
+    # ends its start-up in an impact 1.45x that limit)
+    tight = pinclear.load(JOURNAL, clearances=["A"], overrides={"A.max_initial_penetration": 1e-9})
+    with pytest.raises(ContactSetupError, match="initial pose penetrates"):
+        pinclear.simulate(tight, 1e-3, q0=_static_start(mech)[0], v0=_static_start(mech)[1], assemble=False,
+                          start="state")
+    assert block_length(tight, "A", s, start=_static_start(tight))[:2] == (1, True)
 
 
 SPRING = Path(__file__).parents[1] / "data" / "wear_spring.yaml"
@@ -367,3 +375,27 @@ def test_convergence_covers_the_mesh_a_fine_mesh_passes_a_coarse_one_fails(tmp_p
     bad = converged(coarse, "A", s, start=start)
     assert not bad["converged"] and not bad["mesh"]["ok"] and bad["mesh"]["nodes"] == (16, 32)
     assert bad["mesh"]["d_max"] > 0.05
+
+
+def test_a_life_at_a_scaled_k_over_h_is_the_nominal_history_at_scaled_cycles(tmp_path):
+    # Archard's rate is k/H times a function of the profile: halving k makes every depth-limited
+    # update stand for twice the cycles with the same profiles, so the life of N cycles at k/2 is the
+    # nominal run's history read at N/2 (pinclear.analysis.wear_life.at_wear_ratio, which the wear
+    # studies' k/H tables use); the last, partial update is linear in its cycles, as the reading is
+    from pinclear.analysis.wear_life import at_wear_ratio
+
+    s = WearSettings(cycles=2000.0, period=0.01, transient_periods=0, rtol=1e-8, dt_out=1e-4, scheme="depth",
+                     step=0.004)
+    mech = pinclear.load(JOURNAL, clearances=["A"])
+    start = _static_start(mech)
+    nominal = wear_run(mech, "A", s, start=start)
+    half = pinclear.load(JOURNAL, clearances=["A"], overrides={
+        "A.wear": {"model": "archard", "k": 0.5e-4, "hardness": 1.0e8, "nodes": 360}})
+    got = wear_run(half, "A", s, start=start)
+    wm = half.forces[-1].wear
+    d, v = at_wear_ratio(nominal["history"], "A", s.cycles, 0.5)
+    assert len(got["history"]["cycles"]) < len(nominal["history"]["cycles"])
+    assert float(got["depth"]["A"].max()) == pytest.approx(d, rel=1e-6)
+    assert wm.volume(got["depth"]["A"]) == pytest.approx(v, rel=1e-6)
+    # beyond the run's life there is nothing to read
+    assert at_wear_ratio(nominal["history"], "A", s.cycles, 2.0) is None

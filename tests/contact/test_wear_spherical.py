@@ -268,7 +268,7 @@ def test_s2_of_the_4ups_upu_wears_where_its_ball_rests(tmp_path):
     deep = np.array([math.sin(th) * math.cos(ph), math.sin(th) * math.sin(ph), math.cos(th)])   # pole z: x, y, z
     # within the cone of the contact directions, widened by the contact circle and half a cell diagonal
     wm = study.load(model_path("four_ups_upu"), clearances=["S2"],
-                    overrides={"S2.mu": study.MU, "S2.wear": study.WEAR_S2}).forces[-1].wear
+                    overrides={"S2.mu": study.MU, "S2.wear": s["wear"]}).forces[-1].wear
     spread = np.arccos(np.clip(u @ press, -1, 1)).max()
     bound = spread + float(ws.contact_radius(wm, tr.outputs["S2.fn"].max())) / wm.R1 + 0.75 * wm.dtheta
     assert math.acos(np.clip(deep @ press, -1, 1)) <= bound

@@ -166,3 +166,22 @@ def test_worn_socket_penetration_matches_a_dense_distance_and_an_elastic_run_con
 
     run.name = "S"
     _assert_energy_is_the_integrators(run)
+
+
+def test_patch_of_a_vanishing_load_on_a_worn_bearing_is_finite_and_whole():
+    # a sample at the edge of contact (zero or 1e-300 rad half-width) on a worn profile whose spline
+    # dips below its lowest node: each sample's shares are finite and sum to 1 (before, the patch
+    # window was 0 / 0 and a study stopped with "cannot convert float NaN to integer"); a load
+    # of ordinary size keeps its Hertz-calibrated patch, which the floor does not touch
+    wm = pinclear.load(JOURNAL, clearances=["A"]).forces[-1].wear
+    th = wm.angles()
+    depth = 2e-6 * np.exp(-((th - 1.5 * math.pi) / 0.05) ** 2)     # a narrow pocket: the spline rings
+    depth[0] = 0.0
+    theta = np.array([1.5 * math.pi, 1.5 * math.pi + 0.3, 0.7, 1.5 * math.pi])
+    beta = np.array([0.0, 1e-300, 1e-12, 0.02])
+    nodes, share = wear.patch_shares(wm, theta, beta, depth)
+    assert np.all(np.isfinite(share)) and np.allclose(share.sum(axis=1), 1.0, rtol=0, atol=1e-12)
+    n1, s1 = wear.patch_shares(wm, theta[-1:], beta[-1:], depth)
+    assert np.array_equal(n1[0][s1[0] > 0], nodes[-1][share[-1] > 0]) and np.allclose(s1[0][s1[0] > 0], share[-1][share[-1] > 0])
+    with pytest.raises(ValueError, match="not finite"):
+        wear.patch_shares(wm, np.array([math.nan]), np.array([0.01]), depth)

@@ -99,6 +99,8 @@ def test_reproduce_004_bands_resume_with_a_budget_and_feed_the_claims_page(tmp_p
     assert r.returncode == 0, r.stderr
     text = page.read_text()
     assert "## Paper 004" in text and all(c["claim"] in text for c in second["claims"])
+    # each claim under its id, as docs/claims.md's readers and test_reproduce_claims look it up
+    assert all(f"| `{c['key']}` | {c['claim']} |" in text for c in second["claims"])
     r = subprocess.run([sys.executable, "-m", "pinclear.cli", "reproduce", "claims", "--from", str(tmp_path / "none"),
                         "--out", str(page)], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and "no report there" in r.stderr

@@ -116,13 +116,15 @@ def claim(key, text, where, paper, ours, rows=(), verdict=None):
             "rows": [r["name"] for r in rows]}
 
 
-def claims_markdown(claims, paper=None):
-    """The claims table (markdown lines); ``paper``: a first column with the paper's number."""
-    cols = (("paper",) if paper else ()) + CLAIM_COLUMNS
+def claims_markdown(claims, paper=None, keys=False):
+    """The claims table (markdown lines); ``paper``: a first column with the paper's number;
+    ``keys``: a first column with each claim's id (docs/claims.md, where other docs cite them)."""
+    cols = (("paper",) if paper else ()) + (("key",) if keys else ()) + CLAIM_COLUMNS
     lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
     for c in claims:
         ours = c["ours"] + (f" (rows: {'; '.join(c['rows'])})" if c.get("rows") else "")
-        cells_ = ([paper] if paper else []) + [c["claim"], c["where"], c["paper"], ours, f"**{c['verdict']}**"]
+        cells_ = (([paper] if paper else []) + ([f"`{c['key']}`"] if keys else [])
+                  + [c["claim"], c["where"], c["paper"], ours, f"**{c['verdict']}**"])
         lines.append("| " + " | ".join(x.replace("|", "/").replace("\n", " ") for x in cells_) + " |")
     return lines
 
@@ -390,6 +392,7 @@ def claims_page(folder) -> str:
                 if run else "made before the reports recorded their run")
         lines += [f"## {rep['title']} ([report](reproduce/{rep_file.parent.name}/report.md))", "",
                   f"Rows: {summary(rep['results'])}; {made}; bands: {rep['settings'].get('bands', 'not recorded')}.", ""]
-        lines += claims_markdown(rep.get("claims") or []) if rep.get("claims") else ["(no claims table: an older report)"]
+        lines += (claims_markdown(rep["claims"], keys=True) if rep.get("claims")
+                  else ["(no claims table: an older report)"])
         lines.append("")
     return "\n".join(lines)
