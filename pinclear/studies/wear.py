@@ -58,7 +58,8 @@ def previous_rows(out):
     withdrawn in writing, not overwritten in silence."""
     try:
         old = json.loads((Path(out) / "results.json").read_text())
-        return old["rows"], old.get("versions", {}).get("commit", "an earlier build")
+        made = old.get("versions", {}).get("commit")
+        return old["rows"], (f"commit {made[:12]}" if made else "a build before the results recorded their commit")
     except (OSError, ValueError, KeyError, TypeError):
         return None
 
@@ -79,16 +80,20 @@ def moved_lines(previous, rows, key, heads):
         diffs = []
         for label, f in heads.items():
             try:
-                a, b = f(o), f(r)
+                a = f(o)
             except (KeyError, TypeError, ValueError, ZeroDivisionError):
                 continue
+            try:
+                b = f(r)
+            except (KeyError, TypeError, ValueError, ZeroDivisionError):
+                b = "not measured in this run"
             if a != b:
                 diffs.append(f"{label} {a} -> {b}")
         if diffs:
             lines.append(f"- {r[key]}: " + "; ".join(diffs))
     if not lines:
         return []
-    return ["", f"Against the run this one replaces (results.json of {str(commit)[:12]}; a conclusion there that "
+    return ["", f"Against the run this one replaces (results.json of {commit}; a conclusion there that "
             "the numbers below no longer carry is withdrawn):", ""] + lines
 
 
@@ -310,12 +315,17 @@ def _report(s, rows, cpu, out, before=None):
               "Figures: c*mm/depth_vs_angle.png (worn profiles), c*mm/growth.png (clearance growth vs cycles); "
               "histories and profiles: c*mm/history.csv, c*mm/profile.csv (the finest trial's).", "",
               "The worn bearings in the meshcat view (depth magnified by the printed, labelled factor):", ""]
+    return "\n".join(lines + _view_lines(rows, out) + [""])
+
+
+def _view_lines(rows, out):
+    """The meshcat command of each clearance's worn bearings."""
     wear = "{k: %g, hardness: %g, nodes: %d}" % (WEAR["k"], WEAR["hardness"], WEAR["nodes"])
+    lines = []
     for r in rows:
         c = r["clearance_mm"] * 1e-3
         lines.append(f"    pinclear view nine_bar --clearance A --clearance B --set A.clearance={c:g} "
                      f"--set B.clearance={c:g} --set 'A.wear={wear}' --set 'B.wear={wear}' "
                      f"--wear {Path(out).as_posix()}/c{r['clearance_mm']:g}mm "
                      f"--html out/worn_c{r['clearance_mm']:g}mm.html")
-    lines.append("")
-    return "\n".join(lines)
+    return lines
