@@ -186,21 +186,26 @@ def paper002(out, quick=False, smoke=False):
     return rows
 
 
-def _k_over_h(h, s):
-    """{regime end: {k/H, A and B largest depth [um] or None}} after the study's life at the ends of
-    K_OVER_H, read off the history (pinclear.analysis.wear_life.at_wear_ratio)."""
+def k_over_h_ends(h, names, k0, life):
+    """{regime end: {k/H, cycles at nominal, name: (largest depth, worn volume) or None}} of a
+    wear run's history ``h`` at the ends of K_OVER_H, for a life of ``life`` cycles at the nominal
+    k/H ``k0`` (pinclear.analysis.wear_life.at_wear_ratio; None beyond the run's life). Both wear
+    studies' k/H tables."""
     from pinclear.analysis.wear_life import at_wear_ratio
 
-    k0 = WEAR["k"] / WEAR["hardness"]
     out = {}
     for regime, ends in K_OVER_H.items():
         for end, kh in zip(("low", "high"), ends):
-            row = {"k/H": kh, "cycles at nominal": kh / k0 * s["cycles"]}
-            for j in ("A", "B"):
-                got = at_wear_ratio(h, j, s["cycles"], kh / k0)
-                row[f"{j}_um"] = None if got is None else 1e6 * got[0]
-            out[f"{regime} {end}"] = row
+            out[f"{regime} {end}"] = {"k/H": kh, "cycles at nominal": kh / k0 * life,
+                                      **{n: at_wear_ratio(h, n, life, kh / k0) for n in names}}
     return out
+
+
+def _k_over_h(h, s):
+    """{regime end: {k/H, cycles at nominal, A and B largest depth [um] or None}} after the study's life."""
+    ends = k_over_h_ends(h, ("A", "B"), WEAR["k"] / WEAR["hardness"], s["cycles"])
+    return {k: {"k/H": v["k/H"], "cycles at nominal": v["cycles at nominal"],
+                **{f"{j}_um": None if v[j] is None else 1e6 * v[j][0] for j in ("A", "B")}} for k, v in ends.items()}
 
 
 def _mesh_lines(rows, tol=0.05):

@@ -35,7 +35,7 @@ from pinclear.dynamics.simulate import simulate
 from pinclear.io.sidecar import load
 from pinclear.mechanisms import four_ups_upu as mod
 from pinclear.studies.reproduce.paper000 import SMOOTH, T, moving_average
-from pinclear.studies.wear import K_OVER_H, moved_lines, previous_rows
+from pinclear.studies.wear import K_OVER_H, k_over_h_ends, moved_lines, previous_rows
 
 #: Pa s: a light spindle oil to a medium gear oil at operating temperature (ISO VG 10-100 at ~40 C)
 VISCOSITIES = (0.01, 0.03, 0.1)
@@ -223,19 +223,15 @@ def _mesh_row(m):
 
 
 def _k_over_h(h, s):
-    """The worn case's depth and volume at the ends of the stated k/H ranges (K_OVER_H) after the
-    study's life, read off its history (pinclear.analysis.wear_life.at_wear_ratio); an end beyond
-    the run's life is not reached (None)."""
-    from pinclear.analysis.wear_life import at_wear_ratio
-
+    """The worn case's depth and volume at the ends of the stated k/H ranges after the study's life
+    (pinclear.studies.wear.k_over_h_ends); an end beyond the run's life is not reached (None)."""
     k0 = s["wear"]["k"] / s["wear"]["hardness"]
     out = {"nominal": k0}
-    for regime, ends in K_OVER_H.items():
-        for end, kh in zip(("low", "high"), ends):
-            got = at_wear_ratio(h, "S2", s["wear cycles"], kh / k0)
-            out[f"{regime} {end}"] = {"k/H": kh, "cycles at nominal": kh / k0 * s["wear cycles"],
-                                      "max_depth_um": None if got is None else 1e6 * got[0],
-                                      "volume_mm3": None if got is None else 1e9 * got[1]}
+    for key, v in k_over_h_ends(h, ("S2",), k0, s["wear cycles"]).items():
+        got = v["S2"]
+        out[key] = {"k/H": v["k/H"], "cycles at nominal": v["cycles at nominal"],
+                    "max_depth_um": None if got is None else 1e6 * got[0],
+                    "volume_mm3": None if got is None else 1e9 * got[1]}
     return out
 
 
