@@ -26,6 +26,35 @@ def test_spread_ordering_is_decided_only_beyond_the_sampling_error():
     assert paper002.spread_order(0.0204, 0.0195, 10_000) == "A"
 
 
+def test_a_decided_ordering_is_stored_as_its_label_not_its_letters():
+    """A decided spread_order is a label string; sorting it (the bug the sixth sitting found) stored
+    'wider at 3 pi' as its 13 sorted characters, which then matches no nominal answer."""
+    labels = ("wider at 3 pi", "not wider at 3 pi")
+    assert paper002._order_text(paper002.spread_order(0.026, 0.020, 100, labels=labels)) == "wider at 3 pi"
+    assert paper002._order_text(paper002.spread_order(0.020, 0.026, 100, labels=labels)) == "not wider at 3 pi"
+    assert paper002._order_text(paper002.spread_order(0.0204, 0.0195, 100, labels=labels)) == \
+        "not wider at 3 pi, wider at 3 pi"
+    assert paper002._order_text(paper002.spread_order(0.026, 0.020, 100)) == "A"
+
+
+_ORDER_ANSWERS = {"stronger": {"A", "B", "A, B"},
+                  "wider at 3 pi": {"wider at 3 pi", "not wider at 3 pi", "not wider at 3 pi, wider at 3 pi"}}
+
+
+def test_the_stored_band_points_hold_readable_orderings():
+    """Every stored paper-002 point (docs/reproduce/002/bands) answers each ordering row with one of its
+    answers: a garbled field would count as a band point that disagrees with the nominal."""
+    import json
+    from pathlib import Path
+    files = sorted((Path(__file__).resolve().parents[2] / "docs/reproduce/002/bands").glob("*.json"))
+    assert files
+    for f in files:
+        res = json.loads(f.read_text())["result"]
+        for key, answers in _ORDER_ANSWERS.items():
+            if key in res:
+                assert res[key] in answers, (f.name, key, res[key])
+
+
 @pytest.mark.parametrize("quick", [True, False])
 def test_the_papers_named_values_are_in_the_committed_settings(quick):
     """Sec. 4 names 0.01 / 0.8 mm and 2 pi / 3 pi rad/s: both run and each always gets a Lyapunov estimate."""

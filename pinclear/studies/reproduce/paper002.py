@@ -769,6 +769,12 @@ def spread_order(a, b, n, labels=("A", "B"), z=2.0):
     return labels[0] if d > 0 else labels[1]
 
 
+def _order_text(order):
+    """spread_order's answer as one text: a decided label as it is, an undecided pair joined (a
+    label is a string, so sorting it would sort its letters)."""
+    return order if isinstance(order, str) else ", ".join(sorted(order))
+
+
 def _spread_n(res, value):
     r = next((r for r in res.runs if r.ok and abs(float(r.value) - value) <= 1e-9 * max(1.0, abs(value))), None)
     return 0 if r is None else min(len(r.sections[f"{j}.eccentricity[0]"]) for j in JOINTS)
@@ -1241,16 +1247,16 @@ def _run002(values, s):
         out["trend c"] = _transition_row(kinds, vals, "", "c", "clearance", str)["ours"]
         sp = _spread(kr["clearance"], KIND_CLEARANCES[-1])
         if sp is not None:
-            out["stronger"] = ", ".join(sorted(spread_order(sp["A"], sp["B"], _spread_n(kr["clearance"],
-                                                                                       KIND_CLEARANCES[-1]))))
+            out["stronger"] = _order_text(spread_order(sp["A"], sp["B"], _spread_n(kr["clearance"],
+                                                                                       KIND_CLEARANCES[-1])))
         kinds_w = _joint_kinds(kr["speed"], s, clearance=0.1e-3)
         for w in KIND_SPEEDS:
             out[f"kind {w / math.pi:g} pi"] = ", ".join(_kinds_at(kinds_w, w))
         a, b = _spread(kr["speed"], KIND_SPEEDS[0]), _spread(kr["speed"], KIND_SPEEDS[1])
         if a is not None and b is not None:
             n = min(_spread_n(kr["speed"], KIND_SPEEDS[0]), _spread_n(kr["speed"], KIND_SPEEDS[1]))
-            out["wider at 3 pi"] = ", ".join(sorted(spread_order(max(b.values()), max(a.values()), n,
-                                                                 labels=("wider at 3 pi", "not wider at 3 pi"))))
+            out["wider at 3 pi"] = _order_text(spread_order(max(b.values()), max(a.values()), n,
+                                                                 labels=("wider at 3 pi", "not wider at 3 pi")))
     out["status"] = "success"
     return out
 
