@@ -140,9 +140,9 @@ def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
     """A journal (centre j, radius R2) in a worn bearing of radius R1 + w(theta), e the eccentricity
     in the bearing plane, r = |e|: the penetration is the least-distance one, delta = R2 - min over
     the worn surface of |P - e| (the journal circle's overlap with the worn bearing), P the
-    nearest bearing point: Newton on the smooth profile (planar_refine) from the ray and from the
-    three nearest local minima over the nodes and cell midpoints within search_half_angle of e
-    (planar_nearest_nodes), the nearest kept.
+    nearest bearing point: Newton on the smooth profile (planar_refine) from the three nearest
+    local minima over the nodes and cell midpoints within search_half_angle of e
+    (planar_nearest_nodes), the nearest kept; from the ray itself where the profile is flat (span 0).
     n = (P - e)/d is the exact gradient of delta in e (envelope theorem: P is stationary), so the
     force -F(delta) n is the exact gradient of the law's energy and n . (v2(p2) - v1(p1)) =
     d(delta)/dt (scratch[3, 0] = 1: the normal law's weight). At phi = 0 (an unworn bearing)
@@ -164,10 +164,12 @@ def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
     th_e = math.atan2(ey, ex)
     phi = 0.0
     if r > 0.5 * c:
-        phi = planar_refine(gpar, th_e, r, 0.0)
         psi = search_half_angle(gpar[6], gpar[7], R1, r)
         if psi > 0.0:
-            best = planar_gap(gpar, th_e, r, phi)[0]
+            # the window holds the ray's node, so its sampled minima stand for the ray's start too (a
+            # refine from the ray walks a conforming pocket's flat floor one cell a step, 30 steps);
+            # the ray itself is kept where it is exactly stationary (unworn around it: w' = 0)
+            best = planar_gap(gpar, th_e, r, 0.0)[0] if worn_depth2(gpar, th_e)[1] == 0.0 else -math.inf
             b = planar_nearest_nodes(gpar, th_e, r, psi)
             for k in range(3):
                 if b[3 * k] < math.inf:
@@ -175,6 +177,8 @@ def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
                     d_ = planar_gap(gpar, th_e, r, other)[0]
                     if d_ > best:
                         best, phi = d_, other
+        else:
+            phi = planar_refine(gpar, th_e, r, 0.0)
     d_, dist, rho, _ = planar_gap(gpar, th_e, r, phi)
     # P - e = (rho cos phi - r) e/r + rho sin phi t, t = a x e/r; rho cos phi - r in the stable form
     sh = math.sin(0.5 * phi)
@@ -371,8 +375,8 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
     """A ball (centre M2, radius R2) in a worn socket of radius R1 + w(direction), e = ball centre -
     socket centre, r = |e|: the least-distance penetration delta = R2 - min |P - e| over the worn
     socket, as the worn bearing's (worn_planar_geometry): Newton on the smooth interpolant
-    (sphere_refine) from the ray and from the three nearest of the nodes' local minima along the
-    rows within search_half_angle of e (sphere_nearest_nodes), the nearest kept; n = (P - e)/d, the exact gradient of delta (the force is the
+    (sphere_refine) from the three nearest of the nodes' local minima along the rows within
+    search_half_angle of e (sphere_nearest_nodes), the nearest kept (from the ray where span is 0); n = (P - e)/d, the exact gradient of delta (the force is the
     law's energy gradient, scratch[3, 0] = 1); at the ray of an unworn socket delta = r - c and
     n = e/r. Within r <= c/2 (no contact possible) the ray's delta and n. Mesh coordinates: frame1
     axes cyclically permuted so the pole is the third."""
@@ -392,10 +396,12 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
     ph_e = math.atan2(ub, ua)
     th, ph = th_e, ph_e
     if r > 0.5 * c:
-        th, ph = sphere_refine(gpar, th_e, ph_e, r, th_e, ph_e)
         psi = search_half_angle(gpar[7], gpar[8], R1, r)
         if psi > 0.0:
-            best = sphere_gap(gpar, ua, ub, up, r, th, ph)[0]
+            # the cap's sampled minima stand for the ray's start too, the ray kept where it is exactly
+            # stationary (worn_planar_geometry)
+            _, wt, wp, _, _, _ = worn_sphere_depth2(gpar, th_e, ph_e)
+            best = sphere_gap(gpar, ua, ub, up, r, th_e, ph_e)[0] if wt == 0.0 and wp == 0.0 else -math.inf
             b = sphere_nearest_nodes(gpar, th_e, ph_e, r, psi)
             for k in range(3):
                 if b[3 * k] < math.inf:
@@ -403,6 +409,8 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
                     d_ = sphere_gap(gpar, ua, ub, up, r, t0, p0)[0]
                     if d_ > best:
                         best, th, ph = d_, t0, p0
+        else:
+            th, ph = sphere_refine(gpar, th_e, ph_e, r, th_e, ph_e)
     d_, dist, rho, sa, sb, sp = sphere_gap(gpar, ua, ub, up, r, th, ph)
     # P - e = (rho - r) u + rho (v - u): exactly (rho - r) u where v = u
     na = ((rho - r) * ua + rho * (sa - ua)) / dist
