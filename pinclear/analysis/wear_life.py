@@ -359,11 +359,11 @@ def _start(mech, s, out, wms, found, start, identity):
                 float(hist["cycles"][-1]) if hist["cycles"] else 0.0,
                 None if np.isnan(ck["last_E"]) else float(ck["last_E"]), hist)
     depth = {n: np.array(f[1].depth) for n, f in found.items()}
-    q, v, t = _after_transient(mech, s, start)
+    q, v, t = settled_start(mech, s, start)
     return depth, q, v, t, 0, 0.0, None, {k: [] for k in _history_keys(sorted(wms))}
 
 
-def _after_transient(mech, s, start):
+def settled_start(mech, s, start):
     """(q, v, t) where the wear starts: ``start`` (None: simulate's ideal start) after the start-up
     periods (landings from the sidecar's start) on the new bearing, without wear."""
     q, v, t = (None, None, 0.0) if start is None else (np.asarray(start[0], float), np.asarray(start[1], float), 0.0)
@@ -515,7 +515,7 @@ def block_length(mech, names, s: WearSettings, tol=0.025, max_periods=32, start=
     names = [names] if isinstance(names, str) else list(names)
     found = {n: worn_joint(mech, n) for n in names}
     wms = {n: f[1].wear for n, f in found.items()}
-    q, v, t = _after_transient(mech, s, start)
+    q, v, t = settled_start(mech, s, start)
     # the blocks continue the start-up's state, which may be in an impact deeper than the start-pose
     # check allows (its limit is for a pose from the sidecar, not a state mid-run)
     mech = _with_depth(mech, {n: f[0] for n, f in found.items()}, {n: f[1].depth for n, f in found.items()})

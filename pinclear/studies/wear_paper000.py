@@ -205,9 +205,9 @@ def worn_case(s, out, work=None):
     # number of the law's periods: the same phase at t = 0), not the centred start: the landing of
     # a centred ball in the worn pocket collapses the step (RK45 took 5x the steps of the new joint
     # over its first 0.5 s and did not finish 1 s in 7 CPU min; a limit stated in the README)
-    from pinclear.analysis.wear_life import _after_transient
+    from pinclear.analysis.wear_life import settled_start
 
-    q, v, _ = _after_transient(mech, ws, None)
+    q, v, _ = settled_start(mech, ws, None)
     r = run_case(None, s, mech=res["mech"], start=(q, v),
                  guard={"min_mean_step": WORN_MIN_MEAN_STEP, "max_cpu": WORN_MAX_CPU})
     return {"case": label, **r, "cpu_s": r["cpu_s"] + cpu_wear, "wear": wear}
