@@ -56,13 +56,16 @@ import math
 
 import numpy as np
 
+from pinclear.contact import channels
 from pinclear.contact.channels import channel_geometry
 from pinclear.contact.mixed import KEYS as FILM_KEYS
 from pinclear.contact.mixed import FilmJoint, apply_loads, centre_rates, contact_loads, film_spec
-from pinclear.contact.spherical import _RADIUS, SPHERICAL, SphericalClearance
+from pinclear.contact.mixed import FilmData
+from pinclear.contact.spherical import _RADIUS, SPHERICAL, SphericalClearance, WornSphericalClearance
 from pinclear.contact.spherical import from_spec as _dry_from_spec
 from pinclear.core.jit import njit
 from pinclear.core.registry import PluginType, key_names
+from pinclear.contact.wear import WornJoint
 from pinclear.model.forces import place_frames
 
 #: Gauss-Legendre nodes in theta over [0, pi]: the integrands are smooth but for the kinks of the
@@ -178,10 +181,15 @@ def ball_loads(bodies, laws, fr, ch, mp, fo, M1, v, z, zdot):
     for i in range(3):
         j[i] = p2[0, i] - mp.R * n[0, i]
     centre_rates(bodies, v, j, fo.edot, fo.w)
-    e = ch.scratch[0]                         # the dry geometry's |e| - c = delta, along n
-    r = ch.delta[0] + mp.c
-    for i in range(3):
-        e[i] = r * n[0, i]
+    if mp.kind == 3:
+        # a worn socket: the film at the ray's gap, the equivalent eccentricity (r - w(e_hat)) e_hat
+        # the worn kernel left in scratch[2] (continuous in e, where the nearest point can jump)
+        e = ch.scratch[2]
+    else:
+        e = ch.scratch[0]                     # the dry geometry's |e| - c = delta, along n
+        r = ch.delta[0] + mp.c
+        for i in range(3):
+            e[i] = r * n[0, i]
     power, eps = ball_film(mp.mu, mp.R, mp.c, mp.qmin, e, fo.edot, fo.w, fo.F, fo.T)
     fo.res[0], fo.res[3], fo.res[4], fo.res[5] = eps, power, 0.0, 0.0
     zdot[mp.film_state] = -power
@@ -240,12 +248,55 @@ class LubricatedSphericalClearance(FilmJoint, SphericalClearance):
     film_eval = ball_eval
 
 
+class WornLubricatedSphericalClearance(WornJoint, LubricatedSphericalClearance):
+    """A lubricated ball in a worn socket (``wear:`` on a lubricated_spherical entry). The dry law and
+    the asperities act on the least-distance gap of the worn socket (worn_geometry: h = -delta along
+    the contact normal n). The film's closed form is taken on the line of centres, at the
+    equivalent eccentricity (r - w(e_hat)) e_hat: its gap there is the worn socket's, c + w - r, its
+    shape away from it the unworn sphere's (an error of order w / c in the gap). Not at the least gap:
+    on a seat the nearest point jumps between rim points (the medial axis), and the film, which acts
+    at every gap, would jump with it. At zero wear it is the lubricated joint exactly. Wear follows the load the surfaces carry, dry plus
+    asperity (output NAME.wear_load), not the film's: a film that keeps lambda >= 4 wears nothing."""
+
+    _data_class = FilmData
+    geometry_code = channels.G_WORN_SPHERICAL
+    film_code = 3
+    # the asperities need the least gap at every eccentricity (a worn seat's rim can be nearer than
+    # the ray's point well inside c / 2), the film its ray gap (worn_geometry, ray radius 0)
+    ray_radius = 0.0
+    _geometry_params = WornSphericalClearance._geometry_params
+    profile = WornSphericalClearance.profile
+    # the film's one kernel and its Python record path, not the dry worn joint's
+    _compiled_kernel = FilmJoint._compiled_kernel
+    _kernel_args = FilmJoint._kernel_args
+    record_layout = FilmJoint.record_layout
+    record_kernel = FilmJoint.record_kernel
+
+    def _slip(self, d):
+        # the Archard integrand's slip wherever the surfaces touch: dry contact or asperities
+        carried = d.Fn[0] > 0.0 or d.fo.res[1] > 0.0
+        return float(np.linalg.norm(d.vt[0])) if (d.moving and carried) else 0.0
+
+    def outputs(self, mech, ws, d, t, q, v, z):
+        out = super().outputs(mech, ws, d, t, q, v, z)
+        out["wear_load"] = float(out["fn"]) + float(out["asperity_force"])
+        return out
+
+    def describe(self):
+        w = self.wear
+        return {**super().describe(), "wear": {"model": "archard", "k": w.k, "hardness": w.hardness, "nodes": w.rows,
+                                               "distribution": w.distribution, "max_depth": float(self.depth.max()),
+                                               "load": "dry + asperity (the film's wears nothing)"}}
+
+
 def from_spec(sp, mech, closure):
     film, sp_dry = film_spec(sp)
     joint = _dry_from_spec(sp_dry, mech, closure)
-    return LubricatedSphericalClearance(joint.name, mech.model, joint.f1, joint.f2, joint.c, joint.R2, joint.law,
-                                        joint.friction, stiffness_note=joint.stiffness_note, **film,
-                                        **sp.common(joint.c))
+    args = (joint.name, mech.model, joint.f1, joint.f2, joint.c, joint.R2, joint.law, joint.friction)
+    kw = dict(stiffness_note=joint.stiffness_note, **film, **sp.common(joint.c))
+    if isinstance(joint, WornSphericalClearance):
+        return WornLubricatedSphericalClearance(*args, wear=joint.wear, **kw)
+    return LubricatedSphericalClearance(*args, **kw)
 
 
 LUBRICATED_SPHERICAL = PluginType(
@@ -255,5 +306,5 @@ LUBRICATED_SPHERICAL = PluginType(
         "(Greenwood-Tripp) sharing the load within a few roughnesses of contact, the dry spherical law beyond "
         "(docs/wear_lubrication.md).",
     source="Reynolds' equation on the sphere (Goenka & Booker 1980); Tian et al. 2009; Greenwood & Tripp 1970",
-    keys=(_RADIUS,) + FILM_KEYS, plot=SPHERICAL.plot)
+    keys=(_RADIUS,) + FILM_KEYS + tuple(k for k in SPHERICAL.keys if k.name == "wear"), plot=SPHERICAL.plot)
 KEYS = key_names(LUBRICATED_SPHERICAL.keys)

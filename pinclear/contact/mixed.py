@@ -87,7 +87,7 @@ KEYS = (Key("viscosity", "number", "Pa s", None, "> 0", "Pinkus & Sternlicht 196
 
 class MixedPar(NamedTuple):
     """The compiled film and asperity parameters of one joint: film kind (0 short journal, 1 long
-    journal, 2 ball), viscosity mu, radius R, length L, clearance c, floor qmin of the gap ratio,
+    journal, 2 ball, 3 ball in a worn socket), viscosity mu, radius R, length L, clearance c, floor qmin of the gap ratio,
     the asperity load A0 (4 - lam)^m with sigma, boundary mu_b, slip speed vs, and the index of the
     film-dissipation state in z."""
     kind: int
@@ -117,9 +117,9 @@ class FilmOut(NamedTuple):
 
 
 def asperity_prefactor(kind, sigma, eta, beta, E, R, L, c):
-    """(A0, m) of the asperity load W_a = A0 (4 - lam)^m of a journal (kind 0, 1) or ball (2)."""
+    """(A0, m) of the asperity load W_a = A0 (4 - lam)^m of a journal (kind 0, 1) or ball (2, 3)."""
     K = 16.0 * math.sqrt(2.0) / 15.0 * math.pi * (eta * beta * sigma) ** 2 * math.sqrt(sigma / beta) * E * F52_A
-    if kind == 2:
+    if kind >= 2:
         return K * 2.0 * math.pi * R * R * sigma / c / (F52_B + 1.0), F52_B + 1.0
     B = math.sqrt(math.pi) * math.gamma(F52_B + 1.0) / math.gamma(F52_B + 1.5)
     return K * L * R * math.sqrt(2.0 * sigma / c) * B, F52_B + 0.5

@@ -98,10 +98,13 @@ class WornSphericalClearance(WornJoint, SphericalClearance):
 
     _data_class = WornData
     geometry_code = channels.G_WORN_SPHERICAL
+    #: within ray_radius x c of the centre the kernel takes the ray's gap (worn_geometry): no
+    #: contact is possible there, and the dry force needs none
+    ray_radius = 0.5
 
     def _geometry_params(self):
         w = self.wear
-        return np.concatenate([[self.c, self.R1, self.R2, float(w.pole), 0.0, float(w.rows), float(w.cols),
+        return np.concatenate([[self.c, self.R1, self.R2, float(w.pole), self.ray_radius, float(w.rows), float(w.cols),
                                 *catmull_rom_bounds(self.depth)], self.depth])
 
     def profile(self, theta, phi):

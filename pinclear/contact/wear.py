@@ -296,14 +296,20 @@ def trapezoid_weights(t):
     return w
 
 
+def wear_load(out, name):
+    """The load Archard's law wears by: NAME.wear_load where the joint records one (a lubricated
+    worn joint: dry plus asperity, the film's wears nothing), else the contact's NAME.fn."""
+    return out[f"{name}.wear_load"] if f"{name}.wear_load" in out else out[f"{name}.fn"]
+
+
 def block_increment(wm: WearModel, name, traj, depth=None):
     """Node depth increment (m) worn over one simulated block (a Trajectory of the worn joint
     ``name``) on the profile ``depth`` it ran on: the samples' contact angle (the angle of the
     contact point NAME.contact_point on the worn surface, frame1 axes: where the contact is, not
-    where the eccentricity points), load (NAME.fn) and slip speed (NAME.slip), trapezoid rule."""
+    where the eccentricity points), load (wear_load) and slip speed (NAME.slip), trapezoid rule."""
     out = traj.outputs
     p = out[f"{name}.contact_point"]
-    return depth_increment(wm, np.arctan2(p[:, 1], p[:, 0]), out[f"{name}.fn"], out[f"{name}.slip"],
+    return depth_increment(wm, np.arctan2(p[:, 1], p[:, 0]), wear_load(out, name), out[f"{name}.slip"],
                            trapezoid_weights(traj.t), depth)
 
 

@@ -33,7 +33,7 @@ from functools import cached_property
 
 import numpy as np
 
-from pinclear.contact.wear import DISTRIBUTIONS, MODELS, positive, trapezoid_weights, wear_mapping
+from pinclear.contact.wear import DISTRIBUTIONS, MODELS, positive, trapezoid_weights, wear_load, wear_mapping
 from pinclear.core.errors import InputError
 from pinclear.core.jit import njit
 from pinclear.core.registry import Key
@@ -288,13 +288,13 @@ def _share_volumes(sub, area, u, a, work, R1, rows, hertz, vol):
 def block_increment(wm: SphericalWearModel, name, traj):
     """Node depth increment (m) worn over one block (a Trajectory of the worn socket ``name``):
     direction of the contact point on the worn socket (NAME.contact_point, frame1 axes), load
-    NAME.fn, slip NAME.slip, trapezoid rule. An increment reaching the two rows next to a pole
+    (contact.wear.wear_load), slip NAME.slip, trapezoid rule. An increment reaching the two rows next to a pole
     stops with an error naming ``pole``."""
     out = traj.outputs
     e = wm.local(out[f"{name}.contact_point"])
     r = np.linalg.norm(e, axis=1)
     u = e / np.where(r > 0.0, r, 1.0)[:, None]
-    h = depth_increment(wm, u, out[f"{name}.fn"], out[f"{name}.slip"], trapezoid_weights(traj.t))
+    h = depth_increment(wm, u, wear_load(out, name), out[f"{name}.slip"], trapezoid_weights(traj.t))
     grid = h.reshape(wm.rows, wm.cols)
     if np.any(grid[[0, 1, -2, -1]] > 0.0):
         raise InputError(f"the wear of {name!r} reaches its mesh pole (frame1 {POLES[wm.pole]} axis), where the "

@@ -192,7 +192,9 @@ def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
     scratch[3, 0] = 1.0
 
 
-#: worn spherical socket: gpar = (c, R1, R2, pole axis of frame1 (0, 1, 2), 0, Nt, Np, span, top,
+#: worn spherical socket: gpar = (c, R1, R2, pole axis of frame1 (0, 1, 2), ray radius (below
+#: ray radius x c the ray's delta and n stand: 1/2 for the dry joint, whose force needs no gap; 0 for
+#: a film, which needs the gap at every eccentricity), Nt, Np, span, top,
 #: then the Nt x Np node depths row by row: row i at theta = (i + 1/2) pi / Nt from the pole, column
 #: j at phi = 2 pi j / Np; span and top as the bearing's: WORN_HEAD)
 WORN_SPHERE_HEAD = 9
@@ -378,7 +380,7 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
     (sphere_refine) from the three nearest of the nodes' local minima along the rows within
     search_half_angle of e (sphere_nearest_nodes), the nearest kept (from the ray where span is 0); n = (P - e)/d, the exact gradient of delta (the force is the
     law's energy gradient, scratch[3, 0] = 1); at the ray of an unworn socket delta = r - c and
-    n = e/r. Within r <= c/2 (no contact possible) the ray's delta and n. Mesh coordinates: frame1
+    n = e/r. Within r <= gpar[4] c (1/2 for the dry joint: no contact possible there) the ray's delta and n. Mesh coordinates: frame1
     axes cyclically permuted so the pole is the third."""
     c, R1, R2 = gpar[0], gpar[1], gpar[2]
     ip = int(gpar[3])
@@ -395,7 +397,7 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
     th_e = math.acos(min(max(up, -1.0), 1.0))
     ph_e = math.atan2(ub, ua)
     th, ph = th_e, ph_e
-    if r > 0.5 * c:
+    if r > gpar[4] * c:
         psi = search_half_angle(gpar[7], gpar[8], R1, r)
         if psi > 0.0:
             # the cap's sampled minima stand for the ray's start too, the ray kept where it is exactly
@@ -425,3 +427,9 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
         p2[0, i] = M2[i, 3] + R2 * ni
         p1[0, i] = M2[i, 3] + (R2 - d_) * ni
     scratch[3, 0] = 1.0
+    if gpar[4] == 0.0:
+        # a film's joint (ray radius 0): the equivalent eccentricity on the line of centres, (r - w) e_hat
+        # (world axes), whose gap c - |.| is the worn socket's there (lubricated_spherical, film kind 3)
+        f = r - worn_sphere_depth2(gpar, th_e, ph_e)[0]
+        for i in range(3):
+            scratch[2, i] = f * (M1[i, ia] * ua + M1[i, ib] * ub + M1[i, ip] * up)

@@ -356,10 +356,13 @@ def _report(s, rows, cpu, before=None):
     oiled = [r["cpu_s"] / s["periods"] for r in rows if r["case"].startswith("oil") and r["status"] == "success"]
     worn = [r for r in rows if "wear" in r]
     lines += ["", "Not run here (stated, with their cost on this run's measured CPU per simulated period):", "",
-              "- Oiled and worn together (lubricated wear): the lubricated joint takes no `wear:` key, so the film "
-              "cannot ride on a worn socket nor wear it by its asperity share; the k/H table above gives the "
-              "lubricated range's depth on the dry joint's wear history, an upper reading (the film carries part "
-              "of the load that wears the dry joint).",
+              "- Oiled and worn together (lubricated wear): a `lubricated_spherical` entry takes `wear:` since "
+              "2026-12-03 (the film on the line of centres at the worn gap, the asperities on the least-distance "
+              "gap, wear by the asperity load: docs/wear_lubrication.md sec. 9), but this study does not run it "
+              "yet: its wear life costs the oiled period's CPU per block, and a ball that reaches the asperities "
+              "in a conforming seat meets the socket kernel's missed basins (sec. 8, Limits); the k/H table above "
+              "gives the lubricated range's depth on the dry joint's wear history, an upper reading (the film "
+              "carries part of the load that wears the dry joint).",
               "- The bifurcation diagrams in mu and clearance for the oiled and the worn S2: "
               + (f"an oiled period costs {np.mean(oiled):.0f} CPU s here, so 20 values x (20 + 100) periods per "
                  f"diagram need about {20 * 120 * np.mean(oiled) / 3600:.0f} CPU h each" if oiled else
