@@ -71,8 +71,11 @@ def header(rep):
     out = f"**Verdicts: {summary(rep['results'])}.**"
     nm = [r for r in rep["results"] if r["verdict"] == "not measured"]
     if nm:
-        need = sum(r.get("cpu_needed_s") or 0.0 for r in nm)
-        out += (f" Not measured: {len(nm)} rows" + (f", about {need / 3600:.2g} CPU h to measure" if need else "")
+        # rows share band points, so their needs do not add: the largest bounds what one more run needs
+        # for the shared points, and each row states its own
+        need = max(r.get("cpu_needed_s") or 0.0 for r in nm)
+        out += (f" Not measured: {len(nm)} rows" + (f", the costliest needing about {need / 3600:.2g} CPU h (rows "
+                                                    "share band points: their CPU does not add)" if need else "")
                 + " (`pinclear reproduce --bands` resumes from the stored points): "
                 + "; ".join(r["name"] + (f" ({r['cpu_needed_s']:.0f} CPU s)" if r.get("cpu_needed_s") else "")
                             for r in nm) + ".")
