@@ -282,11 +282,10 @@ class WornLubricatedSphericalClearance(WornJoint, LubricatedSphericalClearance):
         out["wear_load"] = float(out["fn"]) + float(out["asperity_force"])
         return out
 
+    wear_description = WornSphericalClearance.wear_description
+
     def describe(self):
-        w = self.wear
-        return {**super().describe(), "wear": {"model": "archard", "k": w.k, "hardness": w.hardness, "nodes": w.rows,
-                                               "distribution": w.distribution, "max_depth": float(self.depth.max()),
-                                               "load": "dry + asperity (the film's wears nothing)"}}
+        return {**super().describe(), "wear": {**self.wear_description(), "load": "dry + asperity (the film's wears nothing)"}}
 
 
 def from_spec(sp, mech, closure):

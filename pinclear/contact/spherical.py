@@ -114,7 +114,9 @@ class WornSphericalClearance(WornJoint, SphericalClearance):
                          for t, p in zip(np.atleast_1d(theta), np.atleast_1d(phi))]).T
 
     def describe(self):
+        return {**super().describe(), "wear": self.wear_description()}
+
+    def wear_description(self):
         w = self.wear
-        return {**super().describe(), "wear": {"model": "archard", "k": w.k, "hardness": w.hardness,
-                                               "nodes": w.rows, "distribution": w.distribution,
-                                               "pole": POLES[w.pole], "max_depth": float(self.depth.max())}}
+        return {"model": "archard", "k": w.k, "hardness": w.hardness, "nodes": w.rows, "distribution": w.distribution,
+                "pole": POLES[w.pole], "max_depth": float(self.depth.max())}

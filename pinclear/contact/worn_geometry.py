@@ -397,12 +397,14 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
     th_e = math.acos(min(max(up, -1.0), 1.0))
     ph_e = math.atan2(ub, ua)
     th, ph = th_e, ph_e
+    w_ray, have_ray = 0.0, False
     if r > gpar[4] * c:
         psi = search_half_angle(gpar[7], gpar[8], R1, r)
         if psi > 0.0:
             # the cap's sampled minima stand for the ray's start too, the ray kept where it is exactly
             # stationary (worn_planar_geometry)
-            _, wt, wp, _, _, _ = worn_sphere_depth2(gpar, th_e, ph_e)
+            w_ray, wt, wp, _, _, _ = worn_sphere_depth2(gpar, th_e, ph_e)
+            have_ray = True
             best = sphere_gap(gpar, ua, ub, up, r, th_e, ph_e)[0] if wt == 0.0 and wp == 0.0 else -math.inf
             b = sphere_nearest_nodes(gpar, th_e, ph_e, r, psi)
             for k in range(3):
@@ -430,6 +432,6 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
     if gpar[4] == 0.0:
         # a film's joint (ray radius 0): the equivalent eccentricity on the line of centres, (r - w) e_hat
         # (world axes), whose gap c - |.| is the worn socket's there (lubricated_spherical, film kind 3)
-        f = r - worn_sphere_depth2(gpar, th_e, ph_e)[0]
+        f = r - (w_ray if have_ray else worn_sphere_depth2(gpar, th_e, ph_e)[0])
         for i in range(3):
             scratch[2, i] = f * (M1[i, ia] * ua + M1[i, ib] * ub + M1[i, ip] * up)
