@@ -500,6 +500,14 @@ def ledger_text(ledger):
     return t
 
 
+def ledger_counts(ledger):
+    """The numbers of a bands' ledger a report keeps (points resumed, run, not reached, and their
+    CPU: the header's budget adds the stored points' CPU when run to this run's), or None."""
+    if not ledger:
+        return None
+    return {k: ledger[k] for k in ("resumed", "ran", "cpu_s", "cpu_stored_s", "not_reached", "needs_cpu_s")}
+
+
 def kinds_band(bands, keys, ours):
     """(kinds, what, cpu_needed) of a categorical row whose band is the union of the motion-kind
     keys ``keys`` (ours included); (None, '', CPU s) when one of them was not reached, (None, '',

@@ -29,8 +29,8 @@ from pinclear.core.models import model_path
 from pinclear.dynamics.stepping.peaks import window_peak
 from pinclear.mechanisms.nine_bar import DIMS
 from pinclear.studies.reproduce import chaos, linkage002
-from pinclear.studies.reproduce.bands import (NotReached, band_of, kinds_band, ledger_text, reconstructed_inputs,
-                                              tornado_figure)
+from pinclear.studies.reproduce.bands import (NotReached, band_of, kinds_band, ledger_counts, ledger_text,
+                                              reconstructed_inputs, tornado_figure)
 from pinclear.studies.reproduce.verdicts import half_digit, row, tolerance
 
 SLIDER = "guide"                      # slider 9's prismatic joint (urdf/nine_bar.urdf)
@@ -1062,7 +1062,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     groups = {k: v.format(frac=CLEARANCE_FRACTION) for k, v in GROUPS.items()}
     return {"title": "Paper 002: nine-bar with revolute clearances at A and B (responses, chaos, bifurcations)",
             "paper": "002", "settings": s, "claims": claims(results), "results": results, "groups": groups, "notes": notes, "figures": figs,
-            "tables": tables, "sensitivity": sens}
+            "tables": tables, "sensitivity": sens, "bands_ledger": ledger_counts(ledger)}
 
 
 #: the paper's central claims (docs/claims.md lists each key with its verdict)

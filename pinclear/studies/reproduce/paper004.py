@@ -23,7 +23,7 @@ import numpy as np
 from pinclear.core import safeio
 from pinclear.dynamics import screw
 from pinclear.mechanisms import four_ups_upr as mod
-from pinclear.studies.reproduce.bands import band_of, ledger_text, reconstructed_inputs, tornado_figure
+from pinclear.studies.reproduce.bands import band_of, ledger_counts, ledger_text, reconstructed_inputs, tornado_figure
 from pinclear.studies.reproduce.verdicts import row
 
 #: paper 004 sec. 4.1, G_q^p at the initial configuration (columns P1..P4, virtual 1, virtual 2)
@@ -419,7 +419,7 @@ def run(out, quick=False, workers=None, scheduler=None, bands=False, budget=None
                          "readings": ", ".join(READINGS)},
             "claims": claims(results, checks, found, runs, cutoff),
             "results": results, "consistency": checks, "groups": groups, "notes": notes,
-            "figures": figures, "sensitivity": sens}
+            "figures": figures, "sensitivity": sens, "bands_ledger": ledger_counts(ledger)}
 
 
 def plot_drive_forces(out, runs, show=20.0, cutoff=None):

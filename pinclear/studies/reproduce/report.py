@@ -61,6 +61,9 @@ def cells(r):
     else:
         band = (", ".join(r["band"]) + f" ({r['band_from']})") if r["band_from"] else "not measured"
         dev, tau, ours, paper = "", "categorical", str(r["ours"]), str(r["paper"])
+    if not r["band_from"] and r["verdict"] in ("not comparable", "calibration"):
+        # neither class is decided by a band: 'not measured' would read as a gap in the report
+        band = f"not needed ({r['verdict']})"
     why = " ".join(x for x in (f"[{r['group']}]" if r.get("group") else "", r.get("why") or "") if x)
     verdict = r["verdict"] + (f" ({r['nominal']})" if r.get("nominal") else "")
     return [r["name"], ours, band, paper, dev, tau, verdict, why]
@@ -190,17 +193,43 @@ def run_record(paper, started, quick=False, bands=False, out=None):
             "argv": " ".join(sys.argv)}
 
 
-def run_markdown(run):
+#: CPU hours a paper's whole report may take, bands included, on a 2-core developer machine
+BUDGET_CPU_H = {"000": 2.0, "002": 4.0, "003": 1.0, "004": 1.0}
+
+
+def budget_text(paper, run, ledger=None):
+    """The header's budget sentence: this run's CPU plus its band points resumed from OUT/bands at
+    the CPU they took when run (what the report costs from its stored points) against the paper's
+    :data:`BUDGET_CPU_H`; the points not reached are named with their CPU."""
+    if not run or str(paper) not in BUDGET_CPU_H:
+        return ""
+    ledger = ledger or {}
+    stored = float(ledger.get("cpu_stored_s") or 0.0)
+    total = run["cpu_self_s"] + run["cpu_children_s"] + stored
+    cap = 3600.0 * BUDGET_CPU_H[str(paper)]
+    t = (f"CPU budget: {total / 3600:.2f} CPU h, bands included (this run's {run['cpu_self_s'] + run['cpu_children_s']:.0f}"
+         f" CPU s + {stored:.0f} CPU s of the {ledger.get('resumed', 0)} band points resumed, when they ran), "
+         f"against {BUDGET_CPU_H[str(paper)]:g} CPU h for a 2-core developer machine: ")
+    t += "within" if total <= cap else f"over by {100 * (total / cap - 1):.0f} %"
+    if ledger.get("not_reached"):
+        t += (f"; {ledger['not_reached']} band points not reached need about {ledger['needs_cpu_s']:.0f} CPU s more "
+              f"({(total + ledger['needs_cpu_s']) / 3600:.2f} CPU h in all)")
+    return t + "."
+
+
+def run_markdown(run, paper=None, ledger=None):
     if not run:
         return []
     v = ", ".join(f"{k} {x}" for k, x in run["versions"].items())
+    budget = budget_text(paper, run, ledger)
     return [f"Made by commit {run['commit']} ({v}); CPU {run['cpu_self_s']:.1f} s in this process + "
             f"{run['cpu_children_s']:.1f} s in its worker processes, wall {run['wall_s']:.1f} s on {run['cpus']} CPUs. "
-            "Regenerate: " + "; ".join(f"`{c}` ({what})" for c, what in run["commands"]) + "."]
+            + (budget + " " if budget else "") + "Regenerate: " + "; ".join(f"`{c}` ({what})" for c, what in run["commands"]) + "."]
 
 
 def markdown(rep) -> str:
-    lines = [f"# {rep['title']}", ""] + run_markdown(rep.get("run")) + ["", f"Paper {rep['paper']}. Settings: "
+    lines = [f"# {rep['title']}", ""] + run_markdown(rep.get("run"), rep["paper"], rep.get("bands_ledger")) + [
+        "", f"Paper {rep['paper']}. Settings: "
              + ", ".join(f"{k} = {_fmt(v)}" for k, v in rep["settings"].items()), ""]
     if rep.get("claims"):
         lines += ["## The paper's claims", ""] + claims_markdown(rep["claims"]) + [""]
@@ -330,7 +359,8 @@ def write_report(rep, out):
     rep = dict(rep, counts=counts(rep["results"]), versions=provenance())
     atomic_write_text(out / "report.json", json.dumps(jsonable(rep), indent=1))
     atomic_write_text(out / "report.md", markdown(rep))
-    body = [f"<h1>{html.escape(rep['title'])}</h1>"] + [f"<p>{html.escape(x)}</p>" for x in run_markdown(rep.get("run"))]
+    body = [f"<h1>{html.escape(rep['title'])}</h1>"] + [f"<p>{html.escape(x)}</p>" for x in run_markdown(
+        rep.get("run"), rep["paper"], rep.get("bands_ledger"))]
     if rep.get("claims"):
         body.append("<h2>The paper's claims</h2>" + _html_table(CLAIM_COLUMNS, [
             [c["claim"], c["where"], c["paper"], c["ours"] + (f" (rows: {'; '.join(c['rows'])})" if c["rows"] else ""),
