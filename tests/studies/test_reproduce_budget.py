@@ -74,3 +74,26 @@ def test_fig16_band_over_every_input_but_c2_resumes_and_names_its_lever(tmp_path
     # a budget below one point's cost: not measured with the CPU the design needs
     miss, led = paper000.vmax_band(s, "serial", 9e-4, budget=1.0, out=tmp_path / "third")
     assert isinstance(miss, NotReached) and led.ran == 0 and miss.cpu_s == pytest.approx(n_pts * led.cost)
+
+
+def test_paper003_levers_interpolate_extrapolate_only_when_monotone_and_go_to_contradicted_rows():
+    from pinclear.studies.reproduce import paper003
+
+    # a ratio k = (x / 0.3)^-1 (the deviation's kinematic a / l law) sampled at 0.15 and 0.6
+    line = {"slider length": (0.3, (0.15, 0.6), "m", [(0.15, {"dev": 2.0}), (0.6, {"dev": 0.5})])}
+    lv = paper003.geometry_lever(line, "dev", 1.5)                 # between the runs: linear between 0.15 and 0.3
+    assert lv["needed"] == pytest.approx(0.15 + 0.5 * 0.15 / 1.0) and lv["how"].startswith("interpolated")
+    lv = paper003.geometry_lever(line, "dev", 10.0)                # beyond them: the power law, x = 0.3 / 10
+    assert lv["needed"] == pytest.approx(0.03, rel=1e-9) and lv["how"].startswith("extrapolated")
+    bump = {"guide": (0.45, (0.3, 0.9), "m", [(0.3, {"force": 3.0}), (0.9, {"force": 12.0})])}
+    lv = paper003.geometry_lever(bump, "force", 0.6)               # smallest at nominal: no extrapolation
+    assert lv["needed"] is None and "not monotone" in lv["text"]
+    # the input that swings the ratio most is the lever
+    both = dict(line, **{"guide": (0.45, (0.3, 0.9), "m", [(0.3, {"dev": 0.9}), (0.9, {"dev": 1.2})])})
+    assert paper003.geometry_lever(both, "dev", 1.5)["lever"] == "slider length"
+    rows = [row("platform Z deviation, x", "platform deviation", 0.0015, 0.1, "mm", band=(0.001, 0.002),
+                band_from="geometry"),
+            row("platform Z deviation, y", "platform deviation", 0.1, 0.1, "mm", band=(0.09, 0.11), band_from="g")]
+    assert [r["verdict"] for r in rows] == ["contradicted", "reproduced"]
+    paper003.name_levers(rows, line)
+    assert "lever: slider length" in rows[0]["why"] and "lever" not in rows[1]

@@ -232,6 +232,7 @@ def run(out, quick=False, workers=None, scheduler=None, settings=None, bands=Fal
     if lever:
         sens.append(lever["table"])
     results = deviation_rows(got, s, geo["factors"]) + trend_rows(got, s) + force_rows(got, s, notes, geo["factors"])
+    name_levers(results, geo["samples"])
     checks.append(growth_check(got, s))
     notes += paper_notes(checks, ideal, ti)
     responses_figure(out, got, s)
@@ -421,14 +422,17 @@ def geometry_tables(sw, got, s, path, ideal, notes):
     ref = pick(got["clearance"], [1e-4, 1e-4], "energy")
     tables, dev, vel, acc, frc = [], [], [], [], []
     if ref is None:
-        return {"tables": tables, "factors": None}
+        return {"tables": tables, "factors": None, "samples": {}}
+    samples = {}
     if "length" in sw:
         lg = responses(sw["length"], path, "slider length", s, notes, {"P_UP.clearance": [1e-4, 1e-4]})
         lrows = [[0.3, 1e6 * ref["z_dev"], ref["z_dev"] / 1e-4, ref["vz_amp"], ref["F_max_settled"]]]
+        samples["slider length"] = (0.3, (min(s["lengths"]), max(s["lengths"])), "m", [])
         for L in s["lengths"]:
             r = lg.get((str(L),))
             if r is not None:
                 lrows.append([L, 1e6 * r["z_dev"], r["z_dev"] / 1e-4, r["vz_amp"], r["F_max_settled"]])
+                samples["slider length"][3].append((L, _ratios(r, ref)))
                 dev.append(r["z_dev"] / ref["z_dev"])
                 vel.append(r["vz_amp"] / ref["vz_amp"])
                 acc.append(r["az_amp"] / ref["az_amp"])
@@ -441,18 +445,86 @@ def geometry_tables(sw, got, s, path, ideal, notes):
                        "note": "the gap lets the slider tilt in the guide by about 2 c / l, and the platform moves by "
                                "that tilt times its distance from the slider"})
     if sw["lever"]:
-        lever_table(sw, ref, s, ideal, notes, tables, dev, vel, acc, frc)
+        lever_table(sw, ref, s, ideal, notes, tables, dev, vel, acc, frc, samples)
     factors = {"dev": (min(dev + [1.0]), max(dev + [1.0])), "vel": (min(vel + [1.0]), max(vel + [1.0])),
                "acc": (min(acc + [1.0]), max(acc + [1.0])), "force": (min(frc + [1.0]), max(frc + [1.0])),
                "what": f"slider length {', '.join(f'{L:g}' for L in s['lengths'])} m, guide shifts "
                        f"{', '.join(f'{x:+g}' for x in s['lever_shifts'])} m, both contact models"} if dev else None
-    return {"tables": tables, "factors": factors}
+    return {"tables": tables, "factors": factors, "samples": samples}
 
 
-def lever_table(sw, ref, s, ideal, notes, tables, dev, vel, acc, frc):
+def _ratios(r, ref):
+    """A geometry run's deviation, velocity, acceleration and settled force over the reconstructed one's."""
+    return {"dev": r["z_dev"] / ref["z_dev"], "vel": r["vz_amp"] / ref["vz_amp"], "acc": r["az_amp"] / ref["az_amp"],
+            "force": r["F_max_settled"] / ref["F_max_settled"]}
+
+
+#: the geometry ratio each numeric row of ours scales by (by the row's name)
+ROW_RATIO = {"platform Z deviation": "dev", "platform Z velocity amplitude": "vel",
+             "platform Z acceleration amplitude": "acc", "largest contact force after": "force"}
+
+
+def name_levers(results, samples):
+    """Each contradicted row's lever, appended to its ``why`` (and kept as ``lever``): for a number,
+    the measured geometry input that moves it most (its one-at-a-time runs, as ratios to the
+    reconstructed geometry's) and the value it would need to reach the paper's, on a power law
+    through its samples (:func:`needed_value`); for an ordering, that no measured input gives the
+    paper's (the geometry runs are at one mu, so only the contact models vary it)."""
+    for r in results:
+        if r["verdict"] != "contradicted" or "lever" in r:
+            continue
+        if not isinstance(r["ours"], float):
+            r["lever"] = {"text": f"no single input gives {r['paper']!r}: only the two contact models vary it (both "
+                                  "tried); the geometry runs are at one mu"}
+        elif "needs a gap" in (r.get("why") or ""):
+            continue                              # Fig. 9: the gap it would need is its lever, already stated
+        else:
+            key = next((v for k, v in ROW_RATIO.items() if r["name"].startswith(k)), None)
+            if key is None or not samples or not r["ours"]:
+                continue
+            r["lever"] = geometry_lever(samples, key, float(r["paper"]) / float(r["ours"]))
+        r["why"] = "; ".join(x for x in (r.get("why"), r["lever"]["text"]) if x)
+    return results
+
+
+def geometry_lever(samples, key, target):
+    """{'text', 'lever', 'needed', 'how'}: the input of ``samples`` ({name: (nominal, range, unit,
+    [(x, ratios)])}) whose runs swing the ``key`` ratio most, and the value at which the ratio
+    would reach ``target`` (the paper's over ours at the reconstructed geometry)."""
+    best = None
+    for name, (nom, rng, unit, pts) in samples.items():
+        xs, ks = [nom] + [x for x, _ in pts], [1.0] + [q[key] for _, q in pts]
+        swing = max(abs(np.log(k)) for k in ks if k > 0)
+        if best is None or swing > best[0]:
+            best = (swing, name, rng, unit, xs, ks)
+    if best is None:
+        return {"text": "no geometry run to move it"}
+    _, name, (lo, hi), unit, xs, ks = best
+    order = np.argsort(xs)
+    xs, ks = np.asarray(xs, float)[order], np.asarray(ks, float)[order]
+    text = f"lever: {name} (x{ks.min():.3g}-{ks.max():.3g} of ours over {lo:g}-{hi:g} {unit})"
+    got = None
+    for i in range(len(xs) - 1):
+        if min(ks[i], ks[i + 1]) <= target <= max(ks[i], ks[i + 1]) and ks[i] != ks[i + 1]:
+            got = (xs[i] + (target - ks[i]) * (xs[i + 1] - xs[i]) / (ks[i + 1] - ks[i]), "interpolated between its runs")
+            break
+    if got is None:
+        d = np.sign(np.diff(ks))
+        if not (np.all(d > 0) or np.all(d < 0)):
+            return {"text": text + f"; no run reaches x{target:.3g} and they are not monotone in it (not extrapolated)",
+                    "lever": name, "needed": None, "how": "not monotone"}
+        fit = needed_value(xs, ks, target)
+        if fit is None:
+            return {"text": text + "; it does not move the row", "lever": name, "needed": None, "how": "no effect"}
+        got = (fit[0], "extrapolated on a power law through its runs")
+    return {"text": text + f" would need {got[0]:.3g} {unit} to reach x{target:.3g} ({got[1]}; plausible {lo:g}-"
+                           f"{hi:g} {unit})", "lever": name, "needed": float(got[0]), "how": got[1]}
+
+
+def lever_table(sw, ref, s, ideal, notes, tables, dev, vel, acc, frc, samples):
     """The lever-arm table (appended to ``tables``); each run's deviation, velocity, acceleration
     and settled-force ratios to the reconstructed geometry's appended to ``dev``, ``vel``, ``acc``,
-    ``frc``."""
+    ``frc``, and each run's ratios to ``samples`` (the levers', :func:`name_levers`)."""
     zg = mod.GUIDE_Z0 + mod.GUIDE_LEN / 2
     vrows = [[zg, 1e6 * ref["z_dev"], ref["z_dev"] / 1e-4, ref["vz_amp"]]]
     for sh, vp, swl in sw["lever"]:
@@ -462,6 +534,8 @@ def lever_table(sw, ref, s, ideal, notes, tables, dev, vel, acc, frc):
             continue
         r = response(p.trajectory(), load(vp, clearances=["P_UP"], trust=True), s["settle"])
         vrows.append([zg + sh, 1e6 * r["z_dev"], r["z_dev"] / 1e-4, r["vz_amp"]])
+        rng = (zg + min(s["lever_shifts"]), zg + max(s["lever_shifts"]))
+        samples.setdefault("guide centre above the base U joint", (zg, rng, "m", []))[3].append((zg + sh, _ratios(r, ref)))
         dev.append(r["z_dev"] / ref["z_dev"])
         vel.append(r["vz_amp"] / ref["vz_amp"])
         acc.append(r["az_amp"] / ref["az_amp"])
