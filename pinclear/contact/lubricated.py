@@ -67,8 +67,9 @@ import numpy as np
 
 from pinclear.contact.channels import channel_geometry
 from pinclear.contact.mixed import KEYS as MIXED_KEYS
-from pinclear.contact.mixed import FilmJoint, apply_loads, centre_rates, contact_loads, film_spec
-from pinclear.contact.revolute import _PLANAR, _PLOT, RevoluteClearance, check_bearing_radius
+from pinclear.contact import channels
+from pinclear.contact.mixed import FilmJoint, WornFilmJoint, apply_loads, centre_rates, contact_loads, film_spec
+from pinclear.contact.revolute import _PLANAR, _PLOT, _WEAR, RevoluteClearance, WornRevoluteClearance, check_bearing_radius
 from pinclear.contact.revolute import from_spec as _dry_from_spec
 from pinclear.core.jit import njit
 from pinclear.core.registry import Key, PluginType, key_names
@@ -223,13 +224,23 @@ def journal_loads(bodies, laws, fr, ch, mp, fo, M1, v, z, zdot):
     edot[1] -= ax * a1
     edot[2] -= ax * a2
     axis[0], axis[1], axis[2] = a0, a1, a2
-    # the dry geometry's |e| - c = delta, along n
-    r = ch.delta[0] + mp.c
     e = wv                                  # scratch after the spin is read
     w = wv[0] * a0 + wv[1] * a1 + wv[2] * a2
-    for i in range(3):
-        e[i] = r * n[0, i]
-    Tj, power, eps, S = journal_film(mp.kind == 1, mp.mu, mp.R, mp.L, mp.c, mp.qmin, e, edot, axis, w, fo.F)
+    if mp.kind >= 4:
+        # a worn bearing: the film at the equivalent eccentricity (r - w(theta_e)) e / r, whose scale
+        # the worn kernel left in scratch[3, 1] (e = j - s off the axis; scratch rows s, a, j)
+        sc = ch.scratch
+        f = sc[3, 1]
+        u = (sc[2, 0] - sc[0, 0]) * a0 + (sc[2, 1] - sc[0, 1]) * a1 + (sc[2, 2] - sc[0, 2]) * a2
+        e[0] = f * (sc[2, 0] - sc[0, 0] - u * a0)
+        e[1] = f * (sc[2, 1] - sc[0, 1] - u * a1)
+        e[2] = f * (sc[2, 2] - sc[0, 2] - u * a2)
+    else:
+        r = ch.delta[0] + mp.c              # the dry geometry's |e| - c = delta, along n
+        for i in range(3):
+            e[i] = r * n[0, i]
+    long = mp.kind == 1 or mp.kind == 5
+    Tj, power, eps, S = journal_film(long, mp.mu, mp.R, mp.L, mp.c, mp.qmin, e, edot, axis, w, fo.F)
     fo.T[0], fo.T[1], fo.T[2] = Tj * a0, Tj * a1, Tj * a2
     fo.res[0], fo.res[3], fo.res[4], fo.res[5] = eps, power, S, Tj
     zdot[mp.film_state] = -power
@@ -276,14 +287,30 @@ class LubricatedRevoluteClearance(FilmJoint, RevoluteClearance):
     kind = "lubricated_revolute"
     film_kernel = journal_force
     film_eval = journal_eval
+    #: MixedPar.kind = the theory's index + this (4: the bearing is worn)
+    film_offset = 0
 
     def __init__(self, *args, theory, **kw):
         self.theory = theory
-        self.film_code = THEORIES.index(theory)
+        self.film_code = THEORIES.index(theory) + self.film_offset
         super().__init__(*args, **kw)
 
     def describe(self):
         return {**super().describe(), "theory": self.theory}
+
+
+class WornLubricatedRevoluteClearance(WornFilmJoint, LubricatedRevoluteClearance):
+    """A lubricated journal in a worn bearing (``wear:`` on a lubricated_revolute entry;
+    mixed.WornFilmJoint). The film's closed form is taken at the equivalent eccentricity
+    (r - w(theta_e)) e / r: its gap on the line of centres is the worn bearing's, c + w - r, its
+    shape away from it the round bearing's (an error of order w / c in the gap). At zero wear it
+    is the lubricated journal exactly."""
+
+    planar_geometry = channels.G_WORN_PLANAR
+    _geometry_params = WornRevoluteClearance._geometry_params
+    profile = WornRevoluteClearance.profile
+    wear_description = WornRevoluteClearance.wear_description
+    film_offset = 4
 
 
 def from_spec(sp, mech, closure):
@@ -292,9 +319,11 @@ def from_spec(sp, mech, closure):
     sp_dry.d.pop("theory", None)
     joint = _dry_from_spec(sp_dry, mech, closure, spatial=False)
     check_bearing_radius(sp, joint.R2, joint.c)
-    return LubricatedRevoluteClearance(joint.name, mech.model, joint.f1, joint.f2, joint.c, joint.R2, joint.law,
-                                       joint.friction, length=joint.L, stiffness_note=joint.stiffness_note,
-                                       theory=theory, **film, **sp.common(joint.c))
+    args = (joint.name, mech.model, joint.f1, joint.f2, joint.c, joint.R2, joint.law, joint.friction)
+    kw = dict(length=joint.L, stiffness_note=joint.stiffness_note, theory=theory, **film, **sp.common(joint.c))
+    if isinstance(joint, WornRevoluteClearance):
+        return WornLubricatedRevoluteClearance(*args, wear=joint.wear, **kw)
+    return LubricatedRevoluteClearance(*args, **kw)
 
 
 LUBRICATED_REVOLUTE = PluginType(
@@ -303,5 +332,6 @@ LUBRICATED_REVOLUTE = PluginType(
         "(Ocvirk) or long (Sommerfeld) bearing with Guembel's cavitation down to contact, the asperities "
         "(Greenwood-Tripp) sharing the load within a few roughnesses of it, the dry law beyond "
         "(docs/wear_lubrication.md).",
-    source="Pinkus & Sternlicht 1961; Flores et al. 2009; Greenwood & Tripp 1970", keys=_PLANAR + _LUB, plot=_PLOT)
-KEYS = key_names(_PLANAR + _LUB)
+    source="Pinkus & Sternlicht 1961; Flores et al. 2009; Greenwood & Tripp 1970", keys=_PLANAR + _LUB + _WEAR,
+    plot=_PLOT)
+KEYS = key_names(_PLANAR + _LUB + _WEAR)

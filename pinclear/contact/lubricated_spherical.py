@@ -59,13 +59,11 @@ import numpy as np
 from pinclear.contact import channels
 from pinclear.contact.channels import channel_geometry
 from pinclear.contact.mixed import KEYS as FILM_KEYS
-from pinclear.contact.mixed import FilmJoint, apply_loads, centre_rates, contact_loads, film_spec
-from pinclear.contact.mixed import FilmData
+from pinclear.contact.mixed import FilmJoint, WornFilmJoint, apply_loads, centre_rates, contact_loads, film_spec
 from pinclear.contact.spherical import _RADIUS, SPHERICAL, SphericalClearance, WornSphericalClearance
 from pinclear.contact.spherical import from_spec as _dry_from_spec
 from pinclear.core.jit import njit
 from pinclear.core.registry import PluginType, key_names
-from pinclear.contact.wear import WornJoint
 from pinclear.model.forces import place_frames
 
 #: Gauss-Legendre nodes in theta over [0, pi]: the integrands are smooth but for the kinks of the
@@ -248,44 +246,17 @@ class LubricatedSphericalClearance(FilmJoint, SphericalClearance):
     film_eval = ball_eval
 
 
-class WornLubricatedSphericalClearance(WornJoint, LubricatedSphericalClearance):
-    """A lubricated ball in a worn socket (``wear:`` on a lubricated_spherical entry). The dry law and
-    the asperities act on the least-distance gap of the worn socket (worn_geometry: h = -delta along
-    the contact normal n). The film's closed form is taken on the line of centres, at the
-    equivalent eccentricity (r - w(e_hat)) e_hat: its gap there is the worn socket's, c + w - r, its
-    shape away from it the unworn sphere's (an error of order w / c in the gap). Not at the least gap:
-    on a seat the nearest point jumps between rim points (the medial axis), and the film, which acts
-    at every gap, would jump with it. At zero wear it is the lubricated joint exactly. Wear follows the load the surfaces carry, dry plus
-    asperity (output NAME.wear_load), not the film's: a film that keeps lambda >= 4 wears nothing."""
+class WornLubricatedSphericalClearance(WornFilmJoint, LubricatedSphericalClearance):
+    """A lubricated ball in a worn socket (``wear:`` on a lubricated_spherical entry; mixed.WornFilmJoint).
+    The film's closed form is taken at the equivalent eccentricity (r - w(e_hat)) e_hat: its gap on
+    the line of centres is the worn socket's, c + w - r, its shape away from it the unworn sphere's
+    (an error of order w / c in the gap). At zero wear it is the lubricated joint exactly."""
 
-    _data_class = FilmData
     geometry_code = channels.G_WORN_SPHERICAL
     film_code = 3
-    # the asperities need the least gap at every eccentricity (a worn seat's rim can be nearer than
-    # the ray's point well inside c / 2), the film its ray gap (worn_geometry, ray radius 0)
-    ray_radius = 0.0
     _geometry_params = WornSphericalClearance._geometry_params
     profile = WornSphericalClearance.profile
-    # the film's one kernel and its Python record path, not the dry worn joint's
-    _compiled_kernel = FilmJoint._compiled_kernel
-    _kernel_args = FilmJoint._kernel_args
-    record_layout = FilmJoint.record_layout
-    record_kernel = FilmJoint.record_kernel
-
-    def _slip(self, d):
-        # the Archard integrand's slip wherever the surfaces touch: dry contact or asperities
-        carried = d.Fn[0] > 0.0 or d.fo.res[1] > 0.0
-        return float(np.linalg.norm(d.vt[0])) if (d.moving and carried) else 0.0
-
-    def outputs(self, mech, ws, d, t, q, v, z):
-        out = super().outputs(mech, ws, d, t, q, v, z)
-        out["wear_load"] = float(out["fn"]) + float(out["asperity_force"])
-        return out
-
     wear_description = WornSphericalClearance.wear_description
-
-    def describe(self):
-        return {**super().describe(), "wear": {**self.wear_description(), "load": "dry + asperity (the film's wears nothing)"}}
 
 
 def from_spec(sp, mech, closure):

@@ -53,6 +53,7 @@ import numpy as np
 from pinclear.contact.base import ClearanceData
 from pinclear.contact.channels import channel_friction
 from pinclear.contact.force_laws import normal_force
+from pinclear.contact.wear import WornJoint
 from pinclear.core.jit import njit
 from pinclear.core.registry import Key
 from pinclear.model.forces import add_body_wrench, add_wrenches, body_twist, relative_velocity
@@ -87,7 +88,7 @@ KEYS = (Key("viscosity", "number", "Pa s", None, "> 0", "Pinkus & Sternlicht 196
 
 class MixedPar(NamedTuple):
     """The compiled film and asperity parameters of one joint: film kind (0 short journal, 1 long
-    journal, 2 ball, 3 ball in a worn socket), viscosity mu, radius R, length L, clearance c, floor qmin of the gap ratio,
+    journal, 2 ball, 3 ball in a worn socket, 4 / 5 short / long journal in a worn bearing), viscosity mu, radius R, length L, clearance c, floor qmin of the gap ratio,
     the asperity load A0 (4 - lam)^m with sigma, boundary mu_b, slip speed vs, and the index of the
     film-dissipation state in z."""
     kind: int
@@ -116,10 +117,14 @@ class FilmOut(NamedTuple):
     res: np.ndarray
 
 
+#: the film kinds of a ball (MixedPar.kind); the others are journals'
+BALL_FILMS = (2, 3)
+
+
 def asperity_prefactor(kind, sigma, eta, beta, E, R, L, c):
-    """(A0, m) of the asperity load W_a = A0 (4 - lam)^m of a journal (kind 0, 1) or ball (2, 3)."""
+    """(A0, m) of the asperity load W_a = A0 (4 - lam)^m of a journal (kind 0, 1, 4, 5) or ball (2, 3)."""
     K = 16.0 * math.sqrt(2.0) / 15.0 * math.pi * (eta * beta * sigma) ** 2 * math.sqrt(sigma / beta) * E * F52_A
-    if kind >= 2:
+    if kind in BALL_FILMS:
         return K * 2.0 * math.pi * R * R * sigma / c / (F52_B + 1.0), F52_B + 1.0
     B = math.sqrt(math.pi) * math.gamma(F52_B + 1.0) / math.gamma(F52_B + 1.5)
     return K * L * R * math.sqrt(2.0 * sigma / c) * B, F52_B + 0.5
@@ -285,7 +290,7 @@ class FilmJoint:
         fo = d.fo
         eps, W, _, _, _, Tj = fo.res
         h = self.c - float(np.linalg.norm(self._eccentricity(d)))
-        out.update(film_force=fo.F.copy(), film_torque=Tj if self.film_code < 2 else fo.T.copy(),
+        out.update(film_force=fo.F.copy(), film_torque=fo.T.copy() if self.film_code in BALL_FILMS else Tj,
                    eccentricity_ratio=float(eps), film_parameter=h / self.sigma, asperity_force=float(W),
                    film_dissipated=float(z[self.film_state]))
         return out
@@ -296,6 +301,37 @@ class FilmJoint:
     def describe(self):
         return {**super().describe(), "viscosity": self.mu_oil, "roughness": self.sigma, "asperity_density": self.eta,
                 "asperity_radius": self.beta, "composite_modulus": self.E_asp, "boundary_mu": self.mu_b}
+
+
+class WornFilmJoint(WornJoint):
+    """Mixin of the lubricated joints on a worn surface (before the lubricated type in the bases):
+    the dry law and the asperities on the least-distance gap, searched at every eccentricity (ray
+    radius 0: a worn seat's rim can be nearer than the ray's point well inside c / 2); the film
+    at its equivalent eccentricity on the line of centres, which the worn kernel leaves (continuous
+    in e, where the nearest point can jump between the rims of a seat); one compiled kernel, the
+    film's. Wear follows the load the surfaces carry, dry plus asperity (NAME.wear_load,
+    contact.wear.wear_load), not the film's: a film that keeps lambda >= 4 wears nothing."""
+
+    _data_class = FilmData
+    ray_radius = 0.0
+    _compiled_kernel = FilmJoint._compiled_kernel
+    _kernel_args = FilmJoint._kernel_args
+    record_layout = FilmJoint.record_layout
+    record_kernel = FilmJoint.record_kernel
+
+    def _slip(self, d):
+        # the Archard integrand's slip wherever the surfaces touch: dry contact or asperities
+        carried = d.Fn[0] > 0.0 or d.fo.res[1] > 0.0
+        return float(np.linalg.norm(d.vt[0])) if (d.moving and carried) else 0.0
+
+    def outputs(self, mech, ws, d, t, q, v, z):
+        out = super().outputs(mech, ws, d, t, q, v, z)
+        out["wear_load"] = float(out["fn"]) + float(out["asperity_force"])
+        return out
+
+    def describe(self):
+        return {**super().describe(), "wear": {**self.wear_description(),
+                                               "load": "dry + asperity (the film's wears nothing)"}}
 
 
 def asperity_py(mp, h):

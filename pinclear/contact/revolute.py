@@ -124,10 +124,13 @@ class WornRevoluteClearance(WornJoint, RevoluteClearance):
 
     _data_class = WornData
     planar_geometry = channels.G_WORN_PLANAR
+    #: within ray_radius x c of the centre the kernel takes the ray's gap (worn_geometry)
+    ray_radius = 0.5
 
     def _geometry_params(self):
         coef = spline_coefficients(self.depth)
-        head = np.array([self.c, self.R1, self.R2, self.ca, self.L, float(self.wear.nodes), *spline_bounds(coef)])
+        head = np.array([self.c, self.R1, self.R2, self.ca, self.L, float(self.wear.nodes), *spline_bounds(coef),
+                         self.ray_radius])
         return np.concatenate([head, coef.ravel()])
 
     def profile(self, theta):
@@ -137,7 +140,9 @@ class WornRevoluteClearance(WornJoint, RevoluteClearance):
         return np.array(pairs).T
 
     def describe(self):
+        return {**super().describe(), "wear": self.wear_description()}
+
+    def wear_description(self):
         w = self.wear
-        return {**super().describe(), "wear": {"model": "archard", "k": w.k, "hardness": w.hardness,
-                                               "nodes": w.nodes, "distribution": w.distribution,
-                                               "max_depth": float(self.depth.max())}}
+        return {"model": "archard", "k": w.k, "hardness": w.hardness, "nodes": w.nodes, "distribution": w.distribution,
+                "max_depth": float(self.depth.max())}

@@ -8,10 +8,12 @@ import math
 
 from pinclear.core.jit import njit
 
-#: worn planar bearing: gpar = (c, R1, R2, ca, L, N, span, top, then the periodic cubic spline's
-#: 4 N coefficients of the wear depth, cell i = [i, i + 1) 2 pi / N, highest power first); span
-#: and top bound the spline's range max - min and its maximum (the contact search's window)
-WORN_HEAD = 8
+#: worn planar bearing: gpar = (c, R1, R2, ca, L, N, span, top, ray radius, then the periodic cubic
+#: spline's 4 N coefficients of the wear depth, cell i = [i, i + 1) 2 pi / N, highest power first);
+#: span and top bound the spline's range max - min and its maximum (the contact search's window);
+#: below ray radius x c the ray's delta and n stand (1/2 for the dry joint, whose force needs no
+#: gap there; 0 for a film's, whose asperities need the least gap at every eccentricity)
+WORN_HEAD = 9
 #: Newton iterations of the contact point's refinement, and its step tolerance (rad)
 NEWTON_ITER, NEWTON_TOL = 30, 1e-14
 
@@ -147,7 +149,9 @@ def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
     force -F(delta) n is the exact gradient of the law's energy and n . (v2(p2) - v1(p1)) =
     d(delta)/dt (scratch[3, 0] = 1: the normal law's weight). At phi = 0 (an unworn bearing)
     delta = r - c - w and n = e/r exactly, the unworn joint's. Within r <= c/2, where
-    delta <= r - c <= -c/2 (w >= 0), the ray's delta and n (no contact possible)."""
+    delta <= r - c <= -c/2 (w >= 0), the ray's delta and n (no contact possible) for the dry joint
+    (gpar[8] = 1/2); a film's (gpar[8] = 0) searches at every r and leaves its equivalent
+    eccentricity's scale (r - w(theta_e)) / r in scratch[3, 1] (lubricated.journal_loads)."""
     c, R1, R2 = gpar[0], gpar[1], gpar[2]
     e0, e1, e2 = j[0] - s[0], j[1] - s[1], j[2] - s[2]
     u = e0 * a[0] + e1 * a[1] + e2 * a[2]
@@ -163,7 +167,7 @@ def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
         r0, r1, r2 = M1[0, 0], M1[1, 0], M1[2, 0]
     th_e = math.atan2(ey, ex)
     phi = 0.0
-    if r > 0.5 * c:
+    if r > gpar[8] * c:
         psi = search_half_angle(gpar[6], gpar[7], R1, r)
         if psi > 0.0:
             # the window holds the ray's node, so its sampled minima stand for the ray's start too (a
@@ -190,6 +194,10 @@ def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
     p2[0, 0], p2[0, 1], p2[0, 2] = j[0] + R2 * n0, j[1] + R2 * n1, j[2] + R2 * n2
     p1[0, 0], p1[0, 1], p1[0, 2] = j[0] + (R2 - d_) * n0, j[1] + (R2 - d_) * n1, j[2] + (R2 - d_) * n2
     scratch[3, 0] = 1.0
+    if gpar[8] == 0.0:
+        # a film's joint: the line of centres' gap is the worn bearing's, c + w - r, at the
+        # equivalent eccentricity (r - w(theta_e)) e / r (continuous in e, where P can jump)
+        scratch[3, 1] = (r - worn_depth2(gpar, th_e)[0]) / r if r > 0.0 else 1.0
 
 
 #: worn spherical socket: gpar = (c, R1, R2, pole axis of frame1 (0, 1, 2), ray radius (below
