@@ -174,3 +174,28 @@ def alarm(seconds, what="case"):
     finally:
         signal.alarm(0)
         signal.signal(signal.SIGALRM, old)
+
+
+def element_force(mech, q, v, z=None):
+    """(tau, zdot, outputs) of the mechanism's last force element alone at (q, v, z): its
+    generalized force and state rates from one add_force call (z defaults to zeros)."""
+    from pinclear.model import kinematics
+
+    el = mech.forces[-1]
+    ws = mech.workspace()
+    d = ws.force_data[-1]
+    kinematics.update(mech, ws, q, v)
+    z = np.zeros(el.nz) if z is None else z
+    tau, zdot = np.zeros(mech.model.nv), np.zeros(el.nz)
+    el.add_force(mech, ws, d, 0.0, q, v, z, tau, zdot)
+    return tau, zdot, el.outputs(mech, ws, d, 0.0, q, v, z)
+
+
+def assert_same_element_force(a, b, states, rel=1e-12):
+    """The last force elements of mechanisms ``a`` and ``b`` give the same generalized force and
+    state rates, to ``rel`` of b's largest, at every (q, v) of ``states``."""
+    for q, v in states:
+        ta, za, _ = element_force(a, q, v)
+        tb, zb, _ = element_force(b, q, v)
+        assert np.max(np.abs(ta - tb)) <= rel * max(np.abs(tb).max(), 1e-300), (q, v)
+        assert np.max(np.abs(za - zb)) <= rel * max(np.abs(zb).max(), 1e-300), (q, v)

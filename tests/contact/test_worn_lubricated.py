@@ -13,7 +13,8 @@ import pytest
 import pinclear
 from pinclear.contact.lubricated_spherical import WornLubricatedSphericalClearance
 from pinclear.contact.mixed import asperity_py
-from pinclear.model import kinematics
+from tests.helpers import assert_same_element_force
+from tests.helpers import element_force as _tau
 
 BALL = Path(__file__).parents[1] / "data" / "lub_ball.yaml"
 WEAR = {"model": "archard", "k": 1e-4, "hardness": 1e8, "nodes": 36, "pole": "x"}
@@ -21,17 +22,6 @@ WEAR = {"model": "archard", "k": 1e-4, "hardness": 1e8, "nodes": 36, "pole": "x"
 
 def _load(wear=WEAR, **over):
     return pinclear.load(BALL, clearances=["S"], overrides={"S.wear": wear, **over})
-
-
-def _tau(mech, q, v, z=None):
-    el = mech.forces[-1]
-    ws = mech.workspace()
-    d = ws.force_data[-1]
-    kinematics.update(mech, ws, q, v)
-    z = np.zeros(el.nz) if z is None else z
-    tau, zdot = np.zeros(6), np.zeros(el.nz)
-    el.add_force(mech, ws, d, 0.0, q, v, z, tau, zdot)
-    return tau, zdot, el.outputs(mech, ws, d, 0.0, q, v, z)
 
 
 def _pocket(joint, depth):
@@ -59,13 +49,7 @@ def _states(rng, n, c):
 def test_the_oiled_and_worn_ball_at_zero_wear_is_the_oiled_ball_to_1e_12():
     worn, oiled = _load(), pinclear.load(BALL, clearances=["S"])
     assert isinstance(worn.forces[-1], WornLubricatedSphericalClearance) and not np.any(worn.forces[-1].depth)
-    c = oiled.forces[-1].c
-    rng = np.random.default_rng(4)
-    for q, v in _states(rng, 100, c):
-        a, za, _ = _tau(worn, q, v)
-        b, zb, _ = _tau(oiled, q, v)
-        assert np.max(np.abs(a - b)) <= 1e-12 * max(np.abs(b).max(), 1e-300)
-        assert np.max(np.abs(za - zb)) <= 1e-12 * max(np.abs(zb).max(), 1e-300)
+    assert_same_element_force(worn, oiled, _states(np.random.default_rng(4), 100, oiled.forces[-1].c))
 
 
 def test_on_a_worn_seat_the_asperities_see_the_least_distance_gap_and_the_film_carries_above_4_sigma():
