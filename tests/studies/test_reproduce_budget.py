@@ -1,6 +1,7 @@
 """Issue 55, the last rows: each report's header states its CPU against the paper's budget (the
 stored band points counted at the CPU they took when run), a not-comparable row's band is not a
 gap, and Fig. 16's threshold row of paper 000 is banded on the clearances that decide it."""
+import numpy as np
 import pytest
 
 from pinclear.studies.reproduce import paper000, report
@@ -97,3 +98,15 @@ def test_paper003_levers_interpolate_extrapolate_only_when_monotone_and_go_to_co
     assert [r["verdict"] for r in rows] == ["contradicted", "reproduced"]
     paper003.name_levers(rows, line)
     assert "lever: slider length" in rows[0]["why"] and "lever" not in rows[1]
+
+
+def test_paper000_response_window_is_uniform_enough_for_the_output_step_table():
+    from pinclear.analysis.convergence import sampled_convergence
+
+    s = paper000._settings(False, None)
+    t_end = s["force_periods"] * paper000.T
+    t = paper000.window_times(t_end, s["window_periods"] * paper000.T, s["dt_out"])
+    assert t[-1] == t_end and len(t) == round(s["window_periods"] * paper000.T / s["dt_out"]) + 1
+    # the full report's window (100-108 s at 0.2 ms): the old arange-and-clip grid failed this check
+    c = sampled_convergence(t, lambda i: float(np.sin(t[i]).max()))
+    assert all(c.converged.values())

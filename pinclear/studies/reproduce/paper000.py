@@ -179,6 +179,14 @@ def worst_condition(mech, traj, n=60):
                      for i in idx))
 
 
+def window_times(t_end, window, dt):
+    """The output samples of a window ending at t_end: uniform to round-off and ending exactly at
+    t_end (an np.arange at t ~ 100 s overshoots by 3e-10 s, and clipping its last sample to t_end
+    leaves a grid sampled_convergence rightly refuses as non-uniform)."""
+    n = max(int(round(window / dt)), 1)
+    return np.linspace(t_end - n * dt, t_end, n + 1)
+
+
 def moving_average(x, n):
     n = max(int(n), 1)
     return np.convolve(x, np.ones(n) / n, mode="valid")
@@ -289,8 +297,7 @@ def claims(results):
 def response_runs(out, s, quick, ex):
     """The response/contact-force sweep (mu x stiffness form) over the last window_periods."""
     t_end = s["force_periods"] * T
-    t_eval = np.arange(t_end - s["window_periods"] * T, t_end + 1e-12, s["dt_out"])
-    t_eval[-1] = min(t_eval[-1], t_end)
+    t_eval = window_times(t_end, s["window_periods"] * T, s["dt_out"])
     sw = sweep(model_path("four_ups_upu"), {"S2.mu": list(s["force_mu"]), "S2.stiffness": list(s["stiffness"])},
                t_end, out / f"runs_{'quick' if quick else 'full'}" / "responses",
                load_options={"clearances": ["S2"], "overrides": {**s["overrides"], "S2.clearance": s["clearance"]}},
@@ -942,8 +949,7 @@ def _run000(values, s):
 
     out = {}
     t_end = s["force_periods"] * T
-    t_eval = np.arange(t_end - s["window_periods"] * T, t_end + 1e-12, s["dt_out"])
-    t_eval[-1] = min(t_eval[-1], t_end)
+    t_eval = window_times(t_end, s["window_periods"] * T, s["dt_out"])
     spans = {}
     for mu in PAPER_FORCE:
         mech = mechanism000(values, mu)
