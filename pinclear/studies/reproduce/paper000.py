@@ -1123,5 +1123,5 @@ def merge_ledgers(ledger, extra):
 
 
 #: CPU s of one paper 000 design point (quick: 4 + 13 periods x 4 runs, measured ~12 s; full ~20x)
-#: vmax: one clearance-diagram run of 20 + 100 periods, measured ~9 CPU s)
-COST_000 = {"quick": 15.0, "full": 300.0, "vmax": 9.0}
+#: vmax: one clearance-diagram run of 20 + 100 periods, measured 31 CPU s: 123 s a point of 4 runs)
+COST_000 = {"quick": 15.0, "full": 300.0, "vmax": 31.0}
