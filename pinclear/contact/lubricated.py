@@ -69,7 +69,8 @@ from pinclear.contact.channels import channel_geometry
 from pinclear.contact.mixed import KEYS as MIXED_KEYS
 from pinclear.contact import channels
 from pinclear.contact.mixed import FilmJoint, WornFilmJoint, apply_loads, centre_rates, contact_loads, film_spec
-from pinclear.contact.revolute import _PLANAR, _PLOT, _WEAR, RevoluteClearance, WornRevoluteClearance, check_bearing_radius
+from pinclear.contact.revolute import (_PLANAR, _PLOT, _WEAR, RevoluteClearance, WornRevoluteClearance,
+                                       check_bearing_radius)
 from pinclear.contact.revolute import from_spec as _dry_from_spec
 from pinclear.core.jit import njit
 from pinclear.core.registry import Key, PluginType, key_names

@@ -88,7 +88,8 @@ KEYS = (Key("viscosity", "number", "Pa s", None, "> 0", "Pinkus & Sternlicht 196
 
 class MixedPar(NamedTuple):
     """The compiled film and asperity parameters of one joint: film kind (0 short journal, 1 long
-    journal, 2 ball, 3 ball in a worn socket, 4 / 5 short / long journal in a worn bearing), viscosity mu, radius R, length L, clearance c, floor qmin of the gap ratio,
+    journal, 2 ball, 3 ball in a worn socket, 4 / 5 short / long journal in a worn bearing),
+    viscosity mu, radius R, length L, clearance c, floor qmin of the gap ratio,
     the asperity load A0 (4 - lam)^m with sigma, boundary mu_b, slip speed vs, and the index of the
     film-dissipation state in z."""
     kind: int

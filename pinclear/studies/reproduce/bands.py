@@ -500,12 +500,16 @@ def ledger_text(ledger):
     return t
 
 
+#: a ledger's counts (Ledger.as_dict): what stages add up and reports keep
+COUNT_KEYS = ("resumed", "ran", "cpu_s", "cpu_stored_s", "not_reached", "needs_cpu_s")
+
+
 def ledger_counts(ledger):
     """The numbers of a bands' ledger a report keeps (points resumed, run, not reached, and their
     CPU: the header's budget adds the stored points' CPU when run to this run's), or None."""
     if not ledger:
         return None
-    return {k: ledger[k] for k in ("resumed", "ran", "cpu_s", "cpu_stored_s", "not_reached", "needs_cpu_s")}
+    return {k: ledger[k] for k in COUNT_KEYS}
 
 
 def kinds_band(bands, keys, ours):

@@ -1114,12 +1114,10 @@ def vmax_band(s, executor, nominal_vmax, budget=None, out=None):
 
 def merge_ledgers(ledger, extra):
     """The bands' ledger dict with a further stage's :class:`~pinclear.studies.reproduce.bands.Ledger` added."""
-    d = dict(ledger)
-    for k, v in extra.as_dict().items():
-        if k in ("resumed", "ran", "cpu_s", "cpu_stored_s", "not_reached", "needs_cpu_s"):
-            d[k] = d.get(k, 0) + v
-    d["failed"] = sorted(set(d.get("failed", [])))
-    return d
+    from pinclear.studies.reproduce.bands import COUNT_KEYS
+
+    more = extra.as_dict()
+    return dict(ledger, **{k: ledger.get(k, 0) + more[k] for k in COUNT_KEYS})
 
 
 #: CPU s of one paper 000 design point (quick: 4 + 13 periods x 4 runs, measured ~12 s; full ~20x)
