@@ -123,6 +123,16 @@ def write_sidecar(folder, doc, name="m.yaml", urdf="four_bar.urdf"):
     return p
 
 
+def wear_override(path, name, **keys):
+    """{"NAME.wear": mapping}: the sidecar's ``wear:`` mapping of clearance ``name`` with ``keys``
+    changed, as pinclear.load's overrides (tests of one wear key of a test data file)."""
+    import yaml
+
+    doc = yaml.safe_load(Path(path).read_text())
+    wear = next(c for c in doc["clearances"] if c["name"] == name)["wear"]
+    return {f"{name}.wear": {**wear, **keys}}
+
+
 def run_cli(argv, capsys):
     """pinclear's command line in this process: (exit code, stdout, stderr)."""
     from pinclear.cli import commands as cli

@@ -52,6 +52,7 @@ load is compiled in one kernel.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -255,6 +256,9 @@ class WornLubricatedSphericalClearance(WornFilmJoint, LubricatedSphericalClearan
     geometry_code = channels.G_WORN_SPHERICAL
     film_code = 3
     _geometry_params = WornSphericalClearance._geometry_params
+    #: the film and the asperities read the least gap, so the elastic foundation (a dry joint's
+    #: contact, contact.worn_foundation) is not used here
+    foundation_subdivision = 0
     profile = WornSphericalClearance.profile
     wear_description = WornSphericalClearance.wear_description
 
@@ -265,7 +269,11 @@ def from_spec(sp, mech, closure):
     args = (joint.name, mech.model, joint.f1, joint.f2, joint.c, joint.R2, joint.law, joint.friction)
     kw = dict(stiffness_note=joint.stiffness_note, **film, **sp.common(joint.c))
     if isinstance(joint, WornSphericalClearance):
-        return WornLubricatedSphericalClearance(*args, wear=joint.wear, **kw)
+        if (sp.d.get("wear") or {}).get("contact", "least_distance") != "least_distance":
+            raise sp.error("wear.contact", "an oiled ball's film and asperities need the least gap: its worn "
+                           "socket's contact is least_distance (the foundation is the dry joint's)", ["least_distance"])
+        return WornLubricatedSphericalClearance(*args, wear=dataclasses.replace(joint.wear, contact="least_distance"),
+                                                **kw)
     return LubricatedSphericalClearance(*args, **kw)
 
 

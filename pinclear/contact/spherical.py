@@ -15,7 +15,7 @@ from pinclear.contact.base import ClearanceJoint
 from pinclear.contact.laws import hertz_stiffness
 from pinclear.contact.spec import DEFAULTS
 from pinclear.contact.wear import WornData, WornJoint
-from pinclear.contact.wear_spherical import POLES, catmull_rom_bounds
+from pinclear.contact.wear_spherical import POLES, socket_gpar
 from pinclear.core.registry import ClearancePlot, Key, PluginType, key_names
 
 _RADIUS = Key("radius", "number", "m", 0.01, "> 0", "paper 000 eq. 6", "ball radius R_ball")
@@ -83,7 +83,7 @@ SPHERICAL = PluginType(
         "|e| - c (paper 000 sec. 1).", source="paper 000 eqs. 3-16",
     keys=(_RADIUS, Key("socket_radius", "number", "m", "radius + clearance", "radius + clearance", "paper 000 eq. 6",
                        "socket radius R_socket (a check: it must equal radius + clearance)"),
-          Key("wear", "mapping", "-", None, "{model: archard, k, hardness, nodes, distribution, pole}",
+          Key("wear", "mapping", "-", None, "{model: archard, k, hardness, nodes, distribution, pole, contact, foundation_cell}",
               "Archard 1953; contact/wear_spherical.py", "Archard wear of the socket on a (theta, phi) mesh, "
               "reshaping its contact geometry (pinclear wear)")),
     plot=ClearancePlot(across_axis=False, travel=False, boundary="circle", body="ball"))
@@ -103,9 +103,12 @@ class WornSphericalClearance(WornJoint, SphericalClearance):
     ray_radius = 0.5
 
     def _geometry_params(self):
-        w = self.wear
-        return np.concatenate([[self.c, self.R1, self.R2, float(w.pole), self.ray_radius, float(w.rows), float(w.cols),
-                                *catmull_rom_bounds(self.depth)], self.depth])
+        return socket_gpar(self.wear, self.c, self.ray_radius, self.depth, self.foundation_subdivision)
+
+    @property
+    def foundation_subdivision(self) -> int:
+        """Cells of the elastic foundation's grid per mesh cell side (0: least distance alone)."""
+        return self.wear.subdivision
 
     def profile(self, theta, phi):
         """(w, dw/dtheta, dw/dphi) of the worn socket at the mesh angles (the kernel's interpolant)."""

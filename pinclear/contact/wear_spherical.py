@@ -33,6 +33,7 @@ from functools import cached_property
 
 import numpy as np
 
+from pinclear.contact import worn_geometry, worn_foundation
 from pinclear.contact.wear import DISTRIBUTIONS, MODELS, positive, trapezoid_weights, wear_load, wear_mapping
 from pinclear.core.errors import InputError
 from pinclear.core.jit import njit
@@ -41,6 +42,10 @@ from pinclear.core.registry import Key
 POLES = ("x", "y", "z")
 #: most mesh rows in theta: 2 x 200^2 = 80000 nodes (0.9 deg cells), within contact.wear.MAX_NODES
 MAX_ROWS = 200
+
+#: the worn socket's contact models (worn_foundation, worn_geometry) and the foundation cell's bounds [deg]
+CONTACTS = ("foundation", "least_distance")
+CELL_DEG = (0.1, 5.0)
 
 #: the keys of a spherical clearance's ``wear:`` mapping (docs/wear_lubrication.md sec. 6)
 WEAR_KEYS = (
@@ -53,6 +58,12 @@ WEAR_KEYS = (
         "pressure over the Hertz contact circle: elliptic (hertz) or uniform"),
     Key("pole", "string", "-", "z", ", ".join(POLES), "contact/wear_spherical.py",
         "frame1 axis of the mesh's poles (keep it away from where the socket wears)"),
+    Key("contact", "string", "-", "foundation", ", ".join(CONTACTS), "docs/wear_lubrication.md sec. 11",
+        "the worn socket's contact: an elastic foundation over a fine grid (the normal law at its "
+        "effective penetration) or one least-distance point (sec. 8)"),
+    Key("foundation_cell", "number", "deg", 1.25, f"[{CELL_DEG[0]:g}, {CELL_DEG[1]:g}]",
+        "docs/wear_lubrication.md sec. 11", "largest cell side of the foundation's grid (the mesh's cells "
+        "subdivided: each side into ceil(mesh cell / this) parts)"),
 )
 _NAMES = tuple(k.name for k in WEAR_KEYS)
 
@@ -71,6 +82,13 @@ class SphericalWearModel:
     estar: float
     rstar: float
     quad: int = 8
+    contact: str = "foundation"
+    cell: float = math.radians(1.25)
+
+    @property
+    def subdivision(self) -> int:
+        """The foundation grid's cells per mesh cell side (0: the least-distance contact alone)."""
+        return math.ceil(self.dtheta / self.cell - 1e-9) if self.contact == "foundation" else 0
 
     @property
     def cols(self) -> int:
@@ -130,7 +148,7 @@ class SphericalWearModel:
         return u.reshape(self.rows, self.cols, m * m, 3), area.reshape(self.rows, m * m)
 
     def increment(self, name, traj, depth=None):
-        return block_increment(self, name, traj)
+        return block_increment(self, name, traj, depth)
 
 
 def parse(sp, R1, R2):
@@ -139,14 +157,19 @@ def parse(sp, R1, R2):
     if w is None:
         return None
     for key, choices, default in (("model", MODELS, "archard"), ("distribution", DISTRIBUTIONS, "hertz"),
-                                  ("pole", POLES, "z")):
+                                  ("pole", POLES, "z"), ("contact", CONTACTS, "foundation")):
         if w.get(key, default) not in choices:
             raise sp.error(f"wear.{key}", f"unknown {key} {w[key]!r}", choices)
     rows = w.get("nodes", 36)
     if isinstance(rows, bool) or not isinstance(rows, int) or not 8 <= rows <= MAX_ROWS:
         raise sp.error("wear.nodes", f"an integer in [8, {MAX_ROWS}] (mesh rows in theta), got {rows!r}")
+    cell = w.get("foundation_cell", 1.25)
+    if isinstance(cell, bool) or not isinstance(cell, (int, float)) or not CELL_DEG[0] <= cell <= CELL_DEG[1]:
+        raise sp.error("wear.foundation_cell", f"a number of degrees in [{CELL_DEG[0]:g}, {CELL_DEG[1]:g}] (the "
+                       f"foundation grid's largest cell side), got {cell!r}")
     return SphericalWearModel(positive(sp, w, "k"), positive(sp, w, "hardness"), rows, w.get("distribution", "hertz"),
-                              POLES.index(w.get("pole", "z")), R1, R2, sp.estar(), R2 * R1 / (R1 - R2))
+                              POLES.index(w.get("pole", "z")), R1, R2, sp.estar(), R2 * R1 / (R1 - R2),
+                              contact=w.get("contact", "foundation"), cell=math.radians(float(cell)))
 
 
 def catmull_rom_bounds(depth):
@@ -157,6 +180,19 @@ def catmull_rom_bounds(depth):
     lo, hi = float(np.min(depth)), float(np.max(depth))
     half = 1.5625 * 0.5 * (hi - lo)
     return 2.0 * half, 0.5 * (lo + hi) + half
+
+
+def socket_gpar(wm: SphericalWearModel, c, ray_radius, depth, m):
+    """The worn socket kernel's parameters (worn_geometry.WORN_SPHERE_HEAD's layout): the head,
+    the mesh depths and, for the foundation (m > 0 cells per mesh cell side), m, its fine depths
+    and blocks' least depths (zeros on an unworn socket, where the kernel takes the circle)."""
+    depth = np.asarray(depth, float)
+    g = np.concatenate([[c, wm.R1, wm.R2, float(wm.pole), ray_radius, float(wm.rows), float(wm.cols),
+                         *catmull_rom_bounds(depth)], depth])
+    if m == 0:
+        return g
+    return np.concatenate([g, [float(m)], worn_geometry.fine_depths(g, m) if np.any(depth) else
+                           np.zeros((m * m + 1) * wm.nodes)])
 
 
 # ------------------------------------------------------------------ the law
@@ -285,16 +321,46 @@ def _share_volumes(sub, area, u, a, work, R1, rows, hertz, vol):
                 vol[cells[q]] += work[s] * load[q] / total
 
 
-def block_increment(wm: SphericalWearModel, name, traj):
-    """Node depth increment (m) worn over one block (a Trajectory of the worn socket ``name``):
-    direction of the contact point on the worn socket (NAME.contact_point, frame1 axes), load
-    (contact.wear.wear_load), slip NAME.slip, trapezoid rule. An increment reaching the two rows next to a pole
-    stops with an error naming ``pole``."""
+def foundation_increment(wm: SphericalWearModel, depth, E, u, F, slip, dt):
+    """depth_increment on the worn socket ``depth`` of the foundation contact: each sample's worn
+    volume shared by the foundation's pressure over the actual patch (worn_foundation.
+    foundation_deposit, ball centres E in the mesh axes); a sample touching no fine node (a patch
+    narrower than a cell) by the Hertz patch at its contact direction u."""
+    F, slip, dt = (np.atleast_1d(np.asarray(x, float)) for x in (F, slip, dt))
+    keep = np.flatnonzero((F > 0.0) & (slip > 0.0) & (dt > 0.0))
+    vol = np.zeros(wm.nodes)
+    if not len(keep):
+        return vol
+    m = wm.subdivision
+    g = socket_gpar(wm, wm.R1 - wm.R2, 0.5, depth, m)
+    f0 = worn_geometry.WORN_SPHERE_HEAD + wm.nodes + 1
+    work = wm.k * F[keep] * slip[keep] * dt[keep] / wm.hardness
+    missed = np.zeros(len(keep), np.bool_)
+    worn_foundation.foundation_deposit(g, f0, m * wm.rows, m * wm.cols, m, np.ascontiguousarray(E[keep]), work, vol,
+                                       missed)
+    vol /= wm.cell_areas()
+    if missed.any():
+        k = keep[missed]
+        vol += depth_increment(wm, u[k], F[k], slip[k], dt[k])
+    return vol
+
+
+def block_increment(wm: SphericalWearModel, name, traj, depth=None):
+    """Node depth increment (m) worn over one block (a Trajectory of the worn socket ``name``) on
+    the profile ``depth``: load (contact.wear.wear_load), slip NAME.slip, trapezoid rule; shared by
+    the foundation's pressure over the actual patch where the socket is worn and its contact the
+    foundation (foundation_increment, the ball centre NAME.eccentricity), else over the Hertz patch
+    at the contact point's direction (NAME.contact_point, frame1 axes). An increment reaching the
+    two rows next to a pole stops with an error naming ``pole``."""
     out = traj.outputs
     e = wm.local(out[f"{name}.contact_point"])
     r = np.linalg.norm(e, axis=1)
     u = e / np.where(r > 0.0, r, 1.0)[:, None]
-    h = depth_increment(wm, u, wear_load(out, name), out[f"{name}.slip"], trapezoid_weights(traj.t))
+    args = (wear_load(out, name), out[f"{name}.slip"], trapezoid_weights(traj.t))
+    if wm.subdivision and depth is not None and np.any(depth):
+        h = foundation_increment(wm, depth, wm.local(out[f"{name}.eccentricity"]), u, *args)
+    else:
+        h = depth_increment(wm, u, *args)
     grid = h.reshape(wm.rows, wm.cols)
     if np.any(grid[[0, 1, -2, -1]] > 0.0):
         raise InputError(f"the wear of {name!r} reaches its mesh pole (frame1 {POLES[wm.pole]} axis), where the "

@@ -6,6 +6,9 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from pinclear.contact.worn_foundation import CLEAR, FOUNDATION, NO_NODE, foundation_penetration
 from pinclear.core.jit import njit
 
 #: worn planar bearing: gpar = (c, R1, R2, ca, L, N, span, top, ray radius, then the periodic cubic
@@ -204,7 +207,9 @@ def worn_planar_geometry(gpar, M1, s, a, j, delta, n, p1, p2, scratch):
 #: ray radius x c the ray's delta and n stand: 1/2 for the dry joint, whose force needs no gap; 0 for
 #: a film, which needs the gap at every eccentricity), Nt, Np, span, top,
 #: then the Nt x Np node depths row by row: row i at theta = (i + 1/2) pi / Nt from the pole, column
-#: j at phi = 2 pi j / Np; span and top as the bearing's: WORN_HEAD)
+#: j at phi = 2 pi j / Np; span and top as the bearing's: WORN_HEAD), then the elastic foundation's
+#: subdivision m (0: the least-distance contact alone) and, for m > 0, its (m Nt) x (m Np) fine
+#: depths row by row and the Nt x Np blocks' least depths (fine_depths; contact.worn_foundation)
 WORN_SPHERE_HEAD = 9
 
 
@@ -381,6 +386,30 @@ def sphere_nearest_nodes(gpar, th_e, ph_e, r, psi):
 
 
 @njit(cache=True)
+def fine_depths(gpar, m):
+    """The foundation's fine grid: the interpolant's depth at the (m Nt) x (m Np) nodes theta =
+    (i + 1/2) pi / (m Nt), phi = 2 pi j / (m Np), row by row, its undershoot below the unworn
+    surface (next to a pocket's rim) clipped to 0 (wear only removes material), then the least
+    depth of each m x m block of it, Nt x Np row by row."""
+    Nt, Np = int(gpar[5]), int(gpar[6])
+    Ntf, Npf = m * Nt, m * Np
+    out = np.empty(Ntf * Npf + Nt * Np)
+    for i in range(Ntf):
+        th = (i + 0.5) * math.pi / Ntf
+        for j in range(Npf):
+            out[i * Npf + j] = max(worn_sphere_depth2(gpar, th, 2.0 * math.pi * j / Npf)[0], 0.0)
+    # each m x m block's least depth (rows I m.., columns J m..): the foundation's culling bound
+    for I in range(Nt):
+        for J in range(Np):
+            lo = math.inf
+            for a in range(m):
+                for b in range(m):
+                    lo = min(lo, out[(I * m + a) * Npf + J * m + b])
+            out[Ntf * Npf + I * Np + J] = lo
+    return out
+
+
+@njit(cache=True)
 def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
     """A ball (centre M2, radius R2) in a worn socket of radius R1 + w(direction), e = ball centre -
     socket centre, r = |e|: the least-distance penetration delta = R2 - min |P - e| over the worn
@@ -406,6 +435,22 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
     ph_e = math.atan2(ub, ua)
     th, ph = th_e, ph_e
     w_ray, have_ray = 0.0, False
+    Nt, Np = int(gpar[5]), int(gpar[6])
+    f0 = WORN_SPHERE_HEAD + Nt * Np
+    m = int(gpar[f0]) if gpar.shape[0] > f0 else 0
+    status = NO_NODE
+    if m > 0 and gpar[7] > 0.0 and r > gpar[4] * c:
+        status, d_, ga, gb, gp = foundation_penetration(gpar, f0 + 1, m * Nt, m * Np, m, ea, eb, ep, r, scratch[3])
+        if status == FOUNDATION:
+            W = (ga * ga + gb * gb + gp * gp) ** 0.5
+            delta[0] = d_
+            for i in range(3):
+                ni = (M1[i, ia] * ga + M1[i, ib] * gb + M1[i, ip] * gp) / W
+                n[0, i] = ni
+                p2[0, i] = M2[i, 3] + R2 * ni
+                p1[0, i] = M2[i, 3] + (R2 - d_) * ni
+            scratch[3, 0] = W
+            return
     if r > gpar[4] * c:
         psi = search_half_angle(gpar[7], gpar[8], R1, r)
         if psi > 0.0:
@@ -430,6 +475,9 @@ def worn_spherical_geometry(gpar, M1, M2, delta, n, p1, p2, scratch):
     np_ = ((rho - r) * up + rho * (sp - up)) / dist
     if th == th_e and ph == ph_e:
         na, nb, np_ = ua, ub, up
+    if status == CLEAR:
+        # the foundation's nodes all clear the worn surface: no contact, whatever a sub-cell point says
+        d_ = min(d_, 0.0)
     delta[0] = d_
     for i in range(3):
         ni = M1[i, ia] * na + M1[i, ib] * nb + M1[i, ip] * np_

@@ -15,7 +15,7 @@ from pinclear.contact import wear_spherical as ws
 from pinclear.contact import worn_geometry
 from pinclear.contact.wear import trapezoid_weights
 from pinclear.core.errors import ContactSetupError, InputError
-from tests.helpers import assert_audit_closes
+from tests.helpers import assert_audit_closes, wear_override
 
 BALL = Path(__file__).parents[1] / "data" / "wear_ball.yaml"
 OMEGA, W = 20.0, 20.0                 # spin about x (rad/s); weight m g (N), along -z
@@ -155,7 +155,8 @@ def test_compiled_shares_equal_the_numpy_quadrature_including_polar_windows():
 
 
 def test_worn_socket_geometry_passes_the_nodes_is_continuous_and_its_force_is_the_energy_gradient():
-    mech = pinclear.load(BALL, clearances=["S"])
+    # the least-distance contact (the foundation's: test_worn_foundation.py)
+    mech = pinclear.load(BALL, clearances=["S"], overrides=wear_override(BALL, "S", contact="least_distance"))
     wm = mech.forces[-1].wear
     depth = _bump(wm, 0.5 * mech.forces[-1].c)
     j = _worn(mech, depth)

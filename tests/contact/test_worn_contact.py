@@ -12,6 +12,7 @@ from scipy.optimize import minimize
 
 import pinclear
 from pinclear.contact import channels, wear
+from tests.helpers import wear_override
 
 DATA = Path(__file__).parents[1] / "data"
 JOURNAL, BALL = DATA / "wear_journal.yaml", DATA / "wear_ball.yaml"
@@ -95,8 +96,8 @@ def _dense_sphere(joint, e):
     return joint.R2 - np.min(np.linalg.norm((joint.R1 + w)[:, None] * dirs - e, axis=1))
 
 
-def _elastic_worn_run(path, name, depth, q0, v0, T, rtol=1e-10, dt_out=2e-5):
-    mech = pinclear.load(path, clearances=[name], overrides={f"{name}.normal_law": "hertz"})
+def _elastic_worn_run(path, name, depth, q0, v0, T, rtol=1e-10, dt_out=2e-5, overrides=None):
+    mech = pinclear.load(path, clearances=[name], overrides={f"{name}.normal_law": "hertz", **(overrides or {})})
     joint = mech.forces[-1]
     worn = mech.replace(forces=list(mech.forces[:-1]) + [joint.with_depth(depth(joint))])
     tr = pinclear.simulate(worn, T, integrator="DOP853", rtol=rtol, q0=q0, v0=v0, assemble=False, dt_out=dt_out)
@@ -145,6 +146,10 @@ def test_worn_bearing_penetration_matches_a_dense_distance_and_an_elastic_run_co
 
 
 def test_worn_socket_penetration_matches_a_dense_distance_and_an_elastic_run_conserves_energy():
+    # the least-distance contact (wear.contact: least_distance; the foundation's own tests are in
+    # test_worn_foundation.py)
+    least = wear_override(BALL, "S", contact="least_distance")
+
     def pocket(j):
         wm = j.wear
         th, ph = wm.angles()
@@ -153,7 +158,7 @@ def test_worn_socket_penetration_matches_a_dense_distance_and_an_elastic_run_con
         return 0.8 * j.c * np.exp(-0.5 * (ang / 0.15) ** 2) * (ang < 0.6)
 
     q0, v0 = np.array([2e-5, 0.0, 0.0, 0, 0, 0]), np.array([0.05, 0.03, -0.1, 30.0, 5.0, 0.0])
-    joint, tr = _elastic_worn_run(BALL, "S", pocket, q0, v0, 0.03)
+    joint, tr = _elastic_worn_run(BALL, "S", pocket, q0, v0, 0.03, overrides=least)
     e, delta = tr.outputs["S.eccentricity"], tr.outputs["S.penetration"]
     near = np.flatnonzero(delta > -0.5 * joint.c)
     assert tr.outputs["S.fn"].max() > 5.0 and len(near) > 100
@@ -162,7 +167,7 @@ def test_worn_socket_penetration_matches_a_dense_distance_and_an_elastic_run_con
     assert err <= 1e-3 * joint.c
 
     def run(rtol):
-        return _elastic_worn_run(BALL, "S", pocket, q0, v0, 0.03, rtol=rtol)[1]
+        return _elastic_worn_run(BALL, "S", pocket, q0, v0, 0.03, rtol=rtol, overrides=least)[1]
 
     run.name = "S"
     _assert_energy_is_the_integrators(run)
