@@ -37,7 +37,7 @@ from pinclear.core.registry import CLEARANCE_TYPES
 TYPES = CLEARANCE_TYPES
 #: version of the contact models' forces (bump when a model's forces change): a wear checkpoint of
 #: another version is refused (pinclear.analysis.wear_life)
-MODEL_VERSION = 2
+MODEL_VERSION = 3      # 3: the worn socket's elastic foundation (contact.worn_foundation)
 #: the types of the mixed-lubrication model (contact.mixed): the keys it replaced are refused by name
 FILM_TYPES = ("lubricated_revolute", "lubricated_spherical")
 

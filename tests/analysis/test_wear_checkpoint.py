@@ -101,7 +101,9 @@ def test_a_checkpoint_of_an_older_contact_model_is_refused(finished, tmp_path, m
     _, mech, start, _ = finished
     folder = _copy(finished, tmp_path, identity=lambda i: np.array(json.dumps({**json.loads(str(i)),
                                                                                 "contact_model": 1})))
-    with pytest.raises(InputError, match=r"contact_model: 1 \(checkpoint\) vs 2 \(this run\)"):
+    from pinclear.contact import MODEL_VERSION
+
+    with pytest.raises(InputError, match=rf"contact_model: 1 \(checkpoint\) vs {MODEL_VERSION} \(this run\)"):
         wear_run(mech, "A", S, out=folder, start=start)
 
 
