@@ -47,7 +47,7 @@ def _G_quad(c, R1, R2, delta):
         d = r * math.cos(p) + math.sqrt(R2 * R2 - (r * math.sin(p)) ** 2) - R1
         return 0.4 * max(d, 0.0) ** 2.5 * math.sin(p)
 
-    return 2 * math.pi * R1 * R1 * quad(f, 0.0, psi0, epsabs=0.0, epsrel=1e-12, limit=400)[0]
+    return 2 * math.pi * R1 * R1 * quad(f, 0.0, psi0, epsabs=0.0, epsrel=1e-9, limit=400)[0]
 
 
 def test_unworn_foundation_energy_is_its_integral_and_the_inverse_is_exact():
@@ -102,7 +102,7 @@ def _dense_effective_penetration(joint, e, n=200_000):
     U = np.sum(0.4 * d ** 2.5) * 2 * math.pi * R1 * R1 * (1.0 - cos0) / n
     if U == 0.0:
         return 0.0
-    return brentq(lambda x: _G_quad(c, R1, R2, x) - U, 1e-12, 2 * c, xtol=1e-15, rtol=1e-12)
+    return brentq(lambda x: _G_quad(c, R1, R2, x) - U, 1e-9, 2 * c, xtol=1e-15, rtol=1e-12)
 
 
 def test_effective_penetration_matches_a_dense_foundation_and_its_gradient_is_exact():
@@ -121,9 +121,10 @@ def test_effective_penetration_matches_a_dense_foundation_and_its_gradient_is_ex
         if d <= 0.0:
             continue
         checked += 1
-        # the grid's quadrature (1.25 deg cells) against 2e5 points: the tolerance of the dense
-        # distance test (1e-3 of the clearance)
-        assert abs(d - _dense_effective_penetration(worn, e)) <= 1e-3 * j.c
+        # the grid's quadrature (1.25 deg cells) against 2e5 points: the dense-distance
+        # tolerance is 1e-3 of the clearance; the grid's error of U (<= 1e-4 beyond 8 cells) moves
+        # delta_eff by about a 3.5th of it, <= 3e-5 x 73 um here: 1e-4 c (measured max 4.5e-6 c)
+        assert abs(d - _dense_effective_penetration(worn, e)) <= 1e-4 * j.c
         h = 1e-10
         fd = np.array([(kernel(worn, e + h * v)[0] - kernel(worn, e - h * v)[0]) / (2 * h) for v in np.eye(3)])
         assert np.max(np.abs(W * n - fd)) <= 1e-6 * W
