@@ -111,6 +111,24 @@ def node_terms(ea, eb, ep, ua, ub, up, b, R1):
     return eu + q - R1, 1.0 + eu / q, 1.0 / q
 
 
+@njit(cache=True, inline="always")
+def node_load(area, d, fa, fq, ua, ub, up, ea, eb, ep):
+    """One overlapping node's (A d^(3/2), energy A (2/5) d^(5/2), its gradient (3)): the terms the
+    sums add (node_terms' fa, fq)."""
+    t = area * d * d ** 0.5
+    return t, 0.4 * t * d, t * (fa * ua - fq * ea), t * (fa * ub - fq * eb), t * (fa * up - fq * ep)
+
+
+@njit(cache=True, inline="always")
+def add_worn(acc, area, dw, fa, fq, ua, ub, up, ea, eb, ep, vol, scale, i, j, m, Np):
+    """acc = (n, P, U_w, grad U_w (3)) with fine node (i, j)'s overlap dw of the worn surface
+    added (and its load share scale A dw^(3/2) deposited on its mesh cell when scale > 0)."""
+    t, u_, ga, gb, gp = node_load(area, dw, fa, fq, ua, ub, up, ea, eb, ep)
+    if scale > 0.0:
+        deposit(vol, i // m, j, m, Np, scale * t)
+    return acc[0] + 1, acc[1] + t, acc[2] + u_, acc[3] + ga, acc[4] + gb, acc[5] + gp
+
+
 @njit(cache=True)
 def foundation_sums(gpar, f0, Ntf, Npf, m, R1, R2, c, ea, eb, ep, r, full, vol, scale):
     """The grid sums of a ball centre e (mesh axes, |e| = r > c): (n, U_w, U_0, grad U_w (3),
@@ -136,8 +154,8 @@ def foundation_sums(gpar, f0, Ntf, Npf, m, R1, R2, c, ea, eb, ep, r, full, vol, 
 def cap_sums(gpar, f0, Ntf, Npf, m, R1, R2, ea, eb, ep, r, psi0, th_e, ph_e, vol, scale):
     """foundation_sums over every fine node of the cap of half-angle psi0 about (th_e, ph_e):
     the rows within psi0, in each the columns within it (haversine)."""
-    Uw = U0 = gwa = gwb = gwp = g0a = g0b = g0p = P = 0.0
-    tw = 0
+    U0 = g0a = g0b = g0p = 0.0
+    acc = (0, 0.0, 0.0, 0.0, 0.0, 0.0)
     Np_ = Npf // m
     ht, hp = math.pi / Ntf, 2.0 * math.pi / Npf
     se = math.sin(th_e)
@@ -164,25 +182,17 @@ def cap_sums(gpar, f0, Ntf, Npf, m, R1, R2, ea, eb, ep, r, psi0, th_e, ph_e, vol
             d0, fa, fq = node_terms(ea, eb, ep, ua, ub, ct, b, R1)
             if d0 <= 0.0:
                 continue
-            t = area * d0 * d0 ** 0.5
-            U0 += 0.4 * t * d0
-            g0a += t * (fa * ua - fq * ea)
-            g0b += t * (fa * ub - fq * eb)
-            g0p += t * (fa * ct - fq * ep)
+            _, u_, ga, gb, gp = node_load(area, d0, fa, fq, ua, ub, ct, ea, eb, ep)
+            U0 += u_
+            g0a += ga
+            g0b += gb
+            g0p += gp
             j = (j0 + k) % Npf
             dw = d0 - gpar[f0 + i * Npf + j]
             if dw <= 0.0:
                 continue
-            tw += 1
-            t = area * dw * dw ** 0.5
-            P += t
-            if scale > 0.0:
-                deposit(vol, i // m, j, m, Np_, scale * t)
-            Uw += 0.4 * t * dw
-            gwa += t * (fa * ua - fq * ea)
-            gwb += t * (fa * ub - fq * eb)
-            gwp += t * (fa * ct - fq * ep)
-    return tw, Uw, U0, gwa, gwb, gwp, g0a, g0b, g0p, P
+            acc = add_worn(acc, area, dw, fa, fq, ua, ub, ct, ea, eb, ep, vol, scale, i, j, m, Np_)
+    return acc[0], acc[2], U0, acc[3], acc[4], acc[5], g0a, g0b, g0p, acc[1]
 
 
 @njit(cache=True)
@@ -190,8 +200,7 @@ def block_sums(gpar, f0, Ntf, Npf, m, R1, R2, ea, eb, ep, r, psi0, th_e, ph_e, v
     """foundation_sums' U_w alone, over the m x m blocks of fine nodes that can reach the worn
     surface: the block's least depth (stored after the fine depths) below the largest unworn
     overlap d0 over the block (d0 falls with the angle psi from e: at the block's least angle)."""
-    Uw = U0 = gwa = gwb = gwp = g0a = g0b = g0p = P = 0.0
-    tw = 0
+    acc = (0, 0.0, 0.0, 0.0, 0.0, 0.0)
     ht, hp = math.pi / Ntf, 2.0 * math.pi / Npf
     se = math.sin(th_e)
     b = R2 * R2 - r * r
@@ -238,18 +247,8 @@ def block_sums(gpar, f0, Ntf, Npf, m, R1, R2, ea, eb, ep, r, psi0, th_e, ph_e, v
                     dw = d0 - gpar[f0 + i * Npf + j]
                     if d0 <= 0.0 or dw <= 0.0:
                         continue
-                    tw += 1
-                    t = area * dw * dw ** 0.5
-                    P += t
-                    if scale > 0.0:
-                        deposit(vol, I, j, m, Np, scale * t)
-                    Uw += 0.4 * t * dw
-                    gwa += t * (fa * ua - fq * ea)
-                    gwb += t * (fa * ub - fq * eb)
-                    gwp += t * (fa * ct - fq * ep)
-    return tw, Uw, U0, gwa, gwb, gwp, g0a, g0b, g0p, P
-
-
+                    acc = add_worn(acc, area, dw, fa, fq, ua, ub, ct, ea, eb, ep, vol, scale, i, j, m, Np)
+    return acc[0], acc[2], 0.0, acc[3], acc[4], acc[5], 0.0, 0.0, 0.0, acc[1]
 
 
 @njit(cache=True)
