@@ -256,9 +256,6 @@ class WornLubricatedSphericalClearance(WornFilmJoint, LubricatedSphericalClearan
     geometry_code = channels.G_WORN_SPHERICAL
     film_code = 3
     _geometry_params = WornSphericalClearance._geometry_params
-    #: the film and the asperities read the least gap, so the elastic foundation (a dry joint's
-    #: contact, contact.worn_foundation) is not used here
-    foundation_subdivision = 0
     profile = WornSphericalClearance.profile
     wear_description = WornSphericalClearance.wear_description
 

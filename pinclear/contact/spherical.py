@@ -103,12 +103,7 @@ class WornSphericalClearance(WornJoint, SphericalClearance):
     ray_radius = 0.5
 
     def _geometry_params(self):
-        return socket_gpar(self.wear, self.c, self.ray_radius, self.depth, self.foundation_subdivision)
-
-    @property
-    def foundation_subdivision(self) -> int:
-        """Cells of the elastic foundation's grid per mesh cell side (0: least distance alone)."""
-        return self.wear.subdivision
+        return socket_gpar(self.wear, self.c, self.ray_radius, self.depth, self.wear.subdivision)
 
     def profile(self, theta, phi):
         """(w, dw/dtheta, dw/dphi) of the worn socket at the mesh angles (the kernel's interpolant)."""

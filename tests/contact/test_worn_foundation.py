@@ -66,7 +66,7 @@ def test_unworn_foundation_energy_is_its_integral_and_the_inverse_is_exact():
 def test_a_cap_without_worn_nodes_gives_the_unworn_contact_to_1e_12():
     j = pinclear.load(BALL, clearances=["S"]).forces[-1]
     worn = j.with_depth(pocket(j))
-    assert worn.foundation_subdivision == 4
+    assert worn.wear.subdivision == 4
     rng = np.random.default_rng(5)
     # on the unworn side (+y), caps within kappa's full-weight radius (8 fine cells = 10 deg)
     for _ in range(100):
